@@ -1,0 +1,56 @@
+//! The library's error type. Every variant names the file (where there is one)
+//! and says what is wrong in one line, so the command line can print it as is.
+
+use std::path::PathBuf;
+
+/// Errors from loading, indexing and analysing road networks.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The file could not be opened or read.
+    #[error("{path}: {cause}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's error (kept out of the error chain: the
+        /// message already says it).
+        cause: std::io::Error,
+    },
+    /// The file's content is not a valid map of its format.
+    #[error("{path}: {message}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, in one line.
+        message: String,
+    },
+    /// Nothing drivable was left after filtering.
+    #[error("{path}: the road network is empty after filtering ({detail})")]
+    EmptyNetwork {
+        /// The file.
+        path: PathBuf,
+        /// What was read and skipped.
+        detail: String,
+    },
+    /// A parameter is outside its permitted range.
+    #[error("invalid parameter: {0}")]
+    InvalidParameter(String),
+}
+
+impl Error {
+    pub(crate) fn format(path: &std::path::Path, message: impl Into<String>) -> Self {
+        Error::Format {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn io(path: &std::path::Path, cause: std::io::Error) -> Self {
+        Error::Io {
+            path: path.to_path_buf(),
+            cause,
+        }
+    }
+}
+
+/// Result with the library's [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,15 @@
+//! Waymark plans RFID tag infrastructure for vehicles navigating without
+//! satellite positioning and evaluates how accurately they know their position
+//! along their routes.
+//!
+//! This crate is the whole engine; the `waymark` binary is a thin layer over it.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod export;
+pub mod geodesy;
+pub mod network;
+
+pub use error::{Error, Result};
+pub use network::{LoadOptions, Network};

@@ -1,0 +1,141 @@
+//! The `waymark` command line: a thin layer over the library.
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+use waymark::network::{LoadOptions, Network, DEFAULT_NODE_TOLERANCE_M};
+
+/// Plans RFID tag infrastructure for vehicles navigating without satellite
+/// positioning, and evaluates their position accuracy along routes.
+#[derive(Parser)]
+#[command(name = "waymark", version, about, long_about = None)]
+#[command(after_help = "Exit codes: 0 success, 1 bad input or failure, 2 bad command line.")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Runs the main job on the bundled map (for now: network inspection of maps/helsinki.osm.pbf).
+    #[command(after_help = "Example:\n  waymark demo\n  waymark demo --out /tmp/waymark-demo")]
+    Demo {
+        /// Output folder (unused until planning lands).
+        #[arg(long, default_value = "waymark-demo")]
+        out: PathBuf,
+    },
+    /// Road network commands.
+    #[command(subcommand)]
+    Network(NetworkCommand),
+}
+
+#[derive(Subcommand)]
+enum NetworkCommand {
+    /// Loads a map and prints counts, length, components, grid occupancy, defects and timings.
+    #[command(
+        after_help = "Examples:\n  waymark network inspect maps/helsinki.osm.pbf\n  \
+        waymark network inspect maps/gothenburg-roads.geojson --json\n  \
+        waymark network inspect map.osm --defects defects.geojson"
+    )]
+    Inspect {
+        /// The map: .osm.pbf, .osm (XML) or .geojson (format follows the content).
+        map: PathBuf,
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Also load highway=track.
+        #[arg(long)]
+        tracks: bool,
+        /// Grid size N (a power of two up to 2048); chosen from the map's size by default.
+        #[arg(long)]
+        grid_n: Option<u32>,
+        /// Distance below which two unjoined nodes are reported (m).
+        #[arg(long, default_value_t = DEFAULT_NODE_TOLERANCE_M)]
+        tolerance: f64,
+        /// Write every defect as a GeoJSON point to this file.
+        #[arg(long, value_name = "FILE")]
+        defects: Option<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("waymark: error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Demo { out: _ } => {
+            let map = bundled_map();
+            eprintln!(
+                "waymark demo: planning is not built yet; inspecting the bundled map {} instead",
+                map.display()
+            );
+            inspect(
+                &map,
+                false,
+                LoadOptions::default(),
+                DEFAULT_NODE_TOLERANCE_M,
+                None,
+            )
+        }
+        Command::Network(NetworkCommand::Inspect {
+            map,
+            json,
+            tracks,
+            grid_n,
+            tolerance,
+            defects,
+        }) => {
+            let options = LoadOptions {
+                include_tracks: tracks,
+                grid_n,
+            };
+            inspect(&map, json, options, tolerance, defects.as_deref())
+        }
+    }
+}
+
+fn bundled_map() -> PathBuf {
+    let local = PathBuf::from("maps/helsinki.osm.pbf");
+    if local.exists() {
+        local
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf")
+    }
+}
+
+fn inspect(
+    map: &Path,
+    json: bool,
+    options: LoadOptions,
+    tolerance: f64,
+    defects_out: Option<&Path>,
+) -> Result<()> {
+    if !(tolerance.is_finite() && tolerance >= 0.0) {
+        anyhow::bail!("--tolerance must be a non-negative number of metres, got {tolerance}");
+    }
+    let net = Network::load(map, &options)?;
+    let t = Instant::now();
+    let defects = net.defects(tolerance);
+    let defects_ms = t.elapsed().as_secs_f64() * 1e3;
+    let report = waymark::network::inspect(&map.display().to_string(), &net, &defects, defects_ms);
+    if let Some(path) = defects_out {
+        waymark::export::write_atomic(path, waymark::export::defects_geojson(&defects).as_bytes())
+            .with_context(|| "writing the defect file")?;
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", report.to_text());
+    }
+    Ok(())
+}

@@ -1,0 +1,218 @@
+//! The Hilbert grid index of PAPERS.md §3.2.
+//!
+//! The network's bounding box is divided into N×N cells (N a power of two);
+//! every segment is registered in every cell its bounding box overlaps; the
+//! cell table is stored in Hilbert-code order (a compressed row table indexed
+//! by the code), so neighbouring cells' segment lists lie close in memory.
+//!
+//! Queries return each matching segment once: a segment found in several
+//! visited cells is reported only from the first visited cell that its bounding
+//! box overlaps (no hash set, no sort).
+
+use super::geometry::{point_segment_distance, segment_intersects_box};
+use super::hilbert::xy_to_code;
+use super::model::{Segment, SegmentId};
+use crate::error::{Error, Result};
+
+/// Largest permitted N (4 M cells; the offset table is then 16 MiB).
+pub const MAX_GRID_N: u32 = 2048;
+/// Target cell side when N is chosen automatically (m).
+pub const AUTO_CELL_M: f64 = 100.0;
+
+/// Hilbert-ordered uniform grid over the network's segments.
+#[derive(Debug, Clone)]
+pub struct GridIndex {
+    n: u32,
+    min: [f64; 2],
+    cell: [f64; 2],
+    inv_cell: [f64; 2],
+    /// `cell_start[code]..cell_start[code + 1]` indexes `items` for the cell with that code.
+    cell_start: Vec<u32>,
+    items: Vec<SegmentId>,
+    /// Segment geometry, copied for locality: a.x, a.y, b.x, b.y.
+    geometry: Vec<[f64; 4]>,
+}
+
+/// N for a bounding box: cells of about [`AUTO_CELL_M`], a power of two in 1..=[`MAX_GRID_N`].
+pub fn auto_grid_n(bbox: [f64; 4]) -> u32 {
+    let extent = (bbox[2] - bbox[0]).max(bbox[3] - bbox[1]).max(1.0);
+    let cells = (extent / AUTO_CELL_M).ceil().max(1.0) as u32;
+    cells.next_power_of_two().min(MAX_GRID_N)
+}
+
+impl GridIndex {
+    /// Builds the index over `segments` inside `bbox` (min e, min n, max e, max n).
+    /// `n` must be a power of two between 1 and [`MAX_GRID_N`]; `None` chooses it
+    /// from the map's size ([`auto_grid_n`]).
+    pub fn build(segments: &[Segment], bbox: [f64; 4], n: Option<u32>) -> Result<Self> {
+        let n = n.unwrap_or_else(|| auto_grid_n(bbox));
+        if n == 0 || !n.is_power_of_two() || n > MAX_GRID_N {
+            return Err(Error::InvalidParameter(format!(
+                "grid size N={n} must be a power of two between 1 and {MAX_GRID_N}"
+            )));
+        }
+        // A tiny margin keeps points on the box's max edge inside the last cell.
+        let w = (bbox[2] - bbox[0]).max(1e-6) * (1.0 + 1e-9);
+        let h = (bbox[3] - bbox[1]).max(1e-6) * (1.0 + 1e-9);
+        let cell = [w / f64::from(n), h / f64::from(n)];
+        let mut grid = GridIndex {
+            n,
+            min: [bbox[0], bbox[1]],
+            cell,
+            inv_cell: [1.0 / cell[0], 1.0 / cell[1]],
+            cell_start: Vec::new(),
+            items: Vec::new(),
+            geometry: segments
+                .iter()
+                .map(|s| [s.a[0], s.a[1], s.b[0], s.b[1]])
+                .collect(),
+        };
+        let cells = (n as usize) * (n as usize);
+        let mut counts = vec![0u32; cells + 1];
+        let ranges: Vec<[u32; 4]> = grid.geometry.iter().map(|g| grid.seg_cells(g)).collect();
+        for r in &ranges {
+            for cx in r[0]..=r[2] {
+                for cy in r[1]..=r[3] {
+                    counts[xy_to_code(n, cx, cy) as usize + 1] += 1;
+                }
+            }
+        }
+        for i in 1..counts.len() {
+            counts[i] += counts[i - 1];
+        }
+        let mut fill = counts.clone();
+        let mut items = vec![0u32; counts[cells] as usize];
+        for (id, r) in ranges.iter().enumerate() {
+            for cx in r[0]..=r[2] {
+                for cy in r[1]..=r[3] {
+                    let code = xy_to_code(n, cx, cy) as usize;
+                    items[fill[code] as usize] = id as u32;
+                    fill[code] += 1;
+                }
+            }
+        }
+        grid.cell_start = counts;
+        grid.items = items;
+        Ok(grid)
+    }
+
+    /// N: cells per side.
+    pub fn n(&self) -> u32 {
+        self.n
+    }
+
+    /// Cell size (m): east, north.
+    pub fn cell_size(&self) -> [f64; 2] {
+        self.cell
+    }
+
+    /// Number of cells holding at least one segment.
+    pub fn occupied_cells(&self) -> usize {
+        self.cell_start.windows(2).filter(|w| w[1] > w[0]).count()
+    }
+
+    /// Total segment registrations (a segment counts once per cell).
+    pub fn registrations(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Segments in the cell with Hilbert code `code`.
+    pub fn cell_segments(&self, code: u64) -> &[SegmentId] {
+        let c = code as usize;
+        &self.items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
+    }
+
+    #[inline]
+    fn cell_x(&self, x: f64) -> u32 {
+        let c = ((x - self.min[0]) * self.inv_cell[0]).floor();
+        c.clamp(0.0, f64::from(self.n - 1)) as u32
+    }
+
+    #[inline]
+    fn cell_y(&self, y: f64) -> u32 {
+        let c = ((y - self.min[1]) * self.inv_cell[1]).floor();
+        c.clamp(0.0, f64::from(self.n - 1)) as u32
+    }
+
+    /// The cell of a point (clamped to the grid).
+    pub fn cell_of(&self, p: [f64; 2]) -> (u32, u32) {
+        (self.cell_x(p[0]), self.cell_y(p[1]))
+    }
+
+    #[inline]
+    fn seg_cells(&self, g: &[f64; 4]) -> [u32; 4] {
+        [
+            self.cell_x(g[0].min(g[2])),
+            self.cell_y(g[1].min(g[3])),
+            self.cell_x(g[0].max(g[2])),
+            self.cell_y(g[1].max(g[3])),
+        ]
+    }
+
+    /// Visits every segment whose bounding box's cells meet the query box's cells,
+    /// once each; `keep` decides whether it is reported into `out`.
+    fn visit(
+        &self,
+        min: [f64; 2],
+        max: [f64; 2],
+        out: &mut Vec<SegmentId>,
+        keep: impl Fn(&[f64; 4]) -> bool,
+    ) {
+        if max[0] < self.min[0]
+            || max[1] < self.min[1]
+            || min[0] > self.min[0] + self.cell[0] * f64::from(self.n)
+            || min[1] > self.min[1] + self.cell[1] * f64::from(self.n)
+        {
+            return;
+        }
+        let (qx0, qy0) = (self.cell_x(min[0]), self.cell_y(min[1]));
+        let (qx1, qy1) = (self.cell_x(max[0]), self.cell_y(max[1]));
+        for cx in qx0..=qx1 {
+            for cy in qy0..=qy1 {
+                for &id in self.cell_segments(xy_to_code(self.n, cx, cy)) {
+                    let g = &self.geometry[id as usize];
+                    // Report from the first visited cell the segment is in.
+                    let sx0 = self.cell_x(g[0].min(g[2]));
+                    let sy0 = self.cell_y(g[1].min(g[3]));
+                    if cx != sx0.max(qx0) || cy != sy0.max(qy0) {
+                        continue;
+                    }
+                    if keep(g) {
+                        out.push(id);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Segments within `radius` metres of point `p` (distance to the segment
+    /// itself, not its box), appended to `out` in no particular order.
+    pub fn within_radius_into(&self, p: [f64; 2], radius: f64, out: &mut Vec<SegmentId>) {
+        let min = [p[0] - radius, p[1] - radius];
+        let max = [p[0] + radius, p[1] + radius];
+        self.visit(min, max, out, |g| {
+            point_segment_distance(p, [g[0], g[1]], [g[2], g[3]]) <= radius
+        });
+    }
+
+    /// Segments within `radius` metres of `p`.
+    pub fn within_radius(&self, p: [f64; 2], radius: f64) -> Vec<SegmentId> {
+        let mut out = Vec::new();
+        self.within_radius_into(p, radius, &mut out);
+        out
+    }
+
+    /// Segments touching the box `min`–`max`, appended to `out`.
+    pub fn in_box_into(&self, min: [f64; 2], max: [f64; 2], out: &mut Vec<SegmentId>) {
+        self.visit(min, max, out, |g| {
+            segment_intersects_box([g[0], g[1]], [g[2], g[3]], min, max)
+        });
+    }
+
+    /// Segments touching the box `min`–`max`.
+    pub fn in_box(&self, min: [f64; 2], max: [f64; 2]) -> Vec<SegmentId> {
+        let mut out = Vec::new();
+        self.in_box_into(min, max, &mut out);
+        out
+    }
+}

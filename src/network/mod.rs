@@ -1,0 +1,213 @@
+//! The road network: loaders for OSM PBF, OSM XML and GeoJSON into one model,
+//! the Hilbert grid index and an R-tree over its segments, the connectivity
+//! topology, and defect checks.
+
+mod attributes;
+mod build;
+mod defects;
+mod geojson_loader;
+mod geometry;
+mod grid;
+pub mod hilbert;
+mod inspect;
+mod model;
+mod osm_common;
+mod osm_pbf;
+mod osm_xml;
+mod rtree;
+mod topology;
+
+pub use attributes::{
+    parse_lanes, parse_length_m, parse_oneway, parse_speed_kmh, DrivableFilter, Oneway,
+    RoadAttributes,
+};
+pub use defects::{check as check_defects, Defect, DefectReport, DEFAULT_NODE_TOLERANCE_M};
+pub use geometry::{point_segment_distance, segment_intersects_box};
+pub use grid::{auto_grid_n, GridIndex, AUTO_CELL_M, MAX_GRID_N};
+pub use inspect::{inspect, Inspection};
+pub use model::{
+    LoadReport, Node, NodeId, Road, RoadId, RoadNetwork, Section, SectionId, Segment, SegmentId,
+};
+pub use rtree::SegmentTree;
+pub use topology::{DirectedSection, Incidence, SectionEnd, Topology};
+
+use crate::error::{Error, Result};
+use std::path::Path;
+use std::time::Instant;
+
+/// How to load a map.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LoadOptions {
+    /// Also load `highway=track`.
+    pub include_tracks: bool,
+    /// Grid size N (a power of two); `None` chooses it from the map's size.
+    pub grid_n: Option<u32>,
+}
+
+/// Map file formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MapFormat {
+    /// OpenStreetMap protocol buffers (`.osm.pbf`).
+    OsmPbf,
+    /// OpenStreetMap XML (`.osm`).
+    OsmXml,
+    /// GeoJSON FeatureCollection.
+    GeoJson,
+}
+
+/// Time spent building each part (ms).
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct BuildTimings {
+    /// Reading the file.
+    pub read_ms: f64,
+    /// Decoding and building the model (sections, segments).
+    pub load_ms: f64,
+    /// Building the Hilbert grid.
+    pub grid_ms: f64,
+    /// Building the R-tree.
+    pub rtree_ms: f64,
+    /// Building the topology and components.
+    pub topology_ms: f64,
+}
+
+/// A loaded, indexed road network.
+#[derive(Debug, Clone)]
+pub struct Network {
+    /// The model.
+    pub model: RoadNetwork,
+    /// Hilbert grid over the segments.
+    pub grid: GridIndex,
+    /// R-tree over the segments.
+    pub rtree: SegmentTree,
+    /// Connectivity.
+    pub topology: Topology,
+    /// Build times.
+    pub timings: BuildTimings,
+}
+
+impl std::ops::Deref for Network {
+    type Target = RoadNetwork;
+    fn deref(&self) -> &RoadNetwork {
+        &self.model
+    }
+}
+
+/// Decides a map's format from its first bytes, then its extension.
+pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<MapFormat> {
+    let start = bytes
+        .strip_prefix(b"\xEF\xBB\xBF".as_slice())
+        .unwrap_or(bytes);
+    let first = start.iter().find(|b| !b.is_ascii_whitespace()).copied();
+    match first {
+        Some(b'{') => return Ok(MapFormat::GeoJson),
+        Some(b'<') => return Ok(MapFormat::OsmXml),
+        _ => {}
+    }
+    // PBF: a 4-byte big-endian header length, then a BlobHeader whose first
+    // field (tag 0x0A) is the type string "OSMHeader" or "OSMData".
+    if bytes.len() >= 8 {
+        let len = u32::from_be_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
+        if len > 0 && len < 64 * 1024 && bytes[4] == 0x0A {
+            return Ok(MapFormat::OsmPbf);
+        }
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    if bytes.is_empty() {
+        return Err(Error::format(path, "the file is empty"));
+    }
+    if name.ends_with(".pbf") {
+        return Err(Error::format(
+            path,
+            "not a readable OSM PBF file: bad file header",
+        ));
+    }
+    if name.ends_with(".geojson") || name.ends_with(".json") {
+        return Err(Error::format(
+            path,
+            "invalid JSON: the file does not start with '{'",
+        ));
+    }
+    if name.ends_with(".osm") || name.ends_with(".xml") {
+        return Err(Error::format(
+            path,
+            "invalid OSM XML: the file does not start with '<'",
+        ));
+    }
+    Err(Error::format(
+        path,
+        "unrecognised map format (expected OSM PBF, OSM XML or GeoJSON)",
+    ))
+}
+
+/// Builds the model from a map file's bytes (no indexes).
+pub fn load_model(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<RoadNetwork> {
+    let filter = DrivableFilter {
+        include_tracks: options.include_tracks,
+    };
+    let (raw, edges, report) = match detect_format(path, bytes)? {
+        MapFormat::OsmPbf => osm_pbf::load(path, bytes, filter)?,
+        MapFormat::OsmXml => osm_xml::load(path, bytes, filter)?,
+        MapFormat::GeoJson => geojson_loader::load(path, bytes, filter)?,
+    };
+    build::build(path, raw, edges, report)
+}
+
+impl Network {
+    /// Loads, indexes and topologises the map at `path`.
+    pub fn load(path: &Path, options: &LoadOptions) -> Result<Network> {
+        let t0 = Instant::now();
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let read_ms = ms(t0);
+        let t1 = Instant::now();
+        let model = load_model(path, &bytes, options)?;
+        let load_ms = ms(t1);
+        let mut net = Network::from_model(model, options.grid_n)?;
+        net.timings.read_ms = read_ms;
+        net.timings.load_ms = load_ms;
+        Ok(net)
+    }
+
+    /// Indexes and topologises a model. The grid and the R-tree are built in parallel.
+    pub fn from_model(model: RoadNetwork, grid_n: Option<u32>) -> Result<Network> {
+        let ((grid, grid_ms), (rtree, rtree_ms)) = rayon::join(
+            || {
+                let t = Instant::now();
+                let g = GridIndex::build(&model.segments, model.bbox, grid_n);
+                (g, ms(t))
+            },
+            || {
+                let t = Instant::now();
+                let r = SegmentTree::build(&model.segments);
+                (r, ms(t))
+            },
+        );
+        let grid = grid?;
+        let t = Instant::now();
+        let topology = Topology::build(&model);
+        let topology_ms = ms(t);
+        Ok(Network {
+            model,
+            grid,
+            rtree,
+            topology,
+            timings: BuildTimings {
+                grid_ms,
+                rtree_ms,
+                topology_ms,
+                ..Default::default()
+            },
+        })
+    }
+
+    /// Runs the defect checks with the given near-node tolerance (m).
+    pub fn defects(&self, tolerance_m: f64) -> DefectReport {
+        check_defects(&self.model, &self.topology, &self.grid, tolerance_m)
+    }
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
