@@ -10,6 +10,7 @@ pub mod error;
 pub mod export;
 pub mod geodesy;
 pub mod network;
+pub mod route;
 
 pub use error::{Error, Result};
 pub use network::{LoadOptions, Network};
