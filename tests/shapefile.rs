@@ -6,6 +6,9 @@ use shapefile::{Point, Polyline};
 use std::path::Path;
 use waymark::network::{LoadOptions, Network, Oneway};
 
+/// (osmid, oneway, highway, u, v, points)
+type Edge = (&'static str, f64, &'static str, f64, f64, Vec<Point>);
+
 fn write_edges(path: &Path) {
     let fields = TableWriterBuilder::new()
         .add_character_field(FieldName::try_from("osmid").unwrap(), 40)
@@ -17,8 +20,7 @@ fn write_edges(path: &Path) {
         .add_numeric_field(FieldName::try_from("key").unwrap(), 18, 0);
     let mut w = shapefile::Writer::from_path(path, fields).unwrap();
     let p = |lon: f64, lat: f64| Point::new(lon, lat);
-    // (osmid, oneway, highway, u, v, points)
-    let edges: Vec<(&str, f64, &str, f64, f64, Vec<Point>)> = vec![
+    let edges: Vec<Edge> = vec![
         (
             "11",
             0.0,
