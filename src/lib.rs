@@ -6,10 +6,13 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod attitude;
 pub mod error;
 pub mod export;
 pub mod geodesy;
+pub mod nav;
 pub mod network;
+pub mod trajectory;
 
 pub use error::{Error, Result};
 pub use network::{LoadOptions, Network};
