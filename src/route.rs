@@ -1,0 +1,464 @@
+//! Routes through the road network: waypoints snapped to the nearest road,
+//! shortest paths honouring one-way roads (Dijkstra over directed sections),
+//! and chainage (distance along the route).
+//!
+//! Edge cases: a waypoint farther than the snap tolerance from every road is
+//! an error, as is a pair of waypoints with no permitted path between them. At
+//! an intermediate waypoint the route continues in the direction it arrived in
+//! when it can; it turns back on itself there only when no onward route exists.
+
+use crate::error::{Error, Result};
+use crate::geodesy::Geodetic;
+use crate::network::{DirectedSection, Network, NodeId, RoadId, SectionId};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Default distance within which a waypoint must lie from a road (m).
+pub const DEFAULT_SNAP_TOLERANCE_M: f64 = 100.0;
+
+/// A point on a section: the section and the distance from its start (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SectionPoint {
+    /// The section.
+    pub section: SectionId,
+    /// Distance from the section's start, in its digitised direction (m).
+    pub offset_m: f64,
+}
+
+/// A waypoint and where it was snapped.
+#[derive(Debug, Clone, Copy)]
+pub struct SnappedWaypoint {
+    /// The waypoint as given (latitude, longitude in degrees).
+    pub input_lat_lon: [f64; 2],
+    /// The point on the network.
+    pub point: SectionPoint,
+    /// ENU position of the snapped point (m).
+    pub enu: [f64; 2],
+    /// Distance from the waypoint to the road (m).
+    pub distance_m: f64,
+    /// Chainage of the snapped point along the route (m).
+    pub chainage_m: f64,
+}
+
+/// A vertex of the route's polyline.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RouteVertex {
+    /// ENU position (m) in the network's frame.
+    pub enu: [f64; 2],
+    /// Latitude, longitude (degrees).
+    pub lat_lon: [f64; 2],
+    /// Distance from the route's start (m).
+    pub chainage_m: f64,
+}
+
+/// A stretch of the route along one section, in one direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RouteSpan {
+    /// Chainage where the span starts (m).
+    pub start_chainage_m: f64,
+    /// Chainage where it ends (m).
+    pub end_chainage_m: f64,
+    /// The section and the direction of travel.
+    pub section: DirectedSection,
+    /// The road the section belongs to.
+    pub road: RoadId,
+    /// Section offset (digitised direction) at the span's start (m).
+    pub from_offset_m: f64,
+    /// Section offset at the span's end (m).
+    pub to_offset_m: f64,
+}
+
+/// A route: a polyline with chainage, the sections it follows, and its waypoints.
+#[derive(Debug, Clone)]
+pub struct Route {
+    /// Polyline vertices, in driving order.
+    pub vertices: Vec<RouteVertex>,
+    /// Section spans, in driving order.
+    pub spans: Vec<RouteSpan>,
+    /// Total length (m).
+    pub length_m: f64,
+    /// The waypoints as snapped.
+    pub waypoints: Vec<SnappedWaypoint>,
+}
+
+impl Route {
+    /// The span at a chainage (clamped to the route).
+    pub fn span_at(&self, chainage_m: f64) -> &RouteSpan {
+        let i = self
+            .spans
+            .partition_point(|s| s.end_chainage_m < chainage_m)
+            .min(self.spans.len() - 1);
+        &self.spans[i]
+    }
+
+    /// ENU position at a chainage (clamped to the route), by linear interpolation.
+    pub fn position_at(&self, chainage_m: f64) -> [f64; 2] {
+        let c = chainage_m.clamp(0.0, self.length_m);
+        let i = self
+            .vertices
+            .partition_point(|v| v.chainage_m <= c)
+            .clamp(1, self.vertices.len() - 1);
+        let (a, b) = (&self.vertices[i - 1], &self.vertices[i]);
+        let span = b.chainage_m - a.chainage_m;
+        let t = if span > 0.0 {
+            (c - a.chainage_m) / span
+        } else {
+            0.0
+        };
+        [
+            a.enu[0] + t * (b.enu[0] - a.enu[0]),
+            a.enu[1] + t * (b.enu[1] - a.enu[1]),
+        ]
+    }
+}
+
+/// Snaps a WGS-84 point to the nearest road within `tolerance_m`.
+pub fn snap(
+    net: &Network,
+    lat_lon: [f64; 2],
+    tolerance_m: f64,
+) -> Result<(SectionPoint, [f64; 2], f64)> {
+    let [lat, lon] = lat_lon;
+    if !(lat.is_finite()
+        && lon.is_finite()
+        && (-90.0..=90.0).contains(&lat)
+        && (-180.0..=180.0).contains(&lon))
+    {
+        return Err(Error::InvalidParameter(format!(
+            "waypoint ({lat}, {lon}) is not a valid latitude, longitude"
+        )));
+    }
+    let e = net.frame.to_enu(&Geodetic::from_degrees(lat, lon, 0.0));
+    let p = [e[0], e[1]];
+    let (seg_id, d) = net
+        .rtree
+        .nearest(p)
+        .ok_or_else(|| Error::InvalidParameter("the road network is empty".into()))?;
+    if d > tolerance_m {
+        return Err(Error::InvalidParameter(format!(
+            "waypoint ({lat:.6}, {lon:.6}) is {d:.0} m from the nearest road (limit {tolerance_m:.0} m)"
+        )));
+    }
+    let seg = &net.segments[seg_id as usize];
+    let (dx, dy) = (seg.b[0] - seg.a[0], seg.b[1] - seg.a[1]);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 > 0.0 {
+        (((p[0] - seg.a[0]) * dx + (p[1] - seg.a[1]) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let q = [seg.a[0] + t * dx, seg.a[1] + t * dy];
+    Ok((
+        SectionPoint {
+            section: seg.section,
+            offset_m: seg.section_offset_m + t * seg.length_m,
+        },
+        q,
+        d,
+    ))
+}
+
+#[derive(Copy, Clone, PartialEq)]
+struct HeapItem {
+    cost: f64,
+    node: NodeId,
+}
+impl Eq for HeapItem {}
+impl Ord for HeapItem {
+    fn cmp(&self, o: &Self) -> Ordering {
+        o.cost
+            .total_cmp(&self.cost)
+            .then_with(|| o.node.cmp(&self.node))
+    }
+}
+impl PartialOrd for HeapItem {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// One leg's result: directed pieces (section, from offset, to offset).
+type Pieces = Vec<(DirectedSection, f64, f64)>;
+
+/// Shortest permitted path from `from` to `to`. `start_dir` restricts the
+/// direction in which `from`'s section may be left (`Some(true)`: forward).
+/// Returns the pieces and the length, or `None` if `to` cannot be reached.
+pub fn shortest_path(
+    net: &Network,
+    from: SectionPoint,
+    to: SectionPoint,
+    start_dir: Option<bool>,
+) -> Option<(Pieces, f64)> {
+    let sf = &net.sections[from.section as usize];
+    let st = &net.sections[to.section as usize];
+    let mut best: Option<(Pieces, f64)> = None;
+    let dir_ok = |fwd: bool| start_dir.is_none_or(|d| d == fwd);
+
+    // On the same section, straight along it.
+    if from.section == to.section {
+        if to.offset_m >= from.offset_m && sf.oneway.allows_forward() && dir_ok(true) {
+            let ds = DirectedSection {
+                section: from.section,
+                forward: true,
+            };
+            best = Some((
+                vec![(ds, from.offset_m, to.offset_m)],
+                to.offset_m - from.offset_m,
+            ));
+        } else if to.offset_m <= from.offset_m && sf.oneway.allows_backward() && dir_ok(false) {
+            let ds = DirectedSection {
+                section: from.section,
+                forward: false,
+            };
+            best = Some((
+                vec![(ds, from.offset_m, to.offset_m)],
+                from.offset_m - to.offset_m,
+            ));
+        }
+    }
+
+    // Dijkstra over nodes from the ends of `from`'s section.
+    let nn = net.nodes.len();
+    let mut dist = vec![f64::INFINITY; nn];
+    let mut pred: Vec<Option<DirectedSection>> = vec![None; nn];
+    let mut heap = BinaryHeap::new();
+    // A point exactly at a node may leave by any departure there.
+    let at_start = from.offset_m <= 0.0;
+    let at_end = from.offset_m >= sf.length_m;
+    if (sf.oneway.allows_forward() && dir_ok(true)) || at_end {
+        let c = (sf.length_m - from.offset_m).max(0.0);
+        if c < dist[sf.end as usize] {
+            dist[sf.end as usize] = c;
+            heap.push(HeapItem {
+                cost: c,
+                node: sf.end,
+            });
+        }
+    }
+    if (sf.oneway.allows_backward() && dir_ok(false)) || at_start {
+        let c = from.offset_m.max(0.0);
+        if c < dist[sf.start as usize] {
+            dist[sf.start as usize] = c;
+            heap.push(HeapItem {
+                cost: c,
+                node: sf.start,
+            });
+        }
+    }
+    // Entry nodes of the target section and the remaining cost from each.
+    let mut targets: Vec<(NodeId, bool, f64)> = Vec::with_capacity(2);
+    if st.oneway.allows_forward() || to.offset_m <= 0.0 {
+        targets.push((st.start, true, to.offset_m.max(0.0)));
+    }
+    if st.oneway.allows_backward() || to.offset_m >= st.length_m {
+        targets.push((st.end, false, (st.length_m - to.offset_m).max(0.0)));
+    }
+    let bound = |best: &Option<(Pieces, f64)>| best.as_ref().map_or(f64::INFINITY, |b| b.1);
+    let mut best_target: Option<(NodeId, bool, f64)> = None;
+    while let Some(HeapItem { cost, node }) = heap.pop() {
+        if cost > dist[node as usize] {
+            continue;
+        }
+        let current_best = best_target.map_or(bound(&best), |t| t.2);
+        if cost >= current_best {
+            break;
+        }
+        for &(tn, fwd, rest) in &targets {
+            if tn == node && cost + rest < best_target.map_or(bound(&best), |t| t.2) {
+                best_target = Some((tn, fwd, cost + rest));
+            }
+        }
+        for d in net.topology.departures(&net.model, node) {
+            let s = &net.sections[d.section as usize];
+            let next = if d.forward { s.end } else { s.start };
+            let c = cost + s.length_m;
+            if c < dist[next as usize] {
+                dist[next as usize] = c;
+                pred[next as usize] = Some(d);
+                heap.push(HeapItem {
+                    cost: c,
+                    node: next,
+                });
+            }
+        }
+    }
+    if let Some((tn, fwd, total)) = best_target {
+        // Walk back from the target's entry node to one of `from`'s section ends.
+        let mut middle: Vec<DirectedSection> = Vec::new();
+        let mut node = tn;
+        while let Some(d) = pred[node as usize] {
+            middle.push(d);
+            let s = &net.sections[d.section as usize];
+            node = if d.forward { s.start } else { s.end };
+        }
+        middle.reverse();
+        // The walk ends at the section end the path left `from`'s section by.
+        let first_fwd = if sf.start == sf.end {
+            (dist[node as usize] - (sf.length_m - from.offset_m)).abs() < 1e-9
+        } else {
+            node == sf.end
+        };
+        let mut pieces: Pieces = Vec::with_capacity(middle.len() + 2);
+        let head = DirectedSection {
+            section: from.section,
+            forward: first_fwd,
+        };
+        pieces.push((
+            head,
+            from.offset_m,
+            if first_fwd { sf.length_m } else { 0.0 },
+        ));
+        for d in middle {
+            let len = net.sections[d.section as usize].length_m;
+            pieces.push(if d.forward {
+                (d, 0.0, len)
+            } else {
+                (d, len, 0.0)
+            });
+        }
+        let tail = DirectedSection {
+            section: to.section,
+            forward: fwd,
+        };
+        pieces.push((tail, if fwd { 0.0 } else { st.length_m }, to.offset_m));
+        best = Some((pieces, total));
+    }
+    best
+}
+
+/// Plans a route through `waypoints` (latitude, longitude in degrees), each
+/// snapped to the nearest road within [`DEFAULT_SNAP_TOLERANCE_M`].
+pub fn plan_route(net: &Network, waypoints: &[[f64; 2]]) -> Result<Route> {
+    plan_route_with(net, waypoints, DEFAULT_SNAP_TOLERANCE_M)
+}
+
+/// [`plan_route`] with a chosen snap tolerance (m).
+pub fn plan_route_with(net: &Network, waypoints: &[[f64; 2]], tolerance_m: f64) -> Result<Route> {
+    if waypoints.len() < 2 {
+        return Err(Error::InvalidParameter(format!(
+            "a route needs at least two waypoints, got {}",
+            waypoints.len()
+        )));
+    }
+    let mut snapped = Vec::with_capacity(waypoints.len());
+    for (i, w) in waypoints.iter().enumerate() {
+        let (point, enu, d) = snap(net, *w, tolerance_m)
+            .map_err(|e| Error::InvalidParameter(format!("waypoint {}: {}", i + 1, strip(&e))))?;
+        snapped.push(SnappedWaypoint {
+            input_lat_lon: *w,
+            point,
+            enu,
+            distance_m: d,
+            chainage_m: 0.0,
+        });
+    }
+    let mut all: Pieces = Vec::new();
+    let mut arrive_dir: Option<bool> = None;
+    for i in 0..snapped.len() - 1 {
+        let (a, b) = (snapped[i].point, snapped[i + 1].point);
+        let leg = shortest_path(net, a, b, arrive_dir)
+            .or_else(|| arrive_dir.and_then(|_| shortest_path(net, a, b, None)))
+            .ok_or_else(|| {
+                Error::InvalidParameter(format!(
+                    "no route from waypoint {} to waypoint {} honouring one-way roads",
+                    i + 1,
+                    i + 2
+                ))
+            })?;
+        arrive_dir = leg.0.last().map(|p| p.0.forward);
+        snapped[i + 1].chainage_m = snapped[i].chainage_m + leg.1;
+        all.extend(leg.0);
+    }
+    Ok(assemble(net, &all, snapped))
+}
+
+fn strip(e: &Error) -> String {
+    match e {
+        Error::InvalidParameter(m) => m.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// Turns pieces into the polyline and spans.
+fn assemble(net: &Network, pieces: &Pieces, waypoints: Vec<SnappedWaypoint>) -> Route {
+    let mut vertices: Vec<RouteVertex> = Vec::new();
+    let mut spans = Vec::with_capacity(pieces.len());
+    let mut chainage = 0.0;
+    for &(ds, from, to) in pieces {
+        let len = (to - from).abs();
+        if len <= 0.0 && pieces.len() > 1 {
+            continue;
+        }
+        let s = &net.sections[ds.section as usize];
+        spans.push(RouteSpan {
+            start_chainage_m: chainage,
+            end_chainage_m: chainage + len,
+            section: ds,
+            road: s.road,
+            from_offset_m: from,
+            to_offset_m: to,
+        });
+        for p in section_points(net, ds.section, from, to) {
+            let next_chainage = match vertices.last() {
+                Some(last) => {
+                    let step = (p[0] - last.enu[0]).hypot(p[1] - last.enu[1]);
+                    if step < 1e-3 {
+                        continue;
+                    }
+                    last.chainage_m + step
+                }
+                None => 0.0,
+            };
+            chainage_push(net, &mut vertices, p, next_chainage);
+        }
+        chainage += len;
+    }
+    let length_m = vertices.last().map_or(0.0, |v| v.chainage_m);
+    Route {
+        vertices,
+        spans,
+        length_m,
+        waypoints,
+    }
+}
+
+fn chainage_push(net: &Network, v: &mut Vec<RouteVertex>, enu: [f64; 2], chainage_m: f64) {
+    let g = net.frame.to_geodetic([enu[0], enu[1], 0.0]);
+    v.push(RouteVertex {
+        enu,
+        lat_lon: [g.lat_deg(), g.lon_deg()],
+        chainage_m,
+    });
+}
+
+/// Points of a section between two offsets, in travel order (from → to).
+fn section_points(net: &Network, section: SectionId, from: f64, to: f64) -> Vec<[f64; 2]> {
+    let segs = net.model.section_segments(section);
+    let at = |off: f64| -> [f64; 2] {
+        let i = segs
+            .partition_point(|s| s.section_offset_m + s.length_m < off)
+            .min(segs.len() - 1);
+        let s = &segs[i];
+        let t = if s.length_m > 0.0 {
+            ((off - s.section_offset_m) / s.length_m).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        [
+            s.a[0] + t * (s.b[0] - s.a[0]),
+            s.a[1] + t * (s.b[1] - s.a[1]),
+        ]
+    };
+    let (lo, hi) = (from.min(to), from.max(to));
+    let mut pts = vec![at(lo)];
+    for s in segs.iter().skip(1) {
+        if s.section_offset_m > lo && s.section_offset_m < hi {
+            pts.push(s.a);
+        }
+    }
+    pts.push(at(hi));
+    if from > to {
+        pts.reverse();
+    }
+    pts
+}
