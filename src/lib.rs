@@ -14,6 +14,7 @@ pub mod nav;
 pub mod network;
 pub mod route;
 pub mod sensors;
+pub mod sim;
 pub mod trajectory;
 
 pub use error::{Error, Result};

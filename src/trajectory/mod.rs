@@ -4,8 +4,10 @@
 //! reproduce it ([`ideal_imu`], by inverse strapdown).
 
 pub mod motion;
+pub mod route;
 
 pub use motion::{Extent, Motion, MotionPlan, MotionTrajectory, Start};
+pub use route::{RoutePlan, RouteTrajectory, SpeedProfile};
 
 use crate::attitude::V3;
 use crate::nav::strapdown::{ImuIncrement, InverseStrapdown, NavState};
