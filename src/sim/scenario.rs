@@ -218,6 +218,7 @@ pub enum NavMode {
     /// Odometer dead reckoning with IMU attitude.
     DeadReckoning,
     /// Gyro-free 3-D dead reckoning (differential odometer, altimeter, roll).
+    #[serde(rename = "dead_reckoning_3d")]
     DeadReckoning3d,
     /// Kalman filter (comes with the filter issue).
     Integrated,

@@ -381,7 +381,8 @@ impl RoutePlan {
         }
         // Arrival at the last node; its dwell (if a stop was put at the end) counts too.
         let duration = t;
-        let samples = (duration / dt).floor() as u64 + 1;
+        // Enough samples to arrive: the last one is at rest at the end.
+        let samples = (duration / dt - 1e-9).ceil().max(0.0) as u64 + 1;
         // Convergence correction along the path.
         let frame = net.model.frame;
         let conv_step = 50.0;
