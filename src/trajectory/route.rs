@@ -139,12 +139,15 @@ fn pos_heading(elems: &[Elem], s: f64) -> ([f64; 2], f64) {
 }
 
 /// Local heading minus map heading at a map-plane point, by converting a 1 m
-/// step along the map heading to the local level frame.
+/// step along the map heading (centred on the point) to the local level frame.
 fn convergence(frame: &EnuFrame, p: [f64; 2], psi: f64, height: f64) -> f64 {
     let r = crate::geodesy::WGS84_A;
     let up = |q: [f64; 2]| height - (q[0] * q[0] + q[1] * q[1]) / (2.0 * r);
-    let q = [p[0] + psi.sin(), p[1] + psi.cos()];
-    let a = frame.to_geodetic([p[0], p[1], up(p)]);
+    // A central difference: reversing the direction reverses the heading exactly.
+    let (sn, cs) = psi.sin_cos();
+    let p0 = [p[0] - 0.5 * sn, p[1] - 0.5 * cs];
+    let q = [p[0] + 0.5 * sn, p[1] + 0.5 * cs];
+    let a = frame.to_geodetic([p0[0], p0[1], up(p0)]);
     let b = frame.to_geodetic([q[0], q[1], up(q)]);
     let (rm, rn) = radii(a.lat);
     let de = (b.lon - a.lon) * (rn + a.height) * a.lat.cos();
@@ -385,9 +388,9 @@ impl RoutePlan {
         let samples = (duration / dt - 1e-9).ceil().max(0.0) as u64 + 1;
         // Convergence correction along the path.
         let frame = net.model.frame;
-        let conv_step = 50.0;
-        let nconv = (total / conv_step).ceil() as usize + 1;
-        let conv = (0..nconv)
+        let intervals = (total / 50.0).ceil().max(1.0);
+        let conv_step = total / intervals;
+        let conv = (0..=intervals as usize)
             .map(|i| {
                 let (p, psi) = pos_heading(&elems, (i as f64 * conv_step).min(total));
                 convergence(&frame, p, psi, height_m)
