@@ -138,10 +138,7 @@ impl Quat {
         let (c, s) = if n2 < 1e-8 {
             // Taylor series of cos(n/2) and sin(n/2)/n; error below 1e-20 here.
             let n4 = n2 * n2;
-            (
-                1.0 - n2 / 8.0 + n4 / 384.0,
-                0.5 - n2 / 48.0 + n4 / 3840.0,
-            )
+            (1.0 - n2 / 8.0 + n4 / 384.0, 0.5 - n2 / 48.0 + n4 / 3840.0)
         } else {
             let n = n2.sqrt();
             let (sh, ch) = (0.5 * n).sin_cos();

@@ -140,7 +140,9 @@ fn simulate(
     out: &Path,
 ) -> Result<()> {
     if tags.is_some() {
-        anyhow::bail!("--tags needs the integrated navigator (the Kalman filter), which is not built yet");
+        anyhow::bail!(
+            "--tags needs the integrated navigator (the Kalman filter), which is not built yet"
+        );
     }
     if runs == 0 {
         anyhow::bail!("--runs must be at least 1");

@@ -17,7 +17,11 @@ fn helsinki() -> Network {
 fn route_truth_is_smooth_drivable_on_the_map_and_replays() {
     let net = helsinki();
     // There and back: the return leg starts with a turn back on the spot or a loop.
-    let route = plan_route(&net, &[[60.1660, 24.9380], [60.1770, 24.9510], [60.1660, 24.9380]]).unwrap();
+    let route = plan_route(
+        &net,
+        &[[60.1660, 24.9380], [60.1770, 24.9510], [60.1660, 24.9380]],
+    )
+    .unwrap();
     let profile = SpeedProfile {
         speed_mps: 50.0 / 3.6,
         ..Default::default()
@@ -28,7 +32,8 @@ fn route_truth_is_smooth_drivable_on_the_map_and_replays() {
     assert!(plan.distance_m <= route.length_m + 1e-6 && plan.distance_m > 0.9 * route.length_m);
     let frame = net.model.frame;
     let mut nav: Option<Strapdown> = None;
-    let (mut prev_heading, mut max_dh, mut max_lat, mut max_long) = (None::<f64>, 0.0f64, 0.0f64, 0.0f64);
+    let (mut prev_heading, mut max_dh, mut max_lat, mut max_long) =
+        (None::<f64>, 0.0f64, 0.0f64, 0.0f64);
     let (mut max_path_dev, mut max_replay, mut max_speed) = (0.0f64, 0.0f64, 0.0f64);
     let mut stopped_samples = 0u64;
     let mut last = None;
@@ -45,7 +50,11 @@ fn route_truth_is_smooth_drivable_on_the_map_and_replays() {
             stopped_samples += 1;
         }
         // On the map's smoothed path at the travelled distance.
-        let enu = frame.to_enu(&waymark::geodesy::Geodetic { lat: st.lat, lon: st.lon, height: st.h });
+        let enu = frame.to_enu(&waymark::geodesy::Geodetic {
+            lat: st.lat,
+            lon: st.lon,
+            height: st.h,
+        });
         let (p, _) = plan.map_point(s.avp.distance_m);
         max_path_dev = max_path_dev.max((enu[0] - p[0]).hypot(enu[1] - p[1]));
         match nav.as_mut() {
@@ -148,10 +157,16 @@ fn dead_end_turns_back_on_the_spot_without_heading_jumps() {
             }
         }
     }
-    eprintln!("dead end: turned {:.3} rad in all, max step {max_step:.4} rad, replay {max_replay:.2e} m", turned);
+    eprintln!(
+        "dead end: turned {:.3} rad in all, max step {max_step:.4} rad, replay {max_replay:.2e} m",
+        turned
+    );
     // Half a turn in all (the bend there and back cancels), never a jump: the
     // turn on the spot runs at 0.5 rad/s, 0.005 rad per sample.
-    assert!((turned.abs() - std::f64::consts::PI).abs() < 1e-6, "turned {turned}");
+    assert!(
+        (turned.abs() - std::f64::consts::PI).abs() < 1e-6,
+        "turned {turned}"
+    );
     assert!(max_step < 0.0051, "step {max_step}");
     assert!(max_replay < 0.5);
 }

@@ -63,11 +63,15 @@ fn simulate(scenario: &str, extra: &[&str]) -> (Vec<Row>, serde_json::Value) {
             }
         })
         .collect();
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/summary.json")).unwrap())
-            .unwrap();
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("out/summary.json")).unwrap(),
+    )
+    .unwrap();
     // No temporary files left behind by the atomic writes.
-    assert_eq!(std::fs::read_dir(dir.path().join("out")).unwrap().count(), 2);
+    assert_eq!(
+        std::fs::read_dir(dir.path().join("out")).unwrap().count(),
+        2
+    );
     (rows, summary)
 }
 
@@ -105,8 +109,16 @@ fn schuler_north_accelerometer_bias() {
     for t in [1266.0, 2532.0] {
         let row = at(&rows, t);
         let expect = r * b / g * (1.0 - (ws * row.t).cos());
-        eprintln!("accel bias: t {} s north {:.1} m, closed form {:.1} m, east {:.1} m", row.t, row.north, expect, row.east);
-        assert!(rel(row.north, expect) < 0.03, "north {} vs {}", row.north, expect);
+        eprintln!(
+            "accel bias: t {} s north {:.1} m, closed form {:.1} m, east {:.1} m",
+            row.t, row.north, expect, row.east
+        );
+        assert!(
+            rel(row.north, expect) < 0.03,
+            "north {} vs {}",
+            row.north,
+            expect
+        );
     }
     // Half a Schuler period: the issue quotes 1,277 m.
     assert!((at(&rows, 2532.0).north - 1277.0).abs() < 0.03 * 1277.0);
@@ -122,8 +134,16 @@ fn schuler_east_gyro_bias() {
     for t in [1266.0, 2532.0] {
         let row = at(&rows, t);
         let expect = r * eps * (row.t - (ws * row.t).sin() / ws);
-        eprintln!("gyro bias: t {} s north {:.1} m, closed-form magnitude {:.1} m", row.t, row.north, expect);
-        assert!(rel(row.north.abs(), expect) < 0.03, "north {} vs {}", row.north, expect);
+        eprintln!(
+            "gyro bias: t {} s north {:.1} m, closed-form magnitude {:.1} m",
+            row.t, row.north, expect
+        );
+        assert!(
+            rel(row.north.abs(), expect) < 0.03,
+            "north {} vs {}",
+            row.north,
+            expect
+        );
     }
     assert!((at(&rows, 2532.0).north.abs() - 782.0).abs() < 0.03 * 782.0);
 }
@@ -137,8 +157,16 @@ fn schuler_initial_tilt() {
         let row = at(&rows, t);
         // Nose-up pitch error facing north: gravity leaks into a southward force.
         let expect = -r * tilt * (1.0 - (ws * row.t).cos());
-        eprintln!("tilt: t {} s north {:.1} m, closed form {:.1} m", row.t, row.north, expect);
-        assert!(rel(row.north, expect) < 0.03, "north {} vs {}", row.north, expect);
+        eprintln!(
+            "tilt: t {} s north {:.1} m, closed form {:.1} m",
+            row.t, row.north, expect
+        );
+        assert!(
+            rel(row.north, expect) < 0.03,
+            "north {} vs {}",
+            row.north,
+            expect
+        );
     }
 }
 
@@ -149,8 +177,16 @@ fn schuler_initial_velocity_error() {
     for t in [600.0, 1266.0] {
         let row = at(&rows, t);
         let expect = 0.1 / ws * (ws * row.t).sin();
-        eprintln!("velocity: t {} s north {:.2} m, closed form {:.2} m", row.t, row.north, expect);
-        assert!(rel(row.north, expect) < 0.03, "north {} vs {}", row.north, expect);
+        eprintln!(
+            "velocity: t {} s north {:.2} m, closed form {:.2} m",
+            row.t, row.north, expect
+        );
+        assert!(
+            rel(row.north, expect) < 0.03,
+            "north {} vs {}",
+            row.north,
+            expect
+        );
     }
 }
 
@@ -262,7 +298,10 @@ fn same_seed_same_output_and_runs_differ() {
     let p = noisy_scenario(dir.path());
     let ps = p.to_str().unwrap();
     for (out, seed) in [("a", "3"), ("b", "3"), ("c", "4")] {
-        let o = run(&["simulate", ps, "--runs", "3", "--seed", seed, "--out", out], dir.path());
+        let o = run(
+            &["simulate", ps, "--runs", "3", "--seed", seed, "--out", out],
+            dir.path(),
+        );
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
     let read = |d: &str, f: &str| std::fs::read_to_string(dir.path().join(d).join(f)).unwrap();
@@ -273,7 +312,10 @@ fn same_seed_same_output_and_runs_differ() {
     assert_eq!(s["runs"], 3);
     let per = s["per_run"].as_array().unwrap();
     assert_eq!(per.len(), 3);
-    assert_ne!(per[0]["max_horizontal_error_m"], per[1]["max_horizontal_error_m"]);
+    assert_ne!(
+        per[0]["max_horizontal_error_m"],
+        per[1]["max_horizontal_error_m"]
+    );
     for key in [
         "duration_s",
         "distance_m",
@@ -314,7 +356,10 @@ motion = [ { kind = "stay", duration_s = 10 } ]
 
 #[test]
 fn bad_scenarios_give_clear_errors() {
-    bad(&format!("name = \"x\"\ncolour = 3\n{GOOD_ROUTE}"), "unknown field `colour`");
+    bad(
+        &format!("name = \"x\"\ncolour = 3\n{GOOD_ROUTE}"),
+        "unknown field `colour`",
+    );
     bad(
         &format!("name = \"x\"\n{GOOD_ROUTE}\n[imu]\nrate_hz = -100\n"),
         "imu.rate_hz",
@@ -367,7 +412,10 @@ fn missing_scenario_file_is_a_clean_error() {
     let o = run(&["simulate", "nope.toml"], dir.path());
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1));
-    assert!(err.contains("nope.toml") && !err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("nope.toml") && !err.contains("panicked"),
+        "{err}"
+    );
 }
 
 #[test]

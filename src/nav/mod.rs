@@ -6,7 +6,7 @@ pub mod dr3d;
 pub mod strapdown;
 pub mod vertical;
 
-pub use strapdown::{ImuIncrement, InverseStrapdown, NavState, PositionIntegrator, Strapdown};
 pub use dead_reckoning::OdometerDr;
 pub use dr3d::Dr3d;
+pub use strapdown::{ImuIncrement, InverseStrapdown, NavState, PositionIntegrator, Strapdown};
 pub use vertical::BaroDamping;

@@ -71,7 +71,11 @@ impl Imu {
             ]
         };
         let gyro_gm = mk(model.gyro_bias_instability, model.gyro_bias_tau_s, &mut rng);
-        let accel_gm = mk(model.accel_bias_instability, model.accel_bias_tau_s, &mut rng);
+        let accel_gm = mk(
+            model.accel_bias_instability,
+            model.accel_bias_tau_s,
+            &mut rng,
+        );
         Self {
             dt,
             gyro_m: error_matrix(model.gyro_scale_factor, model.gyro_misalignment),

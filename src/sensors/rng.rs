@@ -88,9 +88,18 @@ mod tests {
 
     #[test]
     fn same_seed_same_draws_and_streams_differ() {
-        let a: Vec<f64> = (0..5).map(|_| 0.0).scan(stream(7, 0, 1), |r, _| Some(normal(r))).collect();
-        let b: Vec<f64> = (0..5).map(|_| 0.0).scan(stream(7, 0, 1), |r, _| Some(normal(r))).collect();
-        let c: Vec<f64> = (0..5).map(|_| 0.0).scan(stream(7, 1, 1), |r, _| Some(normal(r))).collect();
+        let a: Vec<f64> = (0..5)
+            .map(|_| 0.0)
+            .scan(stream(7, 0, 1), |r, _| Some(normal(r)))
+            .collect();
+        let b: Vec<f64> = (0..5)
+            .map(|_| 0.0)
+            .scan(stream(7, 0, 1), |r, _| Some(normal(r)))
+            .collect();
+        let c: Vec<f64> = (0..5)
+            .map(|_| 0.0)
+            .scan(stream(7, 1, 1), |r, _| Some(normal(r)))
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
     }

@@ -69,9 +69,9 @@ impl TruthSource {
     /// Builds the truth source of a scenario (loads the map for a map route).
     pub fn new(scn: &Scenario) -> Result<TruthSource> {
         match &scn.route {
-            RouteKind::Motion { start, commands } => {
-                Ok(TruthSource::Motion(MotionPlan::new(*start, commands, scn.dt)?))
-            }
+            RouteKind::Motion { start, commands } => Ok(TruthSource::Motion(MotionPlan::new(
+                *start, commands, scn.dt,
+            )?)),
             RouteKind::Map {
                 map,
                 waypoints,
@@ -84,7 +84,9 @@ impl TruthSource {
                     crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
                 })?;
                 let plan = RoutePlan::new(&net, &route, profile, stops, *height_m, scn.dt)
-                    .map_err(|e| crate::error::Error::scenario(&scn.path, format!("route[0]: {e}")))?;
+                    .map_err(|e| {
+                        crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
+                    })?;
                 Ok(TruthSource::Route(Box::new(plan)))
             }
         }

@@ -640,7 +640,10 @@ impl Scenario {
         }
         for (f, v) in [
             ("imu.gyro_misalignment_arcsec", &s.gyro_misalignment_arcsec),
-            ("imu.accel_misalignment_arcsec", &s.accel_misalignment_arcsec),
+            (
+                "imu.accel_misalignment_arcsec",
+                &s.accel_misalignment_arcsec,
+            ),
         ] {
             for (i, x) in v.iter().enumerate() {
                 c.range(&format!("{f}[{i}]"), *x, -36_000.0, 36_000.0)?;
@@ -648,7 +651,12 @@ impl Scenario {
         }
         let rotation = match s.rotation_modulation {
             Some(r) => {
-                let rate = c.range("imu.rotation_modulation.rate_dps", r.rate_dps, -360.0, 360.0)?;
+                let rate = c.range(
+                    "imu.rotation_modulation.rate_dps",
+                    r.rate_dps,
+                    -360.0,
+                    360.0,
+                )?;
                 if rate == 0.0 {
                     return Err(c.err("imu.rotation_modulation.rate_dps must not be zero"));
                 }
@@ -674,7 +682,12 @@ impl Scenario {
         };
         // Odometer
         let o = &file.odometer;
-        c.range("odometer.scale_factor_error", o.scale_factor_error, -0.5, 0.5)?;
+        c.range(
+            "odometer.scale_factor_error",
+            o.scale_factor_error,
+            -0.5,
+            0.5,
+        )?;
         c.non_negative("odometer.noise_mps", o.noise_mps)?;
         c.non_negative("odometer.pulse_m", o.pulse_m)?;
         let slip = match o.slip {
@@ -712,11 +725,31 @@ impl Scenario {
         };
         // Vehicle and differential odometer
         c.range("vehicle.width_m", file.vehicle.width_m, 0.5, 10.0)?;
-        let track = c.range("vehicle.track_width_m", file.vehicle.track_width_m, 0.3, 10.0)?;
+        let track = c.range(
+            "vehicle.track_width_m",
+            file.vehicle.track_width_m,
+            0.3,
+            10.0,
+        )?;
         let d = &file.diff_odometer;
-        c.range("diff_odometer.scale_factor_error_left", d.scale_factor_error_left, -0.5, 0.5)?;
-        c.range("diff_odometer.scale_factor_error_right", d.scale_factor_error_right, -0.5, 0.5)?;
-        c.range("diff_odometer.track_width_error_m", d.track_width_error_m, -0.5 * track, 0.5 * track)?;
+        c.range(
+            "diff_odometer.scale_factor_error_left",
+            d.scale_factor_error_left,
+            -0.5,
+            0.5,
+        )?;
+        c.range(
+            "diff_odometer.scale_factor_error_right",
+            d.scale_factor_error_right,
+            -0.5,
+            0.5,
+        )?;
+        c.range(
+            "diff_odometer.track_width_error_m",
+            d.track_width_error_m,
+            -0.5 * track,
+            0.5 * track,
+        )?;
         c.non_negative("diff_odometer.noise_mps", d.noise_mps)?;
         c.non_negative("diff_odometer.pulse_m", d.pulse_m)?;
         let diff_odometer = DiffOdometerModel {
@@ -735,9 +768,19 @@ impl Scenario {
             initial_bias_m: c.finite("baro.initial_bias_m", b.initial_bias_m)?,
             bias_drift_m: c.non_negative("baro.bias_drift_m", b.bias_drift_m)?,
             bias_tau_s: c.positive("baro.bias_tau_s", b.bias_tau_s)?,
-            scale_factor_error: c.range("baro.scale_factor_error", b.scale_factor_error, -0.5, 0.5)?,
+            scale_factor_error: c.range(
+                "baro.scale_factor_error",
+                b.scale_factor_error,
+                -0.5,
+                0.5,
+            )?,
         };
-        c.range("level_sensor.noise_deg", file.level_sensor.noise_deg, 0.0, 10.0)?;
+        c.range(
+            "level_sensor.noise_deg",
+            file.level_sensor.noise_deg,
+            0.0,
+            10.0,
+        )?;
         // Navigator
         let n = &file.navigator;
         if n.mode == NavMode::Integrated {
@@ -749,13 +792,28 @@ impl Scenario {
             c.range("navigator.vertical_tau_s", t, 1.0, 1e5)?;
         }
         for (i, x) in n.initial_attitude_error_arcmin.iter().enumerate() {
-            c.range(&format!("navigator.initial_attitude_error_arcmin[{i}]"), *x, -600.0, 600.0)?;
+            c.range(
+                &format!("navigator.initial_attitude_error_arcmin[{i}]"),
+                *x,
+                -600.0,
+                600.0,
+            )?;
         }
         for (i, x) in n.initial_velocity_error_mps.iter().enumerate() {
-            c.range(&format!("navigator.initial_velocity_error_mps[{i}]"), *x, -100.0, 100.0)?;
+            c.range(
+                &format!("navigator.initial_velocity_error_mps[{i}]"),
+                *x,
+                -100.0,
+                100.0,
+            )?;
         }
         for (i, x) in n.initial_position_error_m.iter().enumerate() {
-            c.range(&format!("navigator.initial_position_error_m[{i}]"), *x, -1e5, 1e5)?;
+            c.range(
+                &format!("navigator.initial_position_error_m[{i}]"),
+                *x,
+                -1e5,
+                1e5,
+            )?;
         }
         if let Some(p) = &file.rfid {
             if let Some(x) = p.read_probability {
@@ -902,13 +960,22 @@ fn motion(c: &Check, i: usize, m: &MotionSpec) -> Result<Motion> {
         }
         Ok(())
     };
-    let speed_fields = [("to_kmh", m.to_kmh.is_some()), ("accel_mps2", m.accel_mps2.is_some())];
-    let turn_fields = [("angle_deg", m.angle_deg.is_some()), ("radius_m", m.radius_m.is_some())];
+    let speed_fields = [
+        ("to_kmh", m.to_kmh.is_some()),
+        ("accel_mps2", m.accel_mps2.is_some()),
+    ];
+    let turn_fields = [
+        ("angle_deg", m.angle_deg.is_some()),
+        ("radius_m", m.radius_m.is_some()),
+    ];
     let grade_fields = [
         ("grade_percent", m.grade_percent.is_some()),
         ("pitch_rate_dps", m.pitch_rate_dps.is_some()),
     ];
-    let time_fields = [("duration_s", m.duration_s.is_some()), ("distance_m", m.distance_m.is_some())];
+    let time_fields = [
+        ("duration_s", m.duration_s.is_some()),
+        ("distance_m", m.distance_m.is_some()),
+    ];
     Ok(match m.kind.as_str() {
         "stay" => {
             forbid(&speed_fields)?;

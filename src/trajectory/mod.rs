@@ -122,8 +122,8 @@ mod tests {
         // Independent physics check of the inverse: at rest, the gyros sense the
         // Earth rate and the accelerometers the reaction to gravity, in body axes.
         let dt = 0.01;
-        let plan = MotionPlan::new(start(30.0, 0.0), &[Motion::Stay { duration_s: 10.0 }], dt)
-            .unwrap();
+        let plan =
+            MotionPlan::new(start(30.0, 0.0), &[Motion::Stay { duration_s: 10.0 }], dt).unwrap();
         let q = Quat::from_heading_pitch_roll(30f64.to_radians(), 0.0, 0.0);
         let lat = 30f64.to_radians();
         let w = q.rotate_inv([0.0, EARTH_RATE * lat.cos(), EARTH_RATE * lat.sin()]);

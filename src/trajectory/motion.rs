@@ -125,7 +125,11 @@ fn positive(i: usize, what: &str, field: &str, x: f64) -> Result<f64> {
     if x.is_finite() && x > 0.0 {
         Ok(x)
     } else {
-        Err(bad(i, what, format!("{field} must be a positive number, got {x}")))
+        Err(bad(
+            i,
+            what,
+            format!("{field} must be a positive number, got {x}"),
+        ))
     }
 }
 
@@ -207,7 +211,11 @@ impl MotionPlan {
                     accel_mps2,
                     decelerate,
                 } => {
-                    let what = if decelerate { "decelerate" } else { "accelerate" };
+                    let what = if decelerate {
+                        "decelerate"
+                    } else {
+                        "accelerate"
+                    };
                     let a = positive(i, what, "accel_mps2", accel_mps2)?;
                     if a > MAX_LONGITUDINAL_ACCEL {
                         return Err(bad(
@@ -273,7 +281,11 @@ impl MotionPlan {
                     }
                     let r = positive(i, "turn", "radius_m", radius_m)?;
                     if v <= 0.0 {
-                        return Err(bad(i, "turn", "cannot turn while stopped; accelerate first"));
+                        return Err(bad(
+                            i,
+                            "turn",
+                            "cannot turn while stopped; accelerate first",
+                        ));
                     }
                     let lat_acc = v * v / r;
                     if lat_acc > MAX_LATERAL_ACCEL {

@@ -134,7 +134,9 @@ pub struct RoutePlan {
 }
 
 fn pos_heading(elems: &[Elem], s: f64) -> ([f64; 2], f64) {
-    let i = elems.partition_point(|e| e.s0 + e.len < s).min(elems.len() - 1);
+    let i = elems
+        .partition_point(|e| e.s0 + e.len < s)
+        .min(elems.len() - 1);
     elems[i].eval(s)
 }
 
@@ -203,7 +205,11 @@ impl RoutePlan {
                 pivot[j] = true;
                 continue;
             }
-            let before = if j == 1 { legs[0].0 } else { 0.5 * legs[j - 1].0 };
+            let before = if j == 1 {
+                legs[0].0
+            } else {
+                0.5 * legs[j - 1].0
+            };
             let after = if j == m - 1 {
                 legs[j].0
             } else {
@@ -428,7 +434,15 @@ impl RoutePlan {
             } else {
                 None
             };
-            return (nd.s, 0.0, pivot.or(if nd.pivot != 0.0 { Some(nd.pivot) } else { None }));
+            return (
+                nd.s,
+                0.0,
+                pivot.or(if nd.pivot != 0.0 {
+                    Some(nd.pivot)
+                } else {
+                    None
+                }),
+            );
         }
         let nx = n[i + 1];
         let ds = nx.s - nd.s;
