@@ -116,6 +116,12 @@ pub fn simulate(scn: &Scenario, truth: &TruthSource, runs: u64, seed: u64) -> Re
             "the number of runs must be at least 1".into(),
         ));
     }
+    if scn.file.navigator.mode == NavMode::Integrated {
+        return Err(crate::error::Error::scenario(
+            &scn.path,
+            "navigator.mode = \"integrated\" needs the Kalman filter, which is not built yet; use free_inertial, dead_reckoning or dead_reckoning_3d",
+        ));
+    }
     let results: Vec<RunResult> = (0..runs)
         .into_par_iter()
         .map(|run| run_once(scn, truth, seed, run))
@@ -181,25 +187,41 @@ fn error_enu(lat: f64, lon: f64, h: f64, truth: &NavState) -> V3 {
     ]
 }
 
+/// Keeps a row every `every` samples, and the last sample's row at the end.
 struct Recorder {
     every: u64,
     rows: Vec<ErrorRow>,
+    pending: Option<(Avp, f64, f64, f64)>,
 }
 
 impl Recorder {
+    fn row(avp: &Avp, lat: f64, lon: f64, h: f64) -> ErrorRow {
+        let e = error_enu(lat, lon, h, &avp.state);
+        ErrorRow {
+            t_s: avp.t,
+            distance_m: avp.distance_m,
+            east_m: e[0],
+            north_m: e[1],
+            up_m: e[2],
+            horizontal_m: e[0].hypot(e[1]),
+        }
+    }
+
     #[inline]
     fn record(&mut self, k: u64, avp: &Avp, lat: f64, lon: f64, h: f64) {
         if k % self.every == 0 {
-            let e = error_enu(lat, lon, h, &avp.state);
-            self.rows.push(ErrorRow {
-                t_s: avp.t,
-                distance_m: avp.distance_m,
-                east_m: e[0],
-                north_m: e[1],
-                up_m: e[2],
-                horizontal_m: e[0].hypot(e[1]),
-            });
+            self.rows.push(Self::row(avp, lat, lon, h));
+            self.pending = None;
+        } else {
+            self.pending = Some((*avp, lat, lon, h));
         }
+    }
+
+    fn finish(mut self) -> Vec<ErrorRow> {
+        if let Some((avp, lat, lon, h)) = self.pending {
+            self.rows.push(Self::row(&avp, lat, lon, h));
+        }
+        self.rows
     }
 }
 
@@ -214,6 +236,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
     let mut rec = Recorder {
         every,
         rows: Vec::with_capacity((truth.duration_s() / scn.output_interval_s) as usize + 2),
+        pending: None,
     };
     let Some(first) = samples.next() else {
         return RunResult { run, rows: vec![] };
@@ -251,6 +274,8 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
     };
     let mut k = 0u64;
     match scn.file.navigator.mode {
+        // Integrated is refused in `simulate`; until the filter exists it would
+        // run free inertial.
         NavMode::FreeInertial | NavMode::Integrated => {
             for s in samples {
                 k += 1;
@@ -346,6 +371,6 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
     }
     RunResult {
         run,
-        rows: rec.rows,
+        rows: rec.finish(),
     }
 }

@@ -783,11 +783,6 @@ impl Scenario {
         )?;
         // Navigator
         let n = &file.navigator;
-        if n.mode == NavMode::Integrated {
-            return Err(c.err(
-                "navigator.mode = \"integrated\" needs the Kalman filter, which is not built yet; use free_inertial, dead_reckoning or dead_reckoning_3d",
-            ));
-        }
         if let Some(t) = n.vertical_tau_s {
             c.range("navigator.vertical_tau_s", t, 1.0, 1e5)?;
         }
@@ -1032,4 +1027,85 @@ fn motion(c: &Check, i: usize, m: &MotionSpec) -> Result<Motion> {
             )))
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The scenario sketch of DESIGN.md parses as written (map route, all sections).
+    #[test]
+    fn design_sketch_parses() {
+        let text = r#"
+name = "tunnel-run"
+requirement_m = 20.0
+duration_s = 3600
+[map]
+path = "maps/helsinki.osm.pbf"
+[[route]]
+waypoints = [[60.170, 24.940], [60.175, 24.950]]
+speed_kmh = 40
+[vehicle]
+width_m = 2.5
+[navigator]
+mode = "integrated"
+[imu]
+rate_hz = 100
+gyro_bias_dph = [0.01, 0.01, 0.01]
+accel_bias_ug = [50, 50, 50]
+gyro_arw_dprh = 0.001
+accel_vrw_ugprhz = 5
+[odometer]
+scale_factor_error = 0.00131
+failure = { from_s = 3600 }
+[aiding]
+odometer = true
+rfid = true
+map_matching = false
+baro = true
+[rfid]
+read_probability = 0.977
+[planner]
+coverage = "routes"
+tolerate_missed_reads = 1
+mountings = ["road_surface", "roadside", "ceiling"]
+"#;
+        let s = Scenario::parse(Path::new("/x/scn.toml"), text).unwrap();
+        match &s.route {
+            RouteKind::Map {
+                map,
+                waypoints,
+                profile,
+                ..
+            } => {
+                assert_eq!(map, Path::new("/x/maps/helsinki.osm.pbf"));
+                assert_eq!(waypoints.len(), 2);
+                assert!((profile.speed_mps - 40.0 / 3.6).abs() < 1e-12);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(s.file.navigator.mode, NavMode::Integrated);
+        // Units converted at the edge: 0.01 °/h and 50 µg.
+        assert!((s.imu.gyro_bias[0] - 0.01f64.to_radians() / 3600.0).abs() < 1e-20);
+        assert!((s.imu.accel_bias[2] - 50e-6 * G0).abs() < 1e-15);
+        assert_eq!(s.odometer.failure.unwrap().from_s, Some(3600.0));
+    }
+
+    #[test]
+    fn errors_name_the_file_and_line() {
+        let e = Scenario::parse(Path::new("a.toml"), "name = \"x\"\n\nbogus = 1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("a.toml: line 3:") && e.contains("bogus"),
+            "{e}"
+        );
+        let e = Scenario::parse(
+            Path::new("a.toml"),
+            "name = \"x\"\n[[route]]\nstart = { lat = 95.0, lon = 0.0 }\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("route[0].start.lat"), "{e}");
+    }
 }
