@@ -182,3 +182,35 @@ fn geojson_features() {
     assert_eq!(b.sections.len(), 2);
     assert_eq!(net.topology.weak_components, 2);
 }
+
+#[test]
+fn long_chains_do_not_overflow_the_stack() {
+    // 200,000 two-way roads end to end (a 200 km chain, 1 m apart in latitude
+    // steps of 1e-5 deg) then a one-way return: deep graphs must not recurse.
+    use waymark::network::{model_from_polylines, TagSet};
+    let n = 200_000;
+    let lat = |i: usize| 50.0 + i as f64 * 1e-5;
+    let mut roads: Vec<_> = (0..n)
+        .map(|i| {
+            (
+                TagSet::default().attributes(format!("r{i}")),
+                vec![vec![[lat(i), 10.0], [lat(i + 1), 10.0]]],
+            )
+        })
+        .collect();
+    let mut oneway = TagSet::default();
+    oneway.set("oneway", "yes");
+    roads.push((
+        oneway.attributes("back".into()),
+        vec![vec![
+            [lat(n), 10.0],
+            [lat(n), 10.001],
+            [lat(0), 10.001],
+            [lat(0), 10.0],
+        ]],
+    ));
+    let model = model_from_polylines(roads).unwrap();
+    let net = Network::from_model(model, None).unwrap();
+    assert_eq!(net.topology.weak_components, 1);
+    assert_eq!(net.topology.strong_components, 1);
+}

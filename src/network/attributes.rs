@@ -125,6 +125,7 @@ impl DrivableFilter {
 
 /// Collects the tags Waymark reads from a way and builds [`RoadAttributes`].
 #[derive(Debug, Default, Clone)]
+#[allow(missing_docs)] // one field per OSM tag of the same name
 pub struct TagSet<'a> {
     pub highway: Option<&'a str>,
     pub name: Option<&'a str>,

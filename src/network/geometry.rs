@@ -4,6 +4,12 @@
 /// is treated as the point `a`.
 #[inline]
 pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    point_segment_distance_sq(p, a, b).sqrt()
+}
+
+/// Squared distance (m²) from point `p` to the segment `a`–`b`.
+#[inline]
+pub fn point_segment_distance_sq(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
     let len2 = dx * dx + dy * dy;
     let t = if len2 > 0.0 {
@@ -11,8 +17,8 @@ pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     } else {
         0.0
     };
-    let (qx, qy) = (a[0] + t * dx, a[1] + t * dy);
-    (p[0] - qx).hypot(p[1] - qy)
+    let (ex, ey) = (p[0] - (a[0] + t * dx), p[1] - (a[1] + t * dy));
+    ex * ex + ey * ey
 }
 
 /// Does the segment `a`–`b` touch the closed box `min`–`max`?

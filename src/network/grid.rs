@@ -9,7 +9,7 @@
 //! visited cells is reported only from the first visited cell that its bounding
 //! box overlaps (no hash set, no sort).
 
-use super::geometry::{point_segment_distance, segment_intersects_box};
+use super::geometry::{point_segment_distance_sq, segment_intersects_box};
 use super::hilbert::xy_to_code;
 use super::model::{Segment, SegmentId};
 use crate::error::{Error, Result};
@@ -28,9 +28,23 @@ pub struct GridIndex {
     inv_cell: [f64; 2],
     /// `cell_start[code]..cell_start[code + 1]` indexes `items` for the cell with that code.
     cell_start: Vec<u32>,
-    items: Vec<SegmentId>,
-    /// Segment geometry, copied for locality: a.x, a.y, b.x, b.y.
-    geometry: Vec<[f64; 4]>,
+    /// Registrations in Hilbert-code order of their cells.
+    items: Vec<Entry>,
+    /// Hilbert code of each cell, row-major (`x * n + y`): a look-up table so a
+    /// query does not recompute codes.
+    code_of: Vec<u32>,
+}
+
+/// One registration of a segment in a cell, with the geometry inline so a
+/// query scans a cell's entries without chasing ids.
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    a: [f64; 2],
+    b: [f64; 2],
+    id: SegmentId,
+    /// The first cell (lowest x, lowest y) of the segment's bounding box.
+    cx0: u16,
+    cy0: u16,
 }
 
 /// N for a bounding box: cells of about [`AUTO_CELL_M`], a power of two in 1..=[`MAX_GRID_N`].
@@ -62,18 +76,21 @@ impl GridIndex {
             inv_cell: [1.0 / cell[0], 1.0 / cell[1]],
             cell_start: Vec::new(),
             items: Vec::new(),
-            geometry: segments
-                .iter()
-                .map(|s| [s.a[0], s.a[1], s.b[0], s.b[1]])
-                .collect(),
+            code_of: Vec::new(),
         };
         let cells = (n as usize) * (n as usize);
+        let mut code_of = vec![0u32; cells];
+        for x in 0..n {
+            for y in 0..n {
+                code_of[(x * n + y) as usize] = xy_to_code(n, x, y) as u32;
+            }
+        }
+        let ranges: Vec<[u32; 4]> = segments.iter().map(|s| grid.seg_cells(s.a, s.b)).collect();
         let mut counts = vec![0u32; cells + 1];
-        let ranges: Vec<[u32; 4]> = grid.geometry.iter().map(|g| grid.seg_cells(g)).collect();
         for r in &ranges {
             for cx in r[0]..=r[2] {
                 for cy in r[1]..=r[3] {
-                    counts[xy_to_code(n, cx, cy) as usize + 1] += 1;
+                    counts[code_of[(cx * n + cy) as usize] as usize + 1] += 1;
                 }
             }
         }
@@ -81,18 +98,32 @@ impl GridIndex {
             counts[i] += counts[i - 1];
         }
         let mut fill = counts.clone();
-        let mut items = vec![0u32; counts[cells] as usize];
-        for (id, r) in ranges.iter().enumerate() {
+        let blank = Entry {
+            a: [0.0; 2],
+            b: [0.0; 2],
+            id: 0,
+            cx0: 0,
+            cy0: 0,
+        };
+        let mut items = vec![blank; counts[cells] as usize];
+        for (id, (r, s)) in ranges.iter().zip(segments).enumerate() {
             for cx in r[0]..=r[2] {
                 for cy in r[1]..=r[3] {
-                    let code = xy_to_code(n, cx, cy) as usize;
-                    items[fill[code] as usize] = id as u32;
+                    let code = code_of[(cx * n + cy) as usize] as usize;
+                    items[fill[code] as usize] = Entry {
+                        a: s.a,
+                        b: s.b,
+                        id: id as SegmentId,
+                        cx0: r[0] as u16,
+                        cy0: r[1] as u16,
+                    };
                     fill[code] += 1;
                 }
             }
         }
         grid.cell_start = counts;
         grid.items = items;
+        grid.code_of = code_of;
         Ok(grid)
     }
 
@@ -116,10 +147,17 @@ impl GridIndex {
         self.items.len()
     }
 
-    /// Segments in the cell with Hilbert code `code`.
-    pub fn cell_segments(&self, code: u64) -> &[SegmentId] {
-        let c = code as usize;
-        &self.items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
+    /// Segments registered in the cell with Hilbert code `code`.
+    pub fn cell_segments(&self, code: u64) -> Vec<SegmentId> {
+        self.cell_entries(code as usize)
+            .iter()
+            .map(|e| e.id)
+            .collect()
+    }
+
+    #[inline]
+    fn cell_entries(&self, code: usize) -> &[Entry] {
+        &self.items[self.cell_start[code] as usize..self.cell_start[code + 1] as usize]
     }
 
     #[inline]
@@ -140,23 +178,24 @@ impl GridIndex {
     }
 
     #[inline]
-    fn seg_cells(&self, g: &[f64; 4]) -> [u32; 4] {
+    fn seg_cells(&self, a: [f64; 2], b: [f64; 2]) -> [u32; 4] {
         [
-            self.cell_x(g[0].min(g[2])),
-            self.cell_y(g[1].min(g[3])),
-            self.cell_x(g[0].max(g[2])),
-            self.cell_y(g[1].max(g[3])),
+            self.cell_x(a[0].min(b[0])),
+            self.cell_y(a[1].min(b[1])),
+            self.cell_x(a[0].max(b[0])),
+            self.cell_y(a[1].max(b[1])),
         ]
     }
 
     /// Visits every segment whose bounding box's cells meet the query box's cells,
     /// once each; `keep` decides whether it is reported into `out`.
+    #[inline]
     fn visit(
         &self,
         min: [f64; 2],
         max: [f64; 2],
         out: &mut Vec<SegmentId>,
-        keep: impl Fn(&[f64; 4]) -> bool,
+        keep: impl Fn([f64; 2], [f64; 2]) -> bool,
     ) {
         if max[0] < self.min[0]
             || max[1] < self.min[1]
@@ -168,17 +207,15 @@ impl GridIndex {
         let (qx0, qy0) = (self.cell_x(min[0]), self.cell_y(min[1]));
         let (qx1, qy1) = (self.cell_x(max[0]), self.cell_y(max[1]));
         for cx in qx0..=qx1 {
+            let row = &self.code_of[(cx * self.n) as usize..((cx + 1) * self.n) as usize];
             for cy in qy0..=qy1 {
-                for &id in self.cell_segments(xy_to_code(self.n, cx, cy)) {
-                    let g = &self.geometry[id as usize];
+                for e in self.cell_entries(row[cy as usize] as usize) {
                     // Report from the first visited cell the segment is in.
-                    let sx0 = self.cell_x(g[0].min(g[2]));
-                    let sy0 = self.cell_y(g[1].min(g[3]));
-                    if cx != sx0.max(qx0) || cy != sy0.max(qy0) {
+                    if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
                         continue;
                     }
-                    if keep(g) {
-                        out.push(id);
+                    if keep(e.a, e.b) {
+                        out.push(e.id);
                     }
                 }
             }
@@ -190,8 +227,9 @@ impl GridIndex {
     pub fn within_radius_into(&self, p: [f64; 2], radius: f64, out: &mut Vec<SegmentId>) {
         let min = [p[0] - radius, p[1] - radius];
         let max = [p[0] + radius, p[1] + radius];
-        self.visit(min, max, out, |g| {
-            point_segment_distance(p, [g[0], g[1]], [g[2], g[3]]) <= radius
+        let r2 = radius * radius;
+        self.visit(min, max, out, |a, b| {
+            point_segment_distance_sq(p, a, b) <= r2
         });
     }
 
@@ -204,9 +242,7 @@ impl GridIndex {
 
     /// Segments touching the box `min`–`max`, appended to `out`.
     pub fn in_box_into(&self, min: [f64; 2], max: [f64; 2], out: &mut Vec<SegmentId>) {
-        self.visit(min, max, out, |g| {
-            segment_intersects_box([g[0], g[1]], [g[2], g[3]], min, max)
-        });
+        self.visit(min, max, out, |a, b| segment_intersects_box(a, b, min, max));
     }
 
     /// Segments touching the box `min`–`max`.

@@ -15,11 +15,12 @@ mod osm_common;
 mod osm_pbf;
 mod osm_xml;
 mod rtree;
+mod shapefile_loader;
 mod topology;
 
 pub use attributes::{
     parse_lanes, parse_length_m, parse_oneway, parse_speed_kmh, DrivableFilter, Oneway,
-    RoadAttributes,
+    RoadAttributes, TagSet,
 };
 pub use defects::{check as check_defects, Defect, DefectReport, DEFAULT_NODE_TOLERANCE_M};
 pub use geometry::{point_segment_distance, segment_intersects_box};
@@ -53,6 +54,8 @@ pub enum MapFormat {
     OsmXml,
     /// GeoJSON FeatureCollection.
     GeoJson,
+    /// ESRI shapefile (`.shp` with `.dbf` beside it), WGS-84 coordinates.
+    Shapefile,
 }
 
 /// Time spent building each part (ms).
@@ -103,6 +106,10 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<MapFormat> {
         Some(b'<') => return Ok(MapFormat::OsmXml),
         _ => {}
     }
+    // Shapefile: the file code 9994 as a big-endian integer.
+    if bytes.starts_with(&[0x00, 0x00, 0x27, 0x0A]) {
+        return Ok(MapFormat::Shapefile);
+    }
     // PBF: a 4-byte big-endian header length, then a BlobHeader whose first
     // field (tag 0x0A) is the type string "OSMHeader" or "OSMData".
     if bytes.len() >= 8 {
@@ -130,6 +137,12 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<MapFormat> {
             "invalid JSON: the file does not start with '{'",
         ));
     }
+    if name.ends_with(".shp") {
+        return Err(Error::format(
+            path,
+            "not a readable shapefile: bad file code",
+        ));
+    }
     if name.ends_with(".osm") || name.ends_with(".xml") {
         return Err(Error::format(
             path,
@@ -138,7 +151,7 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<MapFormat> {
     }
     Err(Error::format(
         path,
-        "unrecognised map format (expected OSM PBF, OSM XML or GeoJSON)",
+        "unrecognised map format (expected OSM PBF, OSM XML, GeoJSON or a shapefile)",
     ))
 }
 
@@ -151,8 +164,46 @@ pub fn load_model(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Ro
         MapFormat::OsmPbf => osm_pbf::load(path, bytes, filter)?,
         MapFormat::OsmXml => osm_xml::load(path, bytes, filter)?,
         MapFormat::GeoJson => geojson_loader::load(path, bytes, filter)?,
+        MapFormat::Shapefile => shapefile_loader::load(path, filter)?,
     };
     build::build(path, raw, edges, report)
+}
+
+/// Builds a model from polylines of (latitude, longitude) in degrees, one list
+/// of parts per road; vertices at identical coordinates (to 1e-7 degree) are
+/// shared, so roads meeting at a point are joined there. For programmatic and
+/// synthetic networks.
+pub fn model_from_polylines(
+    roads: Vec<(RoadAttributes, Vec<Vec<[f64; 2]>>)>,
+) -> Result<RoadNetwork> {
+    let path = Path::new("<polylines>");
+    let mut raw = Vec::with_capacity(roads.len());
+    let mut report = LoadReport {
+        format: "polylines".into(),
+        ..Default::default()
+    };
+    for (attributes, parts) in roads {
+        report.features_read += 1;
+        let mut out = Vec::with_capacity(parts.len());
+        for part in parts {
+            let mut v = Vec::with_capacity(part.len());
+            for [lat, lon] in part {
+                build::check_coordinate(path, &format!("road {}", attributes.id), lat, lon)?;
+                v.push(build::RawVertex {
+                    key: build::coordinate_key(lat, lon),
+                    lat,
+                    lon,
+                });
+            }
+            out.push(v);
+        }
+        raw.push(build::RawRoad {
+            attributes,
+            parts: out,
+            cut: false,
+        });
+    }
+    build::build(path, raw, Default::default(), report)
 }
 
 impl Network {

@@ -2,7 +2,7 @@
 //! queries as the Hilbert grid with the same exact predicates, plus nearest
 //! segment look-ups.
 
-use super::geometry::{point_segment_distance, segment_intersects_box};
+use super::geometry::{point_segment_distance, point_segment_distance_sq, segment_intersects_box};
 use super::model::{Segment, SegmentId};
 use rstar::primitives::{GeomWithData, Line};
 use rstar::{RTree, AABB};
@@ -46,7 +46,7 @@ impl SegmentTree {
         );
         self.tree
             .locate_in_envelope_intersecting(&env)
-            .filter(|e| point_segment_distance(p, e.geom().from, e.geom().to) <= radius)
+            .filter(|e| point_segment_distance_sq(p, e.geom().from, e.geom().to) <= radius * radius)
             .map(|e| e.data)
             .collect()
     }

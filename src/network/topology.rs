@@ -4,7 +4,7 @@
 //! components (crate `petgraph`).
 
 use super::model::{NodeId, RoadNetwork, SectionId};
-use petgraph::algo::{connected_components, tarjan_scc};
+use petgraph::algo::{connected_components, kosaraju_scc};
 use petgraph::graph::{DiGraph, NodeIndex};
 
 /// Which end of a section meets a node.
@@ -103,7 +103,9 @@ impl Topology {
             }
         }
         let weak_components = connected_components(&g);
-        let sccs = tarjan_scc(&g);
+        // Kosaraju with petgraph's iterative depth-first search: no recursion, so
+        // million-node networks do not overflow the stack.
+        let sccs = kosaraju_scc(&g);
         let mut node_scc = vec![0u32; nn];
         for (i, comp) in sccs.iter().enumerate() {
             for v in comp {
