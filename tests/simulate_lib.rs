@@ -100,3 +100,18 @@ fn odometer_failure_hands_over_without_a_jump() {
         assert!(x.horizontal_m < 1.0, "t {} error {}", x.t_s, x.horizontal_m);
     }
 }
+
+#[test]
+fn every_bundled_scenario_loads() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            let scn = Scenario::load(&p).unwrap_or_else(|e| panic!("{e}"));
+            TruthSource::new(&scn).unwrap_or_else(|e| panic!("{e}"));
+            n += 1;
+        }
+    }
+    assert!(n >= 11, "{n} scenarios");
+}
