@@ -385,6 +385,10 @@ fn bad_scenarios_give_clear_errors() {
         "lateral acceleration",
     );
     bad(
+        "name = \"x\"\n[[route]]\nstart = { lat = 30.0, lon = 117.0 }\nmotion = [ { kind = \"stay\", duration_s = 1e300 } ]\n",
+        "30 days",
+    );
+    bad(
         "name = \"x\"\n[[route]]\nstart = { lat = 30.0, lon = 117.0 }\nmotion = [ { kind = \"fly\", duration_s = 3 } ]\n",
         "kind \"fly\"",
     );

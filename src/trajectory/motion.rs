@@ -22,6 +22,8 @@ pub const MAX_LONGITUDINAL_ACCEL: f64 = 9.81;
 pub const MAX_GRADE: f64 = 1.0;
 /// Highest speed accepted (m/s; 400 km/h).
 pub const MAX_SPEED: f64 = 400.0 / 3.6;
+/// Longest trajectory accepted (s; 30 days).
+pub const MAX_DURATION_S: f64 = 30.0 * 86_400.0;
 
 /// How long a command lasts.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -175,7 +177,9 @@ impl MotionPlan {
                 MAX_SPEED * 3.6
             )));
         }
-        let samples_for = |t: f64| -> u64 { ((t / dt).round() as u64).max(1) };
+        // Capped so that no count can overflow; the total is checked below.
+        let samples_for =
+            |t: f64| -> u64 { ((t.min(2.0 * MAX_DURATION_S) / dt).round() as u64).max(1) };
         let mut segs = Vec::new();
         let mut v = start.speed_mps;
         let pitch = start.pitch;
@@ -339,6 +343,12 @@ impl MotionPlan {
             }
         }
         let n: u64 = segs.iter().map(|s| s.samples).sum();
+        if n as f64 * dt > MAX_DURATION_S {
+            return Err(Error::InvalidParameter(format!(
+                "route.motion: the commands last {:.0} s, more than the 30 days accepted",
+                n as f64 * dt
+            )));
+        }
         Ok(Self {
             start,
             dt,

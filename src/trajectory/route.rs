@@ -336,7 +336,7 @@ impl RoutePlan {
         let node_range = |a: f64, b: f64| -> std::ops::Range<usize> {
             let i0 = nodes.partition_point(|n| n.s < a);
             let i1 = nodes.partition_point(|n| n.s <= b);
-            i0..i1
+            i0..i1.max(i0)
         };
         let mut limits: Vec<(std::ops::Range<usize>, f64)> = Vec::new();
         for e in &elems {
