@@ -31,6 +31,14 @@ pub enum Error {
         /// What was read and skipped.
         detail: String,
     },
+    /// A scenario file is invalid: the message names the field and the problem.
+    #[error("{path}: {message}")]
+    Scenario {
+        /// The scenario file.
+        path: PathBuf,
+        /// What is wrong, in one line.
+        message: String,
+    },
     /// A parameter is outside its permitted range.
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),
@@ -39,6 +47,13 @@ pub enum Error {
 impl Error {
     pub(crate) fn format(path: &std::path::Path, message: impl Into<String>) -> Self {
         Error::Format {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn scenario(path: &std::path::Path, message: impl Into<String>) -> Self {
+        Error::Scenario {
             path: path.to_path_buf(),
             message: message.into(),
         }

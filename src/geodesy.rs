@@ -84,6 +84,117 @@ pub fn normal_gravity(lat: f64, h: f64) -> f64 {
         + 3.0 / (WGS84_A * WGS84_A) * h * h)
 }
 
+/// Earth rate expressed in the local ENU navigation frame at latitude `lat`
+/// (rad): ω_ie^n = [0, ω cos L, ω sin L] (rad/s).
+pub fn earth_rate_n(lat: f64) -> [f64; 3] {
+    let (sl, cl) = lat.sin_cos();
+    [0.0, EARTH_RATE * cl, EARTH_RATE * sl]
+}
+
+/// Transport rate ω_en^n (rad/s): the turning of the ENU frame as it is carried
+/// over the curved Earth by the ENU velocity `v` (m/s) at latitude `lat` (rad) and
+/// height `h` (m): [−v_N/(R_M+h), v_E/(R_N+h), v_E tan L/(R_N+h)].
+pub fn transport_rate(lat: f64, h: f64, v: [f64; 3]) -> [f64; 3] {
+    let (rm, rn) = radii(lat);
+    [
+        -v[1] / (rm + h),
+        v[0] / (rn + h),
+        v[0] * lat.tan() / (rn + h),
+    ]
+}
+
+/// Normal gravity vector in ENU (m/s²): [0, 0, −γ(L, h)].
+pub fn gravity_n(lat: f64, h: f64) -> [f64; 3] {
+    [0.0, 0.0, -normal_gravity(lat, h)]
+}
+
+/// Position rates (dL/dt, dλ/dt, dh/dt) from an ENU velocity (m/s) at
+/// latitude `lat` (rad) and height `h` (m).
+pub fn position_rate(lat: f64, h: f64, v: [f64; 3]) -> [f64; 3] {
+    let (rm, rn) = radii(lat);
+    [v[1] / (rm + h), v[0] / ((rn + h) * lat.cos()), v[2]]
+}
+
+/// The Earth-related quantities a strapdown navigator needs at one position and
+/// velocity (the "eth" of PSINS): trigonometry of latitude, radii, Earth rate,
+/// transport rate, gravity and the gravity-minus-Coriolis term.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EarthState {
+    /// sin L.
+    pub sin_lat: f64,
+    /// cos L.
+    pub cos_lat: f64,
+    /// tan L.
+    pub tan_lat: f64,
+    /// R_M + h (m).
+    pub rm_h: f64,
+    /// R_N + h (m).
+    pub rn_h: f64,
+    /// (R_N + h) cos L (m).
+    pub clrn_h: f64,
+    /// Earth rate ω_ie^n (rad/s).
+    pub w_ie: [f64; 3],
+    /// Transport rate ω_en^n (rad/s).
+    pub w_en: [f64; 3],
+    /// ω_in^n = ω_ie^n + ω_en^n (rad/s).
+    pub w_in: [f64; 3],
+    /// Gravity vector g^n (m/s²).
+    pub g: [f64; 3],
+    /// g^n − (2 ω_ie^n + ω_en^n) × v^n (m/s²): gravity less Coriolis.
+    pub g_cc: [f64; 3],
+}
+
+impl EarthState {
+    /// The quantities at latitude `lat` (rad), height `h` (m) and ENU velocity `v` (m/s).
+    #[inline]
+    pub fn new(lat: f64, h: f64, v: [f64; 3]) -> Self {
+        let (sl, cl) = lat.sin_cos();
+        let s2 = sl * sl;
+        let w2 = 1.0 - WGS84_E2 * s2;
+        let sqw = w2.sqrt();
+        let rn = WGS84_A / sqw;
+        let rm = rn * (1.0 - WGS84_E2) / w2;
+        let rm_h = rm + h;
+        let rn_h = rn + h;
+        let tl = sl / cl;
+        let w_ie = [0.0, EARTH_RATE * cl, EARTH_RATE * sl];
+        let w_en = [-v[1] / rm_h, v[0] / rn_h, v[0] * tl / rn_h];
+        let w_in = [w_ie[0] + w_en[0], w_ie[1] + w_en[1], w_ie[2] + w_en[2]];
+        let g0 = GAMMA_EQUATOR * (1.0 + SOMIGLIANA_K * s2) / sqw;
+        let m = EARTH_RATE * EARTH_RATE * WGS84_A * WGS84_A * WGS84_B / WGS84_GM;
+        let gm = g0
+            * (1.0 - 2.0 / WGS84_A * (1.0 + WGS84_F + m - 2.0 * WGS84_F * s2) * h
+                + 3.0 / (WGS84_A * WGS84_A) * h * h);
+        let g = [0.0, 0.0, -gm];
+        // (2 ω_ie + ω_en) × v
+        let a = [w_ie[0] + w_in[0], w_ie[1] + w_in[1], w_ie[2] + w_in[2]];
+        let c = [
+            a[1] * v[2] - a[2] * v[1],
+            a[2] * v[0] - a[0] * v[2],
+            a[0] * v[1] - a[1] * v[0],
+        ];
+        Self {
+            sin_lat: sl,
+            cos_lat: cl,
+            tan_lat: tl,
+            rm_h,
+            rn_h,
+            clrn_h: cl * rn_h,
+            w_ie,
+            w_en,
+            w_in,
+            g,
+            g_cc: [g[0] - c[0], g[1] - c[1], g[2] - c[2]],
+        }
+    }
+
+    /// Position rates (dL/dt, dλ/dt, dh/dt) for ENU velocity `v` at this state.
+    #[inline]
+    pub fn position_rate(&self, v: [f64; 3]) -> [f64; 3] {
+        [v[1] / self.rm_h, v[0] / self.clrn_h, v[2]]
+    }
+}
+
 /// Geodetic to ECEF (m).
 pub fn geodetic_to_ecef(p: &Geodetic) -> [f64; 3] {
     let (sl, cl) = p.lat.sin_cos();
@@ -225,6 +336,29 @@ mod tests {
         let lat = 45f64.to_radians();
         let grad = (normal_gravity(lat, 100.0) - normal_gravity(lat, 0.0)) / 100.0;
         assert!((grad + 3.086e-6).abs() < 0.031e-6, "gradient {grad}");
+    }
+
+    #[test]
+    fn earth_state_agrees_with_the_separate_functions() {
+        let lat = 30f64.to_radians();
+        let v = [10.0, -5.0, 0.3];
+        let e = EarthState::new(lat, 120.0, v);
+        let wen = transport_rate(lat, 120.0, v);
+        let wie = earth_rate_n(lat);
+        for i in 0..3 {
+            assert!((e.w_en[i] - wen[i]).abs() < 1e-18);
+            assert!((e.w_ie[i] - wie[i]).abs() < 1e-18);
+        }
+        assert!((e.g[2] - gravity_n(lat, 120.0)[2]).abs() < 1e-12);
+        let pr = position_rate(lat, 120.0, v);
+        let pr2 = e.position_rate(v);
+        for i in 0..3 {
+            assert!((pr[i] - pr2[i]).abs() < 1e-18);
+        }
+        // Transport rate of a vehicle driving east at 10 m/s at 30°: v/(R_N+h) about the
+        // north axis, 1.57e-6 rad/s (hand computation with R_N ≈ 6.3836e6 m).
+        assert!((e.w_en[1] + 0.0 - 10.0 / (prime_vertical_radius(lat) + 120.0)).abs() < 1e-15);
+        assert!((e.w_en[1] - 1.5665e-6).abs() < 1e-9);
     }
 
     proptest! {

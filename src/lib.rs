@@ -6,11 +6,16 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod attitude;
 pub mod error;
 pub mod export;
 pub mod geodesy;
+pub mod nav;
 pub mod network;
 pub mod route;
+pub mod sensors;
+pub mod sim;
+pub mod trajectory;
 
 pub use error::{Error, Result};
 pub use network::{LoadOptions, Network};

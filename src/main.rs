@@ -29,6 +29,27 @@ enum Command {
     /// Road network commands.
     #[command(subcommand)]
     Network(NetworkCommand),
+    /// Simulates a scenario: truth, sensors and navigator; writes errors.csv and summary.json.
+    #[command(
+        after_help = "Examples:\n  waymark simulate scenarios/schuler-accel-bias.toml --out /tmp/schuler\n  \
+        waymark simulate scenarios/dr3d-paper.toml --runs 10 --seed 7 --out /tmp/dr3d"
+    )]
+    Simulate {
+        /// The scenario file (TOML).
+        scenario: PathBuf,
+        /// Existing tags (CSV); used by the integrated navigator, not built yet.
+        #[arg(long, value_name = "TAGS.csv")]
+        tags: Option<PathBuf>,
+        /// Monte Carlo runs.
+        #[arg(long, default_value_t = 1)]
+        runs: u64,
+        /// Base seed (default: the scenario's `seed`, else 1).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Output folder.
+        #[arg(long, default_value = "waymark-simulate")]
+        out: PathBuf,
+    },
 }
 
 #[derive(Subcommand)]
@@ -87,6 +108,13 @@ fn run(cli: Cli) -> Result<()> {
                 None,
             )
         }
+        Command::Simulate {
+            scenario,
+            tags,
+            runs,
+            seed,
+            out,
+        } => simulate(&scenario, tags.as_deref(), runs, seed, &out),
         Command::Network(NetworkCommand::Inspect {
             map,
             json,
@@ -102,6 +130,52 @@ fn run(cli: Cli) -> Result<()> {
             inspect(&map, json, options, tolerance, defects.as_deref())
         }
     }
+}
+
+fn simulate(
+    scenario: &Path,
+    tags: Option<&Path>,
+    runs: u64,
+    seed: Option<u64>,
+    out: &Path,
+) -> Result<()> {
+    if tags.is_some() {
+        anyhow::bail!(
+            "--tags needs the integrated navigator (the Kalman filter), which is not built yet"
+        );
+    }
+    if runs == 0 {
+        anyhow::bail!("--runs must be at least 1");
+    }
+    let t0 = Instant::now();
+    let scn = waymark::sim::Scenario::load(scenario)?;
+    let seed = seed.or(scn.file.seed).unwrap_or(1);
+    let truth = waymark::sim::TruthSource::new(&scn)?;
+    let result = waymark::sim::simulate(&scn, &truth, runs, seed)?;
+    waymark::sim::output::write(out, &result)?;
+    let s = &result.summary;
+    println!(
+        "{}: {} over {:.0} s, {:.1} km, {} run(s), seed {}: horizontal error max {:.2} m, rms {:.2} m, p95 {:.2} m; final E/N/U {:.2}/{:.2}/{:.2} m",
+        s.name,
+        s.mode,
+        s.duration_s,
+        s.distance_m / 1000.0,
+        s.runs,
+        s.seed,
+        s.max_horizontal_error_m,
+        s.rms_horizontal_error_m,
+        s.p95_horizontal_error_m,
+        s.final_error_enu_m[0],
+        s.final_error_enu_m[1],
+        s.final_error_enu_m[2],
+    );
+    println!(
+        "wrote {} and {} in {:.2} s",
+        out.join("errors.csv").display(),
+        out.join("summary.json").display(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
 }
 
 fn bundled_map() -> PathBuf {

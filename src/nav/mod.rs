@@ -1,0 +1,12 @@
+//! Navigation: strapdown inertial mechanization, vertical-channel damping and
+//! dead reckoning (odometer with IMU attitude, and gyro-free 3-D).
+
+pub mod dead_reckoning;
+pub mod dr3d;
+pub mod strapdown;
+pub mod vertical;
+
+pub use dead_reckoning::OdometerDr;
+pub use dr3d::Dr3d;
+pub use strapdown::{ImuIncrement, InverseStrapdown, NavState, PositionIntegrator, Strapdown};
+pub use vertical::BaroDamping;

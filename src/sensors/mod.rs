@@ -1,0 +1,15 @@
+//! Sensor error models. Every random draw comes from a seeded generator
+//! ([`rng::stream`]): the same seed gives the same output.
+
+pub mod baro;
+pub mod imu;
+pub mod odometer;
+pub mod rng;
+pub mod rotation;
+
+pub use baro::{Barometer, BarometerModel};
+pub use imu::{Imu, ImuModel};
+pub use odometer::{
+    DiffOdometer, DiffOdometerModel, Odometer, OdometerFailure, OdometerModel, WheelSlip,
+};
+pub use rotation::RotationModulation;

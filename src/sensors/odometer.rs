@@ -1,0 +1,259 @@
+//! Odometer error models: a single (vehicle-centre) odometer with scale-factor
+//! error, speed noise, pulse quantization, wheel-slip events and failure from a
+//! time or a distance; and a differential odometer (left and right wheels a
+//! track width apart) for gyro-free 3-D dead reckoning (PAPERS.md §2).
+
+use super::rng::normal;
+use crate::attitude::{add, dot, norm, sub, V3};
+use crate::nav::NavState;
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+/// Wheel-slip events: at random distances (Poisson in distance), the wheel
+/// over-counts by a fraction for a stretch of road.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WheelSlip {
+    /// Mean number of events per km.
+    pub rate_per_km: f64,
+    /// Length of road each event lasts (m).
+    pub length_m: f64,
+    /// Fractional over-count during an event (0.1 = 10 % too much distance).
+    pub overcount: f64,
+}
+
+/// When the odometer fails (it then gives no output).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct OdometerFailure {
+    /// From this time on (s).
+    pub from_s: Option<f64>,
+    /// From this distance on (m).
+    pub from_m: Option<f64>,
+}
+
+/// Odometer error parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct OdometerModel {
+    /// Scale-factor error (ratio; 0.00131 reads 0.131 % long).
+    pub scale_factor_error: f64,
+    /// White speed noise (m/s, per sample).
+    pub noise_mps: f64,
+    /// Distance per pulse (m); 0 disables quantization.
+    pub pulse_m: f64,
+    /// Wheel-slip events.
+    pub slip: Option<WheelSlip>,
+    /// Failure.
+    pub failure: Option<OdometerFailure>,
+}
+
+/// A simulated odometer: distance increments per IMU sample.
+#[derive(Debug, Clone)]
+pub struct Odometer {
+    model: OdometerModel,
+    rng: ChaCha8Rng,
+    measured: f64,
+    counted: f64,
+    next_slip_m: f64,
+    slip_until_m: f64,
+}
+
+fn exp_draw(rng: &mut ChaCha8Rng, mean: f64) -> f64 {
+    let u: f64 = rng.random::<f64>();
+    -mean * (1.0 - u).ln()
+}
+
+impl Odometer {
+    /// An odometer with its own random stream.
+    pub fn new(model: &OdometerModel, mut rng: ChaCha8Rng) -> Self {
+        let next_slip_m = match model.slip {
+            Some(s) if s.rate_per_km > 0.0 => exp_draw(&mut rng, 1000.0 / s.rate_per_km),
+            _ => f64::INFINITY,
+        };
+        Self {
+            model: *model,
+            rng,
+            measured: 0.0,
+            counted: 0.0,
+            next_slip_m,
+            slip_until_m: f64::NEG_INFINITY,
+        }
+    }
+
+    /// Whether the odometer has failed at time `t` (s) and distance `distance_m`.
+    pub fn failed(&self, t: f64, distance_m: f64) -> bool {
+        match self.model.failure {
+            Some(f) => {
+                f.from_s.is_some_and(|s| t >= s) || f.from_m.is_some_and(|m| distance_m >= m)
+            }
+            None => false,
+        }
+    }
+
+    /// The measured distance increment (m) for a true increment `d_true` over
+    /// `dt` (s), ending at time `t` and true path distance `distance_m`; None
+    /// once the odometer has failed.
+    #[inline]
+    pub fn measure(&mut self, t: f64, distance_m: f64, d_true: f64, dt: f64) -> Option<f64> {
+        let mut d = d_true * (1.0 + self.model.scale_factor_error);
+        if let Some(s) = self.model.slip {
+            if distance_m >= self.next_slip_m {
+                self.slip_until_m = distance_m + s.length_m;
+                self.next_slip_m = distance_m + exp_draw(&mut self.rng, 1000.0 / s.rate_per_km);
+            }
+            if distance_m < self.slip_until_m {
+                d *= 1.0 + s.overcount;
+            }
+        }
+        if self.model.noise_mps > 0.0 && d_true != 0.0 {
+            d += self.model.noise_mps * dt * normal(&mut self.rng);
+        }
+        if self.failed(t, distance_m) {
+            return None;
+        }
+        self.measured += d;
+        if self.model.pulse_m > 0.0 {
+            let c = (self.measured / self.model.pulse_m).floor() * self.model.pulse_m;
+            let inc = c - self.counted;
+            self.counted = c;
+            Some(inc)
+        } else {
+            Some(d)
+        }
+    }
+}
+
+/// Differential odometer parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DiffOdometerModel {
+    /// True track width: distance between the two wheels (m).
+    pub track_width_m: f64,
+    /// Track width the navigator assumes, minus the true one (m).
+    pub track_width_error_m: f64,
+    /// Scale-factor error of the left wheel (ratio).
+    pub scale_factor_error_left: f64,
+    /// Scale-factor error of the right wheel (ratio).
+    pub scale_factor_error_right: f64,
+    /// White speed noise per wheel (m/s, per sample).
+    pub noise_mps: f64,
+    /// Distance per pulse (m); 0 disables quantization.
+    pub pulse_m: f64,
+}
+
+/// True distances (m) travelled by the left and right wheels between two truth
+/// states: the wheels sit at ∓track/2 on the body's right axis.
+#[inline]
+pub fn wheel_distances(s0: &NavState, s1: &NavState, track_width_m: f64) -> (f64, f64) {
+    let d = crate::trajectory::local_displacement(s0, s1);
+    let half = 0.5 * track_width_m;
+    let r0 = s0.q.rotate([half, 0.0, 0.0]);
+    let r1 = s1.q.rotate([half, 0.0, 0.0]);
+    let dr = sub(r1, r0);
+    let right: V3 = add(d, dr);
+    let left: V3 = sub(d, dr);
+    let fwd = s1.q.rotate([0.0, 1.0, 0.0]);
+    let sgn = |x: V3| if dot(x, fwd) < 0.0 { -norm(x) } else { norm(x) };
+    (sgn(left), sgn(right))
+}
+
+/// A simulated differential odometer.
+#[derive(Debug, Clone)]
+pub struct DiffOdometer {
+    model: DiffOdometerModel,
+    rng: ChaCha8Rng,
+    measured: [f64; 2],
+    counted: [f64; 2],
+}
+
+impl DiffOdometer {
+    /// A differential odometer with its own random stream.
+    pub fn new(model: &DiffOdometerModel, rng: ChaCha8Rng) -> Self {
+        Self {
+            model: *model,
+            rng,
+            measured: [0.0; 2],
+            counted: [0.0; 2],
+        }
+    }
+
+    /// The model.
+    pub fn model(&self) -> &DiffOdometerModel {
+        &self.model
+    }
+
+    /// Measured (left, right) distance increments for the true ones.
+    #[inline]
+    pub fn measure(&mut self, left: f64, right: f64, dt: f64) -> (f64, f64) {
+        let sf = [
+            self.model.scale_factor_error_left,
+            self.model.scale_factor_error_right,
+        ];
+        let mut out = [0.0; 2];
+        for (i, d_true) in [left, right].into_iter().enumerate() {
+            let mut d = d_true * (1.0 + sf[i]);
+            if self.model.noise_mps > 0.0 && d_true != 0.0 {
+                d += self.model.noise_mps * dt * normal(&mut self.rng);
+            }
+            self.measured[i] += d;
+            out[i] = if self.model.pulse_m > 0.0 {
+                let c = (self.measured[i] / self.model.pulse_m).floor() * self.model.pulse_m;
+                let inc = c - self.counted[i];
+                self.counted[i] = c;
+                inc
+            } else {
+                d
+            };
+        }
+        (out[0], out[1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensors::rng::stream;
+
+    #[test]
+    fn scale_factor_quantization_and_failure() {
+        let model = OdometerModel {
+            scale_factor_error: 0.01,
+            pulse_m: 0.05,
+            failure: Some(OdometerFailure {
+                from_s: Some(50.0),
+                from_m: None,
+            }),
+            ..Default::default()
+        };
+        let mut odo = Odometer::new(&model, stream(1, 0, 2));
+        let mut total = 0.0;
+        for k in 1..=4999 {
+            let t = k as f64 * 0.01;
+            total += odo.measure(t, t, 0.01, 0.01).unwrap();
+            // Quantized to whole pulses.
+            assert!(((total / 0.05) - (total / 0.05).round()).abs() < 1e-9);
+        }
+        // 49.99 m true, 1 % long, counted down to a whole pulse (0.05 m).
+        assert!((total - 49.99 * 1.01).abs() <= 0.05 + 1e-9, "{total}");
+        assert!(odo.measure(50.0, 50.0, 0.01, 0.01).is_none());
+    }
+
+    #[test]
+    fn slip_events_overcount_at_the_stated_rate() {
+        // 2 events/km, 10 m each, 50 % over-count: over 100 km the excess is about
+        // 200 × 5 m = 1000 m; Poisson count σ ≈ 14 events, so ±30 % is > 4σ.
+        let model = OdometerModel {
+            slip: Some(WheelSlip {
+                rate_per_km: 2.0,
+                length_m: 10.0,
+                overcount: 0.5,
+            }),
+            ..Default::default()
+        };
+        let mut odo = Odometer::new(&model, stream(5, 0, 2));
+        let mut total = 0.0;
+        let n = 1_000_000;
+        for k in 1..=n {
+            total += odo.measure(0.0, k as f64 * 0.1, 0.1, 0.01).unwrap();
+        }
+        let excess = total - n as f64 * 0.1;
+        assert!((excess - 1000.0).abs() < 300.0, "excess {excess}");
+    }
+}

@@ -1,0 +1,376 @@
+//! One simulation run and Monte Carlo: truth → ideal IMU → sensor errors →
+//! navigator (free inertial, odometer dead reckoning or gyro-free 3-D dead
+//! reckoning) → navigation error (estimate minus truth) at the output interval.
+//!
+//! The truth is streamed sample by sample (nothing at the IMU rate is stored),
+//! so a 3.6 h run at 100 Hz needs no more memory than its output rows.
+
+use super::metrics::{summarize, Summary};
+use super::scenario::{NavMode, RouteKind, Scenario, VerticalChannel};
+use crate::attitude::{scale, Quat, V3};
+use crate::error::Result;
+use crate::geodesy::radii;
+use crate::nav::{BaroDamping, Dr3d, NavState, OdometerDr, Strapdown};
+use crate::sensors::odometer::wheel_distances;
+use crate::sensors::rng::{ids, normal, stream};
+use crate::sensors::{Barometer, DiffOdometer, Imu, Odometer, RotationModulation};
+use crate::trajectory::route::RoutePlan;
+use crate::trajectory::{ideal_imu, Avp, MotionPlan};
+use rayon::prelude::*;
+
+/// Default time constant of the baro damping loop (s).
+pub const DEFAULT_VERTICAL_TAU_S: f64 = 50.0;
+
+/// Navigation error at one output time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorRow {
+    /// Time (s).
+    pub t_s: f64,
+    /// Distance travelled (m).
+    pub distance_m: f64,
+    /// East error, estimate minus truth (m).
+    pub east_m: f64,
+    /// North error (m).
+    pub north_m: f64,
+    /// Up error (m).
+    pub up_m: f64,
+    /// Horizontal error (m).
+    pub horizontal_m: f64,
+}
+
+/// The rows of one run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunResult {
+    /// Monte Carlo run index.
+    pub run: u64,
+    /// Error rows at the output interval.
+    pub rows: Vec<ErrorRow>,
+}
+
+/// All runs and their summary.
+#[derive(Debug, Clone)]
+pub struct SimResult {
+    /// Runs in index order.
+    pub runs: Vec<RunResult>,
+    /// Metrics.
+    pub summary: Summary,
+}
+
+/// Where the truth comes from: compiled once, streamed once per run.
+#[derive(Debug, Clone)]
+pub enum TruthSource {
+    /// Motion commands.
+    Motion(MotionPlan),
+    /// A road route.
+    Route(Box<RoutePlan>),
+}
+
+impl TruthSource {
+    /// Builds the truth source of a scenario (loads the map for a map route).
+    pub fn new(scn: &Scenario) -> Result<TruthSource> {
+        match &scn.route {
+            RouteKind::Motion { start, commands } => Ok(TruthSource::Motion(MotionPlan::new(
+                *start, commands, scn.dt,
+            )?)),
+            RouteKind::Map {
+                map,
+                waypoints,
+                profile,
+                stops,
+                height_m,
+            } => {
+                let net = crate::network::Network::load(map, &Default::default())?;
+                let route = crate::route::plan_route(&net, waypoints).map_err(|e| {
+                    crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
+                })?;
+                let plan = RoutePlan::new(&net, &route, profile, stops, *height_m, scn.dt)
+                    .map_err(|e| {
+                        crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
+                    })?;
+                Ok(TruthSource::Route(Box::new(plan)))
+            }
+        }
+    }
+
+    /// The truth samples.
+    pub fn samples(&self) -> Box<dyn Iterator<Item = Avp> + Send + '_> {
+        match self {
+            TruthSource::Motion(p) => Box::new(p.trajectory()),
+            TruthSource::Route(p) => Box::new(p.trajectory()),
+        }
+    }
+
+    /// Duration (s).
+    pub fn duration_s(&self) -> f64 {
+        match self {
+            TruthSource::Motion(p) => p.duration_s,
+            TruthSource::Route(p) => p.duration_s,
+        }
+    }
+}
+
+/// Runs `runs` Monte Carlo runs of a scenario with base seed `seed`.
+pub fn simulate(scn: &Scenario, truth: &TruthSource, runs: u64, seed: u64) -> Result<SimResult> {
+    if runs == 0 {
+        return Err(crate::error::Error::InvalidParameter(
+            "the number of runs must be at least 1".into(),
+        ));
+    }
+    if scn.file.navigator.mode == NavMode::Integrated {
+        return Err(crate::error::Error::scenario(
+            &scn.path,
+            "navigator.mode = \"integrated\" needs the Kalman filter, which is not built yet; use free_inertial, dead_reckoning or dead_reckoning_3d",
+        ));
+    }
+    let results: Vec<RunResult> = (0..runs)
+        .into_par_iter()
+        .map(|run| run_once(scn, truth, seed, run))
+        .collect();
+    let summary = summarize(scn, seed, &results);
+    Ok(SimResult {
+        runs: results,
+        summary,
+    })
+}
+
+/// Applies the rotation modulation (if any) to the truth attitude: the IMU
+/// frame is what the inverse strapdown must see.
+fn imu_frame(avp: Avp, rot: Option<RotationModulation>) -> Avp {
+    match rot {
+        Some(r) => {
+            let mut a = avp;
+            a.state.q = r.imu_attitude(&avp.state.q, avp.t);
+            a
+        }
+        None => avp,
+    }
+}
+
+fn body_q(q_imu: &Quat, t: f64, rot: Option<RotationModulation>) -> Quat {
+    match rot {
+        Some(r) => r.body_attitude(q_imu, t),
+        None => *q_imu,
+    }
+}
+
+/// The navigator's initial state: truth plus the scenario's initial errors
+/// (attitude errors on the body's pitch, roll and heading).
+fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavState {
+    let n = &scn.file.navigator;
+    let (pitch, roll, yaw) = truth_body.q.to_euler();
+    let [dp, dr, dh] = scn.initial_attitude_error;
+    let q = Quat::from_euler(pitch + dp, roll + dr, yaw - dh);
+    let (rm, rn) = radii(truth_body.lat);
+    let [pe, pn, pu] = n.initial_position_error_m;
+    let dv = n.initial_velocity_error_mps;
+    NavState {
+        q,
+        v: [
+            truth_body.v[0] + dv[0],
+            truth_body.v[1] + dv[1],
+            truth_body.v[2] + dv[2],
+        ],
+        lat: truth_body.lat + pn / (rm + truth_body.h),
+        lon: truth_body.lon + pe / ((rn + truth_body.h) * truth_body.lat.cos()),
+        h: truth_body.h + pu,
+    }
+}
+
+/// Estimate minus truth in local metres (east, north, up).
+#[inline]
+fn error_enu(lat: f64, lon: f64, h: f64, truth: &NavState) -> V3 {
+    let (rm, rn) = radii(truth.lat);
+    [
+        (lon - truth.lon) * (rn + truth.h) * truth.lat.cos(),
+        (lat - truth.lat) * (rm + truth.h),
+        h - truth.h,
+    ]
+}
+
+/// Keeps a row every `every` samples, and the last sample's row at the end.
+struct Recorder {
+    every: u64,
+    rows: Vec<ErrorRow>,
+    pending: Option<(Avp, f64, f64, f64)>,
+}
+
+impl Recorder {
+    fn row(avp: &Avp, lat: f64, lon: f64, h: f64) -> ErrorRow {
+        let e = error_enu(lat, lon, h, &avp.state);
+        ErrorRow {
+            t_s: avp.t,
+            distance_m: avp.distance_m,
+            east_m: e[0],
+            north_m: e[1],
+            up_m: e[2],
+            horizontal_m: e[0].hypot(e[1]),
+        }
+    }
+
+    #[inline]
+    fn record(&mut self, k: u64, avp: &Avp, lat: f64, lon: f64, h: f64) {
+        if k % self.every == 0 {
+            self.rows.push(Self::row(avp, lat, lon, h));
+            self.pending = None;
+        } else {
+            self.pending = Some((*avp, lat, lon, h));
+        }
+    }
+
+    fn finish(mut self) -> Vec<ErrorRow> {
+        if let Some((avp, lat, lon, h)) = self.pending {
+            self.rows.push(Self::row(&avp, lat, lon, h));
+        }
+        self.rows
+    }
+}
+
+/// One run with its own random streams.
+pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> RunResult {
+    let dt = scn.dt;
+    let rot = scn.rotation;
+    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * dt;
+    let body = truth.samples().take_while(move |a| a.t <= cap);
+    let mut samples = ideal_imu(body.map(move |a| imu_frame(a, rot)), dt);
+    let every = ((scn.output_interval_s / dt).round() as u64).max(1);
+    let mut rec = Recorder {
+        every,
+        rows: Vec::with_capacity((truth.duration_s() / scn.output_interval_s) as usize + 2),
+        pending: None,
+    };
+    let Some(first) = samples.next() else {
+        return RunResult { run, rows: vec![] };
+    };
+    // Truth body attitude at the start (undo the modulation).
+    let mut truth0 = first.avp.state;
+    truth0.q = body_q(&first.avp.state.q, 0.0, rot);
+    let mut est0 = initial_estimate(scn, &truth0);
+    let est_body_q0 = est0.q;
+    if let Some(r) = rot {
+        est0.q = r.imu_attitude(&est0.q, 0.0);
+    }
+    rec.record(0, &first.avp, est0.lat, est0.lon, est0.h);
+    let mut imu = Imu::new(&scn.imu, dt, stream(seed, run, ids::IMU));
+    let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
+    let mut ins = Strapdown::new(est0, dt);
+    let mut damping = match scn.file.navigator.vertical_channel {
+        VerticalChannel::Baro => Some(BaroDamping::new(
+            scn.file
+                .navigator
+                .vertical_tau_s
+                .unwrap_or(DEFAULT_VERTICAL_TAU_S),
+        )),
+        VerticalChannel::Free => None,
+    };
+    let mut ins_step = |ins: &mut Strapdown, s: &crate::trajectory::TruthSample| {
+        let m = imu.measure(&s.imu);
+        ins.step(&m);
+        if let Some(d) = damping.as_mut() {
+            if let Some(hb) = baro.measure(s.avp.t, s.avp.state.h) {
+                d.set_reference(hb);
+            }
+            d.apply(ins);
+        }
+    };
+    let mut k = 0u64;
+    match scn.file.navigator.mode {
+        // Integrated is refused in `simulate`; until the filter exists it would
+        // run free inertial.
+        NavMode::FreeInertial | NavMode::Integrated => {
+            for s in samples {
+                k += 1;
+                ins_step(&mut ins, &s);
+                rec.record(k, &s.avp, ins.state.lat, ins.state.lon, ins.state.h);
+            }
+        }
+        NavMode::DeadReckoning => {
+            let mut odo = Odometer::new(&scn.odometer, stream(seed, run, ids::ODOMETER));
+            let mut dr = OdometerDr::new(est0.lat, est0.lon, est0.h);
+            let mut last_distance = first.avp.distance_m;
+            let mut q_prev = est_body_q0;
+            let mut failed = false;
+            let mut last_vel: V3 = [0.0; 3];
+            for s in samples {
+                k += 1;
+                ins_step(&mut ins, &s);
+                let q_now = body_q(&ins.state.q, s.avp.t, rot);
+                let d_true = s.avp.distance_m - last_distance;
+                last_distance = s.avp.distance_m;
+                if !failed {
+                    match odo.measure(s.avp.t, s.avp.distance_m, d_true, dt) {
+                        Some(ds) => {
+                            let d = dr.step(&q_prev, &q_now, ds);
+                            last_vel = scale(d, 1.0 / dt);
+                        }
+                        None => {
+                            // Odometer failed: continue inertially from the dead-
+                            // reckoned position and the last odometer velocity.
+                            failed = true;
+                            ins.state.lat = dr.lat;
+                            ins.state.lon = dr.lon;
+                            ins.state.h = dr.h;
+                            ins.reset_velocity(last_vel);
+                        }
+                    }
+                }
+                q_prev = q_now;
+                if failed {
+                    rec.record(k, &s.avp, ins.state.lat, ins.state.lon, ins.state.h);
+                } else {
+                    rec.record(k, &s.avp, dr.lat, dr.lon, dr.h);
+                }
+            }
+        }
+        NavMode::DeadReckoning3d => {
+            let m = scn.diff_odometer;
+            let mut wheels = DiffOdometer::new(&m, stream(seed, run, ids::DIFF_ODOMETER));
+            let mut level = stream(seed, run, ids::LEVEL);
+            let level_noise = scn.file.level_sensor.noise_deg.to_radians();
+            let mut alt = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
+            let (_, roll0_est, _) = est_body_q0.to_euler();
+            let (_, roll0_true, _) = truth0.q.to_euler();
+            let roll_bias = roll0_est - roll0_true;
+            let heading0 = -est_body_q0.to_euler().2;
+            let mut dr = Dr3d::new(
+                est0.lat,
+                est0.lon,
+                est0.h,
+                heading0,
+                m.track_width_m + m.track_width_error_m,
+            );
+            let mut last_alt = alt.measure(first.avp.t, first.avp.state.h);
+            let mut prev_truth = truth0;
+            let (mut sl, mut sr) = (0.0, 0.0);
+            for s in samples {
+                k += 1;
+                let mut tb = s.avp.state;
+                tb.q = body_q(&s.avp.state.q, s.avp.t, rot);
+                let (l, r) = wheel_distances(&prev_truth, &tb, m.track_width_m);
+                prev_truth = tb;
+                let (ml, mr) = wheels.measure(l, r, dt);
+                sl += ml;
+                sr += mr;
+                if let Some(h) = alt.measure(s.avp.t, tb.h) {
+                    let dh = last_alt.map_or(0.0, |h0| h - h0);
+                    last_alt = Some(h);
+                    let (_, roll_true, _) = tb.q.to_euler();
+                    let roll = roll_true
+                        + roll_bias
+                        + if level_noise > 0.0 {
+                            level_noise * normal(&mut level)
+                        } else {
+                            0.0
+                        };
+                    dr.step(sl, sr, dh, roll);
+                    sl = 0.0;
+                    sr = 0.0;
+                }
+                rec.record(k, &s.avp, dr.lat, dr.lon, dr.h);
+            }
+        }
+    }
+    RunResult {
+        run,
+        rows: rec.finish(),
+    }
+}
