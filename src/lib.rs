@@ -15,6 +15,7 @@ pub mod network;
 pub mod route;
 pub mod sensors;
 pub mod sim;
+pub mod tags;
 pub mod trajectory;
 
 pub use error::{Error, Result};

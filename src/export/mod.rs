@@ -1,6 +1,12 @@
 //! Writing output files: every file is written to a temporary file beside its
 //! destination and renamed into place, so it appears completely or not at all.
 
+mod tags;
+
+pub use tags::{
+    tags_csv, tags_geojson, tags_gpx, tags_kml, ExportMetadata, TagRecord, CSV_COLUMNS,
+};
+
 use crate::error::{Error, Result};
 use std::io::Write;
 use std::path::Path;
