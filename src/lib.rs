@@ -12,6 +12,7 @@ pub mod export;
 pub mod geodesy;
 pub mod nav;
 pub mod network;
+pub mod report;
 pub mod route;
 pub mod sensors;
 pub mod sim;

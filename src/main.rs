@@ -29,6 +29,15 @@ enum Command {
     /// Road network commands.
     #[command(subcommand)]
     Network(NetworkCommand),
+    /// Writes DIR/report.html (self-contained: inline SVG plots, no network) and PNG plots for a simulate output folder.
+    #[command(
+        after_help = "Example:\n  waymark simulate scenarios/helsinki-route-dr.toml --out /tmp/hel\n  \
+        waymark report /tmp/hel"
+    )]
+    Report {
+        /// The output folder of `waymark simulate`.
+        dir: PathBuf,
+    },
     /// Simulates a scenario: truth, sensors and navigator; writes errors.csv and summary.json.
     #[command(
         after_help = "Examples:\n  waymark simulate scenarios/schuler-accel-bias.toml --out /tmp/schuler\n  \
@@ -115,6 +124,7 @@ fn run(cli: Cli) -> Result<()> {
             seed,
             out,
         } => simulate(&scenario, tags.as_deref(), runs, seed, &out),
+        Command::Report { dir } => report(&dir),
         Command::Network(NetworkCommand::Inspect {
             map,
             json,
@@ -175,6 +185,61 @@ fn simulate(
         out.join("summary.json").display(),
         t0.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+fn report(dir: &Path) -> Result<()> {
+    use waymark::export::write_atomic;
+    use waymark::report::{
+        bound95, error_plot_png, read_output_folder, render_html, ErrorSeries, PlotDecor,
+    };
+    let input = read_output_folder(dir)?;
+    let html = render_html(&input)?;
+    let out = dir.join("report.html");
+    write_atomic(&out, html.as_bytes())?;
+    let plots = dir.join("plots");
+    std::fs::create_dir_all(&plots)
+        .with_context(|| format!("{}: cannot create folder", plots.display()))?;
+    let requirement = input.summary["requirement_m"].as_f64();
+    let error: Vec<f64> = input.rows.iter().map(|r| r.horizontal_m).collect();
+    let bound: Vec<Option<f64>> = input
+        .rows
+        .iter()
+        .map(|r| r.sigma_en_m.map(bound95))
+        .collect();
+    for (file, label, x) in [
+        (
+            "error_time.png",
+            "time (s)",
+            input.rows.iter().map(|r| r.t_s).collect::<Vec<_>>(),
+        ),
+        (
+            "error_distance.png",
+            "distance driven (m)",
+            input.rows.iter().map(|r| r.distance_m).collect(),
+        ),
+    ] {
+        let series = ErrorSeries {
+            x,
+            error: error.clone(),
+            bound95: bound.clone(),
+            envelope: None,
+        };
+        let decor = PlotDecor {
+            title: format!(
+                "Horizontal error against {}",
+                label.split(' ').next().unwrap_or("")
+            ),
+            x_label: label.into(),
+            requirement_m: requirement,
+            ..Default::default()
+        };
+        write_atomic(
+            &plots.join(file),
+            &error_plot_png(&series, &decor, (1200, 520))?,
+        )?;
+    }
+    println!("wrote {} and {}", out.display(), plots.display());
     Ok(())
 }
 

@@ -1,0 +1,215 @@
+//! Plots of navigation error (crate `plotters`): SVG for the HTML report and
+//! PNG files, with the bundled DejaVu Sans font so no system font library is
+//! needed.
+
+use crate::error::{Error, Result};
+use plotters::prelude::*;
+use std::sync::Once;
+
+const FONT: &str = "sans-serif";
+static FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The font is compiled in; failing to parse it would be a build defect.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES);
+    });
+}
+
+/// One error series against time or distance.
+#[derive(Debug, Clone, Default)]
+pub struct ErrorSeries {
+    /// Abscissa: time (s) or distance (m).
+    pub x: Vec<f64>,
+    /// Horizontal error (m).
+    pub error: Vec<f64>,
+    /// The filter's 95 % horizontal bound (m), where known.
+    pub bound95: Vec<Option<f64>>,
+    /// Monte Carlo envelope: median, 95th percentile and maximum over runs (m).
+    pub envelope: Option<[Vec<f64>; 3]>,
+}
+
+/// What to draw besides the series.
+#[derive(Debug, Clone, Default)]
+pub struct PlotDecor {
+    /// Title above the plot.
+    pub title: String,
+    /// Label of the x axis.
+    pub x_label: String,
+    /// Requirement line (m).
+    pub requirement_m: Option<f64>,
+    /// Abscissae of tag passes (vertical ticks).
+    pub tag_passes: Vec<f64>,
+    /// Abscissa intervals to shade (odometer faults).
+    pub shaded: Vec<(f64, f64)>,
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    s: &ErrorSeries,
+    d: &PlotDecor,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: &dyn std::fmt::Display| Error::InvalidParameter(format!("plot: {e}"));
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let x_max = s.x.iter().copied().fold(0.0f64, f64::max).max(1e-9);
+    let mut y_max = s.error.iter().copied().fold(0.0f64, f64::max);
+    for b in s.bound95.iter().flatten() {
+        y_max = y_max.max(*b);
+    }
+    if let Some(env) = &s.envelope {
+        y_max = y_max.max(env[2].iter().copied().fold(0.0, f64::max));
+    }
+    if let Some(r) = d.requirement_m {
+        y_max = y_max.max(r * 1.1);
+    }
+    let y_max = if y_max > 0.0 { y_max * 1.05 } else { 1.0 };
+    let mut chart = ChartBuilder::on(&root)
+        .caption(&d.title, (FONT, 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..x_max, 0.0..y_max)
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc(&d.x_label)
+        .y_desc("horizontal error (m)")
+        .label_style((FONT, 13))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(|e| err(&e))?;
+    for &(a, b) in &d.shaded {
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(a, 0.0), (b, y_max)],
+                RGBAColor(255, 165, 0, 0.18).filled(),
+            )))
+            .map_err(|e| err(&e))?
+            .label("odometer fault")
+            .legend(|(x, y)| {
+                Rectangle::new(
+                    [(x, y - 5), (x + 15, y + 5)],
+                    RGBAColor(255, 165, 0, 0.4).filled(),
+                )
+            });
+    }
+    if let Some(env) = &s.envelope {
+        let names = [
+            "median over runs",
+            "95th percentile over runs",
+            "max over runs",
+        ];
+        let colours = [
+            RGBColor(120, 120, 200),
+            RGBColor(60, 60, 170),
+            RGBColor(150, 150, 150),
+        ];
+        for k in 0..3 {
+            let c = colours[k];
+            chart
+                .draw_series(LineSeries::new(
+                    s.x.iter().copied().zip(env[k].iter().copied()),
+                    c.stroke_width(1),
+                ))
+                .map_err(|e| err(&e))?
+                .label(names[k])
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c));
+        }
+    }
+    let bound: Vec<(f64, f64)> =
+        s.x.iter()
+            .zip(&s.bound95)
+            .filter_map(|(x, b)| b.map(|b| (*x, b)))
+            .collect();
+    if !bound.is_empty() {
+        let c = RGBColor(0, 140, 70);
+        chart
+            .draw_series(LineSeries::new(bound, c.stroke_width(2)))
+            .map_err(|e| err(&e))?
+            .label("filter 95 % bound")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c));
+    }
+    let c = RGBColor(20, 70, 200);
+    chart
+        .draw_series(LineSeries::new(
+            s.x.iter().copied().zip(s.error.iter().copied()),
+            c.stroke_width(2),
+        ))
+        .map_err(|e| err(&e))?
+        .label("horizontal error (run 0)")
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c));
+    if let Some(r) = d.requirement_m {
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(0.0, r), (x_max, r)],
+                8,
+                5,
+                RED.stroke_width(2),
+            ))
+            .map_err(|e| err(&e))?
+            .label(format!("requirement {r} m"))
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));
+    }
+    if !d.tag_passes.is_empty() {
+        let c = RGBColor(180, 0, 160);
+        chart
+            .draw_series(
+                d.tag_passes.iter().map(|&x| {
+                    PathElement::new(vec![(x, 0.0), (x, y_max * 0.04)], c.stroke_width(2))
+                }),
+            )
+            .map_err(|e| err(&e))?
+            .label("tag read")
+            .legend(move |(x, y)| PathElement::new(vec![(x + 7, y - 5), (x + 7, y + 5)], c));
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(200, 200, 200))
+        .draw()
+        .map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// The plot as an SVG document.
+pub fn error_plot_svg(s: &ErrorSeries, d: &PlotDecor, size: (u32, u32)) -> Result<String> {
+    register_font();
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
+        draw(root, s, d)?;
+    }
+    Ok(out)
+}
+
+/// The plot as a PNG file's bytes.
+pub fn error_plot_png(s: &ErrorSeries, d: &PlotDecor, size: (u32, u32)) -> Result<Vec<u8>> {
+    register_font();
+    let (w, h) = size;
+    let mut rgb = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        draw(root, s, d)?;
+    }
+    encode_png(&rgb, w, h)
+}
+
+/// Encodes an RGB buffer as PNG (crate `png`).
+fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let err = |e: png::EncodingError| Error::InvalidParameter(format!("PNG encoding: {e}"));
+        let mut writer = enc.write_header().map_err(err)?;
+        writer.write_image_data(rgb).map_err(err)?;
+    }
+    Ok(out)
+}
