@@ -1,0 +1,152 @@
+//! `waymark report` on a real simulate folder: a self-contained HTML file and
+//! PNG plots that are not blank; and, where Chromium is installed, the page
+//! rendered in headless Chromium with no console errors.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_waymark"))
+}
+
+fn simulate_and_report(dir: &Path) -> PathBuf {
+    let scn = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/helsinki-route-dr.toml");
+    let out = dir.join("hel");
+    let s = bin()
+        .args([
+            "simulate",
+            scn.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
+    let r = bin()
+        .args(["report", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    out
+}
+
+/// Share of pixels that are not (near) white.
+fn ink_share(png_bytes: &[u8]) -> f64 {
+    let decoder = png::Decoder::new(std::io::Cursor::new(png_bytes));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let channels = info.color_type.samples();
+    let px = &buf[..info.buffer_size()];
+    let n = px.len() / channels;
+    let inked = px
+        .chunks_exact(channels)
+        .filter(|p| p[..3].iter().any(|&c| c < 200))
+        .count();
+    inked as f64 / n as f64
+}
+
+#[test]
+fn report_is_self_contained_and_plots_are_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = simulate_and_report(dir.path());
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>"));
+    assert!(html.contains("<svg"), "plots are inline SVG");
+    assert!(html.contains("Meets the 10 m requirement"), "verdict shown");
+    assert!(!html.contains("<script"), "no scripts");
+    // No external resources: the only URLs are XML namespaces.
+    for (i, _) in html.match_indices("http") {
+        let tail = &html[i..(i + 40).min(html.len())];
+        assert!(
+            tail.starts_with("http://www.w3.org/"),
+            "external reference: {tail}"
+        );
+    }
+    for png in ["error_time.png", "error_distance.png"] {
+        let bytes = std::fs::read(out.join("plots").join(png)).unwrap();
+        let ink = ink_share(&bytes);
+        // Axes, grid, labels and the curve: a few percent of the pixels, not none
+        // and not a filled canvas.
+        assert!(ink > 0.01 && ink < 0.5, "{png}: ink share {ink}");
+    }
+}
+
+#[test]
+fn report_of_a_folder_without_results_is_a_clean_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = bin()
+        .args(["report", dir.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("summary.json") && !err.contains("panicked"),
+        "{err}"
+    );
+    std::fs::write(dir.path().join("summary.json"), "{\"name\": \"x\"}").unwrap();
+    std::fs::write(dir.path().join("errors.csv"), "t_s,distance_m\n0,0\n").unwrap();
+    let out = bin()
+        .args(["report", dir.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing column 'horizontal_m'"));
+}
+
+fn chromium() -> Option<PathBuf> {
+    [
+        "/usr/bin/chromium",
+        "/usr/bin/chromium-browser",
+        "/usr/bin/google-chrome",
+    ]
+    .iter()
+    .map(PathBuf::from)
+    .find(|p| p.exists())
+}
+
+#[test]
+fn report_renders_in_headless_chromium() {
+    let Some(browser) = chromium() else {
+        // .ci/run installs Chromium and sets WAYMARK_REQUIRE_BROWSER=1, so CI
+        // cannot skip this; a developer machine without it can.
+        assert!(
+            std::env::var_os("WAYMARK_REQUIRE_BROWSER").is_none(),
+            "WAYMARK_REQUIRE_BROWSER is set but Chromium is not installed"
+        );
+        eprintln!("skipping: Chromium not installed");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = simulate_and_report(dir.path());
+    let shot = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/report-screenshot.png");
+    let profile = dir.path().join("chromium-profile");
+    let run = Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--hide-scrollbars",
+            "--enable-logging=stderr",
+            "--v=0",
+            &format!("--user-data-dir={}", profile.display()),
+            &format!("--screenshot={}", shot.display()),
+            "--window-size=1200,1800",
+            &format!("file://{}", out.join("report.html").display()),
+        ])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "chromium failed: {log}");
+    // Console messages are logged as "CONSOLE(line)"; the page has no scripts,
+    // so any console output (errors included) means something is wrong.
+    let console: Vec<&str> = log.lines().filter(|l| l.contains("CONSOLE")).collect();
+    assert!(console.is_empty(), "console output: {console:?}");
+    let ink = ink_share(&std::fs::read(&shot).unwrap());
+    assert!(ink > 0.02, "screenshot looks blank (ink share {ink})");
+}
