@@ -161,9 +161,9 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
             escape(scn)
         );
     }
-    let _ = write!(
+    let _ = writeln!(
         html,
-        "</main><footer>Made by Waymark {}. Map data © OpenStreetMap contributors, ODbL.</footer></body></html>\n",
+        "</main><footer>Made by Waymark {}. Map data © OpenStreetMap contributors, ODbL.</footer></body></html>",
         env!("CARGO_PKG_VERSION")
     );
     Ok(html)
