@@ -150,3 +150,54 @@ fn report_renders_in_headless_chromium() {
     let ink = ink_share(&std::fs::read(&shot).unwrap());
     assert!(ink > 0.02, "screenshot looks blank (ink share {ink})");
 }
+
+#[test]
+fn map_draws_every_section_the_route_and_the_tags() {
+    use waymark::network::{LoadOptions, Network};
+    use waymark::report::{map_svg, MapOverlay};
+    use waymark::tags::Mounting;
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf");
+    let net = Network::load(&p, &LoadOptions::default()).unwrap();
+    let route =
+        waymark::route::plan_route(&net, &[[60.1660, 24.9380], [60.1770, 24.9510]]).unwrap();
+    let n = route.vertices.len();
+    let overlay = MapOverlay {
+        route: route
+            .vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                (
+                    v.lat_lon,
+                    if i < n / 5 {
+                        0.0
+                    } else {
+                        30.0 * i as f64 / n as f64
+                    },
+                )
+            })
+            .collect(),
+        tags: vec![
+            (route.vertices[n / 3].lat_lon, Mounting::Roadside),
+            (route.vertices[2 * n / 3].lat_lon, Mounting::Ceiling),
+        ],
+        requirement_m: Some(20.0),
+    };
+    let svg = map_svg(&net, &overlay, 900);
+    assert_eq!(svg.matches("<polyline").count(), net.sections.len());
+    assert_eq!(
+        svg.matches("<line ").count(),
+        n - 1 + 1,
+        "route segments plus the scale bar"
+    );
+    assert_eq!(svg.matches("<circle").count(), 2);
+    // The error colour runs from green to red past the requirement.
+    assert!(svg.contains("hsl(120,85%,42%)") && svg.contains("hsl(0,85%,42%)"));
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("map-preview.html"),
+        format!("<!DOCTYPE html><html><body>{svg}</body></html>"),
+    )
+    .unwrap();
+}
