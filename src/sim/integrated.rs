@@ -132,8 +132,16 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
     let noise = NoiseModel {
         gyro_arw: scn.imu.gyro_arw.max(0.0005f64.to_radians() / 60.0),
         accel_vrw: scn.imu.accel_vrw.max(1e-6 * G0),
-        gyro_bias: (gyro_sigma_dph * DPH, imu.gyro_bias_tau_s),
-        accel_bias: (accel_sigma_ug * 1e-6 * G0, imu.accel_bias_tau_s),
+        // Constant (turn-on) biases are random constants: a Gauss–Markov
+        // process with a correlation time much longer than the run.
+        gyro_bias: (
+            gyro_sigma_dph * DPH,
+            if imu.gyro_bias_instability_dph > 0.0 { imu.gyro_bias_tau_s } else { 1e6 },
+        ),
+        accel_bias: (
+            accel_sigma_ug * 1e-6 * G0,
+            if imu.accel_bias_instability_ug > 0.0 { imu.accel_bias_tau_s } else { 1e6 },
+        ),
         odo_scale: (odo_sigma, 36_000.0),
         odo_misalign: (mis_sigma, 36_000.0),
         fix_rw,
