@@ -149,17 +149,24 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
     };
     let nav = &scn.file.navigator;
     let ia = nav.initial_attitude_error_arcmin;
-    let [sa_level, sa_head] = f
-        .attitude_sigma_arcmin
-        .unwrap_or([ia[0].abs().max(ia[1].abs()).max(0.5), ia[2].abs().max(1.0)]);
+    let ias = nav.initial_attitude_sigma_arcmin;
+    let [sa_level, sa_head] = f.attitude_sigma_arcmin.unwrap_or([
+        ia[0].abs().max(ia[1].abs()).hypot(ias[0]).max(0.5),
+        ia[2].abs().hypot(ias[1]).max(1.0),
+    ]);
     let ip = nav.initial_position_error_m;
-    let [sp_h, sp_v] = f
-        .position_sigma_m
-        .unwrap_or([ip[0].abs().max(ip[1].abs()).max(1.0), ip[2].abs().max(1.0)]);
+    let ips = nav.initial_position_sigma_m;
+    let [sp_h, sp_v] = f.position_sigma_m.unwrap_or([
+        ip[0].abs().max(ip[1].abs()).hypot(ips[0]).max(1.0),
+        ip[2].abs().hypot(ips[1]).max(1.0),
+    ]);
     let iv = nav.initial_velocity_error_mps;
-    let sv = f
-        .velocity_sigma_mps
-        .unwrap_or(iv.iter().fold(0.05f64, |a, x| a.max(x.abs())));
+    let sv = f.velocity_sigma_mps.unwrap_or(
+        iv.iter()
+            .fold(0.0f64, |a, x| a.max(x.abs()))
+            .hypot(nav.initial_velocity_sigma_mps)
+            .max(0.05),
+    );
     let mut s0 = [0.0; N];
     s0[PHI] = sa_level * ARCMIN;
     s0[PHI + 1] = sa_level * ARCMIN;
@@ -244,13 +251,29 @@ pub fn run_integrated(
     };
     let aid = scn.file.aiding;
     let cfg = filter_config(scn);
-    let est0 = initial_estimate(scn, &first.avp.state);
+    let mut est0 = initial_estimate(scn, &first.avp.state);
+    let mut init = stream(seed, run, ids::INIT);
+    {
+        // Random initial errors drawn per run (the prior the filter assumes).
+        let n = &scn.file.navigator;
+        let [sl, sh] = n.initial_attitude_sigma_arcmin.map(|x| x * ARCMIN);
+        let phi = [sl * normal(&mut init), sl * normal(&mut init), sh * normal(&mut init)];
+        est0.q = crate::attitude::Quat::from_rotvec(phi).mul(&est0.q).normalized();
+        let sv = n.initial_velocity_sigma_mps;
+        for k in 0..3 {
+            est0.v[k] += sv * normal(&mut init);
+        }
+        let [ph, pv] = n.initial_position_sigma_m;
+        let (rm, rn) = crate::geodesy::radii(est0.lat);
+        est0.lat += ph * normal(&mut init) / (rm + est0.h);
+        est0.lon += ph * normal(&mut init) / ((rn + est0.h) * est0.lat.cos());
+        est0.h += pv * normal(&mut init);
+    }
     let mut filter = Filter::new(est0, first.avp.t, dt, cfg);
     let p = filter.position_cov_enu();
     rec.record_cov(0, &first.avp, est0.lat, est0.lon, est0.h, Some(p));
     // Per-run turn-on biases.
     let mut imu_model = scn.imu;
-    let mut init = stream(seed, run, ids::INIT);
     let gr = scn.file.imu.gyro_bias_random_dph * DPH;
     let ar = scn.file.imu.accel_bias_random_ug * 1e-6 * G0;
     for k in 0..3 {

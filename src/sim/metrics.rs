@@ -80,6 +80,8 @@ pub struct ProfilePoint {
     pub max_m: f64,
     /// Mean filter 1σ horizontal (√(σE² + σN²)) over runs (m), if a filter ran.
     pub sigma_h_m: Option<f64>,
+    /// Run-averaged horizontal NEES, if a filter ran.
+    pub nees_h: Option<f64>,
 }
 
 /// Average horizontal NEES over runs against its chi-square band.
@@ -143,6 +145,10 @@ fn profile_and_nees(runs: &[RunResult]) -> (Vec<ProfilePoint>, Option<NeesSummar
             p95_m: col[rank.clamp(1, col.len()) - 1],
             max_m: *col.last().unwrap_or(&0.0),
             sigma_h_m: sig.is_finite().then_some(sig),
+            nees_h: {
+                let m = runs.iter().map(|r| r.rows[i].nees_h).sum::<f64>() / nr;
+                m.is_finite().then_some(m)
+            },
         });
     }
     let has = runs.first().is_some_and(|r| r.rows.iter().any(|x| x.nees_h.is_finite()));

@@ -359,6 +359,16 @@ pub struct NavigatorSection {
     /// Initial position error, east, north, up (m).
     #[serde(default)]
     pub initial_position_error_m: [f64; 3],
+    /// Random initial attitude error drawn per run (integrated mode), σ of
+    /// pitch/roll and of heading (arcmin), added to the fixed one.
+    #[serde(default)]
+    pub initial_attitude_sigma_arcmin: [f64; 2],
+    /// Random initial horizontal and vertical position error per run, σ (m).
+    #[serde(default)]
+    pub initial_position_sigma_m: [f64; 2],
+    /// Random initial velocity error per run, σ (m/s).
+    #[serde(default)]
+    pub initial_velocity_sigma_mps: f64,
 }
 
 /// `rotation_modulation = { rate_dps = ... }`.
@@ -942,6 +952,11 @@ impl Scenario {
                 100.0,
             )?;
         }
+        c.range("navigator.initial_attitude_sigma_arcmin[0]", n.initial_attitude_sigma_arcmin[0], 0.0, 600.0)?;
+        c.range("navigator.initial_attitude_sigma_arcmin[1]", n.initial_attitude_sigma_arcmin[1], 0.0, 600.0)?;
+        c.range("navigator.initial_position_sigma_m[0]", n.initial_position_sigma_m[0], 0.0, 1e5)?;
+        c.range("navigator.initial_position_sigma_m[1]", n.initial_position_sigma_m[1], 0.0, 1e5)?;
+        c.range("navigator.initial_velocity_sigma_mps", n.initial_velocity_sigma_mps, 0.0, 100.0)?;
         for (i, x) in n.initial_position_error_m.iter().enumerate() {
             c.range(
                 &format!("navigator.initial_position_error_m[{i}]"),

@@ -121,13 +121,19 @@ impl RfidModel {
         }
     }
 
+    /// Half-width of the vehicle's lateral place over a road-surface tag (m):
+    /// half the lane's free width (D − d)/2, at most 0.4 m.
+    pub fn road_surface_lateral_m(&self) -> f64 {
+        (0.5 * (self.lane_width_m - self.vehicle_width_m)).clamp(0.0, 0.4)
+    }
+
     /// The filter's fix covariance (along-track σ, cross-track σ) for a
     /// mounting at speed `v` (m/s).
     pub fn fix_sigmas(&self, m: Mounting, v: f64) -> (f64, f64) {
         match m {
             Mounting::RoadSurface => {
                 let s = self.road_surface_sigma_m.min(0.5);
-                (s.max(0.05), 0.25 * self.vehicle_width_m.min(1.0).max(0.2))
+                (s.max(0.05), (self.road_surface_lateral_m() / 3f64.sqrt()).max(0.05))
             }
             Mounting::Ceiling => {
                 let s = self.ceiling_sigma_m.min(0.3);
@@ -277,8 +283,14 @@ pub fn draw_reads(passes: &[TagPass], tags: &[Tag], rfid: &RfidModel, rng: &mut 
         // reported point from the vehicle (m, right positive).
         let (dt, lateral) = match tag.mounting {
             Mounting::RoadSurface => {
-                let e = (rfid.road_surface_sigma_m * z1).clamp(-0.5, 0.5);
-                (e / v, 0.0)
+                // Along-track timing error and the vehicle's lateral place
+                // over the tag (uniform within the lateral half-width), the
+                // whole fix error capped at 0.5 m.
+                let e = rfid.road_surface_sigma_m * z1;
+                let l = rfid.road_surface_lateral_m() * (2.0 * u2 - 1.0);
+                let n = e.hypot(l);
+                let k = if n > 0.5 { 0.5 / n } else { 1.0 };
+                (k * e / v, k * l)
             }
             Mounting::Ceiling => {
                 let e = (rfid.ceiling_sigma_m * z1).clamp(-0.3, 0.3);
