@@ -174,8 +174,16 @@ pub fn system_sparse(m: &ErrorModelInput, noise: &NoiseModel, mut put: impl FnMu
         [ve * secl * tl / rn, 0.0, -ve * secl / (rn * rn)],
         [0.0, 0.0, 0.0],
     ];
-    // Vertical gravity gradient: g_U = −γ(h), ∂(−γ)/∂h = +2γ/R.
-    let g_grad = 2.0 * (-e.g[2]) / (rm * rn).sqrt();
+    // Gravity: g_U = −γ(L, h); ∂(−γ)/∂h (≈ +2γ/R) and ∂(−γ)/∂L by central
+    // differences of the normal gravity formula.
+    let lat = sl.atan2(cl);
+    let h = rm - crate::geodesy::meridian_radius(lat);
+    let g_grad = -(crate::geodesy::normal_gravity(lat, h + 1.0)
+        - crate::geodesy::normal_gravity(lat, h - 1.0))
+        / 2.0;
+    let g_lat = -(crate::geodesy::normal_gravity(lat + 1e-5, h)
+        - crate::geodesy::normal_gravity(lat - 1e-5, h))
+        / 2e-5;
     for i in 0..3 {
         for j in 0..3 {
             let nz = |x: f64| x != 0.0;
@@ -200,7 +208,12 @@ pub fn system_sparse(m: &ErrorModelInput, noise: &NoiseModel, mut put: impl FnMu
             if nz(a) {
                 put(DV + i, DV + j, a);
             }
-            let a = mvp[i][j] + if i == 2 && j == 2 { g_grad } else { 0.0 };
+            let a = mvp[i][j]
+                + match (i, j) {
+                    (2, 2) => g_grad,
+                    (2, 0) => g_lat,
+                    _ => 0.0,
+                };
             if nz(a) {
                 put(DV + i, DP + j, a);
             }

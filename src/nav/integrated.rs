@@ -582,8 +582,7 @@ impl Filter {
             None => r0,
             Some(b) => {
                 let prev = self.sh_r.unwrap_or(r0);
-                let k = self.sh_k as i32;
-                let d = (1.0 - b) / (1.0 - b.powi(k + 1));
+                let d = sage_husa_weight(b, self.sh_k);
                 // H P H^T
                 let zero = [[0.0; 2]; 2];
                 let hph = self.hph(&h, &zero);
@@ -638,6 +637,12 @@ impl Filter {
         }
         s
     }
+}
+
+/// The Sage–Husa fading weight d_k = (1 − b)/(1 − b^(k+1)) of the k-th
+/// adaptive update (k from 0): 1 at first, tending to 1 − b.
+pub fn sage_husa_weight(b: f64, k: u32) -> f64 {
+    (1.0 - b) / (1.0 - b.powi(k as i32 + 1))
 }
 
 /// A time-stamped measurement waiting to be applied.
