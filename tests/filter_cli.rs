@@ -53,19 +53,37 @@ fn tags_csv_feeds_the_filter_and_sigma_columns_are_filled() {
     }
     std::fs::write(dir.path().join("tags.csv"), csv).unwrap();
     let o = run(
-        &["simulate", "drive.toml", "--tags", "tags.csv", "--runs", "4", "--seed", "5", "--out", "out"],
+        &[
+            "simulate",
+            "drive.toml",
+            "--tags",
+            "tags.csv",
+            "--runs",
+            "4",
+            "--seed",
+            "5",
+            "--out",
+            "out",
+        ],
         dir.path(),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("out/summary.json")).unwrap(),
+    )
+    .unwrap();
     assert_eq!(s["runs"], 4);
     // Read probability 0.977 over 3 tags × 4 runs: at least 9 reads accepted,
     // none rejected (all are where they say).
     let acc = s["tags"]["accepted"].as_u64().unwrap();
     assert!((9..=12).contains(&acc), "{acc}");
     assert_eq!(s["tags"]["rejected"], 0);
-    for k in ["rms_horizontal_error_m", "p95_horizontal_error_m", "max_horizontal_error_m", "fraction_within_requirement"] {
+    for k in [
+        "rms_horizontal_error_m",
+        "p95_horizontal_error_m",
+        "max_horizontal_error_m",
+        "fraction_within_requirement",
+    ] {
         assert!(s[k].as_f64().is_some(), "{k}");
     }
     assert!(s["nees"]["band_95"][0].as_f64().unwrap() > 0.0);
@@ -91,38 +109,79 @@ fn bad_tags(csv: &str, needle: &str) {
     let dir = tempfile::tempdir().unwrap();
     scenario_without_tags(dir.path());
     std::fs::write(dir.path().join("t.csv"), csv).unwrap();
-    let o = run(&["simulate", "drive.toml", "--tags", "t.csv", "--out", "out"], dir.path());
+    let o = run(
+        &["simulate", "drive.toml", "--tags", "t.csv", "--out", "out"],
+        dir.path(),
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(err.contains("t.csv") && err.contains(needle), "wanted {needle:?} in {err}");
+    assert!(
+        err.contains("t.csv") && err.contains(needle),
+        "wanted {needle:?} in {err}"
+    );
     assert!(!dir.path().join("out").exists());
 }
 
 #[test]
 fn bad_tag_files_give_clear_errors() {
-    bad_tags("tag_id,lat,lon\nA,45,10\n", "line 1: header must have tag_id, lat, lon and mounting");
-    bad_tags("tag_id,lat,lon,mounting\nA,45,10,road_surface\nB,north,10,roadside\n", "line 3: lat \"north\" is not a number");
-    bad_tags("tag_id,lat,lon,mounting\nA,45,10,wall\n", "line 2: mounting \"wall\"");
-    bad_tags("tag_id,lat,lon,mounting\nA,95,10,ceiling\n", "line 2: lat 95 is outside");
-    bad_tags("tag_id,lat,lon,mounting\nA,45,10,ceiling\nA,45,10,ceiling\n", "line 3: duplicate tag_id \"A\"");
-    bad_tags("tag_id,lat,lon,mounting\nA,45,10\n", "line 2: 3 fields, the header has 4");
+    bad_tags(
+        "tag_id,lat,lon\nA,45,10\n",
+        "line 1: header must have tag_id, lat, lon and mounting",
+    );
+    bad_tags(
+        "tag_id,lat,lon,mounting\nA,45,10,road_surface\nB,north,10,roadside\n",
+        "line 3: lat \"north\" is not a number",
+    );
+    bad_tags(
+        "tag_id,lat,lon,mounting\nA,45,10,wall\n",
+        "line 2: mounting \"wall\"",
+    );
+    bad_tags(
+        "tag_id,lat,lon,mounting\nA,95,10,ceiling\n",
+        "line 2: lat 95 is outside",
+    );
+    bad_tags(
+        "tag_id,lat,lon,mounting\nA,45,10,ceiling\nA,45,10,ceiling\n",
+        "line 3: duplicate tag_id \"A\"",
+    );
+    bad_tags(
+        "tag_id,lat,lon,mounting\nA,45,10\n",
+        "line 2: 3 fields, the header has 4",
+    );
     bad_tags("", "empty file");
     let dir = tempfile::tempdir().unwrap();
     scenario_without_tags(dir.path());
-    let o = run(&["simulate", "drive.toml", "--tags", "missing.csv"], dir.path());
+    let o = run(
+        &["simulate", "drive.toml", "--tags", "missing.csv"],
+        dir.path(),
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1));
-    assert!(err.contains("missing.csv") && !err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("missing.csv") && !err.contains("panicked"),
+        "{err}"
+    );
 }
 
 #[test]
 fn tags_need_the_integrated_navigator() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("t.csv"), "tag_id,lat,lon,mounting\nA,45,10,ceiling\n").unwrap();
+    std::fs::write(
+        dir.path().join("t.csv"),
+        "tag_id,lat,lon,mounting\nA,45,10,ceiling\n",
+    )
+    .unwrap();
     let o = run(
-        &["simulate", repo("scenarios/dr-straight-10km.toml").to_str().unwrap(), "--tags", "t.csv", "--out", "out"],
+        &[
+            "simulate",
+            repo("scenarios/dr-straight-10km.toml").to_str().unwrap(),
+            "--tags",
+            "t.csv",
+            "--out",
+            "out",
+        ],
         dir.path(),
     );
     let err = String::from_utf8_lossy(&o.stderr);
