@@ -214,12 +214,15 @@ fn simulate(
     if let Some(t) = &s.tags {
         say!(
             "tag reads: {} accepted, {} rejected by the gate (all runs)",
-            t.accepted, t.rejected
+            t.accepted,
+            t.rejected
         );
         for e in &t.rejected_run0 {
             say!(
                 "  run 0: tag {} read at {:.1} s rejected (NIS {:.1})",
-                e.tag_id, e.t_s, e.nis
+                e.tag_id,
+                e.t_s,
+                e.nis
             );
         }
     }
