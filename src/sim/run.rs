@@ -184,6 +184,12 @@ pub fn simulate_with(
             "navigator.mode = \"integrated\" does not support imu.rotation_modulation",
         ));
     }
+    if integrated && scn.file.aiding.map_matching {
+        return Err(crate::error::Error::scenario(
+            &scn.path,
+            "aiding.map_matching needs the map matcher, which does not feed the simulation yet (the filter's update_position_fix is ready for it); set it to false",
+        ));
+    }
     if !integrated && (!extra_tags.is_empty() || !scn.file.tag.is_empty()) {
         return Err(crate::error::Error::scenario(
             &scn.path,
