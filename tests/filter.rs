@@ -370,9 +370,10 @@ fn nees_is_consistent_over_100_runs() {
     // prior: the run-averaged horizontal NEES (2 dof) should lie in its 95 %
     // band χ²(200)/100 ∈ [1.63, 2.41] most of the time. The average over
     // runs is strongly correlated along time (the same 100 runs), so whole
-    // stretches sit together; measured on seeds 1–3: 71–80 % of the output
-    // times inside, none above. Required: more than half inside, under 10 %
-    // above (over-confidence is the failure that matters), mean in [1.3, 2.6].
+    // stretches sit together; measured on seeds 1–3: mean 1.76–1.88, 86–99 %
+    // of the output times inside, none above. Required: more than 70 % inside,
+    // under 10 % above (over-confidence is the failure that matters), mean in
+    // [1.5, 2.5].
     let r = run_scenario("scenarios/nees-consistency.toml", 100, 1);
     let n = r.summary.nees.as_ref().expect("nees");
     assert_eq!(n.runs, 100);
@@ -381,9 +382,9 @@ fn nees_is_consistent_over_100_runs() {
         "{:?}",
         n.band_95
     );
-    assert!(n.fraction_within_band > 0.5, "{n:?}");
+    assert!(n.fraction_within_band > 0.7, "{n:?}");
     assert!(n.fraction_above_band < 0.1, "{n:?}");
-    assert!(n.mean > 1.3 && n.mean < 2.6, "{n:?}");
+    assert!(n.mean > 1.5 && n.mean < 2.5, "{n:?}");
 }
 
 #[test]
@@ -414,33 +415,43 @@ fn misplaced_and_rogue_tags_are_rejected() {
 
 #[test]
 fn rfid_paper_experiment() {
-    // PAPERS.md §1.5. SINS/OD (odometer healthy) holds 20 m for "about 1.5 h":
-    // measured 6335 s (1.76 h); accepted 1.2–2.5 h.
-    let od = run_scenario("scenarios/rfid-paper-integrated.toml", 1, 1);
-    let t = od
+    // PAPERS.md §1.5, Monte Carlo (10 runs each; figures in BENCHMARKS-filter.md
+    // are from 100 runs). SINS/OD with the odometer healthy "holds 20 m for
+    // about 1.5 h, then diverges": over 100 runs 54 cross 20 m, the earliest at
+    // 2187 s, the median crossing at 4509 s; 93.5 % of the time within.
+    // Required here: some runs cross (≥ 2 of 10), none before 0.5 h, and
+    // more than 80 % of the time within 20 m.
+    let od = run_scenario("scenarios/rfid-paper-integrated.toml", 10, 1);
+    let crossings: Vec<f64> = od
         .summary
-        .time_to_exceed_requirement_s
-        .expect("exceeds 20 m at some time");
-    assert!(
-        (1.2 * 3600.0..2.5 * 3600.0).contains(&t),
-        "SINS/OD exceeds 20 m at {t} s"
-    );
-    // Odometer failed from 3600 s: more than 100 m (measured 1.4 km), and the
-    // gate disabled the odometer rather than trusting zero readings.
+        .per_run
+        .iter()
+        .filter_map(|r| r.time_to_exceed_requirement_s)
+        .collect();
+    assert!(crossings.len() >= 2, "{crossings:?}");
+    assert!(crossings.iter().all(|t| *t > 1800.0), "{crossings:?}");
+    assert!(od.summary.fraction_within_requirement.unwrap() > 0.8);
+    // Odometer failed from 3600 s: more than 100 m, and the gate disabled the
+    // odometer rather than trusting zero readings.
     let fail = run_scenario("scenarios/rfid-paper-integrated-odfail.toml", 1, 1);
     assert!(fail.summary.max_horizontal_error_m > 100.0);
     let c = fail.summary.updates_run0.unwrap();
     assert!(c.odometer_disabled_epochs > 90_000, "{c:?}");
     assert!(c.odometer_rejected < 20, "{c:?}");
-    // With the four tag fixes (odometer healthy): within 20 m for the whole
-    // 3.6 h (measured max 18.3 m).
-    let tags = run_scenario("scenarios/rfid-paper-integrated-tags.toml", 1, 1);
-    assert_eq!(
-        tags.summary.time_to_exceed_requirement_s, None,
-        "{}",
-        tags.summary.max_horizontal_error_m
-    );
-    assert_eq!(tags.summary.tags.as_ref().unwrap().accepted, 4);
+    // With the four tag fixes (odometer healthy): from the first fix at 5000 s
+    // on, every run stays within 20 m (100 runs: at most 8.4 m); the runs that
+    // cross 20 m do so before it, on odometer-aided drift alone.
+    let tags = run_scenario("scenarios/rfid-paper-integrated-tags.toml", 10, 1);
+    for r in &tags.runs {
+        let after = r.rows.iter().filter(|x| x.t_s > 5001.0).map(|x| x.horizontal_m).fold(0.0, f64::max);
+        assert!(after < 20.0, "run {}: {after} m after the first fix", r.run);
+    }
+    for r in &tags.summary.per_run {
+        if let Some(t) = r.time_to_exceed_requirement_s {
+            assert!(t < 5000.0, "run {} crosses at {t}", r.run);
+        }
+    }
+    assert_eq!(tags.summary.tags.as_ref().unwrap().accepted, 40);
     assert!(tags.summary.duration_s > 12_800.0 && tags.summary.distance_m > 290_000.0);
 }
 
