@@ -443,7 +443,12 @@ fn rfid_paper_experiment() {
     // cross 20 m do so before it, on odometer-aided drift alone.
     let tags = run_scenario("scenarios/rfid-paper-integrated-tags.toml", 10, 1);
     for r in &tags.runs {
-        let after = r.rows.iter().filter(|x| x.t_s > 5001.0).map(|x| x.horizontal_m).fold(0.0, f64::max);
+        let after = r
+            .rows
+            .iter()
+            .filter(|x| x.t_s > 5001.0)
+            .map(|x| x.horizontal_m)
+            .fold(0.0, f64::max);
         assert!(after < 20.0, "run {}: {after} m after the first fix", r.run);
     }
     for r in &tags.summary.per_run {
