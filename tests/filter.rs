@@ -759,3 +759,92 @@ fn odometer_slip_is_detected_from_the_innovations() {
         clean.summary.max_horizontal_error_m
     );
 }
+
+#[test]
+fn tag_fix_errors_follow_the_mounting_models() {
+    // PAPERS.md §1.1: roadside, D = 3.75 m, d = 3 m, θ = 15°, t0 = 20 ms,
+    // 40 km/h, x = 5.63 m: dx = 0.375 m, dy = x tan θ − v t0 = 1.286 m,
+    // dr = 1.340 m (the paper: 0.375, 1.285, 1.338). Road surface ≤ 0.5 m,
+    // ceiling ≤ 0.3 m. The error of a read is the reported point minus where
+    // the vehicle is at the read time.
+    use waymark::sim::tags::{draw_reads, Mounting, RfidModel, Tag, TagPass};
+    let rfid = RfidModel {
+        lane_width_m: 3.75,
+        vehicle_width_m: 3.0,
+        read_probability: 1.0,
+        ..Default::default()
+    };
+    let v = 40.0 / 3.6;
+    let (dy, sx) = rfid.fix_sigmas(Mounting::Roadside, v);
+    assert!((dy - 1.2863).abs() < 1e-3, "dy {dy}");
+    assert!((sx - 0.375 / 3f64.sqrt()).abs() < 1e-9);
+    let (lat0, lon0) = (0.6, 0.2);
+    let (rm, rn) = radii(lat0);
+    let mut worst = [0.0f64; 3];
+    for (k, m) in [Mounting::Roadside, Mounting::RoadSurface, Mounting::Ceiling]
+        .into_iter()
+        .enumerate()
+    {
+        let tags = vec![Tag {
+            id: "t".into(),
+            lat: lat0,
+            lon: lon0,
+            height_m: None,
+            mounting: m,
+            survey_error_m: [0.0, 0.0],
+        }];
+        // Heading north, abeam the tag at t = 100 s.
+        let passes: Vec<TagPass> = (0..2000)
+            .map(|_| TagPass {
+                tag: 0,
+                t_abeam: 100.0,
+                speed_mps: v,
+                lateral_m: 0.0,
+                forward_en: [0.0, 1.0],
+            })
+            .collect();
+        let mut rng = waymark::sensors::rng::stream(3, 0, 7);
+        let reads = draw_reads(&passes, &tags, &rfid, &mut rng);
+        assert_eq!(reads.len(), 2000);
+        let mut max_lat = 0.0f64;
+        for r in &reads {
+            let east = (r.lon - lon0) * rn * lat0.cos();
+            let north = (r.lat - lat0) * rm;
+            // The vehicle at the read time, from the abeam point.
+            let veh_north = v * (r.t - 100.0);
+            let err = [east, north - veh_north];
+            let e = err[0].hypot(err[1]);
+            worst[k] = worst[k].max(e);
+            max_lat = max_lat.max(err[0].abs());
+            if m == Mounting::Roadside {
+                // The vehicle is behind the stored point by x tan θ − v t0
+                // with x = 5.63 − dx, dx within ±0.375 m.
+                let lo = (5.63 - 0.375) * 15f64.to_radians().tan() - v * 0.02;
+                let hi = (5.63 + 0.375) * 15f64.to_radians().tan() - v * 0.02;
+                assert!(err[1] > lo - 1e-6 && err[1] < hi + 1e-6, "{err:?}");
+            }
+        }
+        if m == Mounting::Roadside {
+            assert!(max_lat <= 0.375 + 1e-9 && max_lat > 0.35, "{max_lat}");
+        }
+    }
+    // With x = 5.63 ± 0.375 m (the vehicle's place in its lane moves the
+    // reader), dy reaches 6.005 tan 15° − v t0 = 1.387 m: dr ≤ 1.437 m.
+    let hi = (5.63 + 0.375) * 15f64.to_radians().tan() - v * 0.02;
+    let bound = 0.375f64.hypot(hi);
+    assert!(
+        worst[0] <= bound + 1e-6 && worst[0] > 1.3,
+        "roadside {} vs {bound}",
+        worst[0]
+    );
+    assert!(
+        worst[1] <= 0.5 + 1e-9 && worst[1] > 0.4,
+        "road surface {}",
+        worst[1]
+    );
+    assert!(
+        worst[2] <= 0.3 + 1e-9 && worst[2] > 0.25,
+        "ceiling {}",
+        worst[2]
+    );
+}
