@@ -41,12 +41,14 @@ enum Command {
     /// Simulates a scenario: truth, sensors and navigator; writes errors.csv and summary.json.
     #[command(
         after_help = "Examples:\n  waymark simulate scenarios/schuler-accel-bias.toml --out /tmp/schuler\n  \
-        waymark simulate scenarios/dr3d-paper.toml --runs 10 --seed 7 --out /tmp/dr3d"
+        waymark simulate scenarios/dr3d-paper.toml --runs 10 --seed 7 --out /tmp/dr3d\n  \
+        waymark simulate scenarios/nees-consistency.toml --runs 100 --out /tmp/nees\n  \
+        waymark simulate drive.toml --tags tags.csv --runs 20 --out /tmp/drive"
     )]
     Simulate {
         /// The scenario file (TOML).
         scenario: PathBuf,
-        /// Existing tags (CSV); used by the integrated navigator, not built yet.
+        /// Existing tags (CSV: tag_id,lat,lon,mounting required; height_m optional); integrated mode.
         #[arg(long, value_name = "TAGS.csv")]
         tags: Option<PathBuf>,
         /// Monte Carlo runs.
@@ -88,6 +90,22 @@ enum NetworkCommand {
         #[arg(long, value_name = "FILE")]
         defects: Option<PathBuf>,
     },
+}
+
+/// Prints a line to stdout; a closed pipe (e.g. `| head`) is not an error.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// Prints to stdout without a newline; a closed pipe is not an error.
+macro_rules! say_raw {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
 }
 
 fn main() -> ExitCode {
@@ -149,11 +167,6 @@ fn simulate(
     seed: Option<u64>,
     out: &Path,
 ) -> Result<()> {
-    if tags.is_some() {
-        anyhow::bail!(
-            "--tags needs the integrated navigator (the Kalman filter), which is not built yet"
-        );
-    }
     if runs == 0 {
         anyhow::bail!("--runs must be at least 1");
     }
@@ -161,10 +174,28 @@ fn simulate(
     let scn = waymark::sim::Scenario::load(scenario)?;
     let seed = seed.or(scn.file.seed).unwrap_or(1);
     let truth = waymark::sim::TruthSource::new(&scn)?;
-    let result = waymark::sim::simulate(&scn, &truth, runs, seed)?;
+    let extra = match tags {
+        Some(p) => waymark::sim::tags::load_tags_csv(p)?,
+        None => vec![],
+    };
+    let bar = if runs > 1 && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        let b = indicatif::ProgressBar::new(runs);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} runs, {elapsed} (eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let tick = || bar.inc(1);
+    let result = waymark::sim::simulate_with(&scn, &truth, &extra, runs, seed, Some(&tick))?;
+    bar.finish_and_clear();
     waymark::sim::output::write(out, &result)?;
     let s = &result.summary;
-    println!(
+    say!(
         "{}: {} over {:.0} s, {:.1} km, {} run(s), seed {}: horizontal error max {:.2} m, rms {:.2} m, p95 {:.2} m; final E/N/U {:.2}/{:.2}/{:.2} m",
         s.name,
         s.mode,
@@ -179,7 +210,40 @@ fn simulate(
         s.final_error_enu_m[1],
         s.final_error_enu_m[2],
     );
-    println!(
+    if let Some(n) = &s.nees {
+        say!(
+            "filter consistency: run-averaged horizontal NEES {:.2} (95 % band {:.2}..{:.2} for {} run(s)), inside the band {:.0} % of the time, above {:.0} %",
+            n.mean,
+            n.band_95[0],
+            n.band_95[1],
+            n.runs,
+            100.0 * n.fraction_within_band,
+            100.0 * n.fraction_above_band
+        );
+    }
+    if let Some(t) = &s.tags {
+        say!(
+            "tag reads: {} accepted, {} rejected by the gate (all runs)",
+            t.accepted,
+            t.rejected
+        );
+        for e in &t.rejected_run0 {
+            say!(
+                "  run 0: tag {} read at {:.1} s rejected (NIS {:.1})",
+                e.tag_id,
+                e.t_s,
+                e.nis
+            );
+        }
+    }
+    if let (Some(r), Some(n)) = (s.requirement_m, s.runs_exceeding_requirement) {
+        say!(
+            "requirement {r} m: {n} of {} run(s) exceed it; within it {:.1} % of the time",
+            s.runs,
+            100.0 * s.fraction_within_requirement.unwrap_or(0.0)
+        );
+    }
+    say!(
         "wrote {} and {} in {:.2} s",
         out.join("errors.csv").display(),
         out.join("summary.json").display(),
@@ -272,9 +336,9 @@ fn inspect(
             .with_context(|| "writing the defect file")?;
     }
     if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        say!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print!("{}", report.to_text());
+        say_raw!("{}", report.to_text());
     }
     Ok(())
 }
