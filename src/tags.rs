@@ -37,6 +37,11 @@ impl Mounting {
     /// Every mounting, in code order.
     pub const ALL: [Mounting; 3] = [Mounting::RoadSurface, Mounting::Roadside, Mounting::Ceiling];
 
+    /// Parses `road_surface`, `roadside` or `ceiling` (surrounding blanks ignored).
+    pub fn parse(s: &str) -> Option<Mounting> {
+        s.parse().ok()
+    }
+
     /// The name used in files: `road_surface`, `roadside`, `ceiling`.
     pub fn as_str(self) -> &'static str {
         match self {

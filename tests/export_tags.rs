@@ -168,3 +168,19 @@ fn csv_round_trips_and_payloads_decode_to_the_rows() {
         assert_eq!(p.mounting, t.mounting);
     }
 }
+
+#[test]
+fn exported_csv_is_accepted_as_simulator_input() {
+    // The planner's tags.csv (metadata comments, quoted ids) must be readable
+    // by `waymark simulate --tags`.
+    let (tags, meta) = sample();
+    let text = tags_csv(&tags, &meta);
+    let read = waymark::sim::tags::parse_tags_csv(std::path::Path::new("tags.csv"), &text).unwrap();
+    assert_eq!(read.len(), tags.len());
+    for (r, t) in read.iter().zip(&tags) {
+        assert_eq!(r.id, t.tag_id);
+        assert_eq!(r.mounting, t.mounting);
+        assert!((r.lat.to_degrees() - t.lat).abs() < 5e-8);
+        assert!((r.height_m.unwrap() - t.height_m).abs() < 5e-3);
+    }
+}

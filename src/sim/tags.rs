@@ -27,29 +27,7 @@ use rand_chacha::ChaCha8Rng;
 use rustc_hash::FxHashMap;
 use std::path::Path;
 
-/// How a tag is installed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Mounting {
-    /// In the lane centre, reader under the vehicle.
-    RoadSurface,
-    /// On a roadside post or barrier, reader on the vehicle's side.
-    Roadside,
-    /// Reader in a tunnel or cavern ceiling, tag on the roof.
-    Ceiling,
-}
-
-impl Mounting {
-    /// Parses `road_surface`, `roadside` or `ceiling`.
-    pub fn parse(s: &str) -> Option<Mounting> {
-        match s.trim() {
-            "road_surface" => Some(Mounting::RoadSurface),
-            "roadside" => Some(Mounting::Roadside),
-            "ceiling" => Some(Mounting::Ceiling),
-            _ => None,
-        }
-    }
-}
+pub use crate::tags::Mounting;
 
 /// A tag as the navigator knows it, and where it really is.
 #[derive(Debug, Clone, PartialEq)]
@@ -347,44 +325,53 @@ pub fn load_tags_csv(path: &Path) -> Result<Vec<Tag>> {
 
 /// Parses tags CSV text; errors name the file, the line and the problem.
 pub fn parse_tags_csv(path: &Path, text: &str) -> Result<Vec<Tag>> {
-    let err = |line: usize, msg: String| Error::format(path, format!("line {line}: {msg}"));
-    let mut lines = text.lines().enumerate();
-    let Some((_, header)) = lines.by_ref().find(|(_, l)| !l.trim().is_empty()) else {
+    let err = |line: u64, msg: String| Error::format(path, format!("line {line}: {msg}"));
+    // Lines starting with '#' are metadata (Waymark's own tags.csv starts with
+    // them); fields may be quoted (RFC 4180).
+    let mut reader = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(text.trim_start_matches('\u{feff}').as_bytes());
+    let header = reader
+        .headers()
+        .map_err(|e| Error::format(path, format!("unreadable header: {e}")))?
+        .clone();
+    if header.iter().all(|c| c.is_empty()) {
         return Err(Error::format(
             path,
             "empty file: expected a header row with tag_id,lat,lon,mounting",
         ));
-    };
-    let cols: Vec<String> = header
-        .trim_start_matches('\u{feff}')
-        .split(',')
-        .map(|c| c.trim().to_string())
-        .collect();
-    let find = |name: &str| cols.iter().position(|c| c == name);
+    }
+    let header_line = header.position().map_or(1, |p| p.line());
+    let find = |name: &str| header.iter().position(|c| c == name);
     let (Some(ci), Some(cla), Some(clo), Some(cm)) =
         (find("tag_id"), find("lat"), find("lon"), find("mounting"))
     else {
         return Err(err(
-            1,
+            header_line,
             format!(
                 "header must have tag_id, lat, lon and mounting columns, got \"{}\"",
-                header.trim()
+                header.iter().collect::<Vec<_>>().join(",")
             ),
         ));
     };
     let ch = find("height_m");
     let mut tags = Vec::new();
     let mut seen = rustc_hash::FxHashSet::default();
-    for (i, line) in lines {
-        let ln = i + 1;
-        if line.trim().is_empty() {
+    for record in reader.records() {
+        let f = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            err(line, format!("unreadable row: {e}"))
+        })?;
+        let ln = f.position().map_or(0, |p| p.line());
+        if f.iter().all(|c| c.is_empty()) {
             continue;
         }
-        let f: Vec<&str> = line.split(',').map(|s| s.trim()).collect();
-        if f.len() < cols.len() {
+        if f.len() < header.len() {
             return Err(err(
                 ln,
-                format!("{} fields, the header has {}", f.len(), cols.len()),
+                format!("{} fields, the header has {}", f.len(), header.len()),
             ));
         }
         let id = f[ci].to_string();
@@ -397,7 +384,7 @@ pub fn parse_tags_csv(path: &Path, text: &str) -> Result<Vec<Tag>> {
         let num = |c: usize, name: &str, lo: f64, hi: f64| -> Result<f64> {
             let x: f64 = f[c]
                 .parse()
-                .map_err(|_| err(ln, format!("{name} \"{}\" is not a number", f[c])))?;
+                .map_err(|_| err(ln, format!("{name} \"{}\" is not a number", &f[c])))?;
             if !(x.is_finite() && x >= lo && x <= hi) {
                 return Err(err(ln, format!("{name} {x} is outside [{lo}, {hi}]")));
             }
@@ -409,12 +396,12 @@ pub fn parse_tags_csv(path: &Path, text: &str) -> Result<Vec<Tag>> {
             Some(c) if !f[c].is_empty() => Some(num(c, "height_m", -1000.0, 10_000.0)?),
             _ => None,
         };
-        let mounting = Mounting::parse(f[cm]).ok_or_else(|| {
+        let mounting = Mounting::parse(&f[cm]).ok_or_else(|| {
             err(
                 ln,
                 format!(
                     "mounting \"{}\" is not one of road_surface, roadside, ceiling",
-                    f[cm]
+                    &f[cm]
                 ),
             )
         })?;
