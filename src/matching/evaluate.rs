@@ -47,7 +47,8 @@ pub struct Score {
 /// Matched length by road (input identifiers) of a matched track.
 ///
 /// Within a run of consecutive points on one road, the run's extent along
-/// the road counts. Between consecutive matched points on different roads,
+/// the road counts (a run ends where the points turn back along the road by
+/// more than 15 m, so driving a road there and back counts twice). Between consecutive matched points on different roads,
 /// the matched route is completed by the shortest permitted path between
 /// them (searched within 200 m beyond their straight distance), and each
 /// piece's length counts for its road; without such a path, half the
@@ -62,6 +63,7 @@ pub fn matched_lengths(net: &Network, points: &[MatchedPoint]) -> RoadLengths {
         }
     };
     let mut run: Option<(u32, f64, f64)> = None;
+    let mut dir = 0i8;
     let mut prev: Option<&MatchedPoint> = None;
     for p in points {
         let Some(r) = p.road else {
@@ -71,15 +73,24 @@ pub fn matched_lengths(net: &Network, points: &[MatchedPoint]) -> RoadLengths {
             prev = None;
             continue;
         };
+        let o = p.road_offset_m;
         match run {
+            // A reversal of more than REVERSAL_M along the road starts a new run.
+            Some((rr, lo, hi)) if rr == r && !reversed(&mut dir, lo, hi, o) => {
+                run = Some((r, lo.min(o), hi.max(o)));
+            }
             Some((rr, lo, hi)) if rr == r => {
-                run = Some((r, lo.min(p.road_offset_m), hi.max(p.road_offset_m)));
+                add(rr, hi - lo, &mut out);
+                let turn = if dir > 0 { hi } else { lo };
+                run = Some((r, turn.min(o), turn.max(o)));
+                dir = -dir;
             }
             _ => {
                 if let Some((rr, lo, hi)) = run {
                     add(rr, hi - lo, &mut out);
                 }
-                run = Some((r, p.road_offset_m, p.road_offset_m));
+                run = Some((r, o, o));
+                dir = 0;
                 if let (Some(q), Some(qr)) = (prev, prev.and_then(|q| q.road)) {
                     let (a, b) = (on_section(net, q), on_section(net, p));
                     let straight = (p.point[0] - q.point[0]).hypot(p.point[1] - q.point[1]);
@@ -103,6 +114,22 @@ pub fn matched_lengths(net: &Network, points: &[MatchedPoint]) -> RoadLengths {
         add(rr, hi - lo, &mut out);
     }
     out
+}
+
+/// Backward move along a road that counts as driving back (m).
+const REVERSAL_M: f64 = 15.0;
+
+/// Has a run (extent `lo..hi`, direction `dir`: 0 unknown) reversed at offset
+/// `o`? Sets the direction once the run has moved `REVERSAL_M` one way.
+fn reversed(dir: &mut i8, lo: f64, hi: f64, o: f64) -> bool {
+    if *dir == 0 {
+        if hi - lo > REVERSAL_M {
+            // The direction: towards the end the run grew from its first point.
+            *dir = if o >= hi - REVERSAL_M { 1 } else { -1 };
+        }
+        return false;
+    }
+    (*dir > 0 && o < hi - REVERSAL_M) || (*dir < 0 && o > lo + REVERSAL_M)
 }
 
 fn on_section(net: &Network, p: &MatchedPoint) -> OnSection {

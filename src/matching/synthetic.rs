@@ -52,7 +52,8 @@ pub fn route_truth(net: &Network, route: &Route) -> RoadLengths {
 /// Drives `route` with the model.
 pub fn along_route(net: &Network, route: &Route, m: &TrackModel) -> SyntheticTrack {
     let mut rng = ChaCha8Rng::seed_from_u64(m.seed);
-    let n = (route.length_m / m.spacing_m).floor() as usize + 1;
+    // Fixes every `spacing_m` from the start, and one at the very end.
+    let n = (route.length_m / m.spacing_m).ceil() as usize + 1;
     let mut walk = Vec::with_capacity(n);
     let mut w = [0.0f64; 2];
     let mut largest = 0.0f64;
