@@ -137,6 +137,7 @@ fn on_section(net: &Network, p: &MatchedPoint) -> OnSection {
     OnSection {
         section: seg.section,
         offset_m: seg.section_offset_m + (p.road_offset_m - seg.road_offset_m),
+        forward: None,
     }
 }
 

@@ -1,11 +1,14 @@
 //! Robust map matching: a hidden-Markov matcher in the manner of Newson and
 //! Krumm (2009), online with a bounded lag window.
 //!
-//! - States: candidate road sections within the search radius of a fix (one
-//!   candidate per section, its nearest point), at most `max_candidates`.
+//! - States: candidate road sections within the search radius of a fix, one
+//!   per section and permitted direction of travel (its nearest point), at
+//!   most `max_candidates`. Moving on in the same direction costs the
+//!   distance; turning round needs a node (a junction or a dead end), never
+//!   happens inside a section, so jitter cannot make a U-turn.
 //! - Emission: log p = −½ (d/σ_z)² + κ (cos Δθ − 1), with Δθ the angle between
 //!   the heading (the fix's where given, else the displacement since the
-//!   previous step) and the directions the section may be driven in; this is
+//!   previous step) and the state's direction of travel; this is
 //!   what tells parallel one-way carriageways apart.
 //! - Transition: log p = −|route distance − straight distance| / β, with route
 //!   distances from bounded, cached Dijkstra searches honouring one-way roads
@@ -26,7 +29,7 @@
 //! - Confidence: the chosen state's share of the step's (filtered) probability.
 
 use super::paths::{NetworkDistances, OnSection};
-use super::{heading_cos, project, Break, BreakReason, Fix, MatchState, MatchedPoint, Matcher};
+use super::{project, Break, BreakReason, Fix, MatchState, MatchedPoint, Matcher};
 use crate::network::{Network, SectionId, SegmentId};
 use std::collections::VecDeque;
 
@@ -68,7 +71,7 @@ impl Default for HmmParams {
     fn default() -> Self {
         Self {
             search_radius_m: 50.0,
-            max_candidates: 8,
+            max_candidates: 12,
             sigma_m: 20.0,
             beta_m: 5.0,
             kappa_given: 3.0,
@@ -163,25 +166,42 @@ impl<'a> HmmMatcher<'a> {
         for &seg in &self.seg_buf {
             let (t, _, d) = project(net, seg, fix.enu);
             let s = &net.segments[seg as usize];
-            let mut e = -d * d * inv2s2;
-            if let Some((h, kappa)) = heading {
-                e += kappa * (heading_cos(net, seg, h) - 1.0);
-            }
-            let c = Cand {
-                seg,
-                at: OnSection {
-                    section: s.section,
-                    offset_m: s.section_offset_m + t * s.length_m,
-                },
-                emission: e,
-            };
-            match cands.iter_mut().find(|o| o.at.section == s.section) {
-                Some(o) => {
-                    if e > o.emission {
-                        *o = c;
-                    }
+            let base = -d * d * inv2s2;
+            let offset_m = s.section_offset_m + t * s.length_m;
+            let oneway = net.sections[s.section as usize].oneway;
+            // One state per permitted direction of the section.
+            for forward in [true, false] {
+                if !(if forward {
+                    oneway.allows_forward()
+                } else {
+                    oneway.allows_backward()
+                }) {
+                    continue;
                 }
-                None => cands.push(c),
+                let mut e = base;
+                if let Some((h, kappa)) = heading {
+                    e += kappa * (directed_cos(net, seg, h, forward) - 1.0);
+                }
+                let c = Cand {
+                    seg,
+                    at: OnSection {
+                        section: s.section,
+                        offset_m,
+                        forward: Some(forward),
+                    },
+                    emission: e,
+                };
+                match cands
+                    .iter_mut()
+                    .find(|o| o.at.section == s.section && o.at.forward == Some(forward))
+                {
+                    Some(o) => {
+                        if e > o.emission {
+                            *o = c;
+                        }
+                    }
+                    None => cands.push(c),
+                }
             }
         }
         cands.sort_unstable_by(|a, b| b.emission.total_cmp(&a.emission));
@@ -364,6 +384,23 @@ fn with_raw(mut m: MatchedPoint, raw: [f64; 2]) -> MatchedPoint {
     m
 }
 
+/// Cosine between a heading and a segment's direction of travel.
+fn directed_cos(net: &Network, seg: SegmentId, heading_rad: f64, forward: bool) -> f64 {
+    let s = &net.segments[seg as usize];
+    let (dx, dy) = (s.b[0] - s.a[0], s.b[1] - s.a[1]);
+    let len = dx.hypot(dy);
+    if len <= 0.0 {
+        return 0.0;
+    }
+    let (sh, ch) = heading_rad.sin_cos();
+    let c = (dx * sh + dy * ch) / len;
+    if forward {
+        c
+    } else {
+        -c
+    }
+}
+
 fn argmax(v: &[f64]) -> u32 {
     let mut k = 0;
     for (i, x) in v.iter().enumerate() {
@@ -505,7 +542,8 @@ impl Matcher for HmmMatcher<'_> {
         if step.cands.is_empty() {
             // Off road: decide everything held, report this fix unmatched.
             self.flush(out);
-            if self.pending_break.is_none() && self.last_matched.is_some() {
+            if self.last_matched.is_some() {
+                // Off road says more than a jump into it.
                 self.pending_break = Some(BreakReason::OffRoad);
             }
             out.push(MatchedPoint::unmatched(index, raw_fix));

@@ -4,7 +4,9 @@
 //! 1. initial: no usable history; candidates are the segments within the
 //!    search radius from the Hilbert grid;
 //! 2. tracking: the fix is still on the last matched segment
-//!    (0 < η < 1 and d < ε): it stays the match (constant work);
+//!    (0 < η < 1 and d < ε, and, an addition to the paper, the heading within
+//!    `max_turn_deg` of the segment's direction): it stays the match
+//!    (constant work);
 //! 3. update: the fix has left the segment through one of its ends;
 //!    candidates are the segments connected at that end (the next or previous
 //!    segment of the same section, or, at a section end, the sections meeting
@@ -31,6 +33,9 @@ pub struct IncrementalParams {
     pub w_d: f64,
     /// Displacement over which a heading is derived when the fix has none (m).
     pub heading_baseline_m: f64,
+    /// A heading this far (degrees) from the segment's direction of travel
+    /// ends tracking even inside the segment (the vehicle has turned off).
+    pub max_turn_deg: f64,
 }
 
 impl Default for IncrementalParams {
@@ -40,6 +45,7 @@ impl Default for IncrementalParams {
             search_radius_m: 50.0,
             w_d: 0.5,
             heading_baseline_m: 8.0,
+            max_turn_deg: 45.0,
         }
     }
 }
@@ -170,11 +176,15 @@ impl Matcher for IncrementalMatcher<'_> {
                 - s.b[0] * s.a[1])
                 .abs()
                 / len2.sqrt();
-            if eta > 0.0 && eta < 1.0 && d < eps {
+            let turned = heading.is_some_and(|h| {
+                heading_cos(self.net, seg, h) < self.params.max_turn_deg.to_radians().cos()
+            });
+            let inside = eta > 0.0 && eta < 1.0;
+            if inside && d < eps && !turned {
                 let f = self.score(seg, p, heading).0;
                 chosen = Some((seg, f, MatchState::Tracking));
-            } else if !(eta > 0.0 && eta < 1.0) {
-                self.connected(seg, eta >= 1.0);
+            } else if !inside || turned {
+                self.connected(seg, eta >= 0.5);
                 if let Some((c, f)) = self.best(p, heading, eps) {
                     chosen = Some((c, f, MatchState::Update));
                 }

@@ -25,6 +25,9 @@ pub struct OnSection {
     pub section: SectionId,
     /// Distance from its start in the digitised direction (m).
     pub offset_m: f64,
+    /// Direction of travel: `Some(true)` in the digitised direction,
+    /// `Some(false)` against it, `None` either (as the section permits).
+    pub forward: Option<bool>,
 }
 
 /// One search's result: distance and predecessor (directed section code) by node.
@@ -162,47 +165,51 @@ impl<'a> NetworkDistances<'a> {
     /// Nodes where a vehicle at `p` can leave its section, and the distance to each.
     pub fn exits(&self, p: OnSection) -> [Option<(NodeId, f64)>; 2] {
         let s = &self.net.sections[p.section as usize];
+        let fwd = p.forward.unwrap_or_else(|| s.oneway.allows_forward());
+        let bwd = p.forward.map_or_else(|| s.oneway.allows_backward(), |f| !f);
         [
-            s.oneway
-                .allows_forward()
-                .then(|| (s.end, (s.length_m - p.offset_m).max(0.0))),
-            s.oneway
-                .allows_backward()
-                .then(|| (s.start, p.offset_m.max(0.0))),
+            fwd.then(|| (s.end, (s.length_m - p.offset_m).max(0.0))),
+            bwd.then(|| (s.start, p.offset_m.max(0.0))),
         ]
     }
 
-    /// Nodes from which `p` can be reached along its section, and the distance from each.
+    /// Nodes from which `p` can be reached along its section, the distance
+    /// from each, and whether that travel is in the digitised direction.
     pub fn entries(&self, p: OnSection) -> [Option<(NodeId, f64, bool)>; 2] {
         let s = &self.net.sections[p.section as usize];
+        let fwd = p.forward.unwrap_or_else(|| s.oneway.allows_forward());
+        let bwd = p.forward.map_or_else(|| s.oneway.allows_backward(), |f| !f);
         [
-            s.oneway
-                .allows_forward()
-                .then(|| (s.start, p.offset_m.max(0.0), true)),
-            s.oneway
-                .allows_backward()
-                .then(|| (s.end, (s.length_m - p.offset_m).max(0.0), false)),
+            fwd.then(|| (s.start, p.offset_m.max(0.0), true)),
+            bwd.then(|| (s.end, (s.length_m - p.offset_m).max(0.0), false)),
         ]
     }
 
-    /// Distance along a section from `a` to `b` when both lie on it: forward or
-    /// backward as permitted, and a backward move of at most `backtrack_m`
-    /// even against a one-way section (measurement noise, not a U-turn).
+    /// Distance along a section from `a` to `b` when both lie on it, without
+    /// leaving it: in the direction of travel, or backward by at most
+    /// `backtrack_m` (measurement noise, not a reversal). Travelling
+    /// directions that differ (a U-turn in the road) give `None`.
     #[inline]
     pub fn along_section(&self, a: OnSection, b: OnSection, backtrack_m: f64) -> Option<f64> {
         if a.section != b.section {
             return None;
         }
-        let s = &self.net.sections[a.section as usize];
         let delta = b.offset_m - a.offset_m;
-        if (delta >= 0.0 && s.oneway.allows_forward())
-            || (delta <= 0.0 && s.oneway.allows_backward())
-            || delta.abs() <= backtrack_m
-        {
-            Some(delta.abs())
-        } else {
-            None
-        }
+        let dir = match (a.forward, b.forward) {
+            (Some(x), Some(y)) if x != y => return None,
+            (x, y) => x.or(y),
+        };
+        let ok = match dir {
+            Some(true) => delta >= -backtrack_m,
+            Some(false) => delta <= backtrack_m,
+            None => {
+                let s = &self.net.sections[a.section as usize];
+                (delta >= 0.0 && s.oneway.allows_forward())
+                    || (delta <= 0.0 && s.oneway.allows_backward())
+                    || delta.abs() <= backtrack_m
+            }
+        };
+        ok.then_some(delta.abs())
     }
 
     /// Shortest permitted distance from `a` to `b` using only cached searches
