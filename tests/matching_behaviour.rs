@@ -20,11 +20,6 @@ fn helsinki() -> Network {
     Network::load(&p, &LoadOptions::default()).unwrap()
 }
 
-fn lat_lon(net: &Network, enu: [f64; 2]) -> [f64; 2] {
-    let g = net.frame.to_geodetic([enu[0], enu[1], 0.0]);
-    [g.lat_deg(), g.lon_deg()]
-}
-
 /// A long route across central Helsinki (the bundled scenario's waypoints).
 fn long_route(net: &Network) -> Route {
     plan_route(net, &[[60.1660, 24.9380], [60.1770, 24.9510]]).unwrap()

@@ -233,3 +233,44 @@ pub fn read_truth(path: &Path, net: &Network) -> Result<RoadLengths> {
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lengths(v: &[(&str, f64)]) -> RoadLengths {
+        v.iter().map(|(k, l)| (k.to_string(), *l)).collect()
+    }
+
+    #[test]
+    fn precision_and_recall_by_length_and_count() {
+        let truth = lengths(&[("a", 100.0), ("b", 50.0), ("c", 50.0)]);
+        // 90 m on a, 60 m on b (more than its 50), 20 m on a wrong road x; c missed.
+        let matched = lengths(&[("a", 90.0), ("b", 60.0), ("x", 20.0)]);
+        let s = score(&matched, &truth);
+        assert!((s.precision_length - 150.0 / 170.0).abs() < 1e-12);
+        assert!((s.recall_length - (90.0 + 50.0) / 200.0).abs() < 1e-12);
+        assert!((s.precision_count - 2.0 / 3.0).abs() < 1e-12);
+        assert!((s.recall_count - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!((s.matched_roads, s.truth_roads, s.correct_roads), (3, 3, 2));
+        // Perfect and empty.
+        let p = score(&truth, &truth);
+        assert_eq!((p.precision_length, p.recall_length), (1.0, 1.0));
+        let e = score(&RoadLengths::new(), &truth);
+        assert_eq!(
+            (e.precision_length, e.recall_length, e.recall_count),
+            (0.0, 0.0, 0.0)
+        );
+    }
+
+    #[test]
+    fn reversal_detection() {
+        let mut dir = 0i8;
+        assert!(!reversed(&mut dir, 0.0, 10.0, 10.0));
+        assert_eq!(dir, 0);
+        assert!(!reversed(&mut dir, 0.0, 20.0, 20.0));
+        assert_eq!(dir, 1);
+        assert!(!reversed(&mut dir, 0.0, 20.0, 8.0));
+        assert!(reversed(&mut dir, 0.0, 20.0, 4.0));
+    }
+}

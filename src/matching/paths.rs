@@ -18,6 +18,9 @@ pub const CACHE_NODES: usize = 4096;
 
 const NO_PRED: u32 = u32::MAX;
 
+/// A path's way through the network: exit node, cost to it, entry node, entry direction.
+type Via = (NodeId, f64, NodeId, bool);
+
 /// A point on a section: the section and the distance from its start (m).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OnSection {
@@ -251,7 +254,7 @@ impl<'a> NetworkDistances<'a> {
         for (xn, _) in self.exits(a).into_iter().flatten() {
             self.ensure(xn, bound_m);
         }
-        let mut best: Option<(f64, Option<(NodeId, f64, NodeId, bool)>)> =
+        let mut best: Option<(f64, Option<Via>)> =
             self.along_section(a, b, backtrack_m).map(|d| (d, None));
         for (xn, xc) in self.exits(a).into_iter().flatten() {
             let tree = &self.cache[&xn];
@@ -302,5 +305,115 @@ impl<'a> NetworkDistances<'a> {
         }
         pieces.push((b.section, if fwd { 0.0 } else { sb.length_m }, b.offset_m));
         Some(pieces)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::{model_from_polylines, Oneway, TagSet};
+
+    /// A 100 m square block: south side one-way eastward, the others two-way.
+    fn block() -> Network {
+        let d = 100.0 / 111_320.0;
+        let dl = 100.0 / (111_320.0 * 60f64.to_radians().cos());
+        let (sw, se, ne, nw) = (
+            [60.0, 24.0],
+            [60.0, 24.0 + dl],
+            [60.0 + d, 24.0 + dl],
+            [60.0 + d, 24.0],
+        );
+        let mut south = TagSet::default();
+        south.set("oneway", "yes");
+        let roads = vec![
+            (south.attributes("south".into()), vec![vec![sw, se]]),
+            (
+                TagSet::default().attributes("east".into()),
+                vec![vec![se, ne]],
+            ),
+            (
+                TagSet::default().attributes("north".into()),
+                vec![vec![ne, nw]],
+            ),
+            (
+                TagSet::default().attributes("west".into()),
+                vec![vec![nw, sw]],
+            ),
+        ];
+        Network::from_model(model_from_polylines(roads).unwrap(), None).unwrap()
+    }
+
+    fn section_of(net: &Network, id: &str) -> SectionId {
+        net.roads
+            .iter()
+            .position(|r| r.attributes.id == id)
+            .map(|r| net.roads[r].sections[0])
+            .unwrap()
+    }
+
+    #[test]
+    fn distances_honour_one_way_and_direction() {
+        let net = block();
+        let south = section_of(&net, "south");
+        assert_eq!(net.sections[south as usize].oneway, Oneway::Forward);
+        let len = net.sections[south as usize].length_m;
+        assert!((len - 100.0).abs() < 0.5, "{len}");
+        let mut p = NetworkDistances::new(&net);
+        let at = |off: f64, forward: Option<bool>| OnSection {
+            section: south,
+            offset_m: off,
+            forward,
+        };
+        // Forward along the one-way: the difference.
+        assert_eq!(
+            p.along_section(at(10.0, None), at(60.0, None), 0.0),
+            Some(50.0)
+        );
+        // Backward against it: not along the section, except within the tolerance.
+        assert_eq!(p.along_section(at(60.0, None), at(10.0, None), 0.0), None);
+        assert_eq!(
+            p.along_section(at(60.0, None), at(55.0, None), 10.0),
+            Some(5.0)
+        );
+        // A U-turn inside a section is never along it.
+        let east = section_of(&net, "east");
+        let e = |off: f64, f: bool| OnSection {
+            section: east,
+            offset_m: off,
+            forward: Some(f),
+        };
+        assert_eq!(p.along_section(e(10.0, true), e(5.0, false), 100.0), None);
+        // Around the block instead: 40 m to the end, 300 m round, 10 m in.
+        for (n, _) in p.exits(at(60.0, Some(true))).into_iter().flatten() {
+            p.ensure(n, 500.0);
+        }
+        let d = p
+            .point_distance_cached(at(60.0, Some(true)), at(10.0, Some(true)), 0.0)
+            .unwrap();
+        let block_len: f64 = net.sections.iter().map(|s| s.length_m).sum();
+        assert!((d - (block_len - 50.0)).abs() < 1e-6, "{d} {block_len}");
+        // The path: south to its end, east, north, west, south to 10 m.
+        let path = p
+            .path(at(60.0, Some(true)), at(10.0, Some(true)), 500.0, 0.0)
+            .unwrap();
+        let roads: Vec<&str> = path
+            .iter()
+            .map(|(s, _, _)| {
+                net.roads[net.sections[*s as usize].road as usize]
+                    .attributes
+                    .id
+                    .as_str()
+            })
+            .collect();
+        assert_eq!(roads, ["south", "east", "north", "west", "south"]);
+        let total: f64 = path.iter().map(|(_, a, b)| (b - a).abs()).sum();
+        assert!((total - d).abs() < 1e-6);
+        // Against the one-way section's direction there is no state to reach.
+        let mut q = NetworkDistances::new(&net);
+        let back = at(50.0, Some(false));
+        assert_eq!(q.exits(back)[0], None);
+        assert!(q
+            .path(at(60.0, Some(true)), at(10.0, Some(true)), 1000.0, 0.0)
+            .is_some());
     }
 }

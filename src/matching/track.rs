@@ -316,3 +316,47 @@ pub fn match_rows(
         .collect();
     (points, outcomes)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_fields() {
+        assert_eq!(split_csv("a, b ,c"), ["a", "b", "c"]);
+        assert_eq!(
+            split_csv("\"x,y\",\"say \"\"hi\"\"\","),
+            ["x,y", "say \"hi\"", ""]
+        );
+        assert_eq!(csv_field("a,b"), "\"a,b\"");
+        assert_eq!(csv_field("plain"), "plain");
+    }
+
+    #[test]
+    fn reads_optional_columns_in_any_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.csv");
+        std::fs::write(
+            &p,
+            "\u{feff}lon,lat,t_s,speed_mps,heading_deg,track_id\r\n24.94,60.17,0,5,90,a\r\n\r\n24.95,60.17,1,,,b\r\n24.96,60.17,0.5,,,b\r\n",
+        )
+        .unwrap();
+        let e = read_track(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("t.csv:5") && e.contains("not in time order") && e.contains("track 'b'"),
+            "{e}"
+        );
+        std::fs::write(&p, "lon,lat,t_s,speed_mps,heading_deg,track_id\n24.94,60.17,0,5,90,a\n24.95,60.17,1,,,b\n24.96,60.17,0.5,,,a\n").unwrap();
+        let rows = read_track(&p).unwrap();
+        assert_eq!(rows.len(), 3);
+        assert_eq!(rows[0].heading_deg, Some(90.0));
+        assert_eq!(rows[0].speed_mps, Some(5.0));
+        assert_eq!(rows[1].heading_deg, None);
+        assert_eq!(rows[2].line, 4);
+        let groups = group_tracks(&rows);
+        assert_eq!(
+            groups,
+            vec![("a".to_string(), vec![0, 2]), ("b".to_string(), vec![1])]
+        );
+    }
+}
