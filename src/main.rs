@@ -61,7 +61,7 @@ enum Command {
     Simulate {
         /// The scenario file (TOML).
         scenario: PathBuf,
-        /// Existing tags (CSV); used by the integrated navigator, not built yet.
+        /// Existing tags (CSV: tag_id,lat,lon,mounting required; height_m optional); integrated mode.
         #[arg(long, value_name = "TAGS.csv")]
         tags: Option<PathBuf>,
         /// Monte Carlo runs.
@@ -178,11 +178,6 @@ fn simulate(
     seed: Option<u64>,
     out: &Path,
 ) -> Result<()> {
-    if tags.is_some() {
-        anyhow::bail!(
-            "--tags needs the integrated navigator (the Kalman filter), which is not built yet"
-        );
-    }
     if runs == 0 {
         anyhow::bail!("--runs must be at least 1");
     }
@@ -190,7 +185,23 @@ fn simulate(
     let scn = waymark::sim::Scenario::load(scenario)?;
     let seed = seed.or(scn.file.seed).unwrap_or(1);
     let truth = waymark::sim::TruthSource::new(&scn)?;
-    let result = waymark::sim::simulate(&scn, &truth, runs, seed)?;
+    let extra = match tags {
+        Some(p) => waymark::sim::tags::load_tags_csv(p)?,
+        None => vec![],
+    };
+    let bar = if runs > 1 && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        let b = indicatif::ProgressBar::new(runs);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} (eta {eta})")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let tick = || bar.inc(1);
+    let result = waymark::sim::simulate_with(&scn, &truth, &extra, runs, seed, Some(&tick))?;
+    bar.finish_and_clear();
     waymark::sim::output::write(out, &result)?;
     let s = &result.summary;
     println!(

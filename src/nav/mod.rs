@@ -3,10 +3,14 @@
 
 pub mod dead_reckoning;
 pub mod dr3d;
+pub mod ekf;
+pub mod integrated;
 pub mod strapdown;
 pub mod vertical;
 
 pub use dead_reckoning::OdometerDr;
 pub use dr3d::Dr3d;
 pub use strapdown::{ImuIncrement, InverseStrapdown, NavState, PositionIntegrator, Strapdown};
+pub use integrated::{FilterConfig, Filter, FixPosition, MeasurementQueue};
+pub use ekf::UpdateOutcome;
 pub use vertical::BaroDamping;

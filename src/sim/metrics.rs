@@ -53,6 +53,138 @@ pub struct Summary {
     pub imu_rate_hz: f64,
     /// Figures per run.
     pub per_run: Vec<RunSummary>,
+    /// Runs whose horizontal error exceeded the requirement at some time.
+    pub runs_exceeding_requirement: Option<u64>,
+    /// Statistics over runs at each output time (decimated to at most 500 points).
+    pub profile: Vec<ProfilePoint>,
+    /// Filter consistency (integrated mode).
+    pub nees: Option<NeesSummary>,
+    /// Tag reads (integrated mode).
+    pub tags: Option<TagSummary>,
+    /// Update counts of run 0 (integrated mode).
+    pub updates_run0: Option<crate::nav::integrated::UpdateCounts>,
+}
+
+/// Horizontal error statistics over runs at one output time.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ProfilePoint {
+    /// Time (s).
+    pub t_s: f64,
+    /// Distance travelled (m).
+    pub distance_m: f64,
+    /// RMS over runs (m).
+    pub rms_m: f64,
+    /// 95th percentile over runs (m).
+    pub p95_m: f64,
+    /// Largest over runs (m).
+    pub max_m: f64,
+    /// Mean filter 1σ horizontal (√(σE² + σN²)) over runs (m), if a filter ran.
+    pub sigma_h_m: Option<f64>,
+    /// Run-averaged horizontal NEES, if a filter ran.
+    pub nees_h: Option<f64>,
+}
+
+/// Average horizontal NEES over runs against its chi-square band.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct NeesSummary {
+    /// Degrees of freedom per run (2: east, north).
+    pub dof: u32,
+    /// Runs averaged.
+    pub runs: u64,
+    /// Two-sided 95 % band of the run-averaged NEES: χ²(runs·dof)/runs quantiles.
+    pub band_95: [f64; 2],
+    /// Mean over output times of the run-averaged NEES.
+    pub mean: f64,
+    /// Share of output times whose run-averaged NEES is inside the band.
+    pub fraction_within_band: f64,
+    /// Share above the band (the filter over-confident).
+    pub fraction_above_band: f64,
+}
+
+/// Tag reads over all runs, and run 0's rejected reads.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TagSummary {
+    /// Reads accepted by the filter, all runs.
+    pub accepted: u64,
+    /// Reads rejected by the gate, all runs.
+    pub rejected: u64,
+    /// Rejected reads of run 0.
+    pub rejected_run0: Vec<super::run::TagEvent>,
+}
+
+/// The p quantile of χ²(k) (Wilson–Hilferty; within 0.5 % for k ≥ 10).
+pub fn chi2_quantile(k: f64, z: f64) -> f64 {
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+fn profile_and_nees(runs: &[RunResult]) -> (Vec<ProfilePoint>, Option<NeesSummary>) {
+    let n_rows = runs.iter().map(|r| r.rows.len()).min().unwrap_or(0);
+    let stride = n_rows.div_ceil(500).max(1);
+    let nr = runs.len() as f64;
+    let mut profile = Vec::new();
+    let mut col = Vec::with_capacity(runs.len());
+    for i in 0..n_rows {
+        if i % stride != 0 && i + 1 != n_rows {
+            continue;
+        }
+        col.clear();
+        col.extend(runs.iter().map(|r| r.rows[i].horizontal_m));
+        col.sort_by(|a, b| a.total_cmp(b));
+        let rank = (0.95 * col.len() as f64).ceil() as usize;
+        let r0 = &runs[0].rows[i];
+        let sig: f64 = runs
+            .iter()
+            .map(|r| r.rows[i].sigma_east_m.hypot(r.rows[i].sigma_north_m))
+            .sum::<f64>()
+            / nr;
+        profile.push(ProfilePoint {
+            t_s: r0.t_s,
+            distance_m: r0.distance_m,
+            rms_m: (col.iter().map(|x| x * x).sum::<f64>() / nr).sqrt(),
+            p95_m: col[rank.clamp(1, col.len()) - 1],
+            max_m: *col.last().unwrap_or(&0.0),
+            sigma_h_m: sig.is_finite().then_some(sig),
+            nees_h: {
+                let m = runs.iter().map(|r| r.rows[i].nees_h).sum::<f64>() / nr;
+                m.is_finite().then_some(m)
+            },
+        });
+    }
+    let has = runs.first().is_some_and(|r| r.rows.iter().any(|x| x.nees_h.is_finite()));
+    if !has {
+        return (profile, None);
+    }
+    let dof = 2.0;
+    let lo = chi2_quantile(nr * dof, -1.959_964) / nr;
+    let hi = chi2_quantile(nr * dof, 1.959_964) / nr;
+    let (mut sum, mut n, mut inside, mut above) = (0.0, 0usize, 0usize, 0usize);
+    // Skip the first row (t = 0: the prior alone).
+    for i in 1..n_rows {
+        let m = runs.iter().map(|r| r.rows[i].nees_h).sum::<f64>() / nr;
+        if !m.is_finite() {
+            continue;
+        }
+        sum += m;
+        n += 1;
+        if m >= lo && m <= hi {
+            inside += 1;
+        } else if m > hi {
+            above += 1;
+        }
+    }
+    let nn = n.max(1) as f64;
+    (
+        profile,
+        Some(NeesSummary {
+            dof: 2,
+            runs: runs.len() as u64,
+            band_95: [lo, hi],
+            mean: sum / nn,
+            fraction_within_band: inside as f64 / nn,
+            fraction_above_band: above as f64 / nn,
+        }),
+    )
 }
 
 fn mode_name(m: super::scenario::NavMode) -> &'static str {
@@ -98,6 +230,30 @@ pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
         .filter_map(|r| r.time_to_exceed_requirement_s)
         .fold(None, |a: Option<f64>, t| Some(a.map_or(t, |a| a.min(t))));
     let last0 = runs.first().and_then(|r| r.rows.last());
+    let (profile, nees) = profile_and_nees(runs);
+    let integrated = runs.first().is_some_and(|r| r.counts.is_some());
+    let tags = integrated.then(|| TagSummary {
+        accepted: runs
+            .iter()
+            .map(|r| r.tag_events.iter().filter(|e| e.accepted).count() as u64)
+            .sum(),
+        rejected: runs
+            .iter()
+            .map(|r| r.tag_events.iter().filter(|e| !e.accepted).count() as u64)
+            .sum(),
+        rejected_run0: runs[0]
+            .tag_events
+            .iter()
+            .filter(|e| !e.accepted)
+            .cloned()
+            .collect(),
+    });
+    let exceeding = req.map(|_| {
+        per_run
+            .iter()
+            .filter(|r| r.time_to_exceed_requirement_s.is_some())
+            .count() as u64
+    });
     Summary {
         name: scn.file.name.clone(),
         mode: mode_name(scn.file.navigator.mode).into(),
@@ -115,5 +271,10 @@ pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
         output_interval_s: scn.output_interval_s,
         imu_rate_hz: 1.0 / scn.dt,
         per_run,
+        runs_exceeding_requirement: exceeding,
+        profile,
+        nees,
+        tags,
+        updates_run0: runs.first().and_then(|r| r.counts),
     }
 }

@@ -1,11 +1,13 @@
 //! Simulation: the scenario schema, single runs and Monte Carlo, metrics and
 //! the output files of `waymark simulate`.
 
+pub mod integrated;
 pub mod metrics;
 pub mod output;
 pub mod run;
 pub mod scenario;
+pub mod tags;
 
 pub use metrics::Summary;
-pub use run::{simulate, ErrorRow, RunResult, SimResult, TruthSource};
+pub use run::{simulate, simulate_with, ErrorRow, Prepared, RunResult, SimResult, TagEvent, TruthSource};
 pub use scenario::{NavMode, Scenario};

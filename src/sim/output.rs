@@ -1,6 +1,6 @@
 //! The files of `waymark simulate --out DIR`: `errors.csv` (run 0's error at
-//! the output interval, with empty filter sigma columns until the filter
-//! exists) and `summary.json`. Both are written atomically.
+//! the output interval, with the filter's 1-sigma columns, empty for modes
+//! without a filter) and `summary.json`. Both are written atomically.
 
 use super::run::{ErrorRow, SimResult};
 use crate::error::{Error, Result};
@@ -18,11 +18,19 @@ pub fn errors_csv(rows: &[ErrorRow]) -> String {
     s.push_str(ERRORS_HEADER);
     s.push('\n');
     for r in rows {
-        let _ = writeln!(
+        let _ = write!(
             s,
-            "{:.3},{:.3},{:.4},{:.4},{:.4},{:.4},,,",
+            "{:.3},{:.3},{:.4},{:.4},{:.4},{:.4}",
             r.t_s, r.distance_m, r.east_m, r.north_m, r.up_m, r.horizontal_m
         );
+        for x in [r.sigma_east_m, r.sigma_north_m, r.sigma_up_m] {
+            if x.is_finite() {
+                let _ = write!(s, ",{x:.4}");
+            } else {
+                s.push(',');
+            }
+        }
+        s.push('\n');
     }
     s
 }

@@ -16,6 +16,7 @@ use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, DiffOdometer, Imu, Odometer, RotationModulation};
 use crate::trajectory::route::RoutePlan;
 use crate::trajectory::{ideal_imu, Avp, MotionPlan};
+use super::tags::{find_passes, Tag, TagPass};
 use rayon::prelude::*;
 
 /// Default time constant of the baro damping loop (s).
@@ -36,6 +37,28 @@ pub struct ErrorRow {
     pub up_m: f64,
     /// Horizontal error (m).
     pub horizontal_m: f64,
+    /// Filter 1σ east (m); NaN without a filter.
+    pub sigma_east_m: f64,
+    /// Filter 1σ north (m); NaN without a filter.
+    pub sigma_north_m: f64,
+    /// Filter 1σ up (m); NaN without a filter.
+    pub sigma_up_m: f64,
+    /// Horizontal normalised estimation error squared e^T P^{-1} e (2 dof);
+    /// NaN without a filter.
+    pub nees_h: f64,
+}
+
+/// What happened to one tag read in a run.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct TagEvent {
+    /// The tag.
+    pub tag_id: String,
+    /// Read time (s).
+    pub t_s: f64,
+    /// Whether the filter accepted the fix.
+    pub accepted: bool,
+    /// Its normalised innovation squared.
+    pub nis: f64,
 }
 
 /// The rows of one run.
@@ -45,6 +68,10 @@ pub struct RunResult {
     pub run: u64,
     /// Error rows at the output interval.
     pub rows: Vec<ErrorRow>,
+    /// Tag reads and the filter's verdicts (integrated mode).
+    pub tag_events: Vec<TagEvent>,
+    /// Update counts (integrated mode).
+    pub counts: Option<crate::nav::integrated::UpdateCounts>,
 }
 
 /// All runs and their summary.
@@ -111,20 +138,76 @@ impl TruthSource {
 
 /// Runs `runs` Monte Carlo runs of a scenario with base seed `seed`.
 pub fn simulate(scn: &Scenario, truth: &TruthSource, runs: u64, seed: u64) -> Result<SimResult> {
+    simulate_with(scn, truth, &[], runs, seed, None)
+}
+
+/// Tags and their passes, found once for all runs.
+#[derive(Debug, Clone, Default)]
+pub struct Prepared {
+    /// All tags (scenario entries, then extra ones).
+    pub tags: Vec<Tag>,
+    /// Passes by tags within their read geometry, in time order.
+    pub passes: Vec<TagPass>,
+}
+
+impl Prepared {
+    /// Resolves the scenario's tags (placing on-route ones on the truth), adds
+    /// `extra` (e.g. from `--tags`) and finds the passes.
+    pub fn new(scn: &Scenario, truth: &TruthSource, extra: &[Tag]) -> Result<Prepared> {
+        let mut tags = super::integrated::scenario_tags(scn, truth)?;
+        tags.extend_from_slice(extra);
+        let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+        let passes = find_passes(truth, cap, &tags, &scn.rfid);
+        Ok(Prepared { tags, passes })
+    }
+}
+
+/// Monte Carlo with extra tags (`--tags`) and a progress callback called
+/// after each run (from worker threads).
+pub fn simulate_with(
+    scn: &Scenario,
+    truth: &TruthSource,
+    extra_tags: &[Tag],
+    runs: u64,
+    seed: u64,
+    progress: Option<&(dyn Fn() + Sync)>,
+) -> Result<SimResult> {
     if runs == 0 {
         return Err(crate::error::Error::InvalidParameter(
             "the number of runs must be at least 1".into(),
         ));
     }
-    if scn.file.navigator.mode == NavMode::Integrated {
+    let integrated = scn.file.navigator.mode == NavMode::Integrated;
+    if integrated && scn.rotation.is_some() {
         return Err(crate::error::Error::scenario(
             &scn.path,
-            "navigator.mode = \"integrated\" needs the Kalman filter, which is not built yet; use free_inertial, dead_reckoning or dead_reckoning_3d",
+            "navigator.mode = \"integrated\" does not support imu.rotation_modulation",
         ));
     }
+    if !integrated && (!extra_tags.is_empty() || !scn.file.tag.is_empty()) {
+        return Err(crate::error::Error::scenario(
+            &scn.path,
+            "tags are used only by navigator.mode = \"integrated\"",
+        ));
+    }
+    let prep = if integrated {
+        Prepared::new(scn, truth, extra_tags)?
+    } else {
+        Prepared::default()
+    };
     let results: Vec<RunResult> = (0..runs)
         .into_par_iter()
-        .map(|run| run_once(scn, truth, seed, run))
+        .map(|run| {
+            let r = if integrated {
+                super::integrated::run_integrated(scn, truth, &prep, seed, run)
+            } else {
+                run_once(scn, truth, seed, run)
+            };
+            if let Some(p) = progress {
+                p();
+            }
+            r
+        })
         .collect();
     let summary = summarize(scn, seed, &results);
     Ok(SimResult {
@@ -135,7 +218,7 @@ pub fn simulate(scn: &Scenario, truth: &TruthSource, runs: u64, seed: u64) -> Re
 
 /// Applies the rotation modulation (if any) to the truth attitude: the IMU
 /// frame is what the inverse strapdown must see.
-fn imu_frame(avp: Avp, rot: Option<RotationModulation>) -> Avp {
+pub(super) fn imu_frame(avp: Avp, rot: Option<RotationModulation>) -> Avp {
     match rot {
         Some(r) => {
             let mut a = avp;
@@ -155,7 +238,7 @@ fn body_q(q_imu: &Quat, t: f64, rot: Option<RotationModulation>) -> Quat {
 
 /// The navigator's initial state: truth plus the scenario's initial errors
 /// (attitude errors on the body's pitch, roll and heading).
-fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavState {
+pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavState {
     let n = &scn.file.navigator;
     let (pitch, roll, yaw) = truth_body.q.to_euler();
     let [dp, dr, dh] = scn.initial_attitude_error;
@@ -187,16 +270,30 @@ fn error_enu(lat: f64, lon: f64, h: f64, truth: &NavState) -> V3 {
     ]
 }
 
+type Cov3 = Option<[[f64; 3]; 3]>;
+
 /// Keeps a row every `every` samples, and the last sample's row at the end.
-struct Recorder {
-    every: u64,
-    rows: Vec<ErrorRow>,
-    pending: Option<(Avp, f64, f64, f64)>,
+pub(super) struct Recorder {
+    pub(super) every: u64,
+    pub(super) rows: Vec<ErrorRow>,
+    pub(super) pending: Option<(Avp, f64, f64, f64, Cov3)>,
 }
 
 impl Recorder {
-    fn row(avp: &Avp, lat: f64, lon: f64, h: f64) -> ErrorRow {
+    fn row(avp: &Avp, lat: f64, lon: f64, h: f64, cov: Cov3) -> ErrorRow {
         let e = error_enu(lat, lon, h, &avp.state);
+        let (se, sn, su, nees) = match cov {
+            Some(c) => {
+                let det = c[0][0] * c[1][1] - c[0][1] * c[1][0];
+                let nees = if det > 0.0 {
+                    (e[0] * e[0] * c[1][1] - 2.0 * e[0] * e[1] * c[0][1] + e[1] * e[1] * c[0][0]) / det
+                } else {
+                    f64::NAN
+                };
+                (c[0][0].sqrt(), c[1][1].sqrt(), c[2][2].sqrt(), nees)
+            }
+            None => (f64::NAN, f64::NAN, f64::NAN, f64::NAN),
+        };
         ErrorRow {
             t_s: avp.t,
             distance_m: avp.distance_m,
@@ -204,22 +301,36 @@ impl Recorder {
             north_m: e[1],
             up_m: e[2],
             horizontal_m: e[0].hypot(e[1]),
+            sigma_east_m: se,
+            sigma_north_m: sn,
+            sigma_up_m: su,
+            nees_h: nees,
         }
     }
 
     #[inline]
     fn record(&mut self, k: u64, avp: &Avp, lat: f64, lon: f64, h: f64) {
-        if k % self.every == 0 {
-            self.rows.push(Self::row(avp, lat, lon, h));
+        self.record_cov(k, avp, lat, lon, h, None)
+    }
+
+    #[inline]
+    pub(super) fn due(&self, k: u64) -> bool {
+        k % self.every == 0
+    }
+
+    #[inline]
+    pub(super) fn record_cov(&mut self, k: u64, avp: &Avp, lat: f64, lon: f64, h: f64, cov: Cov3) {
+        if self.due(k) {
+            self.rows.push(Self::row(avp, lat, lon, h, cov));
             self.pending = None;
         } else {
-            self.pending = Some((*avp, lat, lon, h));
+            self.pending = Some((*avp, lat, lon, h, cov));
         }
     }
 
-    fn finish(mut self) -> Vec<ErrorRow> {
-        if let Some((avp, lat, lon, h)) = self.pending {
-            self.rows.push(Self::row(&avp, lat, lon, h));
+    pub(super) fn finish(mut self) -> Vec<ErrorRow> {
+        if let Some((avp, lat, lon, h, cov)) = self.pending {
+            self.rows.push(Self::row(&avp, lat, lon, h, cov));
         }
         self.rows
     }
@@ -239,7 +350,12 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
         pending: None,
     };
     let Some(first) = samples.next() else {
-        return RunResult { run, rows: vec![] };
+        return RunResult {
+            run,
+            rows: vec![],
+            tag_events: vec![],
+            counts: None,
+        };
     };
     // Truth body attitude at the start (undo the modulation).
     let mut truth0 = first.avp.state;
@@ -274,8 +390,8 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
     };
     let mut k = 0u64;
     match scn.file.navigator.mode {
-        // Integrated is refused in `simulate`; until the filter exists it would
-        // run free inertial.
+        // Integrated runs go through `run_integrated`; here (direct calls of
+        // `run_once`) they run free inertial.
         NavMode::FreeInertial | NavMode::Integrated => {
             for s in samples {
                 k += 1;
@@ -372,5 +488,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
     RunResult {
         run,
         rows: rec.finish(),
+        tag_events: vec![],
+        counts: None,
     }
 }

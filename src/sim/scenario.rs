@@ -72,6 +72,108 @@ pub struct ScenarioFile {
     /// Planner settings (the planner issue).
     #[serde(default)]
     pub planner: Option<PlannerSection>,
+    /// RFID tags along the route.
+    #[serde(default)]
+    pub tag: Vec<TagSpec>,
+    /// Kalman filter settings of the integrated navigator.
+    #[serde(default)]
+    pub filter: FilterSection,
+    /// An external position fix source (gravity matching and the like).
+    #[serde(default)]
+    pub external_fix: Option<ExternalFixSection>,
+}
+
+/// `[[tag]]`: a tag at stored coordinates, or on the route at a time or distance.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TagSpec {
+    /// Identifier (default `tag-N`).
+    #[serde(default)]
+    pub id: Option<String>,
+    /// Stored latitude (deg).
+    #[serde(default)]
+    pub lat: Option<f64>,
+    /// Stored longitude (deg).
+    #[serde(default)]
+    pub lon: Option<f64>,
+    /// On the route where the vehicle is at this time (s).
+    #[serde(default)]
+    pub at_s: Option<f64>,
+    /// On the route at this distance (m).
+    #[serde(default)]
+    pub at_m: Option<f64>,
+    /// Stored height (m); on-route tags default to the route's height there.
+    #[serde(default)]
+    pub height_m: Option<f64>,
+    /// road_surface (default), roadside or ceiling.
+    #[serde(default)]
+    pub mounting: Option<String>,
+    /// Stored minus physical position, east and north (m): a misplaced tag.
+    #[serde(default)]
+    pub survey_error_m: Option<[f64; 2]>,
+}
+
+/// `[filter]`: the integrated navigator's Kalman filter. Priors default to
+/// the magnitudes of the simulated errors.
+#[derive(Debug, Clone, Copy, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct FilterSection {
+    /// Covariance propagation interval (s, default 0.1).
+    #[serde(default)]
+    pub interval_s: Option<f64>,
+    /// Odometer update interval (s, default 0.1).
+    #[serde(default)]
+    pub odometer_interval_s: Option<f64>,
+    /// σ of the odometer's mean speed per update (m/s; default from the odometer model).
+    #[serde(default)]
+    pub odometer_noise_mps: Option<f64>,
+    /// σ of the non-holonomic constraints (m/s, default 0.05).
+    #[serde(default)]
+    pub nhc_noise_mps: Option<f64>,
+    /// Prior σ of the gyro biases (deg/h).
+    #[serde(default)]
+    pub gyro_bias_sigma_dph: Option<f64>,
+    /// Prior σ of the accelerometer biases (µg).
+    #[serde(default)]
+    pub accel_bias_sigma_ug: Option<f64>,
+    /// Prior σ of the odometer scale-factor error.
+    #[serde(default)]
+    pub odometer_scale_sigma: Option<f64>,
+    /// Prior σ of the odometer mounting misalignments (deg, default 0.2).
+    #[serde(default)]
+    pub odometer_misalignment_sigma_deg: Option<f64>,
+    /// Prior σ of the initial attitude errors, pitch/roll and heading (arcmin).
+    #[serde(default)]
+    pub attitude_sigma_arcmin: Option<[f64; 2]>,
+    /// Prior σ of the initial position error, horizontal and vertical (m).
+    #[serde(default)]
+    pub position_sigma_m: Option<[f64; 2]>,
+    /// Prior σ of the initial velocity error (m/s).
+    #[serde(default)]
+    pub velocity_sigma_mps: Option<f64>,
+}
+
+/// `[external_fix]`: position fixes at irregular intervals whose error is a
+/// random walk plus white noise (PAPERS.md §4).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExternalFixSection {
+    /// Shortest and longest gap between fixes (s); gaps are uniform in between.
+    pub interval_s: [f64; 2],
+    /// White noise σ per axis (m).
+    pub white_m: f64,
+    /// Random-walk density per axis (m/√s).
+    #[serde(default)]
+    pub random_walk_m_per_rts: f64,
+    /// The white noise σ the filter assumes (m; default `white_m`).
+    #[serde(default)]
+    pub filter_white_m: Option<f64>,
+    /// "none" (default) or "sage_husa".
+    #[serde(default)]
+    pub adaptive: Option<String>,
+    /// Sage–Husa fading factor b (0 < b < 1, default 0.95).
+    #[serde(default)]
+    pub fading_b: Option<f64>,
 }
 
 /// `[map]`.
@@ -257,6 +359,16 @@ pub struct NavigatorSection {
     /// Initial position error, east, north, up (m).
     #[serde(default)]
     pub initial_position_error_m: [f64; 3],
+    /// Random initial attitude error drawn per run (integrated mode), σ of
+    /// pitch/roll and of heading (arcmin), added to the fixed one.
+    #[serde(default)]
+    pub initial_attitude_sigma_arcmin: [f64; 2],
+    /// Random initial horizontal and vertical position error per run, σ (m).
+    #[serde(default)]
+    pub initial_position_sigma_m: [f64; 2],
+    /// Random initial velocity error per run, σ (m/s).
+    #[serde(default)]
+    pub initial_velocity_sigma_mps: f64,
 }
 
 /// `rotation_modulation = { rate_dps = ... }`.
@@ -313,6 +425,12 @@ pub struct ImuSection {
     /// Single-axis rotation modulation about the vertical.
     #[serde(default)]
     pub rotation_modulation: Option<RotationSpec>,
+    /// Turn-on gyro bias drawn per run, σ (deg/h), added to `gyro_bias_dph`.
+    #[serde(default)]
+    pub gyro_bias_random_dph: f64,
+    /// Turn-on accelerometer bias drawn per run, σ (µg), added to `accel_bias_ug`.
+    #[serde(default)]
+    pub accel_bias_random_ug: f64,
 }
 fn d_rate() -> f64 {
     100.0
@@ -458,6 +576,12 @@ pub struct AidingSection {
     /// Barometric height.
     #[serde(default)]
     pub baro: bool,
+    /// Non-holonomic constraints (default: on when the odometer is).
+    #[serde(default)]
+    pub non_holonomic: Option<bool>,
+    /// The `[external_fix]` source.
+    #[serde(default)]
+    pub external_fix: bool,
 }
 
 /// `[rfid]`.
@@ -467,6 +591,30 @@ pub struct RfidSection {
     /// Probability that a passed tag is read.
     #[serde(default)]
     pub read_probability: Option<f64>,
+    /// Lane width D (m, default 3.75).
+    #[serde(default)]
+    pub lane_width_m: Option<f64>,
+    /// Lateral reader-to-tag distance x of roadside tags (m, default 5.63).
+    #[serde(default)]
+    pub roadside_distance_m: Option<f64>,
+    /// Angle θ at which a roadside tag first answers (deg, default 15).
+    #[serde(default)]
+    pub roadside_angle_deg: Option<f64>,
+    /// Read time t0 (s, default 0.02).
+    #[serde(default)]
+    pub read_time_s: Option<f64>,
+    /// Largest lateral distance at which a roadside tag is read (m, default 10).
+    #[serde(default)]
+    pub roadside_range_m: Option<f64>,
+    /// σ of road-surface fixes (m, default 0.2; capped at 0.5).
+    #[serde(default)]
+    pub road_surface_sigma_m: Option<f64>,
+    /// σ of ceiling fixes (m, default 0.1; capped at 0.3).
+    #[serde(default)]
+    pub ceiling_sigma_m: Option<f64>,
+    /// σ of stored tag heights (m, default 0.1).
+    #[serde(default)]
+    pub height_sigma_m: Option<f64>,
 }
 
 /// `[planner]`.
@@ -534,6 +682,8 @@ pub struct Scenario {
     pub initial_attitude_error: [f64; 3],
     /// Output interval (s).
     pub output_interval_s: f64,
+    /// RFID reader model.
+    pub rfid: super::tags::RfidModel,
 }
 
 struct Check<'a> {
@@ -802,6 +952,11 @@ impl Scenario {
                 100.0,
             )?;
         }
+        c.range("navigator.initial_attitude_sigma_arcmin[0]", n.initial_attitude_sigma_arcmin[0], 0.0, 600.0)?;
+        c.range("navigator.initial_attitude_sigma_arcmin[1]", n.initial_attitude_sigma_arcmin[1], 0.0, 600.0)?;
+        c.range("navigator.initial_position_sigma_m[0]", n.initial_position_sigma_m[0], 0.0, 1e5)?;
+        c.range("navigator.initial_position_sigma_m[1]", n.initial_position_sigma_m[1], 0.0, 1e5)?;
+        c.range("navigator.initial_velocity_sigma_mps", n.initial_velocity_sigma_mps, 0.0, 100.0)?;
         for (i, x) in n.initial_position_error_m.iter().enumerate() {
             c.range(
                 &format!("navigator.initial_position_error_m[{i}]"),
@@ -810,10 +965,111 @@ impl Scenario {
                 1e5,
             )?;
         }
+        let mut rfid = super::tags::RfidModel {
+            vehicle_width_m: file.vehicle.width_m,
+            ..Default::default()
+        };
         if let Some(p) = &file.rfid {
-            if let Some(x) = p.read_probability {
-                c.range("rfid.read_probability", x, 0.0, 1.0)?;
+            let opt = |name: &str, x: Option<f64>, lo: f64, hi: f64, dst: &mut f64| -> Result<()> {
+                if let Some(x) = x {
+                    *dst = c.range(&format!("rfid.{name}"), x, lo, hi)?;
+                }
+                Ok(())
+            };
+            opt("read_probability", p.read_probability, 0.0, 1.0, &mut rfid.read_probability)?;
+            opt("lane_width_m", p.lane_width_m, 1.0, 10.0, &mut rfid.lane_width_m)?;
+            opt("roadside_distance_m", p.roadside_distance_m, 0.0, 50.0, &mut rfid.roadside_distance_m)?;
+            let mut ang = rfid.roadside_angle.to_degrees();
+            opt("roadside_angle_deg", p.roadside_angle_deg, 0.0, 80.0, &mut ang)?;
+            rfid.roadside_angle = ang.to_radians();
+            opt("read_time_s", p.read_time_s, 0.0, 1.0, &mut rfid.read_time_s)?;
+            opt("roadside_range_m", p.roadside_range_m, 0.5, 100.0, &mut rfid.roadside_range_m)?;
+            opt("road_surface_sigma_m", p.road_surface_sigma_m, 0.0, 0.5, &mut rfid.road_surface_sigma_m)?;
+            opt("ceiling_sigma_m", p.ceiling_sigma_m, 0.0, 0.3, &mut rfid.ceiling_sigma_m)?;
+            opt("height_sigma_m", p.height_sigma_m, 0.0, 100.0, &mut rfid.height_sigma_m)?;
+        }
+        c.non_negative("imu.gyro_bias_random_dph", file.imu.gyro_bias_random_dph)?;
+        c.non_negative("imu.accel_bias_random_ug", file.imu.accel_bias_random_ug)?;
+        for (i, t) in file.tag.iter().enumerate() {
+            let f = |n: &str| format!("tag[{i}].{n}");
+            let placed = [t.lat.is_some() && t.lon.is_some(), t.at_s.is_some(), t.at_m.is_some()];
+            if placed.iter().filter(|x| **x).count() != 1 || t.lat.is_some() != t.lon.is_some() {
+                return Err(c.err(format!("tag[{i}] needs exactly one of lat+lon, at_s and at_m")));
             }
+            if let Some(x) = t.lat {
+                c.range(&f("lat"), x, -89.0, 89.0)?;
+            }
+            if let Some(x) = t.lon {
+                c.range(&f("lon"), x, -180.0, 180.0)?;
+            }
+            if let Some(x) = t.at_s {
+                c.non_negative(&f("at_s"), x)?;
+            }
+            if let Some(x) = t.at_m {
+                c.non_negative(&f("at_m"), x)?;
+            }
+            if let Some(x) = t.height_m {
+                c.range(&f("height_m"), x, -1000.0, 10_000.0)?;
+            }
+            if let Some(m) = &t.mounting {
+                if super::tags::Mounting::parse(m).is_none() {
+                    return Err(c.err(format!(
+                        "tag[{i}].mounting \"{m}\" is not one of road_surface, roadside, ceiling"
+                    )));
+                }
+            }
+            if let Some(e) = t.survey_error_m {
+                c.finite_all(&f("survey_error_m"), &e)?;
+            }
+        }
+        let fs = &file.filter;
+        for (name, x, lo, hi) in [
+            ("filter.interval_s", fs.interval_s, dt, 10.0),
+            ("filter.odometer_interval_s", fs.odometer_interval_s, dt, 10.0),
+            ("filter.odometer_noise_mps", fs.odometer_noise_mps, 1e-4, 10.0),
+            ("filter.nhc_noise_mps", fs.nhc_noise_mps, 1e-4, 10.0),
+            ("filter.gyro_bias_sigma_dph", fs.gyro_bias_sigma_dph, 0.0, 1e4),
+            ("filter.accel_bias_sigma_ug", fs.accel_bias_sigma_ug, 0.0, 1e6),
+            ("filter.odometer_scale_sigma", fs.odometer_scale_sigma, 0.0, 0.5),
+            ("filter.odometer_misalignment_sigma_deg", fs.odometer_misalignment_sigma_deg, 0.0, 10.0),
+            ("filter.velocity_sigma_mps", fs.velocity_sigma_mps, 0.0, 100.0),
+        ] {
+            if let Some(x) = x {
+                c.range(name, x, lo, hi)?;
+            }
+        }
+        if let Some(a) = fs.attitude_sigma_arcmin {
+            c.range("filter.attitude_sigma_arcmin[0]", a[0], 0.0, 600.0)?;
+            c.range("filter.attitude_sigma_arcmin[1]", a[1], 0.0, 600.0)?;
+        }
+        if let Some(a) = fs.position_sigma_m {
+            c.range("filter.position_sigma_m[0]", a[0], 0.0, 1e5)?;
+            c.range("filter.position_sigma_m[1]", a[1], 0.0, 1e5)?;
+        }
+        if let Some(x) = &file.external_fix {
+            let [a, b] = x.interval_s;
+            c.range("external_fix.interval_s[0]", a, dt, 1e5)?;
+            c.range("external_fix.interval_s[1]", b, a, 1e5)?;
+            c.range("external_fix.white_m", x.white_m, 0.0, 1e5)?;
+            c.non_negative("external_fix.random_walk_m_per_rts", x.random_walk_m_per_rts)?;
+            if let Some(w) = x.filter_white_m {
+                c.range("external_fix.filter_white_m", w, 1e-3, 1e5)?;
+            }
+            if let Some(b) = x.fading_b {
+                if !(b > 0.0 && b < 1.0) {
+                    return Err(c.err(format!("external_fix.fading_b must be between 0 and 1 (exclusive), got {b}")));
+                }
+            }
+            match x.adaptive.as_deref() {
+                None | Some("none") | Some("sage_husa") => {}
+                Some(o) => {
+                    return Err(c.err(format!(
+                        "external_fix.adaptive \"{o}\" is not one of none, sage_husa"
+                    )))
+                }
+            }
+        } else if file.aiding.external_fix {
+            return Err(c.err("aiding.external_fix needs an [external_fix] section"));
         }
         // Route
         let route = Self::route(&c, path, &file)?;
@@ -828,6 +1084,7 @@ impl Scenario {
             baro,
             initial_attitude_error: n.initial_attitude_error_arcmin.map(|x| x * ARCMIN),
             output_interval_s,
+            rfid,
             file,
         })
     }

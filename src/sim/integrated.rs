@@ -1,0 +1,418 @@
+//! One run of the integrated navigator: truth → ideal IMU → sensor errors →
+//! [`Filter`] with odometer (+ constraints), barometer, RFID tag and external
+//! fix measurements, queued with their time stamps and applied in time order.
+
+use super::run::{imu_frame, initial_estimate, Prepared, Recorder, RunResult, TagEvent, TruthSource};
+use super::scenario::{Scenario, G0};
+use super::tags::{draw_reads, Mounting, Tag};
+use crate::error::Result;
+use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
+use crate::nav::{Filter, FilterConfig, MeasurementQueue};
+use crate::sensors::rng::{ids, normal, stream};
+use crate::sensors::{Barometer, Imu, Odometer};
+use crate::trajectory::ideal_imu;
+use rand::Rng;
+
+const DPH: f64 = std::f64::consts::PI / 180.0 / 3600.0;
+const ARCMIN: f64 = std::f64::consts::PI / 180.0 / 60.0;
+/// Random stream of the RFID reads.
+const RFID_STREAM: u64 = 7;
+/// Random stream of the external fix.
+const FIX_STREAM: u64 = 8;
+
+/// The scenario's `[[tag]]` entries as tags; on-route ones (`at_s`, `at_m`)
+/// are placed on the truth path (stored height: the path's height there).
+pub fn scenario_tags(scn: &Scenario, truth: &TruthSource) -> Result<Vec<Tag>> {
+    let mut tags = Vec::with_capacity(scn.file.tag.len());
+    let mut need: Vec<(usize, bool, f64)> = Vec::new();
+    for (i, t) in scn.file.tag.iter().enumerate() {
+        let mounting = t
+            .mounting
+            .as_deref()
+            .and_then(Mounting::parse)
+            .unwrap_or(Mounting::RoadSurface);
+        let survey = t.survey_error_m.unwrap_or([0.0, 0.0]);
+        let (lat, lon) = match (t.lat, t.lon) {
+            (Some(a), Some(b)) => (a.to_radians(), b.to_radians()),
+            _ => {
+                match (t.at_s, t.at_m) {
+                    (Some(x), _) => need.push((i, true, x)),
+                    (_, Some(x)) => need.push((i, false, x)),
+                    _ => {}
+                }
+                (f64::NAN, f64::NAN)
+            }
+        };
+        tags.push(Tag {
+            id: t.id.clone().unwrap_or_else(|| format!("tag-{i}")),
+            lat,
+            lon,
+            height_m: t.height_m,
+            mounting,
+            survey_error_m: survey,
+        });
+    }
+    if !need.is_empty() {
+        need.sort_by(|a, b| a.2.total_cmp(&b.2));
+        let mut it = need.iter().peekable();
+        let mut last = None;
+        for avp in truth.samples() {
+            while let Some(&&(i, by_time, x)) = it.peek() {
+                let v = if by_time { avp.t } else { avp.distance_m };
+                if v + 1e-9 < x {
+                    break;
+                }
+                place(&mut tags[i], &avp.state);
+                it.next();
+            }
+            if it.peek().is_none() {
+                break;
+            }
+            last = Some(avp);
+        }
+        if let Some(&(i, by_time, x)) = it.next() {
+            let _ = last;
+            return Err(crate::error::Error::scenario(
+                &scn.path,
+                format!(
+                    "tag[{i}].{} = {x} is beyond the end of the route",
+                    if by_time { "at_s" } else { "at_m" }
+                ),
+            ));
+        }
+    }
+    Ok(tags)
+}
+
+fn place(tag: &mut Tag, s: &crate::nav::NavState) {
+    let (rm, rn) = crate::geodesy::radii(s.lat);
+    tag.lat = s.lat + tag.survey_error_m[1] / rm;
+    tag.lon = s.lon + tag.survey_error_m[0] / (rn * s.lat.cos());
+    if tag.height_m.is_none() {
+        tag.height_m = Some(s.h);
+    }
+}
+
+/// The filter settings of a scenario: priors and noise from the simulated
+/// sensor models unless `[filter]` says otherwise.
+pub fn filter_config(scn: &Scenario) -> FilterConfig {
+    let f = &scn.file.filter;
+    let imu = &scn.file.imu;
+    let rms3 = |v: [f64; 3]| ((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) / 3.0).sqrt();
+    let gyro_sigma_dph = f.gyro_bias_sigma_dph.unwrap_or_else(|| {
+        (rms3(imu.gyro_bias_dph).powi(2)
+            + imu.gyro_bias_random_dph.powi(2)
+            + imu.gyro_bias_instability_dph.powi(2))
+        .sqrt()
+        .max(0.001)
+    });
+    let accel_sigma_ug = f.accel_bias_sigma_ug.unwrap_or_else(|| {
+        (rms3(imu.accel_bias_ug).powi(2)
+            + imu.accel_bias_random_ug.powi(2)
+            + imu.accel_bias_instability_ug.powi(2))
+        .sqrt()
+        .max(5.0)
+    });
+    let sf = scn.odometer.scale_factor_error;
+    let odo_sigma = f.odometer_scale_sigma.unwrap_or(sf.abs().max(5e-4));
+    let mis_sigma = f.odometer_misalignment_sigma_deg.unwrap_or(0.2).to_radians();
+    let b = &scn.baro;
+    let baro_sigma = (b.initial_bias_m.powi(2) + b.bias_drift_m.powi(2)).sqrt().max(0.1);
+    let (fix_rw, sage) = match (&scn.file.external_fix, scn.file.aiding.external_fix) {
+        (Some(x), true) => (
+            x.random_walk_m_per_rts.max(1e-3),
+            if x.adaptive.as_deref() == Some("sage_husa") {
+                Some(x.fading_b.unwrap_or(0.95))
+            } else {
+                None
+            },
+        ),
+        _ => (1e-3, None),
+    };
+    let noise = NoiseModel {
+        gyro_arw: scn.imu.gyro_arw.max(0.0005f64.to_radians() / 60.0),
+        accel_vrw: scn.imu.accel_vrw.max(1e-6 * G0),
+        // Constant (turn-on) biases are random constants: a Gauss–Markov
+        // process with a correlation time much longer than the run.
+        gyro_bias: (
+            gyro_sigma_dph * DPH,
+            if imu.gyro_bias_instability_dph > 0.0 { imu.gyro_bias_tau_s } else { 1e6 },
+        ),
+        accel_bias: (
+            accel_sigma_ug * 1e-6 * G0,
+            if imu.accel_bias_instability_ug > 0.0 { imu.accel_bias_tau_s } else { 1e6 },
+        ),
+        odo_scale: (odo_sigma, 36_000.0),
+        odo_misalign: (mis_sigma, 36_000.0),
+        fix_rw,
+        baro_bias: (baro_sigma, b.bias_tau_s),
+    };
+    let nav = &scn.file.navigator;
+    let ia = nav.initial_attitude_error_arcmin;
+    let ias = nav.initial_attitude_sigma_arcmin;
+    let [sa_level, sa_head] = f.attitude_sigma_arcmin.unwrap_or([
+        ia[0].abs().max(ia[1].abs()).hypot(ias[0]).max(0.5),
+        ia[2].abs().hypot(ias[1]).max(1.0),
+    ]);
+    let ip = nav.initial_position_error_m;
+    let ips = nav.initial_position_sigma_m;
+    let [sp_h, sp_v] = f.position_sigma_m.unwrap_or([
+        ip[0].abs().max(ip[1].abs()).hypot(ips[0]).max(1.0),
+        ip[2].abs().hypot(ips[1]).max(1.0),
+    ]);
+    let iv = nav.initial_velocity_error_mps;
+    let sv = f.velocity_sigma_mps.unwrap_or(
+        iv.iter()
+            .fold(0.0f64, |a, x| a.max(x.abs()))
+            .hypot(nav.initial_velocity_sigma_mps)
+            .max(0.05),
+    );
+    let mut s0 = [0.0; N];
+    s0[PHI] = sa_level * ARCMIN;
+    s0[PHI + 1] = sa_level * ARCMIN;
+    s0[PHI + 2] = sa_head * ARCMIN;
+    for k in 0..3 {
+        s0[DV + k] = sv;
+        s0[EPS + k] = noise.gyro_bias.0;
+        s0[NABLA + k] = noise.accel_bias.0;
+    }
+    let (rm, rn) = match &scn.route {
+        super::scenario::RouteKind::Motion { start, .. } => {
+            let (a, b) = crate::geodesy::radii(start.lat);
+            (a, b * start.lat.cos())
+        }
+        super::scenario::RouteKind::Map { waypoints, .. } => {
+            let lat = waypoints[0][0].to_radians();
+            let (a, b) = crate::geodesy::radii(lat);
+            (a, b * lat.cos())
+        }
+    };
+    s0[DP] = sp_h / rm;
+    s0[DP + 1] = sp_h / rn;
+    s0[DP + 2] = sp_v;
+    s0[KOD] = odo_sigma;
+    s0[ATHETA] = mis_sigma;
+    s0[APSI] = mis_sigma;
+    s0[RW] = 0.01;
+    s0[RW + 1] = 0.01;
+    s0[BARO] = baro_sigma;
+    let mut cfg = FilterConfig::new(noise, s0);
+    cfg.interval_s = f.interval_s.unwrap_or(0.1);
+    let odo_t = f.odometer_interval_s.unwrap_or(0.1);
+    let n = (odo_t / scn.dt).round().max(1.0);
+    let o = &scn.odometer;
+    cfg.odo_noise_mps = f.odometer_noise_mps.unwrap_or_else(|| {
+        ((o.noise_mps * o.noise_mps / n) + (o.pulse_m / odo_t).powi(2) / 6.0 + 0.01f64.powi(2)).sqrt()
+    });
+    cfg.nhc_noise_mps = f.nhc_noise_mps.unwrap_or(0.05);
+    cfg.use_nhc = scn
+        .file
+        .aiding
+        .non_holonomic
+        .unwrap_or(scn.file.aiding.odometer);
+    cfg.sage_husa_b = sage;
+    cfg
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Meas {
+    Odometer(f64),
+    Constraints,
+    Height(f64),
+    Tag(usize),
+    Fix(f64, f64),
+}
+
+/// One integrated run.
+pub fn run_integrated(
+    scn: &Scenario,
+    truth: &TruthSource,
+    prep: &Prepared,
+    seed: u64,
+    run: u64,
+) -> RunResult {
+    let dt = scn.dt;
+    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * dt;
+    let body = truth.samples().take_while(move |a| a.t <= cap);
+    let mut samples = ideal_imu(body.map(move |a| imu_frame(a, None)), dt);
+    let every = ((scn.output_interval_s / dt).round() as u64).max(1);
+    let mut rec = Recorder {
+        every,
+        rows: Vec::with_capacity((truth.duration_s() / scn.output_interval_s) as usize + 2),
+        pending: None,
+    };
+    let Some(first) = samples.next() else {
+        return RunResult {
+            run,
+            rows: vec![],
+            tag_events: vec![],
+            counts: None,
+        };
+    };
+    let aid = scn.file.aiding;
+    let cfg = filter_config(scn);
+    let mut est0 = initial_estimate(scn, &first.avp.state);
+    let mut init = stream(seed, run, ids::INIT);
+    {
+        // Random initial errors drawn per run (the prior the filter assumes).
+        let n = &scn.file.navigator;
+        let [sl, sh] = n.initial_attitude_sigma_arcmin.map(|x| x * ARCMIN);
+        let phi = [sl * normal(&mut init), sl * normal(&mut init), sh * normal(&mut init)];
+        est0.q = crate::attitude::Quat::from_rotvec(phi).mul(&est0.q).normalized();
+        let sv = n.initial_velocity_sigma_mps;
+        for k in 0..3 {
+            est0.v[k] += sv * normal(&mut init);
+        }
+        let [ph, pv] = n.initial_position_sigma_m;
+        let (rm, rn) = crate::geodesy::radii(est0.lat);
+        est0.lat += ph * normal(&mut init) / (rm + est0.h);
+        est0.lon += ph * normal(&mut init) / ((rn + est0.h) * est0.lat.cos());
+        est0.h += pv * normal(&mut init);
+    }
+    let mut filter = Filter::new(est0, first.avp.t, dt, cfg);
+    let p = filter.position_cov_enu();
+    rec.record_cov(0, &first.avp, est0.lat, est0.lon, est0.h, Some(p));
+    // Per-run turn-on biases.
+    let mut imu_model = scn.imu;
+    let gr = scn.file.imu.gyro_bias_random_dph * DPH;
+    let ar = scn.file.imu.accel_bias_random_ug * 1e-6 * G0;
+    for k in 0..3 {
+        imu_model.gyro_bias[k] += gr * normal(&mut init);
+        imu_model.accel_bias[k] += ar * normal(&mut init);
+    }
+    let mut imu = Imu::new(&imu_model, dt, stream(seed, run, ids::IMU));
+    let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
+    let mut odo = Odometer::new(&scn.odometer, stream(seed, run, ids::ODOMETER));
+    let odo_every = ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / dt).round() as u64).max(1);
+    let mut odo_acc = 0.0;
+    let mut last_distance = first.avp.distance_m;
+    let mut rfid_rng = stream(seed, run, RFID_STREAM);
+    let reads = if aid.rfid {
+        draw_reads(&prep.passes, &prep.tags, &scn.rfid, &mut rfid_rng)
+    } else {
+        vec![]
+    };
+    let mut next_read = 0usize;
+    let mut tag_events = Vec::with_capacity(reads.len());
+    // External fix source.
+    let mut fix_rng = stream(seed, run, FIX_STREAM);
+    let xf = scn.file.external_fix.clone().filter(|_| aid.external_fix);
+    let gap = |rng: &mut rand_chacha::ChaCha8Rng, x: &super::scenario::ExternalFixSection| {
+        let [a, b] = x.interval_s;
+        a + (b - a) * rng.random::<f64>()
+    };
+    let mut next_fix = xf.as_ref().map_or(f64::INFINITY, |x| first.avp.t + gap(&mut fix_rng, x));
+    let mut last_fix_t = first.avp.t;
+    let mut fix_rw = [0.0f64; 2];
+    let mut queue: MeasurementQueue<Meas> = MeasurementQueue::default();
+    let mut k = 0u64;
+    for s in samples {
+        k += 1;
+        let t = s.avp.t;
+        let m = imu.measure(&s.imu);
+        filter.step(&m);
+        // Sensors due at this epoch.
+        let d_true = s.avp.distance_m - last_distance;
+        last_distance = s.avp.distance_m;
+        // A failed odometer reads nothing: zero distance.
+        odo_acc += odo.measure(t, s.avp.distance_m, d_true, dt).unwrap_or(0.0);
+        if k % odo_every == 0 {
+            if aid.odometer {
+                queue.push(t, Meas::Odometer(odo_acc));
+            } else if cfg.use_nhc {
+                queue.push(t, Meas::Constraints);
+            }
+            odo_acc = 0.0;
+        }
+        if aid.baro {
+            if let Some(h) = baro.measure(t, s.avp.state.h) {
+                queue.push(t, Meas::Height(h));
+            }
+        }
+        while next_read < reads.len() && reads[next_read].t <= t {
+            queue.push(reads[next_read].t, Meas::Tag(next_read));
+            next_read += 1;
+        }
+        if let Some(x) = &xf {
+            if t >= next_fix {
+                let gap_s = t - last_fix_t;
+                last_fix_t = t;
+                next_fix = t + gap(&mut fix_rng, x);
+                let (rm, rn) = crate::geodesy::radii(s.avp.state.lat);
+                for r in fix_rw.iter_mut() {
+                    *r += x.random_walk_m_per_rts * gap_s.sqrt() * normal(&mut fix_rng);
+                }
+                let we = x.white_m * normal(&mut fix_rng);
+                let wn = x.white_m * normal(&mut fix_rng);
+                let lat = s.avp.state.lat + (fix_rw[1] + wn) / rm;
+                let lon = s.avp.state.lon + (fix_rw[0] + we) / (rn * s.avp.state.lat.cos());
+                queue.push(t, Meas::Fix(lat, lon));
+            }
+        }
+        while let Some((tm, meas)) = queue.pop_due(t) {
+            match meas {
+                Meas::Odometer(ds) => {
+                    filter.update_odometer(ds);
+                }
+                Meas::Constraints => {
+                    filter.update_constraints();
+                }
+                Meas::Height(h) => {
+                    let var = scn.baro.noise_m.powi(2).max(0.01);
+                    filter.update_height(tm, h, var);
+                }
+                Meas::Tag(i) => {
+                    let r = &reads[i];
+                    let tag = &prep.tags[r.tag];
+                    let st = filter.state();
+                    let speed = st.v[0].hypot(st.v[1]);
+                    let f = st.q.rotate([0.0, 1.0, 0.0]);
+                    let fh = f[0].hypot(f[1]).max(1e-9);
+                    let (fe, fn_) = (f[0] / fh, f[1] / fh);
+                    let (sa, sc) = scn.rfid.fix_sigmas(r.mounting, speed);
+                    // R = sa² f fᵀ + sc² r rᵀ with r = (fn, −fe).
+                    let (a2, c2) = (sa * sa, sc * sc);
+                    let cov = [
+                        [a2 * fe * fe + c2 * fn_ * fn_, (a2 - c2) * fe * fn_],
+                        [(a2 - c2) * fe * fn_, a2 * fn_ * fn_ + c2 * fe * fe],
+                    ];
+                    let o = filter.update_position(
+                        tm,
+                        r.lat,
+                        r.lon,
+                        r.height_m,
+                        cov,
+                        scn.rfid.height_sigma_m.powi(2).max(1e-4),
+                    );
+                    tag_events.push(TagEvent {
+                        tag_id: tag.id.clone(),
+                        t_s: tm,
+                        accepted: o.accepted,
+                        nis: o.nis,
+                    });
+                }
+                Meas::Fix(lat, lon) => {
+                    let x = xf.as_ref().expect("fix source");
+                    let w = x.filter_white_m.unwrap_or(x.white_m).max(1e-3);
+                    filter.update_external_fix(tm, lat, lon, w * w);
+                }
+            }
+        }
+        let st = filter.state();
+        if rec.due(k) {
+            let cov = Some(filter.position_cov_enu());
+            rec.record_cov(k, &s.avp, st.lat, st.lon, st.h, cov);
+        } else {
+            rec.pending = Some((s.avp, st.lat, st.lon, st.h, None));
+        }
+    }
+    if let Some(p) = rec.pending.as_mut() {
+        p.4 = Some(filter.position_cov_enu());
+    }
+    RunResult {
+        run,
+        rows: rec.finish(),
+        tag_events,
+        counts: Some(filter.counts),
+    }
+}
