@@ -93,5 +93,40 @@ fn simulate_300km(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, mechanization, simulate_300km);
+fn simulate_300km_filter(c: &mut Criterion) {
+    // The full filter: 21 states, 100 Hz IMU, 10 Hz odometer + constraints,
+    // 10 Hz baro, four tag fixes; one run on one thread.
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/rfid-paper-integrated-tags.toml");
+    let scn = Scenario::load(&path).unwrap();
+    let truth = TruthSource::new(&scn).unwrap();
+    let samples = (truth.duration_s() / scn.dt) as u64;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let mut g = c.benchmark_group("simulate");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(samples));
+    g.bench_function("route_3.6h_300km_100Hz_integrated_filter", |b| {
+        b.iter(|| {
+            pool.install(|| {
+                black_box(
+                    simulate(&scn, &truth, 1, 1)
+                        .unwrap()
+                        .summary
+                        .max_horizontal_error_m,
+                )
+            })
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    mechanization,
+    simulate_300km,
+    simulate_300km_filter
+);
 criterion_main!(benches);

@@ -56,7 +56,9 @@ enum Command {
     /// Simulates a scenario: truth, sensors and navigator; writes errors.csv and summary.json.
     #[command(
         after_help = "Examples:\n  waymark simulate scenarios/schuler-accel-bias.toml --out /tmp/schuler\n  \
-        waymark simulate scenarios/dr3d-paper.toml --runs 10 --seed 7 --out /tmp/dr3d"
+        waymark simulate scenarios/dr3d-paper.toml --runs 10 --seed 7 --out /tmp/dr3d\n  \
+        waymark simulate scenarios/nees-consistency.toml --runs 100 --out /tmp/nees\n  \
+        waymark simulate drive.toml --tags tags.csv --runs 20 --out /tmp/drive"
     )]
     Simulate {
         /// The scenario file (TOML).
@@ -192,8 +194,10 @@ fn simulate(
     let bar = if runs > 1 && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         let b = indicatif::ProgressBar::new(runs);
         b.set_style(
-            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} (eta {eta})")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} runs, {elapsed} (eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         b
     } else {
@@ -219,6 +223,36 @@ fn simulate(
         s.final_error_enu_m[1],
         s.final_error_enu_m[2],
     );
+    if let Some(n) = &s.nees {
+        println!(
+            "filter consistency: run-averaged horizontal NEES {:.2} (95 % band {:.2}..{:.2} for {} run(s)), inside the band {:.0} % of the time, above {:.0} %",
+            n.mean,
+            n.band_95[0],
+            n.band_95[1],
+            n.runs,
+            100.0 * n.fraction_within_band,
+            100.0 * n.fraction_above_band
+        );
+    }
+    if let Some(t) = &s.tags {
+        println!(
+            "tag reads: {} accepted, {} rejected by the gate (all runs)",
+            t.accepted, t.rejected
+        );
+        for e in &t.rejected_run0 {
+            println!(
+                "  run 0: tag {} read at {:.1} s rejected (NIS {:.1})",
+                e.tag_id, e.t_s, e.nis
+            );
+        }
+    }
+    if let (Some(r), Some(n)) = (s.requirement_m, s.runs_exceeding_requirement) {
+        println!(
+            "requirement {r} m: {n} of {} run(s) exceed it; within it {:.1} % of the time",
+            s.runs,
+            100.0 * s.fraction_within_requirement.unwrap_or(0.0)
+        );
+    }
     println!(
         "wrote {} and {} in {:.2} s",
         out.join("errors.csv").display(),

@@ -3,6 +3,8 @@
 //! a subset of the filter's, the update machinery (time order, gating,
 //! Sage–Husa weight) and the papers' experiments as scenarios.
 
+#![allow(clippy::needless_range_loop)]
+
 use std::path::Path;
 use waymark::attitude::{Quat, V3};
 use waymark::geodesy::{radii, EarthState};
@@ -82,8 +84,12 @@ fn paper_13_states_are_a_strict_subset_and_odometer_rows_reduce_to_h_od() {
     // The paper's H_OD (v_D^n = v): rows E and N.
     let (ve, vn, vu) = (v[0], v[1], v[2]);
     let h_od: [[f64; 13]; 2] = [
-        [1.0, 0.0, 0.0, vu, -vn, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -ve],
-        [0.0, 1.0, -vu, 0.0, ve, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -vn],
+        [
+            1.0, 0.0, 0.0, vu, -vn, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -ve,
+        ],
+        [
+            0.0, 1.0, -vu, 0.0, ve, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -vn,
+        ],
     ];
     for r in 0..2 {
         for (p, &i) in PAPER.iter().enumerate() {
@@ -127,7 +133,11 @@ fn paper_13_states_are_a_strict_subset_and_odometer_rows_reduce_to_h_od() {
 /// Position error (m, east north up) of a geodetic error state.
 fn pos_m(x: &[f64; N], lat: f64, h: f64) -> V3 {
     let (rm, rn) = radii(lat);
-    [x[DP + 1] * (rn + h) * lat.cos(), x[DP] * (rm + h), x[DP + 2]]
+    [
+        x[DP + 1] * (rn + h) * lat.cos(),
+        x[DP] * (rm + h),
+        x[DP + 2],
+    ]
 }
 
 #[test]
@@ -178,8 +188,16 @@ fn error_model_propagation_matches_the_mechanization() {
     let t0 = first.avp.state;
     let phi0: V3 = [1e-4, -8e-5, 5e-4];
     let dv0: V3 = [0.05, -0.03, 0.0];
-    let dp0 = [3.0 / radii(t0.lat).0, -2.0 / (radii(t0.lat).1 * t0.lat.cos()), 0.0];
-    let eps: V3 = [0.02f64.to_radians() / 3600.0, -0.01f64.to_radians() / 3600.0, 0.03f64.to_radians() / 3600.0];
+    let dp0 = [
+        3.0 / radii(t0.lat).0,
+        -2.0 / (radii(t0.lat).1 * t0.lat.cos()),
+        0.0,
+    ];
+    let eps: V3 = [
+        0.02f64.to_radians() / 3600.0,
+        -0.01f64.to_radians() / 3600.0,
+        0.03f64.to_radians() / 3600.0,
+    ];
     let nab: V3 = [1e-3, -5e-4, 0.0];
     let est = NavState {
         q: Quat::from_rotvec([-phi0[0], -phi0[1], -phi0[2]]).mul(&t0.q),
@@ -259,7 +277,10 @@ fn error_model_propagation_matches_the_mechanization() {
     // Jacobian test below checks them entry by entry.
     assert!(t > 1190.0);
     assert!(a[0].hypot(a[1]) > 100.0, "errors too small to test: {a:?}");
-    assert!(worst < 0.005, "worst relative mismatch {worst}; last actual {a:?} model {m:?}");
+    assert!(
+        worst < 0.005,
+        "worst relative mismatch {worst}; last actual {a:?} model {m:?}"
+    );
 }
 
 #[test]
@@ -292,7 +313,10 @@ fn covariance_propagation_follows_the_schuler_closed_form() {
         let sn = cov.p[DP][DP].sqrt() * rm;
         let expect = r * tilt * (1.0 - (ws * t).cos());
         // Earth-rate couplings (Foucault) the closed form leaves out: 2 %.
-        assert!((sn / expect - 1.0).abs() < 0.02, "t {t}: σN {sn} vs {expect}");
+        assert!(
+            (sn / expect - 1.0).abs() < 0.02,
+            "t {t}: σN {sn} vs {expect}"
+        );
     }
 }
 
@@ -352,7 +376,11 @@ fn nees_is_consistent_over_100_runs() {
     let r = run_scenario("scenarios/nees-consistency.toml", 100, 1);
     let n = r.summary.nees.as_ref().expect("nees");
     assert_eq!(n.runs, 100);
-    assert!((n.band_95[0] - 1.63).abs() < 0.02 && (n.band_95[1] - 2.41).abs() < 0.02, "{:?}", n.band_95);
+    assert!(
+        (n.band_95[0] - 1.63).abs() < 0.02 && (n.band_95[1] - 2.41).abs() < 0.02,
+        "{:?}",
+        n.band_95
+    );
     assert!(n.fraction_within_band > 0.5, "{n:?}");
     assert!(n.fraction_above_band < 0.1, "{n:?}");
     assert!(n.mean > 1.3 && n.mean < 2.6, "{n:?}");
@@ -362,10 +390,19 @@ fn nees_is_consistent_over_100_runs() {
 fn misplaced_and_rogue_tags_are_rejected() {
     let r = run_scenario("scenarios/misplaced-tag.toml", 4, 3);
     let tags = r.summary.tags.as_ref().unwrap();
-    let ids: Vec<&str> = tags.rejected_run0.iter().map(|e| e.tag_id.as_str()).collect();
+    let ids: Vec<&str> = tags
+        .rejected_run0
+        .iter()
+        .map(|e| e.tag_id.as_str())
+        .collect();
     assert_eq!(ids, ["misplaced-50m", "rogue"]);
     for run in &r.runs {
-        let rejected: Vec<&str> = run.tag_events.iter().filter(|e| !e.accepted).map(|e| e.tag_id.as_str()).collect();
+        let rejected: Vec<&str> = run
+            .tag_events
+            .iter()
+            .filter(|e| !e.accepted)
+            .map(|e| e.tag_id.as_str())
+            .collect();
         assert_eq!(rejected, ["misplaced-50m", "rogue"], "run {}", run.run);
         // The five good tags (read probability 1) are all accepted.
         assert_eq!(run.tag_events.iter().filter(|e| e.accepted).count(), 5);
@@ -380,8 +417,14 @@ fn rfid_paper_experiment() {
     // PAPERS.md §1.5. SINS/OD (odometer healthy) holds 20 m for "about 1.5 h":
     // measured 6335 s (1.76 h); accepted 1.2–2.5 h.
     let od = run_scenario("scenarios/rfid-paper-integrated.toml", 1, 1);
-    let t = od.summary.time_to_exceed_requirement_s.expect("exceeds 20 m at some time");
-    assert!((1.2 * 3600.0..2.5 * 3600.0).contains(&t), "SINS/OD exceeds 20 m at {t} s");
+    let t = od
+        .summary
+        .time_to_exceed_requirement_s
+        .expect("exceeds 20 m at some time");
+    assert!(
+        (1.2 * 3600.0..2.5 * 3600.0).contains(&t),
+        "SINS/OD exceeds 20 m at {t} s"
+    );
     // Odometer failed from 3600 s: more than 100 m (measured 1.4 km), and the
     // gate disabled the odometer rather than trusting zero readings.
     let fail = run_scenario("scenarios/rfid-paper-integrated-odfail.toml", 1, 1);
@@ -392,7 +435,11 @@ fn rfid_paper_experiment() {
     // With the four tag fixes (odometer healthy): within 20 m for the whole
     // 3.6 h (measured max 18.3 m).
     let tags = run_scenario("scenarios/rfid-paper-integrated-tags.toml", 1, 1);
-    assert_eq!(tags.summary.time_to_exceed_requirement_s, None, "{}", tags.summary.max_horizontal_error_m);
+    assert_eq!(
+        tags.summary.time_to_exceed_requirement_s, None,
+        "{}",
+        tags.summary.max_horizontal_error_m
+    );
     assert_eq!(tags.summary.tags.as_ref().unwrap().accepted, 4);
     assert!(tags.summary.duration_s > 12_800.0 && tags.summary.distance_m > 290_000.0);
 }
@@ -404,7 +451,11 @@ fn dr3d_paper_sins_dr_at_50_minutes() {
     // the track and the altimeter's 0.3 % scale error; accepted within ±50 %
     // of the paper's horizontal and vertical figures (measured 25.0 m, 7.8 m).
     let r = run_scenario("scenarios/dr3d-paper-integrated.toml", 1, 1);
-    let row = r.runs[0].rows.iter().find(|x| (x.t_s - 3000.0).abs() < 0.5).unwrap();
+    let row = r.runs[0]
+        .rows
+        .iter()
+        .find(|x| (x.t_s - 3000.0).abs() < 0.5)
+        .unwrap();
     let h = row.horizontal_m;
     assert!((15.0..45.0).contains(&h), "horizontal {h}");
     assert!((4.7..14.1).contains(&row.up_m.abs()), "up {}", row.up_m);
@@ -425,7 +476,11 @@ fn gravity_matching_sage_husa_against_standard() {
     let ch = sh.summary.updates_run0.unwrap();
     assert!(cs.external_rejected > cs.external_accepted / 2, "{cs:?}");
     assert_eq!(ch.external_rejected, 0, "{ch:?}");
-    assert!(sh.summary.max_horizontal_error_m < 120.0, "{}", sh.summary.max_horizontal_error_m);
+    assert!(
+        sh.summary.max_horizontal_error_m < 120.0,
+        "{}",
+        sh.summary.max_horizontal_error_m
+    );
     assert!(std.summary.max_horizontal_error_m > 2.0 * sh.summary.max_horizontal_error_m);
     // Height from the baro (2 m noise): within the paper's ±11.5 m.
     for run in &sh.runs {
@@ -439,7 +494,10 @@ fn same_seed_same_monte_carlo() {
     let b = run_scenario("scenarios/misplaced-tag.toml", 3, 9);
     assert_eq!(a.summary, b.summary);
     let c = run_scenario("scenarios/misplaced-tag.toml", 3, 10);
-    assert_ne!(a.summary.rms_horizontal_error_m, c.summary.rms_horizontal_error_m);
+    assert_ne!(
+        a.summary.rms_horizontal_error_m,
+        c.summary.rms_horizontal_error_m
+    );
 }
 
 #[test]
@@ -471,7 +529,11 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
         let (rm, rn) = (rm0 + h, rn0 + h);
         let wie = [0.0, w * lat.cos(), w * lat.sin()];
         let wen = [-v[1] / rm, v[0] / rn, v[0] * lat.tan() / rn];
-        let a = [2.0 * wie[0] + wen[0], 2.0 * wie[1] + wen[1], 2.0 * wie[2] + wen[2]];
+        let a = [
+            2.0 * wie[0] + wen[0],
+            2.0 * wie[1] + wen[1],
+            2.0 * wie[2] + wen[2],
+        ];
         let g = waymark::geodesy::normal_gravity(lat, h);
         let cor = waymark::attitude::cross(a, v);
         [
@@ -487,9 +549,25 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
         ]
     };
     // Rows of F: δL̇, δλ̇, δḣ at DP; δv̇ at DV; φ̇ at PHI (δω_in part only).
-    let rows = [DP, DP + 1, DP + 2, DV, DV + 1, DV + 2, PHI, PHI + 1, PHI + 2];
+    let rows = [
+        DP,
+        DP + 1,
+        DP + 2,
+        DV,
+        DV + 1,
+        DV + 2,
+        PHI,
+        PHI + 1,
+        PHI + 2,
+    ];
     let mut worst = 0.0f64;
-    for (col, step) in [(DV, 1e-3), (DV + 1, 1e-3), (DV + 2, 1e-3), (DP, 1e-7), (DP + 2, 1e-2)] {
+    for (col, step) in [
+        (DV, 1e-3),
+        (DV + 1, 1e-3),
+        (DV + 2, 1e-3),
+        (DP, 1e-7),
+        (DP + 2, 1e-2),
+    ] {
         let (mut a, mut b) = ((lat, h, v), (lat, h, v));
         match col {
             c if (DV..DV + 3).contains(&c) => {
@@ -513,7 +591,10 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
             let scale = num.abs().max(ana.abs()).max(1e-12);
             let rel = (num - ana).abs() / scale;
             let tiny = num.abs().max(ana.abs()) < 1e-12;
-            assert!(tiny || rel < 1e-4, "F[{row}][{col}]: analytic {ana:e}, numerical {num:e}");
+            assert!(
+                tiny || rel < 1e-4,
+                "F[{row}][{col}]: analytic {ana:e}, numerical {num:e}"
+            );
             if !tiny {
                 worst = worst.max(rel);
             }

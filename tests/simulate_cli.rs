@@ -393,8 +393,28 @@ fn bad_scenarios_give_clear_errors() {
         "kind \"fly\"",
     );
     bad(
-        &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n"),
-        "Kalman filter",
+        &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[imu]\nrotation_modulation = {{ rate_dps = 6 }}\n"),
+        "rotation_modulation",
+    );
+    bad(
+        &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[[tag]]\nat_s = 3\nmounting = \"wall\"\n"),
+        "tag[0].mounting \"wall\"",
+    );
+    bad(
+        &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[[tag]]\nlat = 30.0\nat_s = 3\n"),
+        "tag[0] needs exactly one of lat+lon, at_s and at_m",
+    );
+    bad(
+        &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[[tag]]\nat_s = 3000\n"),
+        "tag[0].at_s = 3000 is beyond the end of the route",
+    );
+    bad(
+        &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[aiding]\nexternal_fix = true\n"),
+        "aiding.external_fix needs an [external_fix] section",
+    );
+    bad(
+        &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[external_fix]\ninterval_s = [10, 50]\nwhite_m = 5\nadaptive = \"magic\"\n"),
+        "external_fix.adaptive \"magic\"",
     );
     bad(
         &format!("name = \"x\"\n{GOOD_ROUTE}\n[odometer]\nfailure = {{ from_s = -5 }}\n"),

@@ -16,6 +16,8 @@
 //! - N_E, N_N (18, 19): random-walk error of an external position fix (m);
 //! - b_h (20): barometer bias (m).
 
+#![allow(clippy::needless_range_loop)] // index-heavy small-matrix algebra
+
 use crate::attitude::{M3, V3};
 use crate::geodesy::EarthState;
 
@@ -129,7 +131,11 @@ pub fn system_matrix(m: &ErrorModelInput, noise: &NoiseModel) -> Mat {
 
 /// Calls `put(i, j, F_ij)` for every structurally non-zero entry of F.
 #[inline]
-pub fn system_sparse(m: &ErrorModelInput, noise: &NoiseModel, mut put: impl FnMut(usize, usize, f64)) {
+pub fn system_sparse(
+    m: &ErrorModelInput,
+    noise: &NoiseModel,
+    mut put: impl FnMut(usize, usize, f64),
+) {
     let e = &m.eth;
     let [ve, vn, _vu] = m.v;
     let rm = e.rm_h;
@@ -164,11 +170,7 @@ pub fn system_sparse(m: &ErrorModelInput, noise: &NoiseModel, mut put: impl FnMu
     }
     let mvp = mm(&vx, &mp12);
     let mva = skew(m.f_n);
-    let mpv: M3 = [
-        [0.0, 1.0 / rm, 0.0],
-        [secl / rn, 0.0, 0.0],
-        [0.0, 0.0, 1.0],
-    ];
+    let mpv: M3 = [[0.0, 1.0 / rm, 0.0], [secl / rn, 0.0, 0.0], [0.0, 0.0, 1.0]];
     let mpp: M3 = [
         [0.0, 0.0, -vn / (rm * rm)],
         [ve * secl * tl / rn, 0.0, -ve * secl / (rn * rn)],
@@ -330,7 +332,11 @@ impl Covariance {
     }
 
     /// Innovation covariance S = H P H^T + R and P H^T for an M-row measurement.
-    fn innovation<const M: usize>(&self, h: &[[f64; N]; M], r: &[[f64; M]; M]) -> ([[f64; M]; N], [[f64; M]; M]) {
+    fn innovation<const M: usize>(
+        &self,
+        h: &[[f64; N]; M],
+        r: &[[f64; M]; M],
+    ) -> ([[f64; M]; N], [[f64; M]; M]) {
         let mut pht = [[0.0; M]; N];
         for i in 0..N {
             for m in 0..M {
@@ -390,7 +396,7 @@ impl Covariance {
             );
         };
         let nis = quad(&si, z);
-        if !(nis <= gate) {
+        if nis.is_nan() || nis > gate {
             return (
                 UpdateOutcome {
                     accepted: false,
@@ -469,7 +475,7 @@ pub fn chol_inv<const M: usize>(a: &[[f64; M]; M]) -> Option<[[f64; M]; M]> {
                 s -= l[i][k] * l[j][k];
             }
             if i == j {
-                if !(s > 0.0) {
+                if s.is_nan() || s <= 0.0 {
                     return None;
                 }
                 l[i][i] = s.sqrt();

@@ -16,6 +16,8 @@
 //! 99.9 % by default): a rejected measurement changes nothing and is reported
 //! in the returned [`UpdateOutcome`].
 
+#![allow(clippy::needless_range_loop)] // small fixed-size matrices by index
+
 use super::ekf::{
     Covariance, ErrorModelInput, NoiseModel, UpdateOutcome, APSI, ATHETA, BARO, DP, DV, EPS,
     GATE_999, KOD, N, NABLA, PHI, RW,
@@ -494,7 +496,9 @@ impl Filter {
                     self.cfg.gate[2],
                 )
             }
-            None => self.cov.update(&[ze, zn], &[he, hn], &cov_en, self.cfg.gate[1]),
+            None => self
+                .cov
+                .update(&[ze, zn], &[he, hn], &cov_en, self.cfg.gate[1]),
         };
         if o.accepted {
             self.feedback(&dx);
@@ -539,9 +543,12 @@ impl Filter {
         let mut row = [0.0; N];
         row[DP + 2] = 1.0;
         row[BARO] = -1.0;
-        let (o, dx) = self
-            .cov
-            .update(&[hh + self.baro_bias - h], &[row], &[[var]], self.cfg.gate[0]);
+        let (o, dx) = self.cov.update(
+            &[hh + self.baro_bias - h],
+            &[row],
+            &[[var]],
+            self.cfg.gate[0],
+        );
         if o.accepted {
             self.feedback(&dx);
             self.counts.height_accepted += 1;

@@ -10,7 +10,7 @@ pub mod vertical;
 
 pub use dead_reckoning::OdometerDr;
 pub use dr3d::Dr3d;
-pub use strapdown::{ImuIncrement, InverseStrapdown, NavState, PositionIntegrator, Strapdown};
-pub use integrated::{FilterConfig, Filter, FixPosition, MeasurementQueue};
 pub use ekf::UpdateOutcome;
+pub use integrated::{Filter, FilterConfig, FixPosition, MeasurementQueue};
+pub use strapdown::{ImuIncrement, InverseStrapdown, NavState, PositionIntegrator, Strapdown};
 pub use vertical::BaroDamping;

@@ -2,7 +2,9 @@
 //! [`Filter`] with odometer (+ constraints), barometer, RFID tag and external
 //! fix measurements, queued with their time stamps and applied in time order.
 
-use super::run::{imu_frame, initial_estimate, Prepared, Recorder, RunResult, TagEvent, TruthSource};
+use super::run::{
+    imu_frame, initial_estimate, Prepared, Recorder, RunResult, TagEvent, TruthSource,
+};
 use super::scenario::{Scenario, G0};
 use super::tags::{draw_reads, Mounting, Tag};
 use crate::error::Result;
@@ -115,9 +117,14 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
     });
     let sf = scn.odometer.scale_factor_error;
     let odo_sigma = f.odometer_scale_sigma.unwrap_or(sf.abs().max(5e-4));
-    let mis_sigma = f.odometer_misalignment_sigma_deg.unwrap_or(0.2).to_radians();
+    let mis_sigma = f
+        .odometer_misalignment_sigma_deg
+        .unwrap_or(0.2)
+        .to_radians();
     let b = &scn.baro;
-    let baro_sigma = (b.initial_bias_m.powi(2) + b.bias_drift_m.powi(2)).sqrt().max(0.1);
+    let baro_sigma = (b.initial_bias_m.powi(2) + b.bias_drift_m.powi(2))
+        .sqrt()
+        .max(0.1);
     let (fix_rw, sage) = match (&scn.file.external_fix, scn.file.aiding.external_fix) {
         (Some(x), true) => (
             x.random_walk_m_per_rts.max(1e-3),
@@ -136,11 +143,19 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
         // process with a correlation time much longer than the run.
         gyro_bias: (
             gyro_sigma_dph * DPH,
-            if imu.gyro_bias_instability_dph > 0.0 { imu.gyro_bias_tau_s } else { 1e6 },
+            if imu.gyro_bias_instability_dph > 0.0 {
+                imu.gyro_bias_tau_s
+            } else {
+                1e6
+            },
         ),
         accel_bias: (
             accel_sigma_ug * 1e-6 * G0,
-            if imu.accel_bias_instability_ug > 0.0 { imu.accel_bias_tau_s } else { 1e6 },
+            if imu.accel_bias_instability_ug > 0.0 {
+                imu.accel_bias_tau_s
+            } else {
+                1e6
+            },
         ),
         odo_scale: (odo_sigma, 36_000.0),
         odo_misalign: (mis_sigma, 36_000.0),
@@ -202,7 +217,8 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
     let n = (odo_t / scn.dt).round().max(1.0);
     let o = &scn.odometer;
     cfg.odo_noise_mps = f.odometer_noise_mps.unwrap_or_else(|| {
-        ((o.noise_mps * o.noise_mps / n) + (o.pulse_m / odo_t).powi(2) / 6.0 + 0.01f64.powi(2)).sqrt()
+        ((o.noise_mps * o.noise_mps / n) + (o.pulse_m / odo_t).powi(2) / 6.0 + 0.01f64.powi(2))
+            .sqrt()
     });
     cfg.nhc_noise_mps = f.nhc_noise_mps.unwrap_or(0.05);
     cfg.use_nhc = scn
@@ -258,8 +274,14 @@ pub fn run_integrated(
         // Random initial errors drawn per run (the prior the filter assumes).
         let n = &scn.file.navigator;
         let [sl, sh] = n.initial_attitude_sigma_arcmin.map(|x| x * ARCMIN);
-        let phi = [sl * normal(&mut init), sl * normal(&mut init), sh * normal(&mut init)];
-        est0.q = crate::attitude::Quat::from_rotvec(phi).mul(&est0.q).normalized();
+        let phi = [
+            sl * normal(&mut init),
+            sl * normal(&mut init),
+            sh * normal(&mut init),
+        ];
+        est0.q = crate::attitude::Quat::from_rotvec(phi)
+            .mul(&est0.q)
+            .normalized();
         let sv = n.initial_velocity_sigma_mps;
         for k in 0..3 {
             est0.v[k] += sv * normal(&mut init);
@@ -284,7 +306,8 @@ pub fn run_integrated(
     let mut imu = Imu::new(&imu_model, dt, stream(seed, run, ids::IMU));
     let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
     let mut odo = Odometer::new(&scn.odometer, stream(seed, run, ids::ODOMETER));
-    let odo_every = ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / dt).round() as u64).max(1);
+    let odo_every =
+        ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / dt).round() as u64).max(1);
     let mut odo_acc = 0.0;
     let mut last_distance = first.avp.distance_m;
     let mut rfid_rng = stream(seed, run, RFID_STREAM);
@@ -302,7 +325,9 @@ pub fn run_integrated(
         let [a, b] = x.interval_s;
         a + (b - a) * rng.random::<f64>()
     };
-    let mut next_fix = xf.as_ref().map_or(f64::INFINITY, |x| first.avp.t + gap(&mut fix_rng, x));
+    let mut next_fix = xf
+        .as_ref()
+        .map_or(f64::INFINITY, |x| first.avp.t + gap(&mut fix_rng, x));
     let mut last_fix_t = first.avp.t;
     let mut fix_rw = [0.0f64; 2];
     let mut queue: MeasurementQueue<Meas> = MeasurementQueue::default();

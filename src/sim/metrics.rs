@@ -151,7 +151,9 @@ fn profile_and_nees(runs: &[RunResult]) -> (Vec<ProfilePoint>, Option<NeesSummar
             },
         });
     }
-    let has = runs.first().is_some_and(|r| r.rows.iter().any(|x| x.nees_h.is_finite()));
+    let has = runs
+        .first()
+        .is_some_and(|r| r.rows.iter().any(|x| x.nees_h.is_finite()));
     if !has {
         return (profile, None);
     }

@@ -10,5 +10,7 @@ pub mod scenario;
 pub mod tags;
 
 pub use metrics::Summary;
-pub use run::{simulate, simulate_with, ErrorRow, Prepared, RunResult, SimResult, TagEvent, TruthSource};
+pub use run::{
+    simulate, simulate_with, ErrorRow, Prepared, RunResult, SimResult, TagEvent, TruthSource,
+};
 pub use scenario::{NavMode, Scenario};

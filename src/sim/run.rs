@@ -7,6 +7,7 @@
 
 use super::metrics::{summarize, Summary};
 use super::scenario::{NavMode, RouteKind, Scenario, VerticalChannel};
+use super::tags::{find_passes, Tag, TagPass};
 use crate::attitude::{scale, Quat, V3};
 use crate::error::Result;
 use crate::geodesy::radii;
@@ -16,7 +17,6 @@ use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, DiffOdometer, Imu, Odometer, RotationModulation};
 use crate::trajectory::route::RoutePlan;
 use crate::trajectory::{ideal_imu, Avp, MotionPlan};
-use super::tags::{find_passes, Tag, TagPass};
 use rayon::prelude::*;
 
 /// Default time constant of the baro damping loop (s).
@@ -316,7 +316,8 @@ impl Recorder {
             Some(c) => {
                 let det = c[0][0] * c[1][1] - c[0][1] * c[1][0];
                 let nees = if det > 0.0 {
-                    (e[0] * e[0] * c[1][1] - 2.0 * e[0] * e[1] * c[0][1] + e[1] * e[1] * c[0][0]) / det
+                    (e[0] * e[0] * c[1][1] - 2.0 * e[0] * e[1] * c[0][1] + e[1] * e[1] * c[0][0])
+                        / det
                 } else {
                     f64::NAN
                 };

@@ -952,11 +952,36 @@ impl Scenario {
                 100.0,
             )?;
         }
-        c.range("navigator.initial_attitude_sigma_arcmin[0]", n.initial_attitude_sigma_arcmin[0], 0.0, 600.0)?;
-        c.range("navigator.initial_attitude_sigma_arcmin[1]", n.initial_attitude_sigma_arcmin[1], 0.0, 600.0)?;
-        c.range("navigator.initial_position_sigma_m[0]", n.initial_position_sigma_m[0], 0.0, 1e5)?;
-        c.range("navigator.initial_position_sigma_m[1]", n.initial_position_sigma_m[1], 0.0, 1e5)?;
-        c.range("navigator.initial_velocity_sigma_mps", n.initial_velocity_sigma_mps, 0.0, 100.0)?;
+        c.range(
+            "navigator.initial_attitude_sigma_arcmin[0]",
+            n.initial_attitude_sigma_arcmin[0],
+            0.0,
+            600.0,
+        )?;
+        c.range(
+            "navigator.initial_attitude_sigma_arcmin[1]",
+            n.initial_attitude_sigma_arcmin[1],
+            0.0,
+            600.0,
+        )?;
+        c.range(
+            "navigator.initial_position_sigma_m[0]",
+            n.initial_position_sigma_m[0],
+            0.0,
+            1e5,
+        )?;
+        c.range(
+            "navigator.initial_position_sigma_m[1]",
+            n.initial_position_sigma_m[1],
+            0.0,
+            1e5,
+        )?;
+        c.range(
+            "navigator.initial_velocity_sigma_mps",
+            n.initial_velocity_sigma_mps,
+            0.0,
+            100.0,
+        )?;
         for (i, x) in n.initial_position_error_m.iter().enumerate() {
             c.range(
                 &format!("navigator.initial_position_error_m[{i}]"),
@@ -976,25 +1001,85 @@ impl Scenario {
                 }
                 Ok(())
             };
-            opt("read_probability", p.read_probability, 0.0, 1.0, &mut rfid.read_probability)?;
-            opt("lane_width_m", p.lane_width_m, 1.0, 10.0, &mut rfid.lane_width_m)?;
-            opt("roadside_distance_m", p.roadside_distance_m, 0.0, 50.0, &mut rfid.roadside_distance_m)?;
+            opt(
+                "read_probability",
+                p.read_probability,
+                0.0,
+                1.0,
+                &mut rfid.read_probability,
+            )?;
+            opt(
+                "lane_width_m",
+                p.lane_width_m,
+                1.0,
+                10.0,
+                &mut rfid.lane_width_m,
+            )?;
+            opt(
+                "roadside_distance_m",
+                p.roadside_distance_m,
+                0.0,
+                50.0,
+                &mut rfid.roadside_distance_m,
+            )?;
             let mut ang = rfid.roadside_angle.to_degrees();
-            opt("roadside_angle_deg", p.roadside_angle_deg, 0.0, 80.0, &mut ang)?;
+            opt(
+                "roadside_angle_deg",
+                p.roadside_angle_deg,
+                0.0,
+                80.0,
+                &mut ang,
+            )?;
             rfid.roadside_angle = ang.to_radians();
-            opt("read_time_s", p.read_time_s, 0.0, 1.0, &mut rfid.read_time_s)?;
-            opt("roadside_range_m", p.roadside_range_m, 0.5, 100.0, &mut rfid.roadside_range_m)?;
-            opt("road_surface_sigma_m", p.road_surface_sigma_m, 0.0, 0.5, &mut rfid.road_surface_sigma_m)?;
-            opt("ceiling_sigma_m", p.ceiling_sigma_m, 0.0, 0.3, &mut rfid.ceiling_sigma_m)?;
-            opt("height_sigma_m", p.height_sigma_m, 0.0, 100.0, &mut rfid.height_sigma_m)?;
+            opt(
+                "read_time_s",
+                p.read_time_s,
+                0.0,
+                1.0,
+                &mut rfid.read_time_s,
+            )?;
+            opt(
+                "roadside_range_m",
+                p.roadside_range_m,
+                0.5,
+                100.0,
+                &mut rfid.roadside_range_m,
+            )?;
+            opt(
+                "road_surface_sigma_m",
+                p.road_surface_sigma_m,
+                0.0,
+                0.5,
+                &mut rfid.road_surface_sigma_m,
+            )?;
+            opt(
+                "ceiling_sigma_m",
+                p.ceiling_sigma_m,
+                0.0,
+                0.3,
+                &mut rfid.ceiling_sigma_m,
+            )?;
+            opt(
+                "height_sigma_m",
+                p.height_sigma_m,
+                0.0,
+                100.0,
+                &mut rfid.height_sigma_m,
+            )?;
         }
         c.non_negative("imu.gyro_bias_random_dph", file.imu.gyro_bias_random_dph)?;
         c.non_negative("imu.accel_bias_random_ug", file.imu.accel_bias_random_ug)?;
         for (i, t) in file.tag.iter().enumerate() {
             let f = |n: &str| format!("tag[{i}].{n}");
-            let placed = [t.lat.is_some() && t.lon.is_some(), t.at_s.is_some(), t.at_m.is_some()];
+            let placed = [
+                t.lat.is_some() && t.lon.is_some(),
+                t.at_s.is_some(),
+                t.at_m.is_some(),
+            ];
             if placed.iter().filter(|x| **x).count() != 1 || t.lat.is_some() != t.lon.is_some() {
-                return Err(c.err(format!("tag[{i}] needs exactly one of lat+lon, at_s and at_m")));
+                return Err(c.err(format!(
+                    "tag[{i}] needs exactly one of lat+lon, at_s and at_m"
+                )));
             }
             if let Some(x) = t.lat {
                 c.range(&f("lat"), x, -89.0, 89.0)?;
@@ -1025,14 +1110,49 @@ impl Scenario {
         let fs = &file.filter;
         for (name, x, lo, hi) in [
             ("filter.interval_s", fs.interval_s, dt, 10.0),
-            ("filter.odometer_interval_s", fs.odometer_interval_s, dt, 10.0),
-            ("filter.odometer_noise_mps", fs.odometer_noise_mps, 1e-4, 10.0),
+            (
+                "filter.odometer_interval_s",
+                fs.odometer_interval_s,
+                dt,
+                10.0,
+            ),
+            (
+                "filter.odometer_noise_mps",
+                fs.odometer_noise_mps,
+                1e-4,
+                10.0,
+            ),
             ("filter.nhc_noise_mps", fs.nhc_noise_mps, 1e-4, 10.0),
-            ("filter.gyro_bias_sigma_dph", fs.gyro_bias_sigma_dph, 0.0, 1e4),
-            ("filter.accel_bias_sigma_ug", fs.accel_bias_sigma_ug, 0.0, 1e6),
-            ("filter.odometer_scale_sigma", fs.odometer_scale_sigma, 0.0, 0.5),
-            ("filter.odometer_misalignment_sigma_deg", fs.odometer_misalignment_sigma_deg, 0.0, 10.0),
-            ("filter.velocity_sigma_mps", fs.velocity_sigma_mps, 0.0, 100.0),
+            (
+                "filter.gyro_bias_sigma_dph",
+                fs.gyro_bias_sigma_dph,
+                0.0,
+                1e4,
+            ),
+            (
+                "filter.accel_bias_sigma_ug",
+                fs.accel_bias_sigma_ug,
+                0.0,
+                1e6,
+            ),
+            (
+                "filter.odometer_scale_sigma",
+                fs.odometer_scale_sigma,
+                0.0,
+                0.5,
+            ),
+            (
+                "filter.odometer_misalignment_sigma_deg",
+                fs.odometer_misalignment_sigma_deg,
+                0.0,
+                10.0,
+            ),
+            (
+                "filter.velocity_sigma_mps",
+                fs.velocity_sigma_mps,
+                0.0,
+                100.0,
+            ),
         ] {
             if let Some(x) = x {
                 c.range(name, x, lo, hi)?;
@@ -1051,13 +1171,18 @@ impl Scenario {
             c.range("external_fix.interval_s[0]", a, dt, 1e5)?;
             c.range("external_fix.interval_s[1]", b, a, 1e5)?;
             c.range("external_fix.white_m", x.white_m, 0.0, 1e5)?;
-            c.non_negative("external_fix.random_walk_m_per_rts", x.random_walk_m_per_rts)?;
+            c.non_negative(
+                "external_fix.random_walk_m_per_rts",
+                x.random_walk_m_per_rts,
+            )?;
             if let Some(w) = x.filter_white_m {
                 c.range("external_fix.filter_white_m", w, 1e-3, 1e5)?;
             }
             if let Some(b) = x.fading_b {
                 if !(b > 0.0 && b < 1.0) {
-                    return Err(c.err(format!("external_fix.fading_b must be between 0 and 1 (exclusive), got {b}")));
+                    return Err(c.err(format!(
+                        "external_fix.fading_b must be between 0 and 1 (exclusive), got {b}"
+                    )));
                 }
             }
             match x.adaptive.as_deref() {

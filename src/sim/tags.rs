@@ -133,14 +133,18 @@ impl RfidModel {
         match m {
             Mounting::RoadSurface => {
                 let s = self.road_surface_sigma_m.min(0.5);
-                (s.max(0.05), (self.road_surface_lateral_m() / 3f64.sqrt()).max(0.05))
+                (
+                    s.max(0.05),
+                    (self.road_surface_lateral_m() / 3f64.sqrt()).max(0.05),
+                )
             }
             Mounting::Ceiling => {
                 let s = self.ceiling_sigma_m.min(0.3);
                 (s.max(0.05), s.max(0.05))
             }
             Mounting::Roadside => {
-                let dy = self.roadside_distance_m * self.roadside_angle.tan() - v * self.read_time_s;
+                let dy =
+                    self.roadside_distance_m * self.roadside_angle.tan() - v * self.read_time_s;
                 let dx = 0.5 * (self.lane_width_m - self.vehicle_width_m).max(0.0);
                 // dy is a bias at a given speed: taken as a 1σ error; dx is
                 // the half-width of a uniform spread (σ = dx/√3).
@@ -185,7 +189,12 @@ pub struct TagRead {
 /// Finds every pass of the vehicle by a tag within the tag's read geometry:
 /// the moment the tag's physical reference point goes from ahead of the
 /// vehicle to behind it (sampled at about 10 Hz, interpolated).
-pub fn find_passes(truth: &TruthSource, cap_s: f64, tags: &[Tag], rfid: &RfidModel) -> Vec<TagPass> {
+pub fn find_passes(
+    truth: &TruthSource,
+    cap_s: f64,
+    tags: &[Tag],
+    rfid: &RfidModel,
+) -> Vec<TagPass> {
     if tags.is_empty() {
         return vec![];
     }
@@ -266,7 +275,12 @@ pub fn find_passes(truth: &TruthSource, cap_s: f64, tags: &[Tag], rfid: &RfidMod
 
 /// The reads of one run: each pass read with the read probability, with
 /// the mounting's timing and lateral errors.
-pub fn draw_reads(passes: &[TagPass], tags: &[Tag], rfid: &RfidModel, rng: &mut ChaCha8Rng) -> Vec<TagRead> {
+pub fn draw_reads(
+    passes: &[TagPass],
+    tags: &[Tag],
+    rfid: &RfidModel,
+    rng: &mut ChaCha8Rng,
+) -> Vec<TagRead> {
     let mut out = Vec::with_capacity(passes.len());
     for p in passes {
         let u: f64 = rng.random();
@@ -297,7 +311,8 @@ pub fn draw_reads(passes: &[TagPass], tags: &[Tag], rfid: &RfidModel, rng: &mut 
                 (e / v, 0.0)
             }
             Mounting::Roadside => {
-                let dx = 0.5 * (rfid.lane_width_m - rfid.vehicle_width_m).max(0.0) * (2.0 * u2 - 1.0);
+                let dx =
+                    0.5 * (rfid.lane_width_m - rfid.vehicle_width_m).max(0.0) * (2.0 * u2 - 1.0);
                 let x = (rfid.roadside_distance_m - dx).max(0.0);
                 let lead = x * rfid.roadside_angle.tan();
                 (-lead / v + rfid.read_time_s, dx)
@@ -335,12 +350,27 @@ pub fn parse_tags_csv(path: &Path, text: &str) -> Result<Vec<Tag>> {
     let err = |line: usize, msg: String| Error::format(path, format!("line {line}: {msg}"));
     let mut lines = text.lines().enumerate();
     let Some((_, header)) = lines.by_ref().find(|(_, l)| !l.trim().is_empty()) else {
-        return Err(Error::format(path, "empty file: expected a header row with tag_id,lat,lon,mounting"));
+        return Err(Error::format(
+            path,
+            "empty file: expected a header row with tag_id,lat,lon,mounting",
+        ));
     };
-    let cols: Vec<String> = header.trim_start_matches('\u{feff}').split(',').map(|c| c.trim().to_string()).collect();
+    let cols: Vec<String> = header
+        .trim_start_matches('\u{feff}')
+        .split(',')
+        .map(|c| c.trim().to_string())
+        .collect();
     let find = |name: &str| cols.iter().position(|c| c == name);
-    let (Some(ci), Some(cla), Some(clo), Some(cm)) = (find("tag_id"), find("lat"), find("lon"), find("mounting")) else {
-        return Err(err(1, format!("header must have tag_id, lat, lon and mounting columns, got \"{}\"", header.trim())));
+    let (Some(ci), Some(cla), Some(clo), Some(cm)) =
+        (find("tag_id"), find("lat"), find("lon"), find("mounting"))
+    else {
+        return Err(err(
+            1,
+            format!(
+                "header must have tag_id, lat, lon and mounting columns, got \"{}\"",
+                header.trim()
+            ),
+        ));
     };
     let ch = find("height_m");
     let mut tags = Vec::new();
@@ -352,7 +382,10 @@ pub fn parse_tags_csv(path: &Path, text: &str) -> Result<Vec<Tag>> {
         }
         let f: Vec<&str> = line.split(',').map(|s| s.trim()).collect();
         if f.len() < cols.len() {
-            return Err(err(ln, format!("{} fields, the header has {}", f.len(), cols.len())));
+            return Err(err(
+                ln,
+                format!("{} fields, the header has {}", f.len(), cols.len()),
+            ));
         }
         let id = f[ci].to_string();
         if id.is_empty() {
@@ -377,7 +410,13 @@ pub fn parse_tags_csv(path: &Path, text: &str) -> Result<Vec<Tag>> {
             _ => None,
         };
         let mounting = Mounting::parse(f[cm]).ok_or_else(|| {
-            err(ln, format!("mounting \"{}\" is not one of road_surface, roadside, ceiling", f[cm]))
+            err(
+                ln,
+                format!(
+                    "mounting \"{}\" is not one of road_surface, roadside, ceiling",
+                    f[cm]
+                ),
+            )
         })?;
         tags.push(Tag {
             id,
