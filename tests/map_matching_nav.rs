@@ -223,3 +223,58 @@ map_matching = true
     let e = simulate(&scn, &truth, 1, 1).unwrap_err().to_string();
     assert!(e.contains("used only by navigator.mode"), "{e}");
 }
+
+/// The same comparison on a real map: the bundled Helsinki route there and
+/// back (one-way streets, tunnels, short blocks) with the same drifting
+/// navigator.
+#[test]
+fn map_matching_helps_on_the_helsinki_route() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf");
+    let write = |mm: bool| {
+        let p = dir.path().join(format!("h-{mm}.toml"));
+        std::fs::write(
+            &p,
+            format!(
+                r#"name = "helsinki-mm-{mm}"
+[map]
+path = "{}"
+[[route]]
+waypoints = [[60.1660, 24.9380], [60.1770, 24.9510], [60.1660, 24.9380]]
+speed_kmh = 40
+[navigator]
+mode = "integrated"
+[imu]
+rate_hz = 100
+gyro_bias_dph = [1.0, 1.0, 1.0]
+accel_bias_ug = [300, 300, 300]
+gyro_arw_dprh = 0.05
+accel_vrw_ugprhz = 50
+[odometer]
+scale_factor_error = 0.005
+noise_mps = 0.02
+pulse_m = 0.02
+[aiding]
+odometer = true
+baro = true
+map_matching = {mm}
+"#,
+                map.display()
+            ),
+        )
+        .unwrap();
+        p
+    };
+    let (off, _) = figures(&write(false));
+    let (on, feed) = figures(&write(true));
+    let feed = feed.unwrap();
+    for (name, f) in [("without", off), ("with", on)] {
+        eprintln!(
+            "helsinki {name} map matching: {:.1} km; final {:.1} m; rms {:.1} m (along {:.1}, across {:.1}); max {:.1} m",
+            f[7], f[0], f[1], f[2], f[3], f[6]
+        );
+    }
+    eprintln!("feed: {feed:?}");
+    assert!(on[1] < off[1], "rms {:.1} vs {:.1} m", on[1], off[1]);
+    assert!(on[6] < off[6], "max {:.1} vs {:.1} m", on[6], off[6]);
+}
