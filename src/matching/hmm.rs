@@ -5,7 +5,10 @@
 //!   per section and permitted direction of travel (its nearest point), at
 //!   most `max_candidates`. Moving on in the same direction costs the
 //!   distance; turning round needs a node (a junction or a dead end), never
-//!   happens inside a section, so jitter cannot make a U-turn.
+//!   happens inside a section, and costs `uturn_penalty_m` more (a path
+//!   turning straight back onto the section it left, or any transition
+//!   shorter than the penalty that ends facing more than 120° from where it
+//!   started), so jitter and drift cannot make a U-turn.
 //! - Emission: log p = −½ (d/σ_z)² + κ (cos Δθ − 1), with Δθ the angle between
 //!   the heading (the fix's where given, else the displacement since the
 //!   previous step) and the state's direction of travel; this is
@@ -60,6 +63,9 @@ pub struct HmmParams {
     pub gap_s: f64,
     /// Backward move along a one-way section accepted as noise (m).
     pub backtrack_m: f64,
+    /// Extra distance charged for turning round at a node straight back onto
+    /// the section just left (m): a U-turn needs strong evidence.
+    pub uturn_penalty_m: f64,
     /// Gain of the drift estimate (0 disables it): the offset between
     /// decided fixes and their matched points, low-pass filtered, is
     /// subtracted from new fixes before they are matched (dead-reckoned
@@ -82,6 +88,7 @@ impl Default for HmmParams {
             gap_m: 200.0,
             gap_s: 60.0,
             backtrack_m: 15.0,
+            uturn_penalty_m: 300.0,
             drift_gain: 0.0,
         }
     }
@@ -92,7 +99,17 @@ struct Cand {
     seg: SegmentId,
     at: OnSection,
     emission: f64,
+    /// Unit direction of travel (east, north).
+    dir: [f64; 2],
+    /// Direction of travel at least [`ANCHOR_M`] back along the best path
+    /// into this state, and the distance from there (m).
+    anchor_dir: [f64; 2],
+    anchor_m: f64,
 }
+
+/// Distance back along the path at which the earlier direction of travel is
+/// compared with the current one to recognise U-turns (m).
+const ANCHOR_M: f64 = 40.0;
 
 #[derive(Debug)]
 struct Step {
@@ -131,7 +148,11 @@ impl<'a> HmmMatcher<'a> {
         Self {
             net,
             params,
-            paths: NetworkDistances::new(net),
+            paths: {
+                let mut p = NetworkDistances::new(net);
+                p.uturn_penalty_m = params.uturn_penalty_m;
+                p
+            },
             window: VecDeque::with_capacity(params.lag + 1),
             index: 0,
             last_fix: None,
@@ -182,6 +203,8 @@ impl<'a> HmmMatcher<'a> {
                 if let Some((h, kappa)) = heading {
                     e += kappa * (directed_cos(net, seg, h, forward) - 1.0);
                 }
+                let len = s.length_m.max(1e-9);
+                let sign = if forward { 1.0 } else { -1.0 };
                 let c = Cand {
                     seg,
                     at: OnSection {
@@ -190,6 +213,12 @@ impl<'a> HmmMatcher<'a> {
                         forward: Some(forward),
                     },
                     emission: e,
+                    dir: [
+                        sign * (s.b[0] - s.a[0]) / len,
+                        sign * (s.b[1] - s.a[1]) / len,
+                    ],
+                    anchor_dir: [0.0; 2],
+                    anchor_m: 0.0,
                 };
                 match cands
                     .iter_mut()
@@ -249,9 +278,11 @@ impl<'a> HmmMatcher<'a> {
         let mut any = false;
         step.score.clear();
         step.back.clear();
+        let mut anchors = Vec::with_capacity(step.cands.len());
         for c in &step.cands {
             let mut best = f64::NEG_INFINITY;
             let mut arg = 0u32;
+            let mut anchor = (c.dir, 0.0);
             for (i, p) in prev.cands.iter().enumerate() {
                 if prev.score[i] == f64::NEG_INFINITY {
                     continue;
@@ -262,10 +293,25 @@ impl<'a> HmmMatcher<'a> {
                 if d > bound {
                     continue;
                 }
-                let s = prev.score[i] - (d - gc).abs() * inv_beta;
+                // Facing the other way after a short drive: a U-turn (at a
+                // node or round a small loop, in one transition or over a few).
+                let dot = |u: [f64; 2]| u[0] * c.dir[0] + u[1] * c.dir[1];
+                let turned = (dot(p.dir) < -0.5 && d < self.params.uturn_penalty_m)
+                    || (dot(p.anchor_dir) < -0.5 && p.anchor_m + d < 2.0 * ANCHOR_M);
+                let charged = if turned {
+                    d + self.params.uturn_penalty_m
+                } else {
+                    d
+                };
+                let s = prev.score[i] - (charged - gc).abs() * inv_beta;
                 if s > best {
                     best = s;
                     arg = i as u32;
+                    anchor = if p.anchor_m + d > ANCHOR_M {
+                        (p.dir, d)
+                    } else {
+                        (p.anchor_dir, p.anchor_m + d)
+                    };
                 }
             }
             if best > f64::NEG_INFINITY {
@@ -273,6 +319,11 @@ impl<'a> HmmMatcher<'a> {
             }
             step.score.push(best + c.emission);
             step.back.push(arg);
+            anchors.push(anchor);
+        }
+        for (c, (dir, m)) in step.cands.iter_mut().zip(anchors) {
+            c.anchor_dir = dir;
+            c.anchor_m = m;
         }
         if any {
             // Renormalise so scores stay near zero on long tracks.
@@ -307,7 +358,7 @@ impl<'a> HmmMatcher<'a> {
         let net = self.net;
         let c = step.cands[choice as usize];
         let confidence = share(&step.score, choice as usize);
-        let point = with_raw(
+        let mut point = with_raw(
             super::matched_on(
                 net,
                 step.index,
@@ -318,6 +369,7 @@ impl<'a> HmmMatcher<'a> {
             ),
             step.raw,
         );
+        point.forward = c.at.forward;
         let g = self.params.drift_gain;
         for k in 0..2 {
             self.drift[k] += g * (step.raw[k] - point.point[k] - self.drift[k]);
@@ -574,7 +626,9 @@ impl Matcher for HmmMatcher<'_> {
                 .iter()
                 .map(|c| c.emission)
                 .fold(f64::NEG_INFINITY, f64::max);
-            for c in &step.cands {
+            for c in step.cands.iter_mut() {
+                c.anchor_dir = c.dir;
+                c.anchor_m = 0.0;
                 step.score.push(c.emission - m);
                 step.back.push(0);
             }

@@ -95,6 +95,9 @@ pub struct MatchedPoint {
     /// Confidence in 0..=1 (the HMM's share of the chosen candidate; the
     /// incremental matcher's score f).
     pub confidence: f64,
+    /// Direction of travel along the section (`true`: its digitised
+    /// direction), where the matcher decides it (the HMM).
+    pub forward: Option<bool>,
 }
 
 impl MatchedPoint {
@@ -111,6 +114,7 @@ impl MatchedPoint {
             point: [f64::NAN; 2],
             distance_m: f64::NAN,
             confidence: 0.0,
+            forward: None,
         }
     }
 }
@@ -265,5 +269,6 @@ pub(crate) fn matched_on(
         point: q,
         distance_m: d,
         confidence,
+        forward: None,
     }
 }

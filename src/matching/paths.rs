@@ -37,7 +37,9 @@ pub struct OnSection {
 #[derive(Debug, Default)]
 struct Tree {
     bound: f64,
-    reached: FxHashMap<NodeId, (f64, u32)>,
+    /// Distance, predecessor (directed section code) and the first section
+    /// taken from the source, by node.
+    reached: FxHashMap<NodeId, (f64, u32, u32)>,
 }
 
 #[derive(Debug, Copy, Clone, PartialEq)]
@@ -66,10 +68,14 @@ pub struct NetworkDistances<'a> {
     cache: FxHashMap<NodeId, Tree>,
     dist: Vec<f64>,
     pred: Vec<u32>,
+    first: Vec<u32>,
     touched: Vec<NodeId>,
     heap: BinaryHeap<Item>,
     /// Searches run (cache misses), for diagnostics.
     pub searches: u64,
+    /// Added to the distance of a path between two directed points that
+    /// turns round at a node straight back onto the section it left (m).
+    pub uturn_penalty_m: f64,
 }
 
 fn code(d: DirectedSection) -> u32 {
@@ -91,9 +97,11 @@ impl<'a> NetworkDistances<'a> {
             cache: FxHashMap::default(),
             dist: vec![f64::INFINITY; net.nodes.len()],
             pred: vec![NO_PRED; net.nodes.len()],
+            first: vec![NO_PRED; net.nodes.len()],
             touched: Vec::new(),
             heap: BinaryHeap::new(),
             searches: 0,
+            uturn_penalty_m: 0.0,
         }
     }
 
@@ -129,7 +137,8 @@ impl<'a> NetworkDistances<'a> {
             if cost > self.dist[node as usize] {
                 continue;
             }
-            reached.insert(node, (cost, self.pred[node as usize]));
+            let first = self.first[node as usize];
+            reached.insert(node, (cost, self.pred[node as usize], first));
             for d in net.topology.departures(&net.model, node) {
                 let s = &net.sections[d.section as usize];
                 let next = if d.forward { s.end } else { s.start };
@@ -140,6 +149,7 @@ impl<'a> NetworkDistances<'a> {
                     }
                     self.dist[next as usize] = c;
                     self.pred[next as usize] = code(d);
+                    self.first[next as usize] = if node == from { d.section } else { first };
                     self.heap.push(Item {
                         cost: c,
                         node: next,
@@ -150,6 +160,7 @@ impl<'a> NetworkDistances<'a> {
         for &n in &self.touched {
             self.dist[n as usize] = f64::INFINITY;
             self.pred[n as usize] = NO_PRED;
+            self.first[n as usize] = NO_PRED;
         }
         self.touched.clear();
         Tree { bound, reached }
@@ -215,6 +226,20 @@ impl<'a> NetworkDistances<'a> {
         ok.then_some(delta.abs())
     }
 
+    /// The U-turn penalty for a path from `a` leaving by node `exit` and
+    /// reaching `b` from node `entry`, `first` being the first section the
+    /// path takes after `exit`: it turns round when that is `a`'s own
+    /// section, or when it re-enters `a`'s section at once from `exit`.
+    #[inline]
+    fn uturn(&self, a: OnSection, b: OnSection, exit: NodeId, entry: NodeId, first: u32) -> f64 {
+        let directed = a.forward.is_some() && b.forward.is_some();
+        if directed && ((exit == entry && a.section == b.section) || first == a.section) {
+            self.uturn_penalty_m
+        } else {
+            0.0
+        }
+    }
+
     /// Shortest permitted distance from `a` to `b` using only cached searches
     /// (call [`Self::ensure`] for `a`'s exits first).
     pub fn point_distance_cached(
@@ -231,8 +256,8 @@ impl<'a> NetworkDistances<'a> {
                 continue;
             };
             for (en, ec, _) in entries.iter().flatten() {
-                if let Some(&(d, _)) = tree.reached.get(en) {
-                    let total = xc + d + ec;
+                if let Some(&(d, _, first)) = tree.reached.get(en) {
+                    let total = xc + d + ec + self.uturn(a, b, *xn, *en, first);
                     if best.is_none_or(|b| total < b) {
                         best = Some(total);
                     }
@@ -259,8 +284,8 @@ impl<'a> NetworkDistances<'a> {
         for (xn, xc) in self.exits(a).into_iter().flatten() {
             let tree = &self.cache[&xn];
             for (en, ec, fwd) in self.entries(b).into_iter().flatten() {
-                if let Some(&(d, _)) = tree.reached.get(&en) {
-                    let total = xc + d + ec;
+                if let Some(&(d, _, first)) = tree.reached.get(&en) {
+                    let total = xc + d + ec + self.uturn(a, b, xn, en, first);
                     if best.as_ref().is_none_or(|b| total < b.0) {
                         best = Some((total, Some((xn, xc, en, fwd))));
                     }
@@ -278,7 +303,7 @@ impl<'a> NetworkDistances<'a> {
         let mut middle = Vec::new();
         let mut node = en;
         while node != xn {
-            let &(_, p) = tree.reached.get(&node)?;
+            let &(_, p, _) = tree.reached.get(&node)?;
             if p == NO_PRED {
                 break;
             }
