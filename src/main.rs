@@ -246,6 +246,12 @@ fn simulate(
             );
         }
     }
+    if let Some(f) = result.runs.first().and_then(|r| r.map_feed) {
+        println!(
+            "map matching (run 0): {} fixes fed, {} accepted by the gate, {} at road ends, {} positions unmatched",
+            f.fed, f.accepted, f.road_end, f.unmatched
+        );
+    }
     if let (Some(r), Some(n)) = (s.requirement_m, s.runs_exceeding_requirement) {
         println!(
             "requirement {r} m: {n} of {} run(s) exceed it; within it {:.1} % of the time",
