@@ -287,3 +287,23 @@ fn partly_off_road_track_reports_the_unmatched_span() {
         assert_eq!(unmatched, (100..140).contains(&i), "row {i}: {r}");
     }
 }
+
+#[test]
+fn simulate_with_map_matching_reports_the_feed() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/helsinki-route-map-matching.toml");
+    let out = run(
+        &["simulate", scn.to_str().unwrap(), "--out", "sim"],
+        dir.path(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let fed = number_after(&stdout, "map matching (run 0): ");
+    assert!(fed > 400.0, "{stdout}");
+    assert!(dir.path().join("sim/summary.json").exists());
+}
