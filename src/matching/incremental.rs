@@ -16,8 +16,8 @@
 //! point is the orthogonal projection. When the best update candidate is
 //! farther than ε, or the fix drifted sideways beyond ε, the matcher falls
 //! back to the initial state. Heading comes from the fix where given, else
-//! from the displacement since an anchor fix at least `heading_baseline_m`
-//! back.
+//! from the displacement from the most recent fix at least
+//! `heading_baseline_m` away (a sliding baseline).
 
 use super::{heading_cos, matched_on, Break, Fix, MatchState, MatchedPoint, Matcher};
 use crate::network::{Network, SectionEnd, SegmentId};
@@ -57,7 +57,8 @@ pub struct IncrementalMatcher<'a> {
     params: IncrementalParams,
     current: Option<SegmentId>,
     index: u64,
-    anchor: Option<[f64; 2]>,
+    /// Recent fixes, the oldest at least `heading_baseline_m` from the newest.
+    recent: std::collections::VecDeque<[f64; 2]>,
     derived_heading: Option<f64>,
     candidates: Vec<SegmentId>,
     breaks: Vec<Break>,
@@ -73,7 +74,7 @@ impl<'a> IncrementalMatcher<'a> {
             params,
             current: None,
             index: 0,
-            anchor: None,
+            recent: std::collections::VecDeque::with_capacity(64),
             derived_heading: None,
             candidates: Vec::with_capacity(64),
             breaks: Vec::new(),
@@ -135,14 +136,18 @@ impl<'a> IncrementalMatcher<'a> {
         if fix.heading_rad.is_some() {
             return fix.heading_rad;
         }
-        match self.anchor {
-            None => self.anchor = Some(fix.enu),
-            Some(a) => {
-                let (dx, dy) = (fix.enu[0] - a[0], fix.enu[1] - a[1]);
-                if dx * dx + dy * dy >= self.params.heading_baseline_m.powi(2) {
-                    self.derived_heading = Some(dx.atan2(dy));
-                    self.anchor = Some(fix.enu);
-                }
+        // A sliding baseline: the direction from the most recent fix at least
+        // `heading_baseline_m` away (bounded buffer, constant work per fix).
+        let p = fix.enu;
+        let b2 = self.params.heading_baseline_m.powi(2);
+        let d2 = |q: [f64; 2]| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
+        self.recent.push_back(p);
+        while self.recent.len() > 2 && d2(self.recent[1]) >= b2 || self.recent.len() > 256 {
+            self.recent.pop_front();
+        }
+        if let Some(&q) = self.recent.front() {
+            if d2(q) >= b2 {
+                self.derived_heading = Some((p[0] - q[0]).atan2(p[1] - q[1]));
             }
         }
         self.derived_heading
