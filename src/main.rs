@@ -115,6 +115,22 @@ enum NetworkCommand {
     },
 }
 
+/// Prints a line to stdout; a closed pipe (e.g. `| head`) is not an error.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// Prints to stdout without a newline; a closed pipe is not an error.
+macro_rules! say_raw {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
@@ -208,7 +224,7 @@ fn simulate(
     bar.finish_and_clear();
     waymark::sim::output::write(out, &result)?;
     let s = &result.summary;
-    println!(
+    say!(
         "{}: {} over {:.0} s, {:.1} km, {} run(s), seed {}: horizontal error max {:.2} m, rms {:.2} m, p95 {:.2} m; final E/N/U {:.2}/{:.2}/{:.2} m",
         s.name,
         s.mode,
@@ -224,7 +240,7 @@ fn simulate(
         s.final_error_enu_m[2],
     );
     if let Some(n) = &s.nees {
-        println!(
+        say!(
             "filter consistency: run-averaged horizontal NEES {:.2} (95 % band {:.2}..{:.2} for {} run(s)), inside the band {:.0} % of the time, above {:.0} %",
             n.mean,
             n.band_95[0],
@@ -235,14 +251,17 @@ fn simulate(
         );
     }
     if let Some(t) = &s.tags {
-        println!(
+        say!(
             "tag reads: {} accepted, {} rejected by the gate (all runs)",
-            t.accepted, t.rejected
+            t.accepted,
+            t.rejected
         );
         for e in &t.rejected_run0 {
-            println!(
+            say!(
                 "  run 0: tag {} read at {:.1} s rejected (NIS {:.1})",
-                e.tag_id, e.t_s, e.nis
+                e.tag_id,
+                e.t_s,
+                e.nis
             );
         }
     }
@@ -253,13 +272,13 @@ fn simulate(
         );
     }
     if let (Some(r), Some(n)) = (s.requirement_m, s.runs_exceeding_requirement) {
-        println!(
+        say!(
             "requirement {r} m: {n} of {} run(s) exceed it; within it {:.1} % of the time",
             s.runs,
             100.0 * s.fraction_within_requirement.unwrap_or(0.0)
         );
     }
-    println!(
+    say!(
         "wrote {} and {} in {:.2} s",
         out.join("errors.csv").display(),
         out.join("summary.json").display(),
@@ -394,9 +413,9 @@ fn inspect(
             .with_context(|| "writing the defect file")?;
     }
     if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        say!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print!("{}", report.to_text());
+        say_raw!("{}", report.to_text());
     }
     Ok(())
 }

@@ -370,9 +370,10 @@ fn nees_is_consistent_over_100_runs() {
     // prior: the run-averaged horizontal NEES (2 dof) should lie in its 95 %
     // band χ²(200)/100 ∈ [1.63, 2.41] most of the time. The average over
     // runs is strongly correlated along time (the same 100 runs), so whole
-    // stretches sit together; measured on seeds 1–3: 71–80 % of the output
-    // times inside, none above. Required: more than half inside, under 10 %
-    // above (over-confidence is the failure that matters), mean in [1.3, 2.6].
+    // stretches sit together; measured on seeds 1–3: mean 1.76–1.88, 86–99 %
+    // of the output times inside, none above. Required: more than 70 % inside,
+    // under 10 % above (over-confidence is the failure that matters), mean in
+    // [1.5, 2.5].
     let r = run_scenario("scenarios/nees-consistency.toml", 100, 1);
     let n = r.summary.nees.as_ref().expect("nees");
     assert_eq!(n.runs, 100);
@@ -381,9 +382,9 @@ fn nees_is_consistent_over_100_runs() {
         "{:?}",
         n.band_95
     );
-    assert!(n.fraction_within_band > 0.5, "{n:?}");
+    assert!(n.fraction_within_band > 0.7, "{n:?}");
     assert!(n.fraction_above_band < 0.1, "{n:?}");
-    assert!(n.mean > 1.3 && n.mean < 2.6, "{n:?}");
+    assert!(n.mean > 1.5 && n.mean < 2.5, "{n:?}");
 }
 
 #[test]
@@ -414,33 +415,48 @@ fn misplaced_and_rogue_tags_are_rejected() {
 
 #[test]
 fn rfid_paper_experiment() {
-    // PAPERS.md §1.5. SINS/OD (odometer healthy) holds 20 m for "about 1.5 h":
-    // measured 6335 s (1.76 h); accepted 1.2–2.5 h.
-    let od = run_scenario("scenarios/rfid-paper-integrated.toml", 1, 1);
-    let t = od
+    // PAPERS.md §1.5, Monte Carlo (10 runs each; figures in BENCHMARKS-filter.md
+    // are from 100 runs). SINS/OD with the odometer healthy "holds 20 m for
+    // about 1.5 h, then diverges": over 100 runs 54 cross 20 m, the earliest at
+    // 2187 s, the median crossing at 4509 s; 93.5 % of the time within.
+    // Required here: some runs cross (≥ 2 of 10), none before 0.5 h, and
+    // more than 80 % of the time within 20 m.
+    let od = run_scenario("scenarios/rfid-paper-integrated.toml", 10, 1);
+    let crossings: Vec<f64> = od
         .summary
-        .time_to_exceed_requirement_s
-        .expect("exceeds 20 m at some time");
-    assert!(
-        (1.2 * 3600.0..2.5 * 3600.0).contains(&t),
-        "SINS/OD exceeds 20 m at {t} s"
-    );
-    // Odometer failed from 3600 s: more than 100 m (measured 1.4 km), and the
-    // gate disabled the odometer rather than trusting zero readings.
+        .per_run
+        .iter()
+        .filter_map(|r| r.time_to_exceed_requirement_s)
+        .collect();
+    assert!(crossings.len() >= 2, "{crossings:?}");
+    assert!(crossings.iter().all(|t| *t > 1800.0), "{crossings:?}");
+    assert!(od.summary.fraction_within_requirement.unwrap() > 0.8);
+    // Odometer failed from 3600 s: more than 100 m, and the gate disabled the
+    // odometer rather than trusting zero readings.
     let fail = run_scenario("scenarios/rfid-paper-integrated-odfail.toml", 1, 1);
     assert!(fail.summary.max_horizontal_error_m > 100.0);
     let c = fail.summary.updates_run0.unwrap();
     assert!(c.odometer_disabled_epochs > 90_000, "{c:?}");
     assert!(c.odometer_rejected < 20, "{c:?}");
-    // With the four tag fixes (odometer healthy): within 20 m for the whole
-    // 3.6 h (measured max 18.3 m).
-    let tags = run_scenario("scenarios/rfid-paper-integrated-tags.toml", 1, 1);
-    assert_eq!(
-        tags.summary.time_to_exceed_requirement_s, None,
-        "{}",
-        tags.summary.max_horizontal_error_m
-    );
-    assert_eq!(tags.summary.tags.as_ref().unwrap().accepted, 4);
+    // With the four tag fixes (odometer healthy): from the first fix at 5000 s
+    // on, every run stays within 20 m (100 runs: at most 8.4 m); the runs that
+    // cross 20 m do so before it, on odometer-aided drift alone.
+    let tags = run_scenario("scenarios/rfid-paper-integrated-tags.toml", 10, 1);
+    for r in &tags.runs {
+        let after = r
+            .rows
+            .iter()
+            .filter(|x| x.t_s > 5001.0)
+            .map(|x| x.horizontal_m)
+            .fold(0.0, f64::max);
+        assert!(after < 20.0, "run {}: {after} m after the first fix", r.run);
+    }
+    for r in &tags.summary.per_run {
+        if let Some(t) = r.time_to_exceed_requirement_s {
+            assert!(t < 5000.0, "run {} crosses at {t}", r.run);
+        }
+    }
+    assert_eq!(tags.summary.tags.as_ref().unwrap().accepted, 40);
     assert!(tags.summary.duration_s > 12_800.0 && tags.summary.distance_m > 290_000.0);
 }
 
@@ -605,4 +621,230 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
         assert_eq!(f[row][DP + 1], 0.0);
     }
     eprintln!("worst relative difference {worst:e}");
+}
+
+#[test]
+fn anisotropic_position_fix_tightens_across_the_road_only() {
+    // The map-matching fix: σ 0.5 m across the road (east, the road runs
+    // north), 50 m along it. The cross-road σ must drop to about 0.5 m, the
+    // along-road σ hardly move; a fix stamped 0.5 s in the past is compared
+    // with the navigator's position then (no 10 m innovation from the lag).
+    let q = Quat::from_heading_pitch_roll(0.0, 0.0, 0.0);
+    let v = [0.0, 20.0, 0.0];
+    let state = NavState {
+        q,
+        v,
+        lat: 0.8,
+        lon: 0.3,
+        h: 0.0,
+    };
+    let mut s0 = [1e-6; N];
+    let (rm, rn) = radii(0.8);
+    s0[DP] = 10.0 / rm;
+    s0[DP + 1] = 10.0 / (rn * 0.8f64.cos());
+    s0[DP + 2] = 5.0;
+    let mut f = Filter::new(state, 100.0, 0.01, FilterConfig::new(noise(), s0));
+    let before = f.position_cov_enu();
+    // The truth 0.5 s ago was 10 m south of the navigator's current position.
+    let o = f.update_position_fix(
+        99.5,
+        waymark::nav::FixPosition::Geodetic {
+            lat: 0.8 - 10.0 / rm,
+            lon: 0.3,
+        },
+        [[0.25, 0.0], [0.0, 2500.0]],
+    );
+    assert!(o.accepted && o.dof == 2 && o.nis < 1e-6, "{o:?}");
+    let after = f.position_cov_enu();
+    assert!((before[0][0].sqrt() - 10.0).abs() < 1e-6);
+    assert!(after[0][0].sqrt() < 0.5, "east σ {}", after[0][0].sqrt());
+    assert!(after[1][1].sqrt() > 9.0, "north σ {}", after[1][1].sqrt());
+    // A tag fix with a height feeds the vertical channel.
+    let o = f.update_position(100.0, 0.8, 0.3, Some(1.0), [[0.25, 0.0], [0.0, 0.25]], 0.01);
+    assert!(o.accepted && o.dof == 3);
+    let c = f.position_cov_enu();
+    assert!(c[2][2].sqrt() < 0.11 && c[1][1].sqrt() < 0.5, "{c:?}");
+    // The same fix in a local ENU frame gives the same geodetic position.
+    let mut g = Filter::new(state, 100.0, 0.01, FilterConfig::new(noise(), s0));
+    let o2 = g.update_position_fix(
+        100.0,
+        waymark::nav::FixPosition::Enu {
+            origin_lat: 0.8,
+            origin_lon: 0.3 - 100.0 / (rn * 0.8f64.cos()),
+            east: 103.0,
+            north: 0.0,
+        },
+        [[0.25, 0.0], [0.0, 2500.0]],
+    );
+    assert!(o2.accepted);
+    let e = (g.state().lon - 0.3) * rn * 0.8f64.cos();
+    assert!((e - 3.0).abs() < 0.1, "moved east by {e}");
+}
+
+#[test]
+fn tags_are_read_only_within_their_mounting_geometry() {
+    use waymark::sim::tags::{find_passes, Mounting, RfidModel, Tag};
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/nees-consistency.toml");
+    let scn = Scenario::load(&path).unwrap();
+    let truth = TruthSource::new(&scn).unwrap();
+    // The truth at 90 s (on a straight, heading 20°).
+    let a = truth.samples().find(|a| a.t >= 90.0).unwrap().state;
+    let (rm, rn) = radii(a.lat);
+    let right = [20f64.to_radians().cos(), -(20f64.to_radians().sin())];
+    let tag_at = |lateral: f64, m: Mounting| Tag {
+        id: format!("{m:?}@{lateral}"),
+        lat: a.lat + lateral * right[1] / rm,
+        lon: a.lon + lateral * right[0] / (rn * a.lat.cos()),
+        height_m: None,
+        mounting: m,
+        survey_error_m: [0.0, 0.0],
+    };
+    let tags = vec![
+        tag_at(0.3, Mounting::RoadSurface),
+        tag_at(3.0, Mounting::RoadSurface),
+        tag_at(6.0, Mounting::Roadside),
+        tag_at(-15.0, Mounting::Roadside),
+        tag_at(1.0, Mounting::Ceiling),
+    ];
+    let rfid = RfidModel::default();
+    let passes = find_passes(&truth, 1e9, &tags, &rfid);
+    let mut read: Vec<usize> = passes.iter().map(|p| p.tag).collect();
+    read.sort();
+    // Under the vehicle (0.3 m), a roadside post 6 m away (range 10 m) and
+    // the ceiling reader over the lane: read; 3 m off for a road-surface
+    // reader and 15 m for a roadside one: not.
+    assert_eq!(read, [0, 2, 4]);
+    for p in &passes {
+        assert!((p.t_abeam - 90.0).abs() < 0.05, "{p:?}");
+        assert!(
+            (p.lateral_m - [0.3, 3.0, 6.0, -15.0, 1.0][p.tag]).abs() < 0.05,
+            "{p:?}"
+        );
+    }
+}
+
+#[test]
+fn odometer_slip_is_detected_from_the_innovations() {
+    // 20 % over-count for 30 m, 2 events per km, on the nees-consistency
+    // drive (8.8 km): the slipping readings fail the gate and the odometer
+    // is disabled until its innovations pass again (run 0: 36 rejected, 492
+    // epochs disabled); the error stays at the no-slip level (measured max
+    // 1.98 m vs 2.03 m without slip) instead of taking the 12 m per km
+    // (2 events × 30 m × 20 %) an unchecked over-count would add between tags.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/nees-consistency.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let slip = text.replace(
+        "pulse_m = 0.0",
+        "pulse_m = 0.0\nslip = { rate_per_km = 2.0, length_m = 30.0, overcount = 0.2 }",
+    );
+    assert_ne!(slip, text);
+    let run = |t: &str| {
+        let scn = Scenario::parse(&path, t).unwrap();
+        let truth = TruthSource::new(&scn).unwrap();
+        simulate(&scn, &truth, 2, 4).unwrap()
+    };
+    let clean = run(&text);
+    let slipping = run(&slip);
+    let c = slipping.summary.updates_run0.unwrap();
+    eprintln!(
+        "slip: max {:.2} m, clean: max {:.2} m, {c:?}",
+        slipping.summary.max_horizontal_error_m, clean.summary.max_horizontal_error_m
+    );
+    assert!(c.odometer_rejected > 20, "{c:?}");
+    assert_eq!(clean.summary.updates_run0.unwrap().odometer_rejected, 0);
+    assert!(
+        slipping.summary.max_horizontal_error_m < 1.5 * clean.summary.max_horizontal_error_m + 0.5,
+        "slip {} clean {}",
+        slipping.summary.max_horizontal_error_m,
+        clean.summary.max_horizontal_error_m
+    );
+}
+
+#[test]
+fn tag_fix_errors_follow_the_mounting_models() {
+    // PAPERS.md §1.1: roadside, D = 3.75 m, d = 3 m, θ = 15°, t0 = 20 ms,
+    // 40 km/h, x = 5.63 m: dx = 0.375 m, dy = x tan θ − v t0 = 1.286 m,
+    // dr = 1.340 m (the paper: 0.375, 1.285, 1.338). Road surface ≤ 0.5 m,
+    // ceiling ≤ 0.3 m. The error of a read is the reported point minus where
+    // the vehicle is at the read time.
+    use waymark::sim::tags::{draw_reads, Mounting, RfidModel, Tag, TagPass};
+    let rfid = RfidModel {
+        lane_width_m: 3.75,
+        vehicle_width_m: 3.0,
+        read_probability: 1.0,
+        ..Default::default()
+    };
+    let v = 40.0 / 3.6;
+    let (dy, sx) = rfid.fix_sigmas(Mounting::Roadside, v);
+    assert!((dy - 1.2863).abs() < 1e-3, "dy {dy}");
+    assert!((sx - 0.375 / 3f64.sqrt()).abs() < 1e-9);
+    let (lat0, lon0) = (0.6, 0.2);
+    let (rm, rn) = radii(lat0);
+    let mut worst = [0.0f64; 3];
+    for (k, m) in [Mounting::Roadside, Mounting::RoadSurface, Mounting::Ceiling]
+        .into_iter()
+        .enumerate()
+    {
+        let tags = vec![Tag {
+            id: "t".into(),
+            lat: lat0,
+            lon: lon0,
+            height_m: None,
+            mounting: m,
+            survey_error_m: [0.0, 0.0],
+        }];
+        // Heading north, abeam the tag at t = 100 s.
+        let passes: Vec<TagPass> = (0..2000)
+            .map(|_| TagPass {
+                tag: 0,
+                t_abeam: 100.0,
+                speed_mps: v,
+                lateral_m: 0.0,
+                forward_en: [0.0, 1.0],
+            })
+            .collect();
+        let mut rng = waymark::sensors::rng::stream(3, 0, 7);
+        let reads = draw_reads(&passes, &tags, &rfid, &mut rng);
+        assert_eq!(reads.len(), 2000);
+        let mut max_lat = 0.0f64;
+        for r in &reads {
+            let east = (r.lon - lon0) * rn * lat0.cos();
+            let north = (r.lat - lat0) * rm;
+            // The vehicle at the read time, from the abeam point.
+            let veh_north = v * (r.t - 100.0);
+            let err = [east, north - veh_north];
+            let e = err[0].hypot(err[1]);
+            worst[k] = worst[k].max(e);
+            max_lat = max_lat.max(err[0].abs());
+            if m == Mounting::Roadside {
+                // The vehicle is behind the stored point by x tan θ − v t0
+                // with x = 5.63 − dx, dx within ±0.375 m.
+                let lo = (5.63 - 0.375) * 15f64.to_radians().tan() - v * 0.02;
+                let hi = (5.63 + 0.375) * 15f64.to_radians().tan() - v * 0.02;
+                assert!(err[1] > lo - 1e-6 && err[1] < hi + 1e-6, "{err:?}");
+            }
+        }
+        if m == Mounting::Roadside {
+            assert!(max_lat <= 0.375 + 1e-9 && max_lat > 0.35, "{max_lat}");
+        }
+    }
+    // With x = 5.63 ± 0.375 m (the vehicle's place in its lane moves the
+    // reader), dy reaches 6.005 tan 15° − v t0 = 1.387 m: dr ≤ 1.437 m.
+    let hi = (5.63 + 0.375) * 15f64.to_radians().tan() - v * 0.02;
+    let bound = 0.375f64.hypot(hi);
+    assert!(
+        worst[0] <= bound + 1e-6 && worst[0] > 1.3,
+        "roadside {} vs {bound}",
+        worst[0]
+    );
+    assert!(
+        worst[1] <= 0.5 + 1e-9 && worst[1] > 0.4,
+        "road surface {}",
+        worst[1]
+    );
+    assert!(
+        worst[2] <= 0.3 + 1e-9 && worst[2] > 0.25,
+        "ceiling {}",
+        worst[2]
+    );
 }

@@ -409,6 +409,10 @@ fn bad_scenarios_give_clear_errors() {
         "tag[0].at_s = 3000 is beyond the end of the route",
     );
     bad(
+        &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[aiding]\nmap_matching = true\n"),
+        "aiding.map_matching needs a map route",
+    );
+    bad(
         &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[aiding]\nexternal_fix = true\n"),
         "aiding.external_fix needs an [external_fix] section",
     );

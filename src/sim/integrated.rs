@@ -157,8 +157,8 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
                 1e6
             },
         ),
-        odo_scale: (odo_sigma, 36_000.0),
-        odo_misalign: (mis_sigma, 36_000.0),
+        odo_scale: (odo_sigma, f.odometer_scale_tau_s.unwrap_or(1e6)),
+        odo_misalign: (mis_sigma, 1e6),
         fix_rw,
         baro_bias: (baro_sigma, b.bias_tau_s),
     };

@@ -139,6 +139,10 @@ pub struct FilterSection {
     /// Prior σ of the odometer scale-factor error.
     #[serde(default)]
     pub odometer_scale_sigma: Option<f64>,
+    /// Correlation time of the odometer scale factor (s; default 1e6: a random
+    /// constant, as simulated; e.g. 36000 models drift with tyre pressure).
+    #[serde(default)]
+    pub odometer_scale_tau_s: Option<f64>,
     /// Prior σ of the odometer mounting misalignments (deg, default 0.2).
     #[serde(default)]
     pub odometer_misalignment_sigma_deg: Option<f64>,
