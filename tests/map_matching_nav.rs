@@ -104,8 +104,9 @@ map_matching = {map_matching}
 }
 
 /// Figures of run 0: (final horizontal, rms horizontal, rms along, rms across,
-/// final along, final across, max horizontal, distance km).
-fn figures(path: &Path) -> ([f64; 8], Option<waymark::sim::map_feed::FeedCounts>) {
+/// final along, final across, max horizontal, distance km, max |east|,
+/// max |north|).
+fn figures(path: &Path) -> ([f64; 10], Option<waymark::sim::map_feed::FeedCounts>) {
     let scn = Scenario::load(path).unwrap();
     let truth = TruthSource::new(&scn).unwrap();
     let res = simulate(&scn, &truth, 1, 7).unwrap();
@@ -128,6 +129,7 @@ fn figures(path: &Path) -> ([f64; 8], Option<waymark::sim::map_feed::FeedCounts>
         dirs.push(last.or(dirs.last().copied()).unwrap_or([0.0, 1.0]));
     }
     let (mut sh, mut sa, mut sc, mut mx) = (0.0, 0.0, 0.0, 0.0f64);
+    let (mut me, mut mn) = (0.0f64, 0.0f64);
     for (row, d) in run.rows.iter().zip(&dirs) {
         let along = row.east_m * d[0] + row.north_m * d[1];
         let across = row.east_m * d[1] - row.north_m * d[0];
@@ -135,6 +137,8 @@ fn figures(path: &Path) -> ([f64; 8], Option<waymark::sim::map_feed::FeedCounts>
         sa += along * along;
         sc += across * across;
         mx = mx.max(row.horizontal_m);
+        me = me.max(row.east_m.abs());
+        mn = mn.max(row.north_m.abs());
     }
     let n = run.rows.len() as f64;
     let last = run.rows.last().unwrap();
@@ -149,6 +153,8 @@ fn figures(path: &Path) -> ([f64; 8], Option<waymark::sim::map_feed::FeedCounts>
             last.east_m * d[1] - last.north_m * d[0],
             mx,
             last.distance_m / 1000.0,
+            me,
+            mn,
         ],
         run.map_feed,
     )
@@ -165,8 +171,8 @@ fn map_matching_bounds_the_drift_of_a_one_hour_street_grid_drive() {
     eprintln!("feed: {feed:?}");
     for (name, f) in [("without map matching", off), ("with map matching", on)] {
         eprintln!(
-            "{name}: {:.1} km; final horizontal {:.1} m (along {:.1}, across {:.1}); rms horizontal {:.1} m (along {:.1}, across {:.1}); max {:.1} m",
-            f[7], f[0], f[4], f[5], f[1], f[2], f[3], f[6]
+            "{name}: {:.1} km; final horizontal {:.1} m (along {:.1}, across {:.1}); rms horizontal {:.1} m (along {:.1}, across {:.1}); max {:.1} m (east {:.1}, north {:.1})",
+            f[7], f[0], f[4], f[5], f[1], f[2], f[3], f[6], f[8], f[9]
         );
     }
     assert!(off[7] > 30.0, "{} km: not a 1 h drive", off[7]);
