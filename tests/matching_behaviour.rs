@@ -486,3 +486,39 @@ fn heading_tells_carriageways_apart() {
     assert!(on(&inc) < bare.len() / 2);
     assert!(on(&hmm) >= bare.len() - 1);
 }
+
+mod never_panics {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            8 => -3000.0..3000.0f64,
+            1 => Just(f64::NAN),
+            1 => Just(f64::INFINITY),
+            1 => Just(-1e12),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Any fixes (near the map or far off it, NaN, infinite, times out of
+        /// order, with and without heading): both matchers return one point
+        /// per fix, in input order, without panicking.
+        #[test]
+        fn any_fixes(raw in proptest::collection::vec((value(), value(), value(), proptest::option::of(value())), 0..300)) {
+            static NET: std::sync::OnceLock<Network> = std::sync::OnceLock::new();
+            let net = NET.get_or_init(helsinki);
+            let fixes: Vec<Fix> = raw
+                .iter()
+                .map(|&(t, x, y, h)| Fix { t_s: t, enu: [x, y], heading_rad: h })
+                .collect();
+            let a = match_track(&mut HmmMatcher::new(net, HmmParams::default()), &fixes);
+            let b = match_track(&mut IncrementalMatcher::new(net, IncrementalParams::default()), &fixes);
+            prop_assert_eq!(a.len(), fixes.len());
+            prop_assert_eq!(b.len(), fixes.len());
+            prop_assert!(a.iter().enumerate().all(|(i, p)| p.index == i as u64));
+            prop_assert!(b.iter().enumerate().all(|(i, p)| p.index == i as u64));
+        }
+    }
+}
