@@ -5,10 +5,13 @@
 //!   per section and permitted direction of travel (its nearest point), at
 //!   most `max_candidates`. Moving on in the same direction costs the
 //!   distance; turning round needs a node (a junction or a dead end), never
-//!   happens inside a section, and costs `uturn_penalty_m` more (a path
-//!   turning straight back onto the section it left, or any transition
-//!   shorter than the penalty that ends facing more than 120° from where it
-//!   started), so jitter and drift cannot make a U-turn.
+//!   happens inside a section, and costs `uturn_penalty_m` more: a path
+//!   turning straight back onto the section it left, a transition shorter
+//!   than the penalty that ends facing more than 120° from where it started,
+//!   or one that faces more than 120° from the direction of travel about
+//!   40 m back along the best path (a turn-round spread over several steps,
+//!   e.g. round a small triangle of roads). So jitter and drift cannot make
+//!   a U-turn; a real one needs strong evidence.
 //! - Emission: log p = −½ (d/σ_z)² + κ (cos Δθ − 1), with Δθ the angle between
 //!   the heading (the fix's where given, else the displacement since the
 //!   previous step) and the state's direction of travel; this is
