@@ -53,6 +53,8 @@ fn on_section(net: &Network, sec: SectionId, frac: f64) -> [f64; 2] {
 struct Sums {
     sums: [f64; 4],
     worst: f64,
+    /// Confidence summed over points on true roads and on others, and their counts.
+    confidence: [f64; 4],
 }
 
 impl Sums {
@@ -60,6 +62,7 @@ impl Sums {
         Sums {
             sums: [0.0; 4],
             worst: 1.0,
+            confidence: [0.0; 4],
         }
     }
     fn add(&mut self, s: &Score) {
@@ -94,6 +97,12 @@ fn case(name: &str, net: &Network, routes: &[Route], heading: bool) -> (Sums, Su
             let mut hmm = HmmMatcher::new(net, HmmParams::default());
             let hp = match_track(&mut hmm, &track.fixes);
             let ml = matched_lengths(net, &hp);
+            for p in hp.iter().filter(|p| p.road.is_some()) {
+                let id = &net.roads[p.road.unwrap() as usize].attributes.id;
+                let k = if track.truth.contains_key(id) { 0 } else { 2 };
+                h_sum.confidence[k] += p.confidence;
+                h_sum.confidence[k + 1] += 1.0;
+            }
             // DEBUG_CASE=name/route/spacing prints that case's matched runs and truth.
             if std::env::var("DEBUG_CASE").is_ok_and(|v| v == format!("{name}/{k}/{spacing}")) {
                 let mut start = 0;
@@ -220,6 +229,14 @@ fn helsinki_turn_heavy_district() {
     assert!(turns > 100, "{turns} sections: not a turn-heavy set");
     let (h, i) = case("helsinki", &net, &routes, false);
     check("helsinki", &h, &i);
+    // The HMM's confidence is lower, on average, where it matched a wrong road.
+    let c = h.confidence;
+    let (right, wrong) = (c[0] / c[1], c[2] / c[3]);
+    eprintln!(
+        "helsinki confidence: {right:.3} on true roads ({} points), {wrong:.3} on others ({})",
+        c[1], c[3]
+    );
+    assert!(c[3] > 0.0 && wrong < right);
 }
 
 /// A point at a fraction of a road's length (ENU).

@@ -32,7 +32,7 @@
 //!   road within the radius, or no permitted path between consecutive steps
 //!   ends the chain (everything in the window is decided) and a new one starts;
 //!   each break is recorded, off-road fixes are reported unmatched.
-//! - Confidence: the chosen state's share of the step's (filtered) probability.
+//! - Confidence: the chosen road's share of the step's (filtered) probability.
 
 use super::paths::{NetworkDistances, OnSection};
 use super::{project, Break, BreakReason, Fix, MatchState, MatchedPoint, Matcher};
@@ -360,7 +360,12 @@ impl<'a> HmmMatcher<'a> {
         let step = self.window.pop_front().expect("a step");
         let net = self.net;
         let c = step.cands[choice as usize];
-        let confidence = share(&step.score, choice as usize);
+        // The share of the step's probability on the chosen road (both
+        // directions, every section of it).
+        let road = net.segments[c.seg as usize].road;
+        let confidence = share(&step.score, |k| {
+            net.segments[step.cands[k].seg as usize].road == road
+        });
         let mut point = with_raw(
             super::matched_on(
                 net,
@@ -466,13 +471,21 @@ fn argmax(v: &[f64]) -> u32 {
     k as u32
 }
 
-fn share(scores: &[f64], k: usize) -> f64 {
+/// The share of the probability in `scores` (log) held by the states `pick` selects.
+fn share(scores: &[f64], pick: impl Fn(usize) -> bool) -> f64 {
     let m = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     if !m.is_finite() {
         return 0.0;
     }
-    let sum: f64 = scores.iter().map(|s| (s - m).exp()).sum();
-    ((scores[k] - m).exp() / sum).clamp(0.0, 1.0)
+    let (mut part, mut sum) = (0.0, 0.0);
+    for (k, s) in scores.iter().enumerate() {
+        let p = (s - m).exp();
+        sum += p;
+        if pick(k) {
+            part += p;
+        }
+    }
+    (part / sum).clamp(0.0, 1.0)
 }
 
 /// The nearest segment to `p` on the path pieces: (piece index, segment).
