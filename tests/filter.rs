@@ -652,9 +652,18 @@ fn anisotropic_position_fix_tightens_across_the_road_only() {
             lat: 0.8 - 10.0 / rm,
             lon: 0.3,
         },
-        [[0.25, 0.0], [0.0, 2500.0]],
+        waymark::nav::integrated::along_across_covariance(0.0, 50.0, 0.5),
     );
     assert!(o.accepted && o.dof == 2 && o.nis < 1e-6, "{o:?}");
+    // The helper rotates: heading east puts the loose axis east.
+    let c =
+        waymark::nav::integrated::along_across_covariance(std::f64::consts::FRAC_PI_2, 50.0, 0.5);
+    assert!(
+        (c[0][0] - 2500.0).abs() < 1e-9 && (c[1][1] - 0.25).abs() < 1e-9 && c[0][1].abs() < 1e-9
+    );
+    let c =
+        waymark::nav::integrated::along_across_covariance(std::f64::consts::FRAC_PI_4, 2.0, 1.0);
+    assert!((c[0][1] - 1.5).abs() < 1e-12 && (c[0][0] - 2.5).abs() < 1e-12);
     let after = f.position_cov_enu();
     assert!((before[0][0].sqrt() - 10.0).abs() < 1e-6);
     assert!(after[0][0].sqrt() < 0.5, "east σ {}", after[0][0].sqrt());

@@ -646,6 +646,20 @@ impl Filter {
     }
 }
 
+/// The east/north covariance (m²) of a fix that is `sigma_along` (m) along a
+/// direction of travel with heading `heading` (rad, clockwise from north) and
+/// `sigma_across` (m) across it: R = σ_a² f fᵀ + σ_c² r rᵀ with f the forward
+/// and r the right unit vectors. For map-matching fixes (tight across the
+/// road, loose along it) and tag fixes.
+pub fn along_across_covariance(heading: f64, sigma_along: f64, sigma_across: f64) -> [[f64; 2]; 2] {
+    let (fe, fnn) = heading.sin_cos();
+    let (a2, c2) = (sigma_along * sigma_along, sigma_across * sigma_across);
+    [
+        [a2 * fe * fe + c2 * fnn * fnn, (a2 - c2) * fe * fnn],
+        [(a2 - c2) * fe * fnn, a2 * fnn * fnn + c2 * fe * fe],
+    ]
+}
+
 /// The Sage–Husa fading weight d_k = (1 − b)/(1 − b^(k+1)) of the k-th
 /// adaptive update (k from 0): 1 at first, tending to 1 − b.
 pub fn sage_husa_weight(b: f64, k: u32) -> f64 {

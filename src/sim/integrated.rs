@@ -9,6 +9,7 @@ use super::scenario::{Scenario, G0};
 use super::tags::{draw_reads, Mounting, Tag};
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
+use crate::nav::integrated::along_across_covariance;
 use crate::nav::{Filter, FilterConfig, MeasurementQueue};
 use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, Imu, Odometer};
@@ -398,15 +399,8 @@ pub fn run_integrated(
                     let st = filter.state();
                     let speed = st.v[0].hypot(st.v[1]);
                     let f = st.q.rotate([0.0, 1.0, 0.0]);
-                    let fh = f[0].hypot(f[1]).max(1e-9);
-                    let (fe, fn_) = (f[0] / fh, f[1] / fh);
                     let (sa, sc) = scn.rfid.fix_sigmas(r.mounting, speed);
-                    // R = sa² f fᵀ + sc² r rᵀ with r = (fn, −fe).
-                    let (a2, c2) = (sa * sa, sc * sc);
-                    let cov = [
-                        [a2 * fe * fe + c2 * fn_ * fn_, (a2 - c2) * fe * fn_],
-                        [(a2 - c2) * fe * fn_, a2 * fn_ * fn_ + c2 * fe * fe],
-                    ];
+                    let cov = along_across_covariance(f[0].atan2(f[1]), sa, sc);
                     let o = filter.update_position(
                         tm,
                         r.lat,
