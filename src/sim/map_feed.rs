@@ -16,6 +16,7 @@
 
 use crate::geodesy::Geodetic;
 use crate::matching::{Fix, IncrementalMatcher, IncrementalParams, MatchedPoint, Matcher};
+use crate::nav::integrated::along_across_covariance;
 use crate::nav::{Filter, FixPosition};
 use crate::network::Network;
 
@@ -97,21 +98,16 @@ impl<'a> MapFeed<'a> {
             return;
         };
         let seg = &net.segments[seg_id as usize];
-        let (dx, dy) = (seg.b[0] - seg.a[0], seg.b[1] - seg.a[1]);
-        let len = dx.hypot(dy).max(1e-9);
-        let (te, tn) = (dx / len, dy / len);
+        // Direction of the road (clockwise from north); the sign does not
+        // matter for the covariance.
+        let road_heading = (seg.b[0] - seg.a[0]).atan2(seg.b[1] - seg.a[1]);
         let along = if at_road_end(net, seg_id, m.point) {
             self.counts.road_end += 1;
             ACROSS_SIGMA_M
         } else {
             ALONG_SIGMA_M
         };
-        let (a2, c2) = (along * along, ACROSS_SIGMA_M * ACROSS_SIGMA_M);
-        // R = σa² t tᵀ + σc² n nᵀ with n = (tn, −te).
-        let cov = [
-            [a2 * te * te + c2 * tn * tn, (a2 - c2) * te * tn],
-            [(a2 - c2) * te * tn, a2 * tn * tn + c2 * te * te],
-        ];
+        let cov = along_across_covariance(road_heading, along, ACROSS_SIGMA_M);
         let g = net.frame.to_geodetic([m.point[0], m.point[1], 0.0]);
         let o = filter.update_position_fix(
             t,
