@@ -134,3 +134,41 @@ fn at_road_end(net: &Network, seg_id: u32, p: [f64; 2]) -> bool {
             && near(seg.b)
             && net.topology.degree(sec.end) == 1)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::{model_from_polylines, TagSet};
+
+    #[test]
+    fn road_ends_are_dead_ends_only() {
+        // A T: a through road west-east and a dead-end stub north from its middle.
+        let d = 1.0 / 111_412.0;
+        let dl = 1.0 / (111_412.0 * 60f64.to_radians().cos());
+        let p = |e: f64, n: f64| [60.0 + n * d, 24.0 + e * dl];
+        let roads = vec![
+            (
+                TagSet::default().attributes("through".into()),
+                vec![vec![p(0.0, 0.0), p(100.0, 0.0), p(200.0, 0.0)]],
+            ),
+            (
+                TagSet::default().attributes("stub".into()),
+                vec![vec![p(100.0, 0.0), p(100.0, 80.0)]],
+            ),
+        ];
+        let net = Network::from_model(model_from_polylines(roads).unwrap(), None).unwrap();
+        let stub = net
+            .roads
+            .iter()
+            .position(|r| r.attributes.id == "stub")
+            .unwrap();
+        let seg = net.sections[net.roads[stub].sections[0] as usize].first_segment;
+        let s = net.segments[seg as usize];
+        // The stub's far end is a dead end; its start is the junction.
+        assert!(at_road_end(&net, seg, s.b));
+        assert!(!at_road_end(&net, seg, s.a));
+        // Mid-segment is no end.
+        let mid = [(s.a[0] + s.b[0]) / 2.0, (s.a[1] + s.b[1]) / 2.0];
+        assert!(!at_road_end(&net, seg, mid));
+    }
+}
