@@ -39,6 +39,16 @@ pub enum Error {
         /// What is wrong, in one line.
         message: String,
     },
+    /// A line of an input table (TRACK.csv, TRUTH.csv) is invalid.
+    #[error("{path}:{line}: {message}")]
+    Table {
+        /// The file.
+        path: PathBuf,
+        /// The 1-based line number (the header is line 1).
+        line: usize,
+        /// What is wrong, in one line.
+        message: String,
+    },
     /// A parameter is outside its permitted range.
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),
@@ -55,6 +65,14 @@ impl Error {
     pub(crate) fn scenario(path: &std::path::Path, message: impl Into<String>) -> Self {
         Error::Scenario {
             path: path.to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn table(path: &std::path::Path, line: usize, message: impl Into<String>) -> Self {
+        Error::Table {
+            path: path.to_path_buf(),
+            line,
             message: message.into(),
         }
     }

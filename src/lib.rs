@@ -10,6 +10,7 @@ pub mod attitude;
 pub mod error;
 pub mod export;
 pub mod geodesy;
+pub mod matching;
 pub mod nav;
 pub mod network;
 pub mod report;

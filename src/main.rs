@@ -38,6 +38,30 @@ enum Command {
         /// The output folder of `waymark simulate`.
         dir: PathBuf,
     },
+    /// Matches positions (TRACK.csv) to the road network; writes MATCHED.csv.
+    #[command(
+        after_help = "TRACK.csv: header t_s,lat,lon and optionally heading_deg,speed_mps,track_id.\n\
+        TRUTH.csv (for --truth): header road_id and optionally length_m.\n\
+        Examples:\n  waymark match --map maps/helsinki.osm.pbf --track track.csv --out matched.csv\n  \
+        waymark match --map maps/helsinki.osm.pbf --track track.csv --method incremental --truth truth.csv"
+    )]
+    Match {
+        /// The map: .osm.pbf, .osm (XML), .geojson or .shp.
+        #[arg(long)]
+        map: PathBuf,
+        /// The positions to match (CSV).
+        #[arg(long, value_name = "TRACK.csv")]
+        track: PathBuf,
+        /// Output file.
+        #[arg(long, value_name = "MATCHED.csv", default_value = "matched.csv")]
+        out: PathBuf,
+        /// Matcher.
+        #[arg(long, value_enum, default_value = "hmm")]
+        method: MatchMethod,
+        /// Scores the match against the roads actually driven (CSV with road_id[,length_m]).
+        #[arg(long, value_name = "TRUTH.csv")]
+        truth: Option<PathBuf>,
+    },
     /// Simulates a scenario: truth, sensors and navigator; writes errors.csv and summary.json.
     #[command(
         after_help = "Examples:\n  waymark simulate scenarios/schuler-accel-bias.toml --out /tmp/schuler\n  \
@@ -61,6 +85,14 @@ enum Command {
         #[arg(long, default_value = "waymark-simulate")]
         out: PathBuf,
     },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum MatchMethod {
+    /// The paper's incremental matcher (grid, tracking, topology).
+    Incremental,
+    /// Hidden-Markov matcher (Viterbi, network distances, bounded lag).
+    Hmm,
 }
 
 #[derive(Subcommand)]
@@ -143,6 +175,13 @@ fn run(cli: Cli) -> Result<()> {
             out,
         } => simulate(&scenario, tags.as_deref(), runs, seed, &out),
         Command::Report { dir } => report(&dir),
+        Command::Match {
+            map,
+            track,
+            out,
+            method,
+            truth,
+        } => match_track(&map, &track, &out, method, truth.as_deref()),
         Command::Network(NetworkCommand::Inspect {
             map,
             json,
@@ -236,6 +275,12 @@ fn simulate(
             );
         }
     }
+    if let Some(f) = result.runs.first().and_then(|r| r.map_feed) {
+        println!(
+            "map matching (run 0): {} fixes fed, {} accepted by the gate, {} at road ends, {} positions unmatched",
+            f.fed, f.accepted, f.road_end, f.unmatched
+        );
+    }
     if let (Some(r), Some(n)) = (s.requirement_m, s.runs_exceeding_requirement) {
         say!(
             "requirement {r} m: {n} of {} run(s) exceed it; within it {:.1} % of the time",
@@ -304,6 +349,103 @@ fn report(dir: &Path) -> Result<()> {
         )?;
     }
     println!("wrote {} and {}", out.display(), plots.display());
+    Ok(())
+}
+
+fn match_track(
+    map: &Path,
+    track: &Path,
+    out: &Path,
+    method: MatchMethod,
+    truth: Option<&Path>,
+) -> Result<()> {
+    use waymark::matching::{evaluate, track as tr};
+    let t0 = Instant::now();
+    let rows = tr::read_track(track)?;
+    let net = Network::load(map, &LoadOptions::default())?;
+    let truth = truth.map(|p| evaluate::read_truth(p, &net)).transpose()?;
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let (method, name) = match method {
+        MatchMethod::Incremental => (tr::Method::Incremental, "incremental"),
+        MatchMethod::Hmm => (tr::Method::Hmm, "hmm"),
+    };
+    let (points, outcomes) = tr::match_rows(&net, &rows, method);
+    let match_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let matched: usize = outcomes.iter().map(|o| o.matched).sum();
+    if matched == 0 {
+        anyhow::bail!(
+            "{}: no point lies within 50 m of a road of {} (is the track on this map?)",
+            track.display(),
+            map.display()
+        );
+    }
+    waymark::export::write_atomic(out, tr::matched_csv(&net, &rows, &points).as_bytes())?;
+    let breaks: usize = outcomes.iter().map(|o| o.breaks.len()).sum();
+    eprintln!(
+        "waymark match: {} points in {} track(s) with {name}: {matched} matched ({:.1} %), {breaks} break(s); \
+        load {load_ms:.0} ms, match {match_ms:.1} ms; wrote {}",
+        rows.len(),
+        outcomes.len(),
+        100.0 * matched as f64 / rows.len() as f64,
+        out.display()
+    );
+    for o in &outcomes {
+        let label = if o.track_id.is_empty() {
+            String::new()
+        } else {
+            format!("track {}: ", o.track_id)
+        };
+        if o.matched == 0 {
+            eprintln!("  {label}no point matched: the whole track is off the map's roads");
+            continue;
+        }
+        for b in &o.breaks {
+            let before = b
+                .before
+                .map(|(_, t)| format!("{t} s"))
+                .unwrap_or_else(|| "the start".into());
+            eprintln!(
+                "  {label}break ({}) between {before} and {} s (line {})",
+                b.reason.as_str(),
+                b.after.1,
+                rows[o.rows[b.after.0 as usize]].line
+            );
+        }
+        for s in &o.unmatched {
+            eprintln!(
+                "  {label}unmatched span: lines {}-{} (t {} s to {} s, {} points)",
+                rows[o.rows[s.first as usize]].line,
+                rows[o.rows[s.last as usize]].line,
+                s.t_s[0],
+                s.t_s[1],
+                s.last - s.first + 1
+            );
+        }
+    }
+    if let Some(truth) = truth {
+        let mut lengths = evaluate::RoadLengths::new();
+        for o in &outcomes {
+            let pts: Vec<_> = o.rows.iter().map(|&i| points[i]).collect();
+            for (k, v) in evaluate::matched_lengths(&net, &pts) {
+                *lengths.entry(k).or_default() += v;
+            }
+        }
+        let s = evaluate::score(&lengths, &truth);
+        println!(
+            "precision_length {:.4} recall_length {:.4} precision_count {:.4} recall_count {:.4} \
+            matched_length_m {:.1} truth_length_m {:.1} roads matched {} true {} correct {}",
+            s.precision_length,
+            s.recall_length,
+            s.precision_count,
+            s.recall_count,
+            s.matched_length_m,
+            s.truth_length_m,
+            s.matched_roads,
+            s.truth_roads,
+            s.correct_roads
+        );
+    }
     Ok(())
 }
 

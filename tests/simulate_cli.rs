@@ -410,7 +410,7 @@ fn bad_scenarios_give_clear_errors() {
     );
     bad(
         &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[aiding]\nmap_matching = true\n"),
-        "aiding.map_matching needs the map matcher",
+        "aiding.map_matching needs a map route",
     );
     bad(
         &format!("name = \"x\"\n{GOOD_ROUTE}\n[navigator]\nmode = \"integrated\"\n[aiding]\nexternal_fix = true\n"),

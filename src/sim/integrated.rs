@@ -264,6 +264,7 @@ pub fn run_integrated(
             rows: vec![],
             tag_events: vec![],
             counts: None,
+            map_feed: None,
         };
     };
     let aid = scn.file.aiding;
@@ -331,6 +332,11 @@ pub fn run_integrated(
     let mut last_fix_t = first.avp.t;
     let mut fix_rw = [0.0f64; 2];
     let mut queue: MeasurementQueue<Meas> = MeasurementQueue::default();
+    let mut map_feed = prep
+        .network
+        .as_deref()
+        .filter(|_| aid.map_matching)
+        .map(|net| super::map_feed::MapFeed::new(net, first.avp.t));
     let mut k = 0u64;
     for s in samples {
         k += 1;
@@ -417,6 +423,9 @@ pub fn run_integrated(
                 }
             }
         }
+        if let Some(feed) = map_feed.as_mut() {
+            feed.step(t, &mut filter);
+        }
         let st = filter.state();
         if rec.due(k) {
             let cov = Some(filter.position_cov_enu());
@@ -433,5 +442,6 @@ pub fn run_integrated(
         rows: rec.finish(),
         tag_events,
         counts: Some(filter.counts),
+        map_feed: map_feed.map(|f| f.counts),
     }
 }

@@ -2,6 +2,7 @@
 //! the output files of `waymark simulate`.
 
 pub mod integrated;
+pub mod map_feed;
 pub mod metrics;
 pub mod output;
 pub mod run;

@@ -72,6 +72,8 @@ pub struct RunResult {
     pub tag_events: Vec<TagEvent>,
     /// Update counts (integrated mode).
     pub counts: Option<crate::nav::integrated::UpdateCounts>,
+    /// What the map-matching feed did (integrated mode with `aiding.map_matching`).
+    pub map_feed: Option<super::map_feed::FeedCounts>,
 }
 
 /// All runs and their summary.
@@ -141,13 +143,16 @@ pub fn simulate(scn: &Scenario, truth: &TruthSource, runs: u64, seed: u64) -> Re
     simulate_with(scn, truth, &[], runs, seed, None)
 }
 
-/// Tags and their passes, found once for all runs.
+/// Tags and their passes, found once for all runs; the road network when
+/// map matching aids the navigator.
 #[derive(Debug, Clone, Default)]
 pub struct Prepared {
     /// All tags (scenario entries, then extra ones).
     pub tags: Vec<Tag>,
     /// Passes by tags within their read geometry, in time order.
     pub passes: Vec<TagPass>,
+    /// The route's road network (with `aiding.map_matching`).
+    pub network: Option<std::sync::Arc<crate::network::Network>>,
 }
 
 impl Prepared {
@@ -158,7 +163,26 @@ impl Prepared {
         tags.extend_from_slice(extra);
         let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
         let passes = find_passes(truth, cap, &tags, &scn.rfid);
-        Ok(Prepared { tags, passes })
+        let network = if scn.file.aiding.map_matching {
+            match &scn.route {
+                RouteKind::Map { map, .. } => Some(std::sync::Arc::new(
+                    crate::network::Network::load(map, &Default::default())?,
+                )),
+                RouteKind::Motion { .. } => {
+                    return Err(crate::error::Error::scenario(
+                        &scn.path,
+                        "aiding.map_matching needs a map route ([map] and route waypoints)",
+                    ))
+                }
+            }
+        } else {
+            None
+        };
+        Ok(Prepared {
+            tags,
+            passes,
+            network,
+        })
     }
 }
 
@@ -184,10 +208,10 @@ pub fn simulate_with(
             "navigator.mode = \"integrated\" does not support imu.rotation_modulation",
         ));
     }
-    if integrated && scn.file.aiding.map_matching {
+    if !integrated && scn.file.aiding.map_matching {
         return Err(crate::error::Error::scenario(
             &scn.path,
-            "aiding.map_matching needs the map matcher, which does not feed the simulation yet (the filter's update_position_fix is ready for it); set it to false",
+            "aiding.map_matching is used only by navigator.mode = \"integrated\"",
         ));
     }
     if !integrated && (!extra_tags.is_empty() || !scn.file.tag.is_empty()) {
@@ -362,6 +386,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
             rows: vec![],
             tag_events: vec![],
             counts: None,
+            map_feed: None,
         };
     };
     // Truth body attitude at the start (undo the modulation).
@@ -497,5 +522,6 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
         rows: rec.finish(),
         tag_events: vec![],
         counts: None,
+        map_feed: None,
     }
 }

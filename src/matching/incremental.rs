@@ -1,0 +1,239 @@
+//! The paper's incremental map matcher (PAPERS.md §3.3).
+//!
+//! Three candidate states:
+//! 1. initial: no usable history; candidates are the segments within the
+//!    search radius from the Hilbert grid;
+//! 2. tracking: the fix is still on the last matched segment
+//!    (0 < η < 1 and d < ε, and, an addition to the paper, the heading within
+//!    `max_turn_deg` of the segment's direction): it stays the match
+//!    (constant work);
+//! 3. update: the fix has left the segment through one of its ends;
+//!    candidates are the segments connected at that end (the next or previous
+//!    segment of the same section, or, at a section end, the sections meeting
+//!    at the node from the connectivity topology), plus the segment itself.
+//!
+//! The matched segment maximises f = w_d / (1 + d) + w_θ cos Δθ; the matched
+//! point is the orthogonal projection. When the best update candidate is
+//! farther than ε, or the fix drifted sideways beyond ε, the matcher falls
+//! back to the initial state. Heading comes from the fix where given, else
+//! from the displacement from the most recent fix at least
+//! `heading_baseline_m` away (a sliding baseline).
+
+use super::{heading_cos, matched_on, Break, Fix, MatchState, MatchedPoint, Matcher};
+use crate::network::{Network, SectionEnd, SegmentId};
+
+/// Parameters of the incremental matcher.
+#[derive(Debug, Clone, Copy)]
+pub struct IncrementalParams {
+    /// ε: the tracking distance (the paper's node circle radius) (m).
+    pub epsilon_m: f64,
+    /// Radius of the initial search (m).
+    pub search_radius_m: f64,
+    /// Weight of distance, w_d (w_θ = 1 − w_d).
+    pub w_d: f64,
+    /// Displacement over which a heading is derived when the fix has none (m).
+    pub heading_baseline_m: f64,
+    /// A heading this far (degrees) from the segment's direction of travel
+    /// ends tracking even inside the segment (the vehicle has turned off).
+    pub max_turn_deg: f64,
+}
+
+impl Default for IncrementalParams {
+    fn default() -> Self {
+        Self {
+            epsilon_m: 40.0,
+            search_radius_m: 50.0,
+            w_d: 0.5,
+            heading_baseline_m: 8.0,
+            max_turn_deg: 45.0,
+        }
+    }
+}
+
+/// The paper's incremental matcher; see the module documentation.
+#[derive(Debug)]
+pub struct IncrementalMatcher<'a> {
+    net: &'a Network,
+    params: IncrementalParams,
+    current: Option<SegmentId>,
+    index: u64,
+    /// Recent fixes, the oldest at least `heading_baseline_m` from the newest.
+    recent: std::collections::VecDeque<[f64; 2]>,
+    derived_heading: Option<f64>,
+    candidates: Vec<SegmentId>,
+    breaks: Vec<Break>,
+    last_matched: Option<(u64, f64)>,
+    was_unmatched: bool,
+}
+
+impl<'a> IncrementalMatcher<'a> {
+    /// A matcher on `net`.
+    pub fn new(net: &'a Network, params: IncrementalParams) -> Self {
+        Self {
+            net,
+            params,
+            current: None,
+            index: 0,
+            recent: std::collections::VecDeque::with_capacity(64),
+            derived_heading: None,
+            candidates: Vec::with_capacity(64),
+            breaks: Vec::new(),
+            last_matched: None,
+            was_unmatched: false,
+        }
+    }
+
+    /// The paper's score f for a candidate.
+    #[inline]
+    fn score(&self, seg: SegmentId, p: [f64; 2], heading: Option<f64>) -> (f64, f64) {
+        let s = &self.net.segments[seg as usize];
+        let d = crate::network::point_segment_distance(p, s.a, s.b);
+        let c = heading.map_or(0.0, |h| heading_cos(self.net, seg, h));
+        (self.params.w_d / (1.0 + d) + (1.0 - self.params.w_d) * c, d)
+    }
+
+    fn best(&self, p: [f64; 2], heading: Option<f64>, max_d: f64) -> Option<(SegmentId, f64)> {
+        let mut best: Option<(SegmentId, f64)> = None;
+        for &c in &self.candidates {
+            let (f, d) = self.score(c, p, heading);
+            if d <= max_d && best.is_none_or(|b| f > b.1) {
+                best = Some((c, f));
+            }
+        }
+        best
+    }
+
+    /// Segments connected to `seg` at one of its ends, into `self.candidates`.
+    fn connected(&mut self, seg: SegmentId, at_end: bool) {
+        let net = self.net;
+        let s = &net.segments[seg as usize];
+        let sec = &net.sections[s.section as usize];
+        let last = sec.first_segment + sec.segment_count - 1;
+        self.candidates.clear();
+        self.candidates.push(seg);
+        if at_end && seg < last {
+            self.candidates.push(seg + 1);
+            return;
+        }
+        if !at_end && seg > sec.first_segment {
+            self.candidates.push(seg - 1);
+            return;
+        }
+        let node = if at_end { sec.end } else { sec.start };
+        for inc in net.topology.incidences(node) {
+            let o = &net.sections[inc.section as usize];
+            let cand = match inc.end {
+                SectionEnd::Start => o.first_segment,
+                SectionEnd::End => o.first_segment + o.segment_count - 1,
+            };
+            if cand != seg {
+                self.candidates.push(cand);
+            }
+        }
+    }
+
+    fn heading(&mut self, fix: &Fix) -> Option<f64> {
+        if fix.heading_rad.is_some() {
+            return fix.heading_rad;
+        }
+        // A sliding baseline: the direction from the most recent fix at least
+        // `heading_baseline_m` away (bounded buffer, constant work per fix).
+        let p = fix.enu;
+        let b2 = self.params.heading_baseline_m.powi(2);
+        let d2 = |q: [f64; 2]| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
+        self.recent.push_back(p);
+        while self.recent.len() > 2 && d2(self.recent[1]) >= b2 || self.recent.len() > 256 {
+            self.recent.pop_front();
+        }
+        if let Some(&q) = self.recent.front() {
+            if d2(q) >= b2 {
+                self.derived_heading = Some((p[0] - q[0]).atan2(p[1] - q[1]));
+            }
+        }
+        self.derived_heading
+    }
+
+    fn initial(&mut self, fix: &Fix, heading: Option<f64>) -> Option<(SegmentId, f64)> {
+        self.candidates.clear();
+        self.net.grid.within_radius_into(
+            fix.enu,
+            self.params.search_radius_m,
+            &mut self.candidates,
+        );
+        self.best(fix.enu, heading, f64::INFINITY)
+    }
+}
+
+impl Matcher for IncrementalMatcher<'_> {
+    fn push(&mut self, fix: &Fix, out: &mut Vec<MatchedPoint>) {
+        let index = self.index;
+        self.index += 1;
+        let heading = self.heading(fix);
+        let p = fix.enu;
+        let eps = self.params.epsilon_m;
+        let mut chosen: Option<(SegmentId, f64, MatchState)> = None;
+        if let Some(seg) = self.current {
+            let s = &self.net.segments[seg as usize];
+            let (dx, dy) = (s.b[0] - s.a[0], s.b[1] - s.a[1]);
+            let len2 = dx * dx + dy * dy;
+            let eta = ((p[0] - s.a[0]) * dx + (p[1] - s.a[1]) * dy) / len2;
+            let d = (p[0] * (s.a[1] - s.b[1]) - p[1] * (s.a[0] - s.b[0]) + s.a[0] * s.b[1]
+                - s.b[0] * s.a[1])
+                .abs()
+                / len2.sqrt();
+            let turned = heading.is_some_and(|h| {
+                heading_cos(self.net, seg, h) < self.params.max_turn_deg.to_radians().cos()
+            });
+            let inside = eta > 0.0 && eta < 1.0;
+            if inside && d < eps && !turned {
+                let f = self.score(seg, p, heading).0;
+                chosen = Some((seg, f, MatchState::Tracking));
+            } else if !inside || turned {
+                self.connected(seg, eta >= 0.5);
+                if let Some((c, f)) = self.best(p, heading, eps) {
+                    chosen = Some((c, f, MatchState::Update));
+                }
+            }
+        }
+        if chosen.is_none() {
+            chosen = self
+                .initial(fix, heading)
+                .map(|(c, f)| (c, f, MatchState::Initial));
+        }
+        match chosen {
+            Some((seg, f, state)) => {
+                self.current = Some(seg);
+                if self.was_unmatched {
+                    self.breaks.push(Break {
+                        reason: super::BreakReason::OffRoad,
+                        before: self.last_matched,
+                        after: (index, fix.t_s),
+                    });
+                    self.was_unmatched = false;
+                }
+                self.last_matched = Some((index, fix.t_s));
+                out.push(matched_on(
+                    self.net,
+                    index,
+                    fix,
+                    seg,
+                    state,
+                    f.clamp(0.0, 1.0),
+                ));
+            }
+            None => {
+                self.current = None;
+                self.was_unmatched = true;
+                out.push(MatchedPoint::unmatched(index, fix));
+            }
+        }
+    }
+
+    fn finish(&mut self, _out: &mut Vec<MatchedPoint>) {
+        // Every point was emitted when pushed.
+    }
+
+    fn breaks(&self) -> &[Break] {
+        &self.breaks
+    }
+}

@@ -1,0 +1,444 @@
+//! Network distances for map matching: bounded Dijkstra searches from
+//! topology nodes over permitted directed sections, cached per source node.
+//!
+//! A search from a node stops at a distance bound; a later query needing a
+//! larger bound repeats the search with it (bounds grow in powers of two from
+//! [`MIN_BOUND_M`]). The cache is emptied when it holds [`CACHE_NODES`]
+//! searches, so memory stays bounded on long tracks.
+
+use crate::network::{DirectedSection, Network, NodeId, SectionId};
+use rustc_hash::FxHashMap;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Smallest search bound (m).
+pub const MIN_BOUND_M: f64 = 256.0;
+/// Searches kept before the cache is emptied.
+pub const CACHE_NODES: usize = 4096;
+
+const NO_PRED: u32 = u32::MAX;
+
+/// A path's way through the network: exit node, cost to it, entry node, entry direction.
+type Via = (NodeId, f64, NodeId, bool);
+
+/// A point on a section: the section and the distance from its start (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OnSection {
+    /// The section.
+    pub section: SectionId,
+    /// Distance from its start in the digitised direction (m).
+    pub offset_m: f64,
+    /// Direction of travel: `Some(true)` in the digitised direction,
+    /// `Some(false)` against it, `None` either (as the section permits).
+    pub forward: Option<bool>,
+}
+
+/// One search's result: distance and predecessor (directed section code) by node.
+#[derive(Debug, Default)]
+struct Tree {
+    bound: f64,
+    /// Distance, predecessor (directed section code) and the first section
+    /// taken from the source, by node.
+    reached: FxHashMap<NodeId, (f64, u32, u32)>,
+}
+
+#[derive(Debug, Copy, Clone, PartialEq)]
+struct Item {
+    cost: f64,
+    node: NodeId,
+}
+impl Eq for Item {}
+impl Ord for Item {
+    fn cmp(&self, o: &Self) -> Ordering {
+        o.cost
+            .total_cmp(&self.cost)
+            .then_with(|| o.node.cmp(&self.node))
+    }
+}
+impl PartialOrd for Item {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// Cached bounded shortest-path distances on one network.
+#[derive(Debug)]
+pub struct NetworkDistances<'a> {
+    net: &'a Network,
+    cache: FxHashMap<NodeId, Tree>,
+    dist: Vec<f64>,
+    pred: Vec<u32>,
+    first: Vec<u32>,
+    touched: Vec<NodeId>,
+    heap: BinaryHeap<Item>,
+    /// Searches run (cache misses), for diagnostics.
+    pub searches: u64,
+    /// Added to the distance of a path between two directed points that
+    /// turns round at a node straight back onto the section it left (m).
+    pub uturn_penalty_m: f64,
+}
+
+fn code(d: DirectedSection) -> u32 {
+    d.section * 2 + u32::from(d.forward)
+}
+
+fn decode(c: u32) -> DirectedSection {
+    DirectedSection {
+        section: c / 2,
+        forward: c % 2 == 1,
+    }
+}
+
+impl<'a> NetworkDistances<'a> {
+    /// An empty cache on `net`.
+    pub fn new(net: &'a Network) -> Self {
+        Self {
+            net,
+            cache: FxHashMap::default(),
+            dist: vec![f64::INFINITY; net.nodes.len()],
+            pred: vec![NO_PRED; net.nodes.len()],
+            first: vec![NO_PRED; net.nodes.len()],
+            touched: Vec::new(),
+            heap: BinaryHeap::new(),
+            searches: 0,
+            uturn_penalty_m: 0.0,
+        }
+    }
+
+    /// Makes sure distances from `from` up to at least `bound_m` are cached.
+    pub fn ensure(&mut self, from: NodeId, bound_m: f64) {
+        if let Some(t) = self.cache.get(&from) {
+            if t.bound >= bound_m {
+                return;
+            }
+        }
+        let mut bound = MIN_BOUND_M;
+        while bound < bound_m {
+            bound *= 2.0;
+        }
+        if self.cache.len() >= CACHE_NODES {
+            self.cache.clear();
+        }
+        let tree = self.search(from, bound);
+        self.cache.insert(from, tree);
+    }
+
+    fn search(&mut self, from: NodeId, bound: f64) -> Tree {
+        self.searches += 1;
+        let net = self.net;
+        self.dist[from as usize] = 0.0;
+        self.touched.push(from);
+        self.heap.push(Item {
+            cost: 0.0,
+            node: from,
+        });
+        let mut reached = FxHashMap::default();
+        while let Some(Item { cost, node }) = self.heap.pop() {
+            if cost > self.dist[node as usize] {
+                continue;
+            }
+            let first = self.first[node as usize];
+            reached.insert(node, (cost, self.pred[node as usize], first));
+            for d in net.topology.departures(&net.model, node) {
+                let s = &net.sections[d.section as usize];
+                let next = if d.forward { s.end } else { s.start };
+                let c = cost + s.length_m;
+                if c <= bound && c < self.dist[next as usize] {
+                    if self.dist[next as usize].is_infinite() {
+                        self.touched.push(next);
+                    }
+                    self.dist[next as usize] = c;
+                    self.pred[next as usize] = code(d);
+                    self.first[next as usize] = if node == from { d.section } else { first };
+                    self.heap.push(Item {
+                        cost: c,
+                        node: next,
+                    });
+                }
+            }
+        }
+        for &n in &self.touched {
+            self.dist[n as usize] = f64::INFINITY;
+            self.pred[n as usize] = NO_PRED;
+            self.first[n as usize] = NO_PRED;
+        }
+        self.touched.clear();
+        Tree { bound, reached }
+    }
+
+    /// Cached distance from node `from` to node `to`; `None` when not reached
+    /// (or not searched: call [`Self::ensure`] first).
+    #[inline]
+    pub fn node_distance(&self, from: NodeId, to: NodeId) -> Option<f64> {
+        self.cache
+            .get(&from)
+            .and_then(|t| t.reached.get(&to))
+            .map(|r| r.0)
+    }
+
+    /// Nodes where a vehicle at `p` can leave its section, and the distance to each.
+    pub fn exits(&self, p: OnSection) -> [Option<(NodeId, f64)>; 2] {
+        let s = &self.net.sections[p.section as usize];
+        let fwd = p.forward.unwrap_or_else(|| s.oneway.allows_forward());
+        let bwd = p.forward.map_or_else(|| s.oneway.allows_backward(), |f| !f);
+        [
+            fwd.then(|| (s.end, (s.length_m - p.offset_m).max(0.0))),
+            bwd.then(|| (s.start, p.offset_m.max(0.0))),
+        ]
+    }
+
+    /// Nodes from which `p` can be reached along its section, the distance
+    /// from each, and whether that travel is in the digitised direction.
+    pub fn entries(&self, p: OnSection) -> [Option<(NodeId, f64, bool)>; 2] {
+        let s = &self.net.sections[p.section as usize];
+        let fwd = p.forward.unwrap_or_else(|| s.oneway.allows_forward());
+        let bwd = p.forward.map_or_else(|| s.oneway.allows_backward(), |f| !f);
+        [
+            fwd.then(|| (s.start, p.offset_m.max(0.0), true)),
+            bwd.then(|| (s.end, (s.length_m - p.offset_m).max(0.0), false)),
+        ]
+    }
+
+    /// Distance along a section from `a` to `b` when both lie on it, without
+    /// leaving it: in the direction of travel, or backward by at most
+    /// `backtrack_m` (measurement noise, not a reversal). Travelling
+    /// directions that differ (a U-turn in the road) give `None`.
+    #[inline]
+    pub fn along_section(&self, a: OnSection, b: OnSection, backtrack_m: f64) -> Option<f64> {
+        if a.section != b.section {
+            return None;
+        }
+        let delta = b.offset_m - a.offset_m;
+        let dir = match (a.forward, b.forward) {
+            (Some(x), Some(y)) if x != y => return None,
+            (x, y) => x.or(y),
+        };
+        let ok = match dir {
+            Some(true) => delta >= -backtrack_m,
+            Some(false) => delta <= backtrack_m,
+            None => {
+                let s = &self.net.sections[a.section as usize];
+                (delta >= 0.0 && s.oneway.allows_forward())
+                    || (delta <= 0.0 && s.oneway.allows_backward())
+                    || delta.abs() <= backtrack_m
+            }
+        };
+        ok.then_some(delta.abs())
+    }
+
+    /// The U-turn penalty for a path from `a` leaving by node `exit` and
+    /// reaching `b` from node `entry`, `first` being the first section the
+    /// path takes after `exit`: it turns round when that is `a`'s own
+    /// section, or when it re-enters `a`'s section at once from `exit`.
+    #[inline]
+    fn uturn(&self, a: OnSection, b: OnSection, exit: NodeId, entry: NodeId, first: u32) -> f64 {
+        let directed = a.forward.is_some() && b.forward.is_some();
+        if directed && ((exit == entry && a.section == b.section) || first == a.section) {
+            self.uturn_penalty_m
+        } else {
+            0.0
+        }
+    }
+
+    /// Shortest permitted distance from `a` to `b` using only cached searches
+    /// (call [`Self::ensure`] for `a`'s exits first).
+    pub fn point_distance_cached(
+        &self,
+        a: OnSection,
+        b: OnSection,
+        backtrack_m: f64,
+    ) -> Option<f64> {
+        let mut best = self.along_section(a, b, backtrack_m);
+        let exits = self.exits(a);
+        let entries = self.entries(b);
+        for (xn, xc) in exits.iter().flatten() {
+            let Some(tree) = self.cache.get(xn) else {
+                continue;
+            };
+            for (en, ec, _) in entries.iter().flatten() {
+                if let Some(&(d, _, first)) = tree.reached.get(en) {
+                    let total = xc + d + ec + self.uturn(a, b, *xn, *en, first);
+                    if best.is_none_or(|b| total < b) {
+                        best = Some(total);
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    /// The shortest permitted path from `a` to `b` within `bound_m`, as pieces
+    /// (section, from offset, to offset) in travel order.
+    pub fn path(
+        &mut self,
+        a: OnSection,
+        b: OnSection,
+        bound_m: f64,
+        backtrack_m: f64,
+    ) -> Option<Vec<(SectionId, f64, f64)>> {
+        for (xn, _) in self.exits(a).into_iter().flatten() {
+            self.ensure(xn, bound_m);
+        }
+        let mut best: Option<(f64, Option<Via>)> =
+            self.along_section(a, b, backtrack_m).map(|d| (d, None));
+        for (xn, xc) in self.exits(a).into_iter().flatten() {
+            let tree = &self.cache[&xn];
+            for (en, ec, fwd) in self.entries(b).into_iter().flatten() {
+                if let Some(&(d, _, first)) = tree.reached.get(&en) {
+                    let total = xc + d + ec + self.uturn(a, b, xn, en, first);
+                    if best.as_ref().is_none_or(|b| total < b.0) {
+                        best = Some((total, Some((xn, xc, en, fwd))));
+                    }
+                }
+            }
+        }
+        let (_, via) = best?;
+        let Some((xn, _, en, fwd)) = via else {
+            return Some(vec![(a.section, a.offset_m, b.offset_m)]);
+        };
+        let net = self.net;
+        let sa = &net.sections[a.section as usize];
+        let sb = &net.sections[b.section as usize];
+        let tree = &self.cache[&xn];
+        let mut middle = Vec::new();
+        let mut node = en;
+        while node != xn {
+            let &(_, p, _) = tree.reached.get(&node)?;
+            if p == NO_PRED {
+                break;
+            }
+            let d = decode(p);
+            middle.push(d);
+            let s = &net.sections[d.section as usize];
+            node = if d.forward { s.start } else { s.end };
+        }
+        middle.reverse();
+        let mut pieces = Vec::with_capacity(middle.len() + 2);
+        let leave_fwd = xn == sa.end && sa.oneway.allows_forward();
+        pieces.push((
+            a.section,
+            a.offset_m,
+            if leave_fwd { sa.length_m } else { 0.0 },
+        ));
+        for d in middle {
+            let len = net.sections[d.section as usize].length_m;
+            pieces.push(if d.forward {
+                (d.section, 0.0, len)
+            } else {
+                (d.section, len, 0.0)
+            });
+        }
+        pieces.push((b.section, if fwd { 0.0 } else { sb.length_m }, b.offset_m));
+        Some(pieces)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::{model_from_polylines, Oneway, TagSet};
+
+    /// A 100 m square block: south side one-way eastward, the others two-way.
+    fn block() -> Network {
+        let d = 100.0 / 111_320.0;
+        let dl = 100.0 / (111_320.0 * 60f64.to_radians().cos());
+        let (sw, se, ne, nw) = (
+            [60.0, 24.0],
+            [60.0, 24.0 + dl],
+            [60.0 + d, 24.0 + dl],
+            [60.0 + d, 24.0],
+        );
+        let mut south = TagSet::default();
+        south.set("oneway", "yes");
+        let roads = vec![
+            (south.attributes("south".into()), vec![vec![sw, se]]),
+            (
+                TagSet::default().attributes("east".into()),
+                vec![vec![se, ne]],
+            ),
+            (
+                TagSet::default().attributes("north".into()),
+                vec![vec![ne, nw]],
+            ),
+            (
+                TagSet::default().attributes("west".into()),
+                vec![vec![nw, sw]],
+            ),
+        ];
+        Network::from_model(model_from_polylines(roads).unwrap(), None).unwrap()
+    }
+
+    fn section_of(net: &Network, id: &str) -> SectionId {
+        net.roads
+            .iter()
+            .position(|r| r.attributes.id == id)
+            .map(|r| net.roads[r].sections[0])
+            .unwrap()
+    }
+
+    #[test]
+    fn distances_honour_one_way_and_direction() {
+        let net = block();
+        let south = section_of(&net, "south");
+        assert_eq!(net.sections[south as usize].oneway, Oneway::Forward);
+        let len = net.sections[south as usize].length_m;
+        assert!((len - 100.0).abs() < 0.5, "{len}");
+        let mut p = NetworkDistances::new(&net);
+        let at = |off: f64, forward: Option<bool>| OnSection {
+            section: south,
+            offset_m: off,
+            forward,
+        };
+        // Forward along the one-way: the difference.
+        assert_eq!(
+            p.along_section(at(10.0, None), at(60.0, None), 0.0),
+            Some(50.0)
+        );
+        // Backward against it: not along the section, except within the tolerance.
+        assert_eq!(p.along_section(at(60.0, None), at(10.0, None), 0.0), None);
+        assert_eq!(
+            p.along_section(at(60.0, None), at(55.0, None), 10.0),
+            Some(5.0)
+        );
+        // A U-turn inside a section is never along it.
+        let east = section_of(&net, "east");
+        let e = |off: f64, f: bool| OnSection {
+            section: east,
+            offset_m: off,
+            forward: Some(f),
+        };
+        assert_eq!(p.along_section(e(10.0, true), e(5.0, false), 100.0), None);
+        // Around the block instead: 40 m to the end, 300 m round, 10 m in.
+        for (n, _) in p.exits(at(60.0, Some(true))).into_iter().flatten() {
+            p.ensure(n, 500.0);
+        }
+        let d = p
+            .point_distance_cached(at(60.0, Some(true)), at(10.0, Some(true)), 0.0)
+            .unwrap();
+        let block_len: f64 = net.sections.iter().map(|s| s.length_m).sum();
+        assert!((d - (block_len - 50.0)).abs() < 1e-6, "{d} {block_len}");
+        // The path: south to its end, east, north, west, south to 10 m.
+        let path = p
+            .path(at(60.0, Some(true)), at(10.0, Some(true)), 500.0, 0.0)
+            .unwrap();
+        let roads: Vec<&str> = path
+            .iter()
+            .map(|(s, _, _)| {
+                net.roads[net.sections[*s as usize].road as usize]
+                    .attributes
+                    .id
+                    .as_str()
+            })
+            .collect();
+        assert_eq!(roads, ["south", "east", "north", "west", "south"]);
+        let total: f64 = path.iter().map(|(_, a, b)| (b - a).abs()).sum();
+        assert!((total - d).abs() < 1e-6);
+        // Against the one-way section's direction there is no state to reach.
+        let mut q = NetworkDistances::new(&net);
+        let back = at(50.0, Some(false));
+        assert_eq!(q.exits(back)[0], None);
+        assert!(q
+            .path(at(60.0, Some(true)), at(10.0, Some(true)), 1000.0, 0.0)
+            .is_some());
+    }
+}

@@ -1,0 +1,362 @@
+//! TRACK.csv input and MATCHED.csv output (DESIGN.md).
+//!
+//! TRACK.csv: a header row naming at least `t_s`, `lat`, `lon`, optionally
+//! `heading_deg` (clockwise from north), `speed_mps` and `track_id`, in any
+//! order; rows in time order within each track. Every problem is reported
+//! with the file and line.
+
+use super::{Fix, MatchedPoint};
+use crate::error::{Error, Result};
+use crate::geodesy::Geodetic;
+use crate::network::Network;
+use rustc_hash::FxHashMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One row of TRACK.csv.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackRow {
+    /// 1-based line number in the file.
+    pub line: usize,
+    /// Track identifier (empty when the file has no `track_id` column).
+    pub track_id: String,
+    /// Time (s).
+    pub t_s: f64,
+    /// Latitude (degrees).
+    pub lat: f64,
+    /// Longitude (degrees).
+    pub lon: f64,
+    /// Heading (degrees clockwise from north), if given.
+    pub heading_deg: Option<f64>,
+    /// Speed (m/s), if given.
+    pub speed_mps: Option<f64>,
+}
+
+/// Splits one CSV line (fields may be double-quoted; no embedded newlines).
+pub(crate) fn split_csv(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => out.push(std::mem::take(&mut cur).trim().to_owned()),
+            _ => cur.push(c),
+        }
+    }
+    out.push(cur.trim().to_owned());
+    out
+}
+
+/// Reads the lines of a text file: (line number, text), skipping blank lines.
+pub(crate) fn read_lines(path: &Path) -> Result<Vec<(usize, String)>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|e| Error::table(path, 0, format!("not UTF-8 text ({e})")))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    Ok(text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim_end_matches('\r').to_owned()))
+        .filter(|(_, l)| !l.trim().is_empty())
+        .collect())
+}
+
+fn number(path: &Path, line: usize, name: &str, v: &str) -> Result<f64> {
+    let x: f64 = v
+        .parse()
+        .map_err(|_| Error::table(path, line, format!("{name} '{v}' is not a number")))?;
+    if !x.is_finite() {
+        return Err(Error::table(
+            path,
+            line,
+            format!("{name} is {v}, not a finite number"),
+        ));
+    }
+    Ok(x)
+}
+
+/// Reads and checks TRACK.csv.
+pub fn read_track(path: &Path) -> Result<Vec<TrackRow>> {
+    let lines = read_lines(path)?;
+    let Some((hline, header)) = lines.first() else {
+        return Err(Error::table(
+            path,
+            1,
+            "empty file: expected a header row t_s,lat,lon",
+        ));
+    };
+    let names = split_csv(header);
+    let col = |n: &str| names.iter().position(|h| h == n);
+    let (Some(ct), Some(clat), Some(clon)) = (col("t_s"), col("lat"), col("lon")) else {
+        let missing: Vec<&str> = ["t_s", "lat", "lon"]
+            .into_iter()
+            .filter(|n| col(n).is_none())
+            .collect();
+        return Err(Error::table(
+            path,
+            *hline,
+            format!(
+                "missing column(s) {} (header: '{}'; expected t_s,lat,lon[,heading_deg,speed_mps,track_id])",
+                missing.join(", "),
+                header
+            ),
+        ));
+    };
+    let (ch, cs, cid) = (col("heading_deg"), col("speed_mps"), col("track_id"));
+    let mut rows = Vec::with_capacity(lines.len());
+    let mut last_t: FxHashMap<String, (f64, usize)> = FxHashMap::default();
+    for (line, text) in lines.iter().skip(1) {
+        let f = split_csv(text);
+        if f.len() != names.len() {
+            return Err(Error::table(
+                path,
+                *line,
+                format!("{} fields, the header has {}", f.len(), names.len()),
+            ));
+        }
+        let t_s = number(path, *line, "t_s", &f[ct])?;
+        let lat = number(path, *line, "lat", &f[clat])?;
+        let lon = number(path, *line, "lon", &f[clon])?;
+        if !(-90.0..=90.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) {
+            return Err(Error::table(
+                path,
+                *line,
+                format!("coordinate out of range (lat {lat}, lon {lon})"),
+            ));
+        }
+        let opt = |c: Option<usize>, name: &str| -> Result<Option<f64>> {
+            match c {
+                Some(c) if !f[c].is_empty() => number(path, *line, name, &f[c]).map(Some),
+                _ => Ok(None),
+            }
+        };
+        let heading_deg = opt(ch, "heading_deg")?;
+        let speed_mps = opt(cs, "speed_mps")?;
+        let track_id = cid.map(|c| f[c].clone()).unwrap_or_default();
+        if let Some(&(prev, pline)) = last_t.get(&track_id) {
+            if t_s < prev {
+                return Err(Error::table(
+                    path,
+                    *line,
+                    format!(
+                        "not in time order: t_s {t_s} is earlier than {prev} on line {pline}{}",
+                        if track_id.is_empty() {
+                            String::new()
+                        } else {
+                            format!(" (track '{track_id}')")
+                        }
+                    ),
+                ));
+            }
+        }
+        last_t.insert(track_id.clone(), (t_s, *line));
+        rows.push(TrackRow {
+            line: *line,
+            track_id,
+            t_s,
+            lat,
+            lon,
+            heading_deg,
+            speed_mps,
+        });
+    }
+    if rows.is_empty() {
+        return Err(Error::table(path, *hline, "no data rows after the header"));
+    }
+    Ok(rows)
+}
+
+/// Row indices of each track, in order of first appearance.
+pub fn group_tracks(rows: &[TrackRow]) -> Vec<(String, Vec<usize>)> {
+    let mut order: Vec<(String, Vec<usize>)> = Vec::new();
+    let mut at: FxHashMap<&str, usize> = FxHashMap::default();
+    for (i, r) in rows.iter().enumerate() {
+        let k = *at.entry(r.track_id.as_str()).or_insert_with(|| {
+            order.push((r.track_id.clone(), Vec::new()));
+            order.len() - 1
+        });
+        order[k].1.push(i);
+    }
+    order
+}
+
+/// A row as a fix in the network's frame.
+pub fn to_fix(net: &Network, r: &TrackRow) -> Fix {
+    let e = net.frame.to_enu(&Geodetic::from_degrees(r.lat, r.lon, 0.0));
+    Fix {
+        t_s: r.t_s,
+        enu: [e[0], e[1]],
+        heading_rad: r.heading_deg.map(f64::to_radians),
+    }
+}
+
+/// Latitude and longitude of a matched point (interpolated between the
+/// segment's WGS-84 vertices).
+pub fn matched_lat_lon(net: &Network, m: &MatchedPoint) -> Option<[f64; 2]> {
+    let seg = &net.segments[m.segment? as usize];
+    let t = if seg.length_m > 0.0 {
+        ((m.road_offset_m - seg.road_offset_m) / seg.length_m).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    Some([
+        seg.a_lat_lon[0] + t * (seg.b_lat_lon[0] - seg.a_lat_lon[0]),
+        seg.a_lat_lon[1] + t * (seg.b_lat_lon[1] - seg.a_lat_lon[1]),
+    ])
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_owned()
+    }
+}
+
+/// MATCHED.csv text: one row per input row, in input order. `matched[i]` is
+/// the match of `rows[i]`.
+pub fn matched_csv(net: &Network, rows: &[TrackRow], matched: &[MatchedPoint]) -> String {
+    let mut s = String::with_capacity(rows.len() * 96);
+    s.push_str("track_id,t_s,lat,lon,road_id,offset_m,distance_m,state,confidence\n");
+    for (r, m) in rows.iter().zip(matched) {
+        let _ = write!(s, "{},{},", csv_field(&r.track_id), r.t_s);
+        match matched_lat_lon(net, m) {
+            Some([lat, lon]) => {
+                let road = &net.roads[m.road.unwrap_or(0) as usize].attributes.id;
+                let _ = writeln!(
+                    s,
+                    "{lat:.7},{lon:.7},{},{:.2},{:.2},{},{:.3}",
+                    csv_field(road),
+                    m.road_offset_m,
+                    m.distance_m,
+                    m.state.as_str(),
+                    m.confidence
+                );
+            }
+            None => {
+                let _ = writeln!(s, ",,,,,{},0", m.state.as_str());
+            }
+        }
+    }
+    s
+}
+
+/// Which matcher to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// [`super::IncrementalMatcher`].
+    Incremental,
+    /// [`super::HmmMatcher`].
+    Hmm,
+}
+
+/// What happened to one track of a file.
+#[derive(Debug, Clone)]
+pub struct TrackOutcome {
+    /// The track's identifier.
+    pub track_id: String,
+    /// Rows (indices into the file's rows), in order.
+    pub rows: Vec<usize>,
+    /// Points matched.
+    pub matched: usize,
+    /// Breaks, with indices counted within the track.
+    pub breaks: Vec<super::Break>,
+    /// Runs of unmatched points, indices counted within the track.
+    pub unmatched: Vec<super::UnmatchedSpan>,
+}
+
+/// Matches every track of a file; the result has one point per row, in row order.
+pub fn match_rows(
+    net: &Network,
+    rows: &[TrackRow],
+    method: Method,
+) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
+    use super::{HmmMatcher, HmmParams, IncrementalMatcher, IncrementalParams, Matcher};
+    let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
+    let mut outcomes = Vec::new();
+    for (track_id, idx) in group_tracks(rows) {
+        let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
+        let (points, breaks) = match method {
+            Method::Incremental => {
+                let mut m = IncrementalMatcher::new(net, IncrementalParams::default());
+                let p = super::match_track(&mut m, &fixes);
+                (p, m.breaks().to_vec())
+            }
+            Method::Hmm => {
+                let mut m = HmmMatcher::new(net, HmmParams::default());
+                let p = super::match_track(&mut m, &fixes);
+                (p, m.breaks().to_vec())
+            }
+        };
+        let matched = points.iter().filter(|p| p.state.is_matched()).count();
+        let unmatched = super::unmatched_spans(&points);
+        for p in points {
+            all[idx[p.index as usize]] = Some(p);
+        }
+        outcomes.push(TrackOutcome {
+            track_id,
+            rows: idx,
+            matched,
+            breaks,
+            unmatched,
+        });
+    }
+    let points = all
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            p.unwrap_or_else(|| MatchedPoint::unmatched(i as u64, &to_fix(net, &rows[i])))
+        })
+        .collect();
+    (points, outcomes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_fields() {
+        assert_eq!(split_csv("a, b ,c"), ["a", "b", "c"]);
+        assert_eq!(
+            split_csv("\"x,y\",\"say \"\"hi\"\"\","),
+            ["x,y", "say \"hi\"", ""]
+        );
+        assert_eq!(csv_field("a,b"), "\"a,b\"");
+        assert_eq!(csv_field("plain"), "plain");
+    }
+
+    #[test]
+    fn reads_optional_columns_in_any_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.csv");
+        std::fs::write(
+            &p,
+            "\u{feff}lon,lat,t_s,speed_mps,heading_deg,track_id\r\n24.94,60.17,0,5,90,a\r\n\r\n24.95,60.17,1,,,b\r\n24.96,60.17,0.5,,,b\r\n",
+        )
+        .unwrap();
+        let e = read_track(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("t.csv:5") && e.contains("not in time order") && e.contains("track 'b'"),
+            "{e}"
+        );
+        std::fs::write(&p, "lon,lat,t_s,speed_mps,heading_deg,track_id\n24.94,60.17,0,5,90,a\n24.95,60.17,1,,,b\n24.96,60.17,0.5,,,a\n").unwrap();
+        let rows = read_track(&p).unwrap();
+        assert_eq!(rows.len(), 3);
+        assert_eq!(rows[0].heading_deg, Some(90.0));
+        assert_eq!(rows[0].speed_mps, Some(5.0));
+        assert_eq!(rows[1].heading_deg, None);
+        assert_eq!(rows[2].line, 4);
+        let groups = group_tracks(&rows);
+        assert_eq!(
+            groups,
+            vec![("a".to_string(), vec![0, 2]), ("b".to_string(), vec![1])]
+        );
+    }
+}
