@@ -415,7 +415,7 @@ fn misplaced_and_rogue_tags_are_rejected() {
 
 #[test]
 fn rfid_paper_experiment() {
-    // PAPERS.md §1.5, Monte Carlo (10 runs each; figures in BENCHMARKS-filter.md
+    // PAPERS.md §1.5, Monte Carlo (10 runs each; figures in BENCHMARKS.md
     // are from 100 runs). SINS/OD with the odometer healthy "holds 20 m for
     // about 1.5 h, then diverges": over 100 runs 54 cross 20 m, the earliest at
     // 2187 s, the median crossing at 4509 s; 93.5 % of the time within.

@@ -228,7 +228,7 @@ fn odometer_dr_heading_error_gives_proportional_cross_track_error() {
 #[test]
 fn dr3d_paper_scenario_matches_its_error_budget() {
     // PAPERS.md §2.1. The paper's figures at 50 min (east 29.1, north 48.2,
-    // up 14.5 m) are reported beside ours in BENCHMARKS-nav.md; this test
+    // up 14.5 m) are reported beside ours in BENCHMARKS.md; this test
     // checks our 3-D DR against the first-order budget of its error sources:
     // along-track 0.2 % of the horizontal distance, cross-track heading error
     // (2' anticlockwise) × horizontal distance, up 0.3 % of the climb. 2 %.
