@@ -329,10 +329,10 @@ fn report(dir: &Path) -> Result<()> {
         ),
     ] {
         let series = ErrorSeries {
+            envelope: waymark::report::envelope(&input.summary, label.starts_with("time")),
             x,
             error: error.clone(),
             bound95: bound.clone(),
-            envelope: None,
         };
         let decor = PlotDecor {
             title: format!(

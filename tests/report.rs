@@ -73,6 +73,40 @@ fn report_is_self_contained_and_plots_are_drawn() {
 }
 
 #[test]
+fn monte_carlo_report_shows_the_filter_bound_and_the_envelope() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/helsinki-route-integrated.toml");
+    let out = dir.path().join("mc");
+    let s = bin()
+        .args([
+            "simulate",
+            scn.to_str().unwrap(),
+            "--runs",
+            "6",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
+    let r = bin()
+        .args(["report", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for label in [
+        "filter 95 % bound",
+        "median over runs",
+        "95th percentile over runs",
+        "max over runs",
+    ] {
+        assert!(html.contains(label), "missing legend entry '{label}'");
+    }
+}
+
+#[test]
 fn report_of_a_folder_without_results_is_a_clean_error() {
     let dir = tempfile::tempdir().unwrap();
     let out = bin()

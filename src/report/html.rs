@@ -135,10 +135,10 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
             continue; // a static run has no distance axis
         }
         let series = ErrorSeries {
+            envelope: envelope(s, x_label.starts_with("time")),
             x,
             error: error.clone(),
             bound95: bound.clone(),
-            envelope: None,
         };
         let decor = PlotDecor {
             title: title.into(),
@@ -167,6 +167,31 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
         env!("CARGO_PKG_VERSION")
     );
     Ok(html)
+}
+
+/// The Monte Carlo envelope from `summary.json`'s `profile` (median, 95th
+/// percentile, max over runs), against time or distance; none for one run.
+pub fn envelope(summary: &serde_json::Value, by_time: bool) -> Option<(Vec<f64>, [Vec<f64>; 3])> {
+    if summary["runs"].as_u64().unwrap_or(1) < 2 {
+        return None;
+    }
+    let profile = summary["profile"].as_array()?;
+    let key = if by_time { "t_s" } else { "distance_m" };
+    let mut x = Vec::with_capacity(profile.len());
+    let mut env: [Vec<f64>; 3] = Default::default();
+    for p in profile {
+        let vals = [
+            p[key].as_f64()?,
+            p["median_m"].as_f64()?,
+            p["p95_m"].as_f64()?,
+            p["max_m"].as_f64()?,
+        ];
+        x.push(vals[0]);
+        for k in 0..3 {
+            env[k].push(vals[k + 1]);
+        }
+    }
+    (!x.is_empty()).then_some((x, env))
 }
 
 fn strip_xml_decl(svg: &str) -> &str {

@@ -5,7 +5,7 @@ mod html;
 mod map;
 mod plot;
 
-pub use html::{render_html, ReportInput};
+pub use html::{envelope, render_html, ReportInput};
 pub use map::{error_colour, map_svg, mounting_colour, MapOverlay};
 pub use plot::{error_plot_png, error_plot_svg, ErrorSeries, PlotDecor};
 

@@ -26,8 +26,9 @@ pub struct ErrorSeries {
     pub error: Vec<f64>,
     /// The filter's 95 % horizontal bound (m), where known.
     pub bound95: Vec<Option<f64>>,
-    /// Monte Carlo envelope: median, 95th percentile and maximum over runs (m).
-    pub envelope: Option<[Vec<f64>; 3]>,
+    /// Monte Carlo envelope on its own abscissae: x, then median, 95th
+    /// percentile and maximum over runs (m).
+    pub envelope: Option<(Vec<f64>, [Vec<f64>; 3])>,
 }
 
 /// What to draw besides the series.
@@ -55,12 +56,15 @@ where
 {
     let err = |e: &dyn std::fmt::Display| Error::InvalidParameter(format!("plot: {e}"));
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let x_max = s.x.iter().copied().fold(0.0f64, f64::max).max(1e-9);
+    let mut x_max = s.x.iter().copied().fold(0.0f64, f64::max).max(1e-9);
+    if let Some((ex, _)) = &s.envelope {
+        x_max = x_max.max(ex.iter().copied().fold(0.0, f64::max));
+    }
     let mut y_max = s.error.iter().copied().fold(0.0f64, f64::max);
     for b in s.bound95.iter().flatten() {
         y_max = y_max.max(*b);
     }
-    if let Some(env) = &s.envelope {
+    if let Some((_, env)) = &s.envelope {
         y_max = y_max.max(env[2].iter().copied().fold(0.0, f64::max));
     }
     if let Some(r) = d.requirement_m {
@@ -97,22 +101,22 @@ where
                 )
             });
     }
-    if let Some(env) = &s.envelope {
+    if let Some((ex, env)) = &s.envelope {
         let names = [
             "median over runs",
             "95th percentile over runs",
             "max over runs",
         ];
         let colours = [
-            RGBColor(120, 120, 200),
-            RGBColor(60, 60, 170),
-            RGBColor(150, 150, 150),
+            RGBColor(23, 190, 207),
+            RGBColor(255, 127, 14),
+            RGBColor(140, 140, 140),
         ];
         for k in 0..3 {
             let c = colours[k];
             chart
                 .draw_series(LineSeries::new(
-                    s.x.iter().copied().zip(env[k].iter().copied()),
+                    ex.iter().copied().zip(env[k].iter().copied()),
                     c.stroke_width(1),
                 ))
                 .map_err(|e| err(&e))?

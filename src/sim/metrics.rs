@@ -74,6 +74,8 @@ pub struct ProfilePoint {
     pub distance_m: f64,
     /// RMS over runs (m).
     pub rms_m: f64,
+    /// Median over runs (m).
+    pub median_m: f64,
     /// 95th percentile over runs (m).
     pub p95_m: f64,
     /// Largest over runs (m).
@@ -142,6 +144,11 @@ fn profile_and_nees(runs: &[RunResult]) -> (Vec<ProfilePoint>, Option<NeesSummar
             t_s: r0.t_s,
             distance_m: r0.distance_m,
             rms_m: (col.iter().map(|x| x * x).sum::<f64>() / nr).sqrt(),
+            median_m: if col.len() % 2 == 1 {
+                col[col.len() / 2]
+            } else {
+                0.5 * (col[col.len() / 2 - 1] + col[col.len() / 2])
+            },
             p95_m: col[rank.clamp(1, col.len()) - 1],
             max_m: *col.last().unwrap_or(&0.0),
             sigma_h_m: sig.is_finite().then_some(sig),
