@@ -233,6 +233,11 @@ fn simulate(
     let result = waymark::sim::simulate_with(&scn, &truth, &extra, runs, seed, Some(&tick))?;
     bar.finish_and_clear();
     waymark::sim::output::write(out, &result)?;
+    // What `waymark report` needs to redraw the map later.
+    let text =
+        std::fs::read(scenario).with_context(|| format!("{}: cannot read", scenario.display()))?;
+    waymark::export::write_atomic(&out.join("scenario.toml"), &text)?;
+    waymark::report::write_inputs(out, scenario, tags)?;
     let s = &result.summary;
     say!(
         "{}: {} over {:.0} s, {:.1} km, {} run(s), seed {}: horizontal error max {:.2} m, rms {:.2} m, p95 {:.2} m; final E/N/U {:.2}/{:.2}/{:.2} m",

@@ -54,6 +54,13 @@ fn report_is_self_contained_and_plots_are_drawn() {
     assert!(html.starts_with("<!DOCTYPE html>"));
     assert!(html.contains("<svg"), "plots are inline SVG");
     assert!(html.contains("Meets the 10 m requirement"), "verdict shown");
+    // The map of the scenario's area, redrawn from the scenario recorded by simulate.
+    assert!(html.contains("<h2>Map</h2>"), "map section");
+    assert!(
+        html.matches("<polyline").count() > 500,
+        "the Helsinki roads are drawn"
+    );
+    assert!(html.contains("<h2>Scenario</h2>"), "scenario shown");
     assert!(!html.contains("<script"), "no scripts");
     // No external resources: the only URLs are XML namespaces.
     for (i, _) in html.match_indices("http") {

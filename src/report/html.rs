@@ -15,6 +15,8 @@ pub struct ReportInput {
     pub rows: Vec<ErrorRow>,
     /// The scenario file's text, when the folder has it.
     pub scenario: Option<String>,
+    /// The map of the area as SVG, when the scenario drives on a map.
+    pub map_svg: Option<String>,
 }
 
 const CSS: &str = "body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:0;color:#1d2330;background:#f6f7f9}\
@@ -111,6 +113,19 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
         let _ = write!(html, "<tr><th>{k}</th><td>{}</td></tr>", escape(&v));
     }
     html.push_str("</table></section>");
+
+    if let Some(map) = &input.map_svg {
+        let _ = write!(
+            html,
+            "<section><h2>Map</h2>{map}<p style=\"font-size:13px;color:#555\">Roads grey, tunnels blue dashed; \
+             the route coloured by horizontal error (green 0, red at the requirement); tags: \
+             <span style=\"color:{}\">●</span> road surface, <span style=\"color:{}\">●</span> roadside, \
+             <span style=\"color:{}\">●</span> ceiling. Local metric (ENU) projection.</p></section>",
+            super::map::mounting_colour(crate::tags::Mounting::RoadSurface),
+            super::map::mounting_colour(crate::tags::Mounting::Roadside),
+            super::map::mounting_colour(crate::tags::Mounting::Ceiling),
+        );
+    }
 
     // Plots.
     let bound: Vec<Option<f64>> = input
