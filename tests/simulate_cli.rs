@@ -67,10 +67,15 @@ fn simulate(scenario: &str, extra: &[&str]) -> (Vec<Row>, serde_json::Value) {
         &std::fs::read_to_string(dir.path().join("out/summary.json")).unwrap(),
     )
     .unwrap();
-    // No temporary files left behind by the atomic writes.
+    // Exactly the output files: no temporary files left behind by the atomic writes.
+    let mut names: Vec<String> = std::fs::read_dir(dir.path().join("out"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
     assert_eq!(
-        std::fs::read_dir(dir.path().join("out")).unwrap().count(),
-        2
+        names,
+        ["errors.csv", "inputs.json", "scenario.toml", "summary.json"]
     );
     (rows, summary)
 }
