@@ -56,6 +56,32 @@ pub(crate) fn check_coordinate(path: &Path, what: &str, lat: f64, lon: f64) -> R
     Ok(())
 }
 
+/// Vertex runs identified by their coordinates (no node ids), from
+/// (longitude, latitude) pairs: every coordinate checked, runs of fewer than
+/// two vertices dropped. `what` names the feature in errors.
+pub(crate) fn coordinate_parts(
+    path: &Path,
+    what: &str,
+    runs: impl IntoIterator<Item = Vec<(f64, f64)>>,
+) -> Result<Vec<Vec<RawVertex>>> {
+    let mut parts = Vec::new();
+    for run in runs {
+        let mut part = Vec::with_capacity(run.len());
+        for (lon, lat) in run {
+            check_coordinate(path, what, lat, lon)?;
+            part.push(RawVertex {
+                key: coordinate_key(lat, lon),
+                lat,
+                lon,
+            });
+        }
+        if part.len() >= 2 {
+            parts.push(part);
+        }
+    }
+    Ok(parts)
+}
+
 struct Vertex {
     key: u64,
     lat: f64,

@@ -5,7 +5,7 @@
 //! features meeting at the same point are connected.
 
 use super::attributes::{DrivableFilter, TagSet};
-use super::build::{check_coordinate, coordinate_key, RawRoad, RawVertex};
+use super::build::{coordinate_parts, RawRoad};
 use super::model::LoadReport;
 use crate::error::{Error, Result};
 use geojson::{feature::Id, GeoJson, JsonObject, JsonValue};
@@ -80,9 +80,9 @@ pub(crate) fn load(
                 continue;
             }
         }
-        let mut parts = Vec::with_capacity(lines.len());
+        let mut runs = Vec::with_capacity(lines.len());
         for line in lines {
-            let mut part = Vec::with_capacity(line.len());
+            let mut run = Vec::with_capacity(line.len());
             for pos in line {
                 if pos.len() < 2 {
                     return Err(Error::format(
@@ -90,18 +90,11 @@ pub(crate) fn load(
                         format!("feature {id}: a position has fewer than two numbers"),
                     ));
                 }
-                let (lon, lat) = (pos[0], pos[1]);
-                check_coordinate(path, &format!("feature {id}"), lat, lon)?;
-                part.push(RawVertex {
-                    key: coordinate_key(lat, lon),
-                    lat,
-                    lon,
-                });
+                run.push((pos[0], pos[1]));
             }
-            if part.len() >= 2 {
-                parts.push(part);
-            }
+            runs.push(run);
         }
+        let parts = coordinate_parts(path, &format!("feature {id}"), runs)?;
         if parts.is_empty() {
             report.skip("degenerate_geometry");
             continue;

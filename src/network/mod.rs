@@ -184,19 +184,11 @@ pub fn model_from_polylines(
     };
     for (attributes, parts) in roads {
         report.features_read += 1;
-        let mut out = Vec::with_capacity(parts.len());
-        for part in parts {
-            let mut v = Vec::with_capacity(part.len());
-            for [lat, lon] in part {
-                build::check_coordinate(path, &format!("road {}", attributes.id), lat, lon)?;
-                v.push(build::RawVertex {
-                    key: build::coordinate_key(lat, lon),
-                    lat,
-                    lon,
-                });
-            }
-            out.push(v);
-        }
+        let what = format!("road {}", attributes.id);
+        let runs = parts
+            .into_iter()
+            .map(|part| part.into_iter().map(|[lat, lon]| (lon, lat)).collect());
+        let out = build::coordinate_parts(path, &what, runs)?;
         raw.push(build::RawRoad {
             attributes,
             parts: out,

@@ -8,7 +8,7 @@
 //! of a two-way edge is skipped (`reverse_duplicate`), so a street is one road.
 
 use super::attributes::{DrivableFilter, TagSet};
-use super::build::{check_coordinate, coordinate_key, RawRoad, RawVertex};
+use super::build::{coordinate_parts, RawRoad};
 use super::model::LoadReport;
 use crate::error::{Error, Result};
 use rustc_hash::FxHashSet;
@@ -102,21 +102,7 @@ pub(crate) fn load(
                 }
             }
         }
-        let mut raw_parts = Vec::with_capacity(parts.len());
-        for part in parts {
-            let mut out = Vec::with_capacity(part.len());
-            for (lon, lat) in part {
-                check_coordinate(path, &format!("record {index}"), lat, lon)?;
-                out.push(RawVertex {
-                    key: coordinate_key(lat, lon),
-                    lat,
-                    lon,
-                });
-            }
-            if out.len() >= 2 {
-                raw_parts.push(out);
-            }
-        }
+        let raw_parts = coordinate_parts(path, &format!("record {index}"), parts)?;
         if raw_parts.is_empty() {
             report.skip("degenerate_geometry");
             continue;
