@@ -1,0 +1,690 @@
+//! The tag planner: candidate sites along a scenario's route → error budget
+//! by covariance analysis of the navigation filter ([`budget`]) → the fewest
+//! tags that hold the requirement with `k` missed reads tolerated
+//! ([`placement`], exact on one route) → validation by Monte Carlo
+//! simulation with the planned tags → export records.
+
+pub mod budget;
+pub mod placement;
+
+use crate::error::{Error, Result};
+use crate::export::{ExportMetadata, TagRecord};
+use crate::network::RoadAttributes;
+use crate::network::Network;
+use crate::sim::run::{simulate_with, TruthSource};
+use crate::sim::scenario::{NavMode, RouteKind, Scenario};
+use crate::sim::tags::{Mounting, RfidModel, Tag};
+use crate::tags::TagPayload;
+use budget::{bound95, Budget, BudgetPoint, CHI2_2_95};
+use placement::{place, Candidate, Placement};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Default read probability of a tag (the RFID paper's field test).
+pub const DEFAULT_READ_PROBABILITY: f64 = 0.977;
+
+/// Lane width (m) of a road from its OSM attributes: `width / lanes` when
+/// both are given (a carriageway width over its lanes), else a default by
+/// road class.
+pub fn lane_width_m(a: &RoadAttributes) -> f64 {
+    if let (Some(w), Some(n)) = (a.width_m, a.lanes) {
+        if n > 0 && w > 0.0 {
+            return (w / f64::from(n)).clamp(2.5, 5.0);
+        }
+    }
+    if let (Some(w), None) = (a.width_m, a.lanes) {
+        // A two-way road's width holds two lanes, a one-way road's one.
+        let n = if a.oneway.is_oneway() { 1.0 } else { 2.0 };
+        return (w / n).clamp(2.5, 5.0);
+    }
+    match a.highway.trim_end_matches("_link") {
+        "motorway" | "trunk" => 3.75,
+        "primary" | "secondary" => 3.5,
+        "tertiary" | "unclassified" => 3.25,
+        _ => 3.0,
+    }
+}
+
+/// Speed (m/s) at a site: the truth's speed when moving, else the road's
+/// `maxspeed`, else 30 km/h.
+pub fn site_speed_mps(truth_speed: f64, road: Option<&RoadAttributes>) -> f64 {
+    if truth_speed > 0.5 {
+        truth_speed
+    } else {
+        road.and_then(|a| a.maxspeed_kmh).unwrap_or(30.0) / 3.6
+    }
+}
+
+/// What a mounting costs, how often it is read and where it may go.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MountingOption {
+    /// The mounting.
+    pub mounting: Mounting,
+    /// Installed cost of one tag (arbitrary units).
+    pub cost: f64,
+    /// Probability that a pass is read.
+    pub read_probability: f64,
+    /// Only inside tunnels (ceiling readers).
+    pub tunnel_only: bool,
+}
+
+impl MountingOption {
+    /// Defaults: road surface cost 1, roadside 1, ceiling 3 (a reader in the
+    /// roof is expensive) and tunnels only; read probability 0.977.
+    pub fn default_for(m: Mounting) -> Self {
+        Self {
+            mounting: m,
+            cost: match m {
+                Mounting::RoadSurface | Mounting::Roadside => 1.0,
+                Mounting::Ceiling => 3.0,
+            },
+            read_probability: DEFAULT_READ_PROBABILITY,
+            tunnel_only: m == Mounting::Ceiling,
+        }
+    }
+
+    /// Whether this mounting may go on a road (tunnel or not).
+    pub fn allowed_on(&self, tunnel: bool) -> bool {
+        !self.tunnel_only || tunnel
+    }
+}
+
+/// The 95 % horizontal bound (m) of a fix of a mounting at speed `v`.
+pub fn fix_bound95(rfid: &RfidModel, m: Mounting, v: f64) -> f64 {
+    let (a, c) = rfid.fix_sigmas(m, v);
+    (CHI2_2_95 * a.max(c).powi(2)).sqrt()
+}
+
+/// Planner settings, from the scenario's `[planner]` with defaults.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannerSettings {
+    /// Horizontal requirement (m).
+    pub requirement_m: f64,
+    /// Consecutive missed reads tolerated.
+    pub tolerate_missed_reads: usize,
+    /// Allowed mountings, in preference order.
+    pub mountings: Vec<MountingOption>,
+    /// Candidate spacing (m).
+    pub candidate_spacing_m: f64,
+    /// Smallest spacing between tags (m).
+    pub min_spacing_m: f64,
+    /// Forbidden stretches of route distance (m).
+    pub forbidden_m: Vec<[f64; 2]>,
+    /// Monte Carlo validation runs.
+    pub validation_runs: u64,
+}
+
+impl PlannerSettings {
+    /// Reads and checks the scenario's planner settings.
+    pub fn from_scenario(scn: &Scenario) -> Result<Self> {
+        let bad = |m: String| Error::scenario(&scn.path, m);
+        let requirement_m = scn
+            .file
+            .requirement_m
+            .ok_or_else(|| bad("planning needs requirement_m".into()))?;
+        if !(requirement_m.is_finite() && requirement_m > 0.0) {
+            return Err(bad(format!("requirement_m = {requirement_m} must be positive")));
+        }
+        if scn.file.navigator.mode != NavMode::Integrated {
+            return Err(bad(
+                "planning needs navigator.mode = \"integrated\" (the filter whose covariance is the budget)"
+                    .into(),
+            ));
+        }
+        if !scn.file.aiding.rfid {
+            return Err(bad("planning needs aiding.rfid = true".into()));
+        }
+        let p = scn.file.planner.clone().unwrap_or_else(|| {
+            crate::sim::scenario::PlannerSection {
+                coverage: None,
+                tolerate_missed_reads: None,
+                mountings: None,
+                candidate_spacing_m: None,
+                min_spacing_m: None,
+                forbidden_m: vec![],
+                validation_runs: None,
+                cost: None,
+            }
+        });
+        match p.coverage.as_deref() {
+            None | Some("routes") => {}
+            Some("network") => {
+                return Err(bad(
+                    "planner.coverage = \"network\" is not implemented yet; use \"routes\"".into(),
+                ))
+            }
+            Some(o) => {
+                return Err(bad(format!(
+                    "planner.coverage = \"{o}\" is not one of routes, network"
+                )))
+            }
+        }
+        let names = p
+            .mountings
+            .unwrap_or_else(|| vec!["road_surface".into(), "roadside".into(), "ceiling".into()]);
+        if names.is_empty() {
+            return Err(bad("planner.mountings is empty".into()));
+        }
+        let mut mountings = Vec::new();
+        for n in &names {
+            let m = Mounting::parse(n).ok_or_else(|| {
+                bad(format!(
+                    "planner.mountings: \"{n}\" is not one of road_surface, roadside, ceiling"
+                ))
+            })?;
+            let mut o = MountingOption::default_for(m);
+            o.read_probability = scn.rfid.read_probability;
+            if let Some(c) = p.cost.as_ref().and_then(|c| c.get(n.as_str())) {
+                if !(c.is_finite() && *c >= 0.0) {
+                    return Err(bad(format!("planner.cost.{n} = {c} must be ≥ 0")));
+                }
+                o.cost = *c;
+            }
+            mountings.push(o);
+        }
+        if let Some(c) = &p.cost {
+            for k in c.keys() {
+                if Mounting::parse(k).is_none() {
+                    return Err(bad(format!("planner.cost: unknown mounting \"{k}\"")));
+                }
+            }
+        }
+        // Preference: cheapest, then most accurate.
+        mountings.sort_by(|a, b| {
+            a.cost.total_cmp(&b.cost).then(
+                fix_bound95(&scn.rfid, a.mounting, 10.0)
+                    .total_cmp(&fix_bound95(&scn.rfid, b.mounting, 10.0)),
+            )
+        });
+        let candidate_spacing_m = p.candidate_spacing_m.unwrap_or(20.0);
+        if !(candidate_spacing_m.is_finite() && candidate_spacing_m >= 1.0) {
+            return Err(bad(format!(
+                "planner.candidate_spacing_m = {candidate_spacing_m} must be ≥ 1"
+            )));
+        }
+        let min_spacing_m = p.min_spacing_m.unwrap_or(0.0);
+        if !(min_spacing_m.is_finite() && min_spacing_m >= 0.0) {
+            return Err(bad(format!(
+                "planner.min_spacing_m = {min_spacing_m} must be ≥ 0"
+            )));
+        }
+        for z in &p.forbidden_m {
+            if !(z[0].is_finite() && z[1].is_finite() && z[0] <= z[1]) {
+                return Err(bad(format!(
+                    "planner.forbidden_m: [{}, {}] is not a [from, to] pair",
+                    z[0], z[1]
+                )));
+            }
+        }
+        let validation_runs = p.validation_runs.unwrap_or(100);
+        Ok(Self {
+            requirement_m,
+            tolerate_missed_reads: p.tolerate_missed_reads.unwrap_or(1) as usize,
+            mountings,
+            candidate_spacing_m,
+            min_spacing_m,
+            forbidden_m: p.forbidden_m,
+            validation_runs,
+        })
+    }
+}
+
+/// One planned tag.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlannedTag {
+    /// Identifier.
+    pub tag_id: String,
+    /// Latitude, longitude (degrees).
+    pub lat: f64,
+    /// Longitude (degrees).
+    pub lon: f64,
+    /// Height (m).
+    pub height_m: f64,
+    /// Distance along the route (m).
+    pub route_distance_m: f64,
+    /// Time the vehicle passes (s).
+    pub t_s: f64,
+    /// Mounting.
+    #[serde(serialize_with = "ser_mounting")]
+    pub mounting: Mounting,
+    /// Expected 1σ fix error (larger axis, m).
+    pub expected_fix_sigma_m: f64,
+    /// Road input id, when the route is on a map.
+    pub road_id: Option<String>,
+    /// Whether the site is in a tunnel.
+    pub tunnel: bool,
+    /// Predicted 95 % bound just after the fix (m).
+    pub bound_after_fix_m: f64,
+    /// Route distance up to which the bound holds after this fix (m).
+    pub reach_m: f64,
+}
+
+fn ser_mounting<S: serde::Serializer>(m: &Mounting, s: S) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_str(m.as_str())
+}
+
+/// Monte Carlo validation of a plan.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Validation {
+    /// Runs.
+    pub runs: u64,
+    /// Base seed.
+    pub seed: u64,
+    /// Fraction of distance (over all runs) within the requirement.
+    pub fraction_within_requirement: f64,
+    /// Largest horizontal error over all runs (m).
+    pub max_horizontal_error_m: f64,
+    /// Where it happened: run, time (s), route distance (m).
+    pub worst_run: u64,
+    /// Time of the worst point (s).
+    pub worst_t_s: f64,
+    /// Route distance of the worst point (m).
+    pub worst_distance_m: f64,
+}
+
+/// A plan for one route.
+#[derive(Debug, Clone, Serialize)]
+pub struct Plan {
+    /// Scenario name.
+    pub scenario: String,
+    /// Requirement (m).
+    pub requirement_m: f64,
+    /// Consecutive missed reads tolerated.
+    pub tolerate_missed_reads: usize,
+    /// Placement method.
+    pub method: String,
+    /// Lower bound on the tag count (equal to it: the method is exact).
+    pub lower_bound: usize,
+    /// Route length (m).
+    pub route_length_m: f64,
+    /// Candidate sites considered.
+    pub candidates: usize,
+    /// Distance the bound holds from the start without tags (m).
+    pub start_reach_m: f64,
+    /// The tags, in route order.
+    pub tags: Vec<PlannedTag>,
+    /// Total cost.
+    pub total_cost: f64,
+    /// Largest distance between consecutive tags, start and end included (m).
+    pub max_gap_m: f64,
+    /// Largest predicted 95 % bound along the route with every tag read (m).
+    pub predicted_max_bound95_m: f64,
+    /// Predicted bound profile without tags (distance, bound).
+    #[serde(skip)]
+    pub profile_without_tags: Vec<BudgetPoint>,
+    /// Predicted bound profile with the plan (all read).
+    #[serde(skip)]
+    pub profile_with_tags: Vec<BudgetPoint>,
+    /// Monte Carlo validation, when run.
+    pub validation: Option<Validation>,
+}
+
+impl Plan {
+    /// Tag count.
+    pub fn tag_count(&self) -> usize {
+        self.tags.len()
+    }
+
+    /// Tags by mounting.
+    pub fn by_mounting(&self) -> BTreeMap<String, usize> {
+        let mut m = BTreeMap::new();
+        for t in &self.tags {
+            *m.entry(t.mounting.as_str().to_string()).or_insert(0) += 1;
+        }
+        m
+    }
+
+    /// The tags as the simulator takes them.
+    pub fn sim_tags(&self) -> Vec<Tag> {
+        self.tags
+            .iter()
+            .map(|t| Tag {
+                id: t.tag_id.clone(),
+                lat: t.lat.to_radians(),
+                lon: t.lon.to_radians(),
+                height_m: Some(t.height_m),
+                mounting: t.mounting,
+                survey_error_m: [0.0, 0.0],
+            })
+            .collect()
+    }
+
+    /// Export records (with payloads) and metadata.
+    pub fn export(&self, scn: &Scenario) -> Result<(Vec<TagRecord>, ExportMetadata)> {
+        let mut recs = Vec::with_capacity(self.tags.len());
+        for (i, t) in self.tags.iter().enumerate() {
+            let payload = TagPayload {
+                lat_deg: t.lat,
+                lon_deg: t.lon,
+                height_m: t.height_m,
+                mounting: t.mounting,
+            }
+            .to_hex()?;
+            recs.push(TagRecord {
+                tag_id: t.tag_id.clone(),
+                lat: t.lat,
+                lon: t.lon,
+                height_m: t.height_m,
+                road_id: t.road_id.clone(),
+                chainage_m: Some(t.route_distance_m),
+                side: Some(
+                    match t.mounting {
+                        Mounting::Roadside => "right",
+                        _ => "centre",
+                    }
+                    .to_string(),
+                ),
+                lateral_offset_m: Some(0.0),
+                mounting: t.mounting,
+                expected_fix_sigma_m: Some(t.expected_fix_sigma_m),
+                // Tags within one window of k+1 consecutive tags back each other up.
+                redundancy_group: Some((i / (self.tolerate_missed_reads + 1)) as u32),
+                payload_hex: Some(payload),
+            });
+        }
+        let mut meta = ExportMetadata::new(Some(self.requirement_m));
+        let r = &scn.rfid;
+        let p = &mut meta.parameters;
+        p.insert("scenario".into(), self.scenario.clone());
+        p.insert("method".into(), self.method.clone());
+        p.insert(
+            "tolerate_missed_reads".into(),
+            self.tolerate_missed_reads.to_string(),
+        );
+        p.insert("read_probability".into(), r.read_probability.to_string());
+        p.insert("lane_width_m".into(), r.lane_width_m.to_string());
+        p.insert("vehicle_width_m".into(), r.vehicle_width_m.to_string());
+        p.insert("roadside_distance_m".into(), r.roadside_distance_m.to_string());
+        p.insert(
+            "roadside_angle_deg".into(),
+            format!("{:.3}", r.roadside_angle.to_degrees()),
+        );
+        p.insert("read_time_s".into(), r.read_time_s.to_string());
+        p.insert("road_surface_sigma_m".into(), r.road_surface_sigma_m.to_string());
+        p.insert("ceiling_sigma_m".into(), r.ceiling_sigma_m.to_string());
+        p.insert(
+            "chainage_m".into(),
+            "distance along the planned route".into(),
+        );
+        if matches!(scn.route, RouteKind::Map { .. }) {
+            meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
+        }
+        Ok((recs, meta))
+    }
+}
+
+/// Road context along a map route: attributes at a route distance.
+struct RoadContext {
+    net: Network,
+    route: crate::route::Route,
+    scale: std::cell::Cell<f64>,
+}
+
+impl RoadContext {
+    fn at(&self, distance_m: f64) -> &RoadAttributes {
+        let span = self.route.span_at(distance_m * self.scale.get());
+        &self.net.model.roads[span.road as usize].attributes
+    }
+}
+
+/// Plans tags for a scenario's route (validated by `validation_runs` Monte
+/// Carlo runs when `validate`).
+pub fn plan(scn: &Scenario, seed: u64, validate: bool) -> Result<Plan> {
+    let settings = PlannerSettings::from_scenario(scn)?;
+    let truth = TruthSource::new(scn)?;
+    plan_with(scn, &truth, &settings, seed, validate)
+}
+
+/// [`plan`] with a truth and settings given.
+pub fn plan_with(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    seed: u64,
+    validate: bool,
+) -> Result<Plan> {
+    let req = settings.requirement_m;
+    // Road context (tunnels, road ids) and the network for map matching.
+    let ctx = match &scn.route {
+        RouteKind::Map { map, waypoints, .. } => {
+            let net = Network::load(map, &Default::default())?;
+            let route = crate::route::plan_route(&net, waypoints)?;
+            Some(RoadContext {
+                net,
+                route,
+                scale: std::cell::Cell::new(1.0),
+            })
+        }
+        RouteKind::Motion { .. } => None,
+    };
+    let budget = Budget::new(scn, truth, ctx.as_ref().map(|c| &c.net));
+    let length = budget.length_m();
+    if length <= 0.0 {
+        return Err(Error::scenario(&scn.path, "the route has no length to plan"));
+    }
+    if let Some(c) = ctx.as_ref() {
+        c.scale.set(c.route.length_m / length);
+    }
+    // Best possible fix against the requirement.
+    let best_fix = settings
+        .mountings
+        .iter()
+        .map(|o| fix_bound95(&scn.rfid, o.mounting, 10.0))
+        .fold(f64::INFINITY, f64::min);
+    if best_fix >= req {
+        return Err(Error::InvalidParameter(format!(
+            "requirement_m = {req} m is below the best possible tag fix (95 % bound {best_fix:.2} m with {})",
+            settings
+                .mountings
+                .iter()
+                .map(|o| o.mounting.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+    // Candidate sites.
+    let mut sites_m = Vec::new();
+    let mut d = settings.candidate_spacing_m;
+    while d < length {
+        if !settings
+            .forbidden_m
+            .iter()
+            .any(|z| d >= z[0] && d <= z[1])
+        {
+            sites_m.push(d);
+        }
+        d += settings.candidate_spacing_m;
+    }
+    let (profile, sites) = budget.tag_free(settings.candidate_spacing_m, &sites_m);
+    let samples = budget.samples();
+    let mut mountings = Vec::with_capacity(sites.len());
+    let mut tunnels = Vec::with_capacity(sites.len());
+    for s in &sites {
+        let road = ctx.as_ref().map(|c| c.at(s.distance_m));
+        let tunnel = road.is_some_and(|a| a.tunnel);
+        let o = settings
+            .mountings
+            .iter()
+            .find(|o| o.allowed_on(tunnel))
+            .unwrap_or(&settings.mountings[0]);
+        mountings.push(o.mounting);
+        tunnels.push(tunnel);
+    }
+    // Keep sites whose mounting is allowed there.
+    let keep: Vec<bool> = sites
+        .iter()
+        .zip(&mountings)
+        .zip(&tunnels)
+        .map(|((_, m), &tun)| {
+            settings
+                .mountings
+                .iter()
+                .any(|o| o.mounting == *m && o.allowed_on(tun))
+        })
+        .collect();
+    let sites: Vec<_> = sites
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .collect();
+    let mountings: Vec<_> = mountings
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .collect();
+    let tunnels: Vec<_> = tunnels
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .collect();
+    let reaches = budget.reaches(&sites, &mountings, req);
+    let start_reach = budget.start_reach(req);
+    let cands: Vec<Candidate> = sites
+        .iter()
+        .zip(&reaches)
+        .map(|(s, &(_, r))| Candidate {
+            at_m: s.distance_m,
+            reach_m: r,
+        })
+        .collect();
+    let k = settings.tolerate_missed_reads;
+    let chosen = match place(length, start_reach, &cands, k, settings.min_spacing_m) {
+        Placement::Feasible(c) => c,
+        Placement::Infeasible { covered_to_m } => {
+            let road = ctx
+                .as_ref()
+                .map(|c| {
+                    let a = c.at(covered_to_m);
+                    format!(
+                        " (road {}{})",
+                        a.id,
+                        a.name.as_ref().map(|n| format!(" \"{n}\"")).unwrap_or_default()
+                    )
+                })
+                .unwrap_or_default();
+            let next = cands
+                .iter()
+                .find(|c| c.at_m > covered_to_m)
+                .map_or(length, |c| c.at_m);
+            return Err(Error::InvalidParameter(format!(
+                "infeasible: the {req} m requirement cannot be held with {k} missed read(s) tolerated \
+                 beyond route distance {covered_to_m:.0} m{road}; the stretch {covered_to_m:.0}–{next:.0} m \
+                 of {length:.0} m cannot be covered (no candidate site reaches it)"
+            )));
+        }
+    };
+    let mut tags = Vec::with_capacity(chosen.len());
+    for (n, &i) in chosen.iter().enumerate() {
+        let s = &sites[i];
+        let a = &samples[s.sample].avp;
+        let road = ctx.as_ref().map(|c| c.at(s.distance_m));
+        let speed = site_speed_mps(a.state.v[0].hypot(a.state.v[1]), road);
+        let (sa, sc) = scn.rfid.fix_sigmas(mountings[i], speed);
+        tags.push(PlannedTag {
+            tag_id: format!("T{:04}", n + 1),
+            lat: a.state.lat.to_degrees(),
+            lon: a.state.lon.to_degrees(),
+            height_m: a.state.h,
+            route_distance_m: s.distance_m,
+            t_s: a.t,
+            mounting: mountings[i],
+            expected_fix_sigma_m: sa.max(sc),
+            road_id: road.map(|r| r.id.clone()),
+            tunnel: tunnels[i],
+            bound_after_fix_m: reaches[i].0,
+            reach_m: reaches[i].1,
+        });
+    }
+    let mut max_gap: f64 = 0.0;
+    let mut prev = 0.0;
+    for t in &tags {
+        max_gap = max_gap.max(t.route_distance_m - prev);
+        prev = t.route_distance_m;
+    }
+    max_gap = max_gap.max(length - prev);
+    let fixes: Vec<(usize, Mounting)> = chosen
+        .iter()
+        .map(|&i| (sites[i].sample, mountings[i]))
+        .collect();
+    let with = budget.with_fixes(&fixes, settings.candidate_spacing_m);
+    let predicted = with.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
+    let total_cost = tags
+        .iter()
+        .map(|t| {
+            settings
+                .mountings
+                .iter()
+                .find(|o| o.mounting == t.mounting)
+                .map_or(1.0, |o| o.cost)
+        })
+        .fold(0.0, |a, c| a + c);
+    let n_cands = cands.len();
+    let mut plan = Plan {
+        scenario: scn.file.name.clone(),
+        requirement_m: req,
+        tolerate_missed_reads: k,
+        method: "exact: breadth-first search over the last k+1 tags (single route)".into(),
+        lower_bound: tags.len(),
+        route_length_m: length,
+        candidates: n_cands,
+        start_reach_m: start_reach,
+        tags,
+        total_cost,
+        max_gap_m: max_gap,
+        predicted_max_bound95_m: predicted,
+        profile_without_tags: profile,
+        profile_with_tags: with,
+        validation: None,
+    };
+    if validate {
+        plan.validation = Some(validate_plan(scn, truth, &plan, settings.validation_runs, seed)?);
+    }
+    Ok(plan)
+}
+
+/// Monte Carlo validation of a plan with its tags (read with the scenario's
+/// read probability): fraction of distance within the requirement and the
+/// worst point.
+pub fn validate_plan(
+    scn: &Scenario,
+    truth: &TruthSource,
+    plan: &Plan,
+    runs: u64,
+    seed: u64,
+) -> Result<Validation> {
+    let res = simulate_with(scn, truth, &plan.sim_tags(), runs.max(1), seed, None)?;
+    let req = plan.requirement_m;
+    let (mut within, mut total) = (0.0, 0.0);
+    let mut worst = (0.0f64, 0u64, 0.0, 0.0);
+    for r in &res.runs {
+        for w in r.rows.windows(2) {
+            let dd = (w[1].distance_m - w[0].distance_m).max(0.0);
+            total += dd;
+            if w[1].horizontal_m <= req {
+                within += dd;
+            }
+        }
+        for row in &r.rows {
+            if row.horizontal_m > worst.0 {
+                worst = (row.horizontal_m, r.run, row.t_s, row.distance_m);
+            }
+        }
+    }
+    Ok(Validation {
+        runs: runs.max(1),
+        seed,
+        fraction_within_requirement: if total > 0.0 { within / total } else { 1.0 },
+        max_horizontal_error_m: worst.0,
+        worst_run: worst.1,
+        worst_t_s: worst.2,
+        worst_distance_m: worst.3,
+    })
+}
+
+/// The bound of a filter's horizontal covariance (re-exported helper).
+pub fn horizontal_bound95(c: &[[f64; 3]; 3]) -> f64 {
+    bound95(c)
+}
