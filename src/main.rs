@@ -257,7 +257,10 @@ fn plan(scenario: &Path, out: &Path, runs: Option<u64>, seed: Option<u64>) -> Re
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     use waymark::export::{tags_csv, tags_geojson, tags_gpx, tags_kml, write_atomic};
     write_atomic(&out.join("tags.csv"), tags_csv(&recs, &meta).as_bytes())?;
-    write_atomic(&out.join("tags.geojson"), tags_geojson(&recs, &meta).as_bytes())?;
+    write_atomic(
+        &out.join("tags.geojson"),
+        tags_geojson(&recs, &meta).as_bytes(),
+    )?;
     write_atomic(&out.join("tags.kml"), tags_kml(&recs, &meta).as_bytes())?;
     write_atomic(&out.join("tags.gpx"), tags_gpx(&recs, &meta).as_bytes())?;
     let mut json = serde_json::to_value(&p)?;

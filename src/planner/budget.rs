@@ -102,7 +102,12 @@ impl<'a> Budget<'a> {
 
     /// Steps the filter on perfect data over samples `from+1..`, calling
     /// `visit(index, filter)` after each; stops when `visit` returns false.
-    fn run(&self, from: usize, filter: &mut Filter, mut visit: impl FnMut(usize, &mut Filter) -> bool) {
+    fn run(
+        &self,
+        from: usize,
+        filter: &mut Filter,
+        mut visit: impl FnMut(usize, &mut Filter) -> bool,
+    ) {
         let aid = self.scn.file.aiding;
         let mut feed = self.network.map(|n| MapFeed::new(n, filter.time()));
         let mut odo_acc = 0.0;
@@ -140,7 +145,7 @@ impl<'a> Budget<'a> {
             first.avp.state,
             first.avp.t,
             self.scn.dt,
-            self.cfg.clone(),
+            self.cfg,
         ))
     }
 

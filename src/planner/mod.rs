@@ -9,8 +9,8 @@ pub mod placement;
 
 use crate::error::{Error, Result};
 use crate::export::{ExportMetadata, TagRecord};
-use crate::network::RoadAttributes;
 use crate::network::Network;
+use crate::network::RoadAttributes;
 use crate::sim::run::{simulate_with, TruthSource};
 use crate::sim::scenario::{NavMode, RouteKind, Scenario};
 use crate::sim::tags::{Mounting, RfidModel, Tag};
@@ -123,7 +123,9 @@ impl PlannerSettings {
             .requirement_m
             .ok_or_else(|| bad("planning needs requirement_m".into()))?;
         if !(requirement_m.is_finite() && requirement_m > 0.0) {
-            return Err(bad(format!("requirement_m = {requirement_m} must be positive")));
+            return Err(bad(format!(
+                "requirement_m = {requirement_m} must be positive"
+            )));
         }
         if scn.file.navigator.mode != NavMode::Integrated {
             return Err(bad(
@@ -134,8 +136,11 @@ impl PlannerSettings {
         if !scn.file.aiding.rfid {
             return Err(bad("planning needs aiding.rfid = true".into()));
         }
-        let p = scn.file.planner.clone().unwrap_or_else(|| {
-            crate::sim::scenario::PlannerSection {
+        let p = scn
+            .file
+            .planner
+            .clone()
+            .unwrap_or_else(|| crate::sim::scenario::PlannerSection {
                 coverage: None,
                 tolerate_missed_reads: None,
                 mountings: None,
@@ -144,8 +149,7 @@ impl PlannerSettings {
                 forbidden_m: vec![],
                 validation_runs: None,
                 cost: None,
-            }
-        });
+            });
         match p.coverage.as_deref() {
             None | Some("routes") => {}
             Some("network") => {
@@ -394,13 +398,19 @@ impl Plan {
         p.insert("read_probability".into(), r.read_probability.to_string());
         p.insert("lane_width_m".into(), r.lane_width_m.to_string());
         p.insert("vehicle_width_m".into(), r.vehicle_width_m.to_string());
-        p.insert("roadside_distance_m".into(), r.roadside_distance_m.to_string());
+        p.insert(
+            "roadside_distance_m".into(),
+            r.roadside_distance_m.to_string(),
+        );
         p.insert(
             "roadside_angle_deg".into(),
             format!("{:.3}", r.roadside_angle.to_degrees()),
         );
         p.insert("read_time_s".into(), r.read_time_s.to_string());
-        p.insert("road_surface_sigma_m".into(), r.road_surface_sigma_m.to_string());
+        p.insert(
+            "road_surface_sigma_m".into(),
+            r.road_surface_sigma_m.to_string(),
+        );
         p.insert("ceiling_sigma_m".into(), r.ceiling_sigma_m.to_string());
         p.insert(
             "chainage_m".into(),
@@ -460,7 +470,10 @@ pub fn plan_with(
     let budget = Budget::new(scn, truth, ctx.as_ref().map(|c| &c.net));
     let length = budget.length_m();
     if length <= 0.0 {
-        return Err(Error::scenario(&scn.path, "the route has no length to plan"));
+        return Err(Error::scenario(
+            &scn.path,
+            "the route has no length to plan",
+        ));
     }
     if let Some(c) = ctx.as_ref() {
         c.scale.set(c.route.length_m / length);
@@ -486,11 +499,7 @@ pub fn plan_with(
     let mut sites_m = Vec::new();
     let mut d = settings.candidate_spacing_m;
     while d < length {
-        if !settings
-            .forbidden_m
-            .iter()
-            .any(|z| d >= z[0] && d <= z[1])
-        {
+        if !settings.forbidden_m.iter().any(|z| d >= z[0] && d <= z[1]) {
             sites_m.push(d);
         }
         d += settings.candidate_spacing_m;
@@ -551,6 +560,16 @@ pub fn plan_with(
         })
         .collect();
     let k = settings.tolerate_missed_reads;
+    if start_reach <= 0.0 {
+        let b0 = budget
+            .initial_filter()
+            .map_or(f64::NAN, |f| bound95(&f.position_cov_enu()));
+        return Err(Error::InvalidParameter(format!(
+            "infeasible: the navigator's initial position uncertainty (95 % bound {b0:.2} m, from \
+             navigator.initial_position_sigma_m / filter.position_sigma_m) already exceeds the {req} m \
+             requirement at the start of the route"
+        )));
+    }
     let chosen = match place(length, start_reach, &cands, k, settings.min_spacing_m) {
         Placement::Feasible(c) => c,
         Placement::Infeasible { covered_to_m } => {
@@ -561,7 +580,10 @@ pub fn plan_with(
                     format!(
                         " (road {}{})",
                         a.id,
-                        a.name.as_ref().map(|n| format!(" \"{n}\"")).unwrap_or_default()
+                        a.name
+                            .as_ref()
+                            .map(|n| format!(" \"{n}\""))
+                            .unwrap_or_default()
                     )
                 })
                 .unwrap_or_default();
@@ -640,7 +662,13 @@ pub fn plan_with(
         validation: None,
     };
     if validate {
-        plan.validation = Some(validate_plan(scn, truth, &plan, settings.validation_runs, seed)?);
+        plan.validation = Some(validate_plan(
+            scn,
+            truth,
+            &plan,
+            settings.validation_runs,
+            seed,
+        )?);
     }
     Ok(plan)
 }

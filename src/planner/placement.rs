@@ -9,7 +9,7 @@
 //! the start and `t_{m+1} = … = L` (the route's end),
 //! `min(t_{i+k+1}, L) ≤ e(t_i)` for every `i ≥ 0`: after any tag is read,
 //! the next `k` may be missed and the one after must still come before the
-//! bound runs out.
+//! bound runs out (so the last `k + 1` tags must each reach the end).
 //!
 //! [`place`] is a breadth-first search over the last `k + 1` chosen sites
 //! (the whole state the constraint looks at), layer by layer in the number
@@ -51,7 +51,6 @@ pub fn place(
     min_spacing_m: f64,
 ) -> Placement {
     const START: usize = usize::MAX;
-    let n = candidates.len();
     let reach = |i: usize| {
         if i == START {
             start_reach_m
@@ -87,8 +86,7 @@ pub fn place(
             } else {
                 candidates.partition_point(|c| c.at_m <= from.max(at(last)))
             };
-            for j in lo..n {
-                let c = &candidates[j];
+            for (j, c) in candidates.iter().enumerate().skip(lo) {
                 if c.at_m > limit {
                     break;
                 }
@@ -103,7 +101,9 @@ pub fn place(
                 parent.insert(nw.clone(), Some(w.clone()));
                 let r0 = reach(nw[0]);
                 covered = covered.max(r0);
-                if r0 >= length_m {
+                // Done when every tag of the window (the oldest, and the
+                // last k, any of which may be the last read) reaches the end.
+                if nw.iter().all(|&i| reach(i) >= length_m) {
                     // Walk back.
                     let mut out = Vec::new();
                     let mut s = Some(nw);
@@ -173,13 +173,7 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
-    fn brute(
-        l: f64,
-        s: f64,
-        c: &[Candidate],
-        k: usize,
-        sp: f64,
-    ) -> Option<usize> {
+    fn brute(l: f64, s: f64, c: &[Candidate], k: usize, sp: f64) -> Option<usize> {
         let n = c.len();
         let mut best: Option<usize> = None;
         for mask in 0u32..(1 << n) {
@@ -207,7 +201,7 @@ mod tests {
                 .map(|&a| Candidate {
                     at_m: a,
                     // Reaches of varied lengths, not necessarily monotone.
-                    reach_m: a + rng.random_range(0.0..50.0),
+                    reach_m: a + rng.random_range(10.0..90.0),
                 })
                 .collect();
             let s = rng.random_range(0.0..40.0);
@@ -227,7 +221,10 @@ mod tests {
             }
         }
         // Both outcomes exercised.
-        assert!(feasible_cases > 50 && infeasible_cases > 50, "{feasible_cases} {infeasible_cases}");
+        assert!(
+            feasible_cases > 50 && infeasible_cases > 50,
+            "{feasible_cases} {infeasible_cases}"
+        );
     }
 
     #[test]
