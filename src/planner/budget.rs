@@ -118,7 +118,13 @@ impl<'a> Budget<'a> {
             odo_acc += s.avp.distance_m - last_d;
             last_d = s.avp.distance_m;
             if i % self.odo_every == 0 {
-                if aid.odometer {
+                // A failed odometer (fault injection) is modelled as the
+                // filter ends up treating it: disabled, constraints only.
+                let failed = self.scn.odometer.failure.is_some_and(|f| {
+                    f.from_s.is_some_and(|x| s.avp.t >= x)
+                        || f.from_m.is_some_and(|x| s.avp.distance_m >= x)
+                });
+                if aid.odometer && !failed {
                     filter.update_odometer(odo_acc);
                 } else if self.cfg.use_nhc {
                     filter.update_constraints();
