@@ -102,6 +102,9 @@ enum Command {
         /// Base seed of the validation (default: the scenario's `seed`, else 1).
         #[arg(long)]
         seed: Option<u64>,
+        /// Also find the uniform-spacing baseline: the largest spacing whose validation keeps ≥ 99 % of distance within the requirement.
+        #[arg(long)]
+        baseline: bool,
     },
 }
 
@@ -198,7 +201,8 @@ fn run(cli: Cli) -> Result<()> {
             out,
             runs,
             seed,
-        } => plan(&scenario, &out, runs, seed),
+            baseline,
+        } => plan(&scenario, &out, runs, seed, baseline),
         Command::Match {
             map,
             track,
@@ -223,7 +227,13 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
-fn plan(scenario: &Path, out: &Path, runs: Option<u64>, seed: Option<u64>) -> Result<()> {
+fn plan(
+    scenario: &Path,
+    out: &Path,
+    runs: Option<u64>,
+    seed: Option<u64>,
+    baseline: bool,
+) -> Result<()> {
     use waymark::planner;
     let t0 = Instant::now();
     let scn = waymark::sim::Scenario::load(scenario)?;
@@ -252,6 +262,17 @@ fn plan(scenario: &Path, out: &Path, runs: Option<u64>, seed: Option<u64>) -> Re
             settings.validation_runs,
             seed,
         )?);
+    }
+    if baseline {
+        eprintln!("waymark plan: searching the uniform-spacing baseline");
+        p.uniform_baseline = planner::uniform_baseline(
+            &scn,
+            &truth,
+            &settings,
+            settings.validation_runs.max(1),
+            seed,
+            0.99,
+        )?;
     }
     let (recs, meta) = p.export(&scn)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
@@ -302,6 +323,27 @@ fn plan(scenario: &Path, out: &Path, runs: Option<u64>, seed: Option<u64>) -> Re
             v.worst_t_s,
             v.worst_distance_m
         );
+    }
+    if baseline {
+        match &p.uniform_baseline {
+            Some(b) => println!(
+                "uniform baseline: {} tag(s) every {:.0} m keep {:.2} % of distance within {} m ({} run(s)); plan uses {} ({:+.0} %)",
+                b.tag_count,
+                b.spacing_m,
+                100.0 * b.validation.fraction_within_requirement,
+                p.requirement_m,
+                b.validation.runs,
+                p.tag_count(),
+                if b.tag_count > 0 {
+                    100.0 * (p.tag_count() as f64 - b.tag_count as f64) / b.tag_count as f64
+                } else {
+                    0.0
+                }
+            ),
+            None => println!(
+                "uniform baseline: none validates, even at the candidate spacing"
+            ),
+        }
     }
     println!(
         "wrote {}/tags.csv, tags.geojson, tags.kml, tags.gpx, plan.json in {:.1} s",

@@ -321,6 +321,25 @@ pub struct Plan {
     pub profile_with_tags: Vec<BudgetPoint>,
     /// Monte Carlo validation, when run.
     pub validation: Option<Validation>,
+    /// The uniform-spacing baseline, when computed.
+    pub uniform_baseline: Option<UniformBaseline>,
+}
+
+/// Tags at a uniform spacing along the route: the largest spacing (a
+/// multiple of the candidate spacing) whose Monte Carlo validation keeps at
+/// least `min_fraction` of distance within the requirement.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UniformBaseline {
+    /// Spacing (m).
+    pub spacing_m: f64,
+    /// Tags at that spacing.
+    pub tag_count: usize,
+    /// Fraction of distance within the requirement asked for.
+    pub min_fraction: f64,
+    /// Its validation.
+    pub validation: Validation,
+    /// Spacings tried (m) and their fractions within the requirement.
+    pub tried: Vec<(f64, f64)>,
 }
 
 impl Plan {
@@ -660,6 +679,7 @@ pub fn plan_with(
         profile_without_tags: profile,
         profile_with_tags: with,
         validation: None,
+        uniform_baseline: None,
     };
     if validate {
         plan.validation = Some(validate_plan(
@@ -684,6 +704,15 @@ pub fn validate_plan(
     seed: u64,
 ) -> Result<Validation> {
     let res = simulate_with(scn, truth, &plan.sim_tags(), runs.max(1), seed, None)?;
+    Ok(validation_of(&res, plan, runs.max(1), seed))
+}
+
+fn validation_of(
+    res: &crate::sim::run::SimResult,
+    plan: &Plan,
+    runs: u64,
+    seed: u64,
+) -> Validation {
     let req = plan.requirement_m;
     let (mut within, mut total) = (0.0, 0.0);
     let mut worst = (0.0f64, 0u64, 0.0, 0.0);
@@ -701,18 +730,121 @@ pub fn validate_plan(
             }
         }
     }
-    Ok(Validation {
-        runs: runs.max(1),
+    Validation {
+        runs,
         seed,
         fraction_within_requirement: if total > 0.0 { within / total } else { 1.0 },
         max_horizontal_error_m: worst.0,
         worst_run: worst.1,
         worst_t_s: worst.2,
         worst_distance_m: worst.3,
-    })
+    }
 }
 
 /// The bound of a filter's horizontal covariance (re-exported helper).
 pub fn horizontal_bound95(c: &[[f64; 3]; 3]) -> f64 {
     bound95(c)
+}
+
+/// Tags every `spacing_m` along the truth route (from `spacing_m` on), with
+/// the preferred mounting allowed off tunnels.
+pub fn uniform_tags(
+    truth: &TruthSource,
+    scn: &Scenario,
+    settings: &PlannerSettings,
+    spacing_m: f64,
+) -> Vec<Tag> {
+    let m = settings
+        .mountings
+        .iter()
+        .find(|o| !o.tunnel_only)
+        .map_or(Mounting::RoadSurface, |o| o.mounting);
+    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+    let mut next = spacing_m;
+    let mut tags = Vec::new();
+    let mut last_d = f64::NEG_INFINITY;
+    for a in truth.samples().take_while(|a| a.t <= cap) {
+        if a.distance_m >= next && a.distance_m > last_d {
+            tags.push(Tag {
+                id: format!("U{:04}", tags.len() + 1),
+                lat: a.state.lat,
+                lon: a.state.lon,
+                height_m: Some(a.state.h),
+                mounting: m,
+                survey_error_m: [0.0, 0.0],
+            });
+            last_d = a.distance_m;
+            next += spacing_m;
+        }
+    }
+    // The last sample is the route's end: no tag exactly there.
+    tags
+}
+
+/// Finds the uniform baseline by bisection over multiples of the candidate
+/// spacing (assuming a longer spacing never validates better).
+pub fn uniform_baseline(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    runs: u64,
+    seed: u64,
+    min_fraction: f64,
+) -> Result<Option<UniformBaseline>> {
+    let step = settings.candidate_spacing_m;
+    let length = truth.samples().last().map_or(0.0, |a| a.distance_m);
+    let req = settings.requirement_m;
+    let mut tried = Vec::new();
+    let mut check = |n: u64| -> Result<(bool, Validation, usize)> {
+        let tags = uniform_tags(truth, scn, settings, n as f64 * step);
+        let p = Plan {
+            scenario: scn.file.name.clone(),
+            requirement_m: req,
+            tolerate_missed_reads: settings.tolerate_missed_reads,
+            method: "uniform".into(),
+            lower_bound: 0,
+            route_length_m: length,
+            candidates: 0,
+            start_reach_m: 0.0,
+            tags: vec![],
+            total_cost: 0.0,
+            max_gap_m: 0.0,
+            predicted_max_bound95_m: 0.0,
+            profile_without_tags: vec![],
+            profile_with_tags: vec![],
+            validation: None,
+            uniform_baseline: None,
+        };
+        let res = simulate_with(scn, truth, &tags, runs.max(1), seed, None)?;
+        let v = validation_of(&res, &p, runs.max(1), seed);
+        tried.push((n as f64 * step, v.fraction_within_requirement));
+        Ok((v.fraction_within_requirement >= min_fraction, v, tags.len()))
+    };
+    let hi_n = ((length / step).ceil() as u64).max(1);
+    // The smallest spacing must validate, else there is no baseline.
+    let (ok, mut best_v, mut best_c) = check(1)?;
+    if !ok {
+        return Ok(None);
+    }
+    let (mut lo, mut hi) = (1u64, hi_n + 1);
+    // Invariant: lo validates; hi does not (or is beyond the route).
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        let (ok, v, c) = check(mid)?;
+        if ok {
+            lo = mid;
+            best_v = v;
+            best_c = c;
+        } else {
+            hi = mid;
+        }
+    }
+    tried.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(Some(UniformBaseline {
+        spacing_m: lo as f64 * step,
+        tag_count: best_c,
+        min_fraction,
+        validation: best_v,
+        tried,
+    }))
 }
