@@ -327,7 +327,7 @@ fn plan(
     if baseline {
         match &p.uniform_baseline {
             Some(b) => println!(
-                "uniform baseline: {} tag(s) every {:.0} m keep {:.2} % of distance within {} m ({} run(s)); plan uses {} ({:+.0} %)",
+                "uniform baseline: {} tag(s) every {:.0} m keep {:.2} % of distance within {} m ({} run(s)); plan uses {}{}",
                 b.tag_count,
                 b.spacing_m,
                 100.0 * b.validation.fraction_within_requirement,
@@ -335,9 +335,12 @@ fn plan(
                 b.validation.runs,
                 p.tag_count(),
                 if b.tag_count > 0 {
-                    100.0 * (p.tag_count() as f64 - b.tag_count as f64) / b.tag_count as f64
+                    format!(
+                        " ({:+.0} %)",
+                        100.0 * (p.tag_count() as f64 - b.tag_count as f64) / b.tag_count as f64
+                    )
                 } else {
-                    0.0
+                    String::new()
                 }
             ),
             None => println!(

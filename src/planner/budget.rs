@@ -158,6 +158,19 @@ impl<'a> Budget<'a> {
     /// The tag-free pass: the bound profile every `every_m` of distance, and
     /// filter snapshots at distances `sites_m` (increasing).
     pub fn tag_free(&self, every_m: f64, sites_m: &[f64]) -> (Vec<BudgetPoint>, Vec<Site>) {
+        self.snapshots(&[], every_m, sites_m)
+    }
+
+    /// As [`Budget::tag_free`], with fixes (sample index, mounting;
+    /// increasing) applied on the way; a snapshot at a fix's sample is taken
+    /// before the fix.
+    pub fn snapshots(
+        &self,
+        fixes: &[(usize, Mounting)],
+        every_m: f64,
+        sites_m: &[f64],
+    ) -> (Vec<BudgetPoint>, Vec<Site>) {
+        let mut k = 0;
         let Some(mut f) = self.initial_filter() else {
             return (vec![], vec![]);
         };
@@ -194,6 +207,10 @@ impl<'a> Budget<'a> {
                     filter: f.clone(),
                 });
                 next_site += 1;
+            }
+            while k < fixes.len() && fixes[k].0 <= i {
+                self.apply_fix(i, f, fixes[k].1);
+                k += 1;
             }
             true
         });
@@ -287,7 +304,8 @@ impl<'a> Budget<'a> {
         self.run(0, &mut f, |i, f| {
             let a = &self.samples[i].avp;
             let at_fix = k < fixes.len() && fixes[k].0 == i;
-            if a.distance_m >= next_prof || at_fix {
+            let at_end = i + 1 == self.samples.len();
+            if a.distance_m >= next_prof || at_fix || at_end {
                 // Recorded before a fix at this sample: the peak just before it.
                 prof.push(BudgetPoint {
                     t_s: a.t,

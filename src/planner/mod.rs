@@ -112,6 +112,8 @@ pub struct PlannerSettings {
     pub forbidden_m: Vec<[f64; 2]>,
     /// Monte Carlo validation runs.
     pub validation_runs: u64,
+    /// Refinements of the reaches from the planned filter (0 = none).
+    pub refine_iterations: usize,
 }
 
 impl PlannerSettings {
@@ -149,6 +151,7 @@ impl PlannerSettings {
                 forbidden_m: vec![],
                 validation_runs: None,
                 cost: None,
+                refine_iterations: None,
             });
         match p.coverage.as_deref() {
             None | Some("routes") => {}
@@ -229,6 +232,7 @@ impl PlannerSettings {
             min_spacing_m,
             forbidden_m: p.forbidden_m,
             validation_runs,
+            refine_iterations: p.refine_iterations.unwrap_or(2) as usize,
         })
     }
 }
@@ -617,6 +621,53 @@ pub fn plan_with(
             )));
         }
     };
+    // Refinement: the reaches above start from the tag-free filter, whose
+    // velocity and attitude uncertainty the planned fixes would have kept
+    // smaller. Recompute them from the filter as the plan leaves it (all
+    // planned fixes read), re-place, and keep the new plan only when the
+    // covariance analysis confirms it: the bound holds with every tag read
+    // and with any k consecutive tags missed.
+    let mut chosen = chosen;
+    let mut reaches = reaches;
+    let mut refined = 0;
+    for _ in 0..settings.refine_iterations {
+        let fixes: Vec<(usize, Mounting)> = chosen
+            .iter()
+            .map(|&i| (sites[i].sample, mountings[i]))
+            .collect();
+        let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
+        let (_, sites2) = budget.snapshots(&fixes, settings.candidate_spacing_m, &at);
+        if sites2.len() != sites.len() {
+            break;
+        }
+        let reaches2 = budget.reaches(&sites2, &mountings, req);
+        let cands2: Vec<Candidate> = sites2
+            .iter()
+            .zip(&reaches2)
+            .map(|(s, &(_, r))| Candidate {
+                at_m: s.distance_m,
+                reach_m: r,
+            })
+            .collect();
+        let Placement::Feasible(c2) =
+            place(length, start_reach, &cands2, k, settings.min_spacing_m)
+        else {
+            break;
+        };
+        if c2.len() >= chosen.len() {
+            break;
+        }
+        let fixes2: Vec<(usize, Mounting)> = c2
+            .iter()
+            .map(|&i| (sites[i].sample, mountings[i]))
+            .collect();
+        if !robust(&budget, &fixes2, k, req, settings.candidate_spacing_m) {
+            break;
+        }
+        chosen = c2;
+        reaches = reaches2;
+        refined += 1;
+    }
     let mut tags = Vec::with_capacity(chosen.len());
     for (n, &i) in chosen.iter().enumerate() {
         let s = &sites[i];
@@ -667,7 +718,13 @@ pub fn plan_with(
         scenario: scn.file.name.clone(),
         requirement_m: req,
         tolerate_missed_reads: k,
-        method: "exact: breadth-first search over the last k+1 tags (single route)".into(),
+        method: if refined > 0 {
+            format!(
+                "exact: breadth-first search over the last k+1 tags (single route), reaches refined {refined}x from the planned filter and confirmed with any k consecutive tags missed"
+            )
+        } else {
+            "exact: breadth-first search over the last k+1 tags (single route)".into()
+        },
         lower_bound: tags.len(),
         route_length_m: length,
         candidates: n_cands,
@@ -847,4 +904,131 @@ pub fn uniform_baseline(
         validation: best_v,
         tried,
     }))
+}
+
+/// Whether the predicted bound holds along the route with fixes `fixes`
+/// all read, and with any `k` consecutive of them missed.
+pub fn robust(
+    budget: &Budget<'_>,
+    fixes: &[(usize, Mounting)],
+    k: usize,
+    requirement_m: f64,
+    every_m: f64,
+) -> bool {
+    use rayon::prelude::*;
+    let worst = |f: &[(usize, Mounting)]| {
+        budget
+            .with_fixes(f, every_m)
+            .iter()
+            .map(|p| p.bound95_m)
+            .fold(0.0, f64::max)
+    };
+    if worst(fixes) > requirement_m {
+        return false;
+    }
+    if k == 0 || fixes.is_empty() {
+        return true;
+    }
+    let n = fixes.len();
+    let drops: Vec<usize> = (0..n.saturating_sub(k - 1).max(1)).collect();
+    drops.par_iter().all(|&d| {
+        let mut f = fixes.to_vec();
+        f.drain(d..(d + k).min(n));
+        worst(&f) <= requirement_m
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::Oneway;
+
+    fn road(
+        highway: &str,
+        lanes: Option<u32>,
+        width: Option<f64>,
+        oneway: Oneway,
+    ) -> RoadAttributes {
+        RoadAttributes {
+            id: "1".into(),
+            name: None,
+            highway: highway.into(),
+            oneway,
+            lanes,
+            width_m: width,
+            maxspeed_kmh: Some(50.0),
+            tunnel: false,
+            bridge: false,
+            layer: 0,
+        }
+    }
+
+    #[test]
+    fn lane_width_from_osm_width_and_lanes_or_class_defaults() {
+        assert_eq!(
+            lane_width_m(&road("primary", Some(4), Some(14.0), Oneway::Both)),
+            3.5
+        );
+        // Width without lanes: two lanes on a two-way road, one on a one-way road.
+        assert_eq!(
+            lane_width_m(&road("residential", None, Some(6.4), Oneway::Both)),
+            3.2
+        );
+        assert_eq!(
+            lane_width_m(&road("residential", None, Some(4.0), Oneway::Forward)),
+            4.0
+        );
+        // Class defaults; links as their road; implausible widths clamped.
+        assert_eq!(
+            lane_width_m(&road("motorway_link", None, None, Oneway::Forward)),
+            3.75
+        );
+        assert_eq!(
+            lane_width_m(&road("service", None, None, Oneway::Both)),
+            3.0
+        );
+        assert_eq!(
+            lane_width_m(&road("primary", Some(1), Some(40.0), Oneway::Both)),
+            5.0
+        );
+    }
+
+    #[test]
+    fn speed_from_truth_else_maxspeed() {
+        let r = road("primary", None, None, Oneway::Both);
+        assert_eq!(site_speed_mps(12.0, Some(&r)), 12.0);
+        assert!((site_speed_mps(0.0, Some(&r)) - 50.0 / 3.6).abs() < 1e-12);
+        assert!((site_speed_mps(0.0, None) - 30.0 / 3.6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn mounting_options_ceiling_only_in_tunnels() {
+        let c = MountingOption::default_for(Mounting::Ceiling);
+        assert!(c.allowed_on(true) && !c.allowed_on(false));
+        let r = MountingOption::default_for(Mounting::Roadside);
+        assert!(r.allowed_on(true) && r.allowed_on(false));
+        assert_eq!(r.read_probability, DEFAULT_READ_PROBABILITY);
+        assert!(c.cost > r.cost);
+    }
+
+    #[test]
+    fn roadside_fix_bound_follows_the_paper_example() {
+        // D = 3.75 m, d = 3 m, θ = 15°, v = 40 km/h, t0 = 20 ms, x = 5.63 m:
+        // dx = 0.375 m, dy = 1.286 m (paper 1.285), dr = 1.340 m (paper 1.338).
+        let m = RfidModel {
+            vehicle_width_m: 3.0,
+            ..RfidModel::default()
+        };
+        let v = 40.0 / 3.6;
+        let (along, across) = m.fix_sigmas(Mounting::Roadside, v);
+        let dy = 5.63 * 15f64.to_radians().tan() - v * 0.02;
+        assert!((along - dy).abs() < 1e-12 && (dy - 1.285).abs() < 2e-3);
+        assert!((across * 3f64.sqrt() - 0.375).abs() < 1e-12);
+        assert!((0.375f64.hypot(dy) - 1.338).abs() < 3e-3);
+        // The planner's 95 % bound of that fix: √χ²₂(0.95) × the larger σ.
+        assert!((fix_bound95(&m, Mounting::Roadside, v) - 2.4477 * dy).abs() < 1e-3);
+        // Road surface and ceiling are far tighter.
+        assert!(fix_bound95(&m, Mounting::RoadSurface, v) < 0.6);
+        assert!(fix_bound95(&m, Mounting::Ceiling, v) < 0.3);
+    }
 }
