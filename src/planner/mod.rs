@@ -630,8 +630,10 @@ pub fn plan_with(
     let mut chosen = chosen;
     let mut reaches = reaches;
     let mut refined = 0;
+    // The plan whose filter the snapshots come from (accepted or not).
+    let mut basis = chosen.clone();
     for _ in 0..settings.refine_iterations {
-        let fixes: Vec<(usize, Mounting)> = chosen
+        let fixes: Vec<(usize, Mounting)> = basis
             .iter()
             .map(|&i| (sites[i].sample, mountings[i]))
             .collect();
@@ -654,19 +656,20 @@ pub fn plan_with(
         else {
             break;
         };
-        if c2.len() >= chosen.len() {
+        if c2 == basis {
             break;
         }
         let fixes2: Vec<(usize, Mounting)> = c2
             .iter()
             .map(|&i| (sites[i].sample, mountings[i]))
             .collect();
-        if !robust(&budget, &fixes2, k, req, settings.candidate_spacing_m) {
-            break;
+        if c2.len() < chosen.len() && robust(&budget, &fixes2, k, req, settings.candidate_spacing_m)
+        {
+            chosen = c2.clone();
+            reaches = reaches2;
+            refined += 1;
         }
-        chosen = c2;
-        reaches = reaches2;
-        refined += 1;
+        basis = c2;
     }
     let mut tags = Vec::with_capacity(chosen.len());
     for (n, &i) in chosen.iter().enumerate() {
