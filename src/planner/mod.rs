@@ -261,6 +261,8 @@ pub struct PlannedTag {
     pub road_id: Option<String>,
     /// Whether the site is in a tunnel.
     pub tunnel: bool,
+    /// Whether the vehicle drives in the road's digitised direction there.
+    pub digitised_forward: Option<bool>,
     /// Predicted 95 % bound just after the fix (m).
     pub bound_after_fix_m: f64,
     /// Route distance up to which the bound holds after this fix (m).
@@ -394,14 +396,23 @@ impl Plan {
                 height_m: t.height_m,
                 road_id: t.road_id.clone(),
                 chainage_m: Some(t.route_distance_m),
+                // Roadside readers look right (right-hand traffic): the
+                // post is on the right of travel, i.e. left of the road's
+                // digitised direction when driving against it.
                 side: Some(
-                    match t.mounting {
-                        Mounting::Roadside => "right",
+                    match (t.mounting, t.digitised_forward) {
+                        (Mounting::Roadside, Some(false)) => "left",
+                        (Mounting::Roadside, _) => "right",
                         _ => "centre",
                     }
                     .to_string(),
                 ),
-                lateral_offset_m: Some(0.0),
+                // Roadside tags stand x to the right of the lane centre
+                // (their stored point is the lane centre abeam).
+                lateral_offset_m: Some(match t.mounting {
+                    Mounting::Roadside => scn.rfid.roadside_distance_m,
+                    _ => 0.0,
+                }),
                 mounting: t.mounting,
                 expected_fix_sigma_m: Some(t.expected_fix_sigma_m),
                 // Tags within one window of k+1 consecutive tags back each other up.
@@ -689,6 +700,10 @@ pub fn plan_with(
             expected_fix_sigma_m: sa.max(sc),
             road_id: road.map(|r| r.id.clone()),
             tunnel: tunnels[i],
+            digitised_forward: ctx.as_ref().map(|c| {
+                let sp = c.route.span_at(s.distance_m * c.scale.get());
+                sp.to_offset_m >= sp.from_offset_m
+            }),
             bound_after_fix_m: reaches[i].0,
             reach_m: reaches[i].1,
         });
