@@ -286,6 +286,7 @@ fn plan(
     write_atomic(&out.join("tags.gpx"), tags_gpx(&recs, &meta).as_bytes())?;
     let mut json = serde_json::to_value(&p)?;
     json["tag_count"] = serde_json::json!(p.tag_count());
+    json["existing_tags_kept"] = serde_json::json!(p.existing_count());
     json["tags_by_mounting"] = serde_json::json!(p.by_mounting());
     json["waymark_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
     json["plan_time_s"] = serde_json::json!(t_plan);
@@ -299,10 +300,15 @@ fn plan(
         .map(|(k, v)| format!("{v} {k}"))
         .collect();
     println!(
-        "{}: {} tag(s) ({}) over {:.1} km, total cost {:.1}, max gap {:.0} m; requirement {} m with {} missed read(s) tolerated; predicted max 95 % bound {:.2} m (all read); method: {}",
+        "{}: {} new tag(s) ({}){} over {:.1} km, total cost {:.1}, max gap {:.0} m; requirement {} m with {} missed read(s) tolerated; predicted max 95 % bound {:.2} m (all read); method: {}",
         p.scenario,
         p.tag_count(),
         if by.is_empty() { "none".to_string() } else { by.join(", ") },
+        if p.existing_count() > 0 {
+            format!(" + {} installed", p.existing_count())
+        } else {
+            String::new()
+        },
         p.route_length_m / 1000.0,
         p.total_cost,
         p.max_gap_m,

@@ -247,3 +247,49 @@ fn route_leaving_the_map_is_an_error() {
     assert!(err.contains("waymark: error"), "{err}");
     assert!(!dir.path().join("o/plan.json").exists());
 }
+
+#[test]
+fn existing_tags_are_kept_and_bad_rows_are_named() {
+    let scn = Scenario::load(&repo("scenarios/helsinki-plan-mems.toml")).unwrap();
+    let truth = TruthSource::new(&scn).unwrap();
+    let mut settings = PlannerSettings::from_scenario(&scn).unwrap();
+    let first = plan_with(&scn, &truth, &settings, 1, false).unwrap();
+    assert!(first.tag_count() >= 2);
+    // The first plan's tags, installed: nothing new is needed.
+    settings.existing_tags = first.sim_tags();
+    let again = plan_with(&scn, &truth, &settings, 1, false).unwrap();
+    assert_eq!(again.tag_count(), 0, "{:?}", again.tags);
+    assert_eq!(again.existing_count(), first.tag_count());
+    assert!(again.predicted_max_bound95_m <= 20.0);
+    // Only the first one installed: the plan adds the rest, never fewer
+    // in total than the minimum.
+    settings.existing_tags = first.sim_tags()[..1].to_vec();
+    let part = plan_with(&scn, &truth, &settings, 1, false).unwrap();
+    assert_eq!(part.existing_count(), 1);
+    assert!(part.tag_count() + 1 >= first.tag_count());
+    assert!(part.predicted_max_bound95_m <= 20.0);
+    // A file with a bad row: the error names the file and the line.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("installed.csv"),
+        "tag_id,lat,lon,mounting\nA,60.17,24.94,road_surface\nB,north,24.95,road_surface\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(repo("scenarios/helsinki-plan-mems.toml"))
+        .unwrap()
+        .replace(
+            "../maps/helsinki.osm.pbf",
+            repo("maps/helsinki.osm.pbf").to_str().unwrap(),
+        )
+        .replace(
+            "validation_runs = 100",
+            "validation_runs = 100\nexisting_tags = \"installed.csv\"",
+        );
+    let p = dir.path().join("s.toml");
+    std::fs::write(&p, &text).unwrap();
+    let scn = Scenario::load(&p).unwrap();
+    let e = PlannerSettings::from_scenario(&scn)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("installed.csv") && e.contains("line 3"), "{e}");
+}

@@ -16,7 +16,7 @@ use crate::sim::scenario::{NavMode, RouteKind, Scenario};
 use crate::sim::tags::{Mounting, RfidModel, Tag};
 use crate::tags::TagPayload;
 use budget::{bound95, Budget, BudgetPoint, CHI2_2_95};
-use placement::{place, Candidate, Placement};
+use placement::{place_with, Candidate, Placement};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -114,6 +114,8 @@ pub struct PlannerSettings {
     pub validation_runs: u64,
     /// Refinements of the reaches from the planned filter (0 = none).
     pub refine_iterations: usize,
+    /// Tags already installed (`existing_tags`), kept in every plan.
+    pub existing_tags: Vec<Tag>,
 }
 
 impl PlannerSettings {
@@ -152,6 +154,7 @@ impl PlannerSettings {
                 validation_runs: None,
                 cost: None,
                 refine_iterations: None,
+                existing_tags: None,
             });
         match p.coverage.as_deref() {
             None | Some("routes") => {}
@@ -224,6 +227,13 @@ impl PlannerSettings {
             }
         }
         let validation_runs = p.validation_runs.unwrap_or(100);
+        let existing_tags = match &p.existing_tags {
+            Some(f) => {
+                let base = scn.path.parent().unwrap_or(std::path::Path::new("."));
+                crate::sim::tags::load_tags_csv(&base.join(f))?
+            }
+            None => vec![],
+        };
         Ok(Self {
             requirement_m,
             tolerate_missed_reads: p.tolerate_missed_reads.unwrap_or(1) as usize,
@@ -233,6 +243,7 @@ impl PlannerSettings {
             forbidden_m: p.forbidden_m,
             validation_runs,
             refine_iterations: p.refine_iterations.unwrap_or(2) as usize,
+            existing_tags,
         })
     }
 }
@@ -259,6 +270,8 @@ pub struct PlannedTag {
     pub expected_fix_sigma_m: f64,
     /// Road input id, when the route is on a map.
     pub road_id: Option<String>,
+    /// Already installed (from `existing_tags`), not a new tag.
+    pub existing: bool,
     /// Whether the site is in a tunnel.
     pub tunnel: bool,
     /// Whether the vehicle drives in the road's digitised direction there.
@@ -305,6 +318,8 @@ pub struct Plan {
     pub method: String,
     /// Lower bound on the tag count (equal to it: the method is exact).
     pub lower_bound: usize,
+    /// Installed tags (`existing_tags`) more than 15 m from the route, ignored.
+    pub existing_off_route: usize,
     /// Route length (m).
     pub route_length_m: f64,
     /// Candidate sites considered.
@@ -349,15 +364,20 @@ pub struct UniformBaseline {
 }
 
 impl Plan {
-    /// Tag count.
+    /// New tags to install (installed ones not counted).
     pub fn tag_count(&self) -> usize {
-        self.tags.len()
+        self.tags.iter().filter(|t| !t.existing).count()
+    }
+
+    /// Installed tags kept in the plan.
+    pub fn existing_count(&self) -> usize {
+        self.tags.len() - self.tag_count()
     }
 
     /// Tags by mounting.
     pub fn by_mounting(&self) -> BTreeMap<String, usize> {
         let mut m = BTreeMap::new();
-        for t in &self.tags {
+        for t in self.tags.iter().filter(|t| !t.existing) {
             *m.entry(t.mounting.as_str().to_string()).or_insert(0) += 1;
         }
         m
@@ -381,7 +401,7 @@ impl Plan {
     /// Export records (with payloads) and metadata.
     pub fn export(&self, scn: &Scenario) -> Result<(Vec<TagRecord>, ExportMetadata)> {
         let mut recs = Vec::with_capacity(self.tags.len());
-        for (i, t) in self.tags.iter().enumerate() {
+        for (i, t) in self.tags.iter().enumerate().filter(|(_, t)| !t.existing) {
             let payload = TagPayload {
                 lat_deg: t.lat,
                 lon_deg: t.lon,
@@ -530,19 +550,46 @@ pub fn plan_with(
         )));
     }
     // Candidate sites.
-    let mut sites_m = Vec::new();
+    // Installed tags: on the route where the path passes within 15 m.
+    let samples = budget.samples();
+    let mut existing_at: Vec<(f64, usize)> = Vec::new();
+    let mut existing_off_route = 0usize;
+    for (ti, t) in settings.existing_tags.iter().enumerate() {
+        let (rm, rn) = crate::geodesy::radii(t.lat);
+        let best = samples
+            .iter()
+            .map(|sm| {
+                let a = &sm.avp;
+                let de = (a.state.lon - t.lon) * rn * t.lat.cos();
+                let dn = (a.state.lat - t.lat) * rm;
+                (de.hypot(dn), a.distance_m)
+            })
+            .fold((f64::INFINITY, 0.0), |b, x| if x.0 < b.0 { x } else { b });
+        if best.0 <= 15.0 {
+            existing_at.push((best.1, ti));
+        } else {
+            existing_off_route += 1;
+        }
+    }
+    existing_at.sort_by(|a, b| a.0.total_cmp(&b.0));
+    existing_at.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-6);
+    let mut site_list: Vec<(f64, Option<usize>)> =
+        existing_at.iter().map(|&(d, i)| (d, Some(i))).collect();
     let mut d = settings.candidate_spacing_m;
     while d < length {
-        if !settings.forbidden_m.iter().any(|z| d >= z[0] && d <= z[1]) {
-            sites_m.push(d);
+        if !settings.forbidden_m.iter().any(|z| d >= z[0] && d <= z[1])
+            && !existing_at.iter().any(|e| (e.0 - d).abs() < 1.0)
+        {
+            site_list.push((d, None));
         }
         d += settings.candidate_spacing_m;
     }
+    site_list.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let sites_m: Vec<f64> = site_list.iter().map(|x| x.0).collect();
     let (profile, sites) = budget.tag_free(settings.candidate_spacing_m, &sites_m);
-    let samples = budget.samples();
     let mut mountings = Vec::with_capacity(sites.len());
     let mut tunnels = Vec::with_capacity(sites.len());
-    for s in &sites {
+    for (n, s) in sites.iter().enumerate() {
         let road = ctx.as_ref().map(|c| c.at(s.distance_m));
         let tunnel = road.is_some_and(|a| a.tunnel);
         let o = settings
@@ -550,21 +597,35 @@ pub fn plan_with(
             .iter()
             .find(|o| o.allowed_on(tunnel))
             .unwrap_or(&settings.mountings[0]);
-        mountings.push(o.mounting);
+        mountings.push(match site_list[n].1 {
+            Some(ti) => settings.existing_tags[ti].mounting,
+            None => o.mounting,
+        });
         tunnels.push(tunnel);
     }
+    let site_existing: Vec<Option<usize>> =
+        site_list.iter().take(sites.len()).map(|x| x.1).collect();
     // Keep sites whose mounting is allowed there.
     let keep: Vec<bool> = sites
         .iter()
         .zip(&mountings)
         .zip(&tunnels)
-        .map(|((_, m), &tun)| {
-            settings
-                .mountings
-                .iter()
-                .any(|o| o.mounting == *m && o.allowed_on(tun))
+        .zip(&site_existing)
+        .map(|(((_, m), &tun), ex)| {
+            ex.is_some()
+                || settings
+                    .mountings
+                    .iter()
+                    .any(|o| o.mounting == *m && o.allowed_on(tun))
         })
         .collect();
+    let site_existing: Vec<Option<usize>> = site_existing
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .collect();
+    let is_existing: Vec<bool> = site_existing.iter().map(Option::is_some).collect();
     let sites: Vec<_> = sites
         .into_iter()
         .zip(&keep)
@@ -604,7 +665,14 @@ pub fn plan_with(
              requirement at the start of the route"
         )));
     }
-    let chosen = match place(length, start_reach, &cands, k, settings.min_spacing_m) {
+    let chosen = match place_with(
+        length,
+        start_reach,
+        &cands,
+        &is_existing,
+        k,
+        settings.min_spacing_m,
+    ) {
         Placement::Feasible(c) => c,
         Placement::Infeasible { covered_to_m } => {
             let road = ctx
@@ -662,9 +730,14 @@ pub fn plan_with(
                 reach_m: r,
             })
             .collect();
-        let Placement::Feasible(c2) =
-            place(length, start_reach, &cands2, k, settings.min_spacing_m)
-        else {
+        let Placement::Feasible(c2) = place_with(
+            length,
+            start_reach,
+            &cands2,
+            &is_existing,
+            k,
+            settings.min_spacing_m,
+        ) else {
             break;
         };
         if c2 == basis {
@@ -683,17 +756,23 @@ pub fn plan_with(
         basis = c2;
     }
     let mut tags = Vec::with_capacity(chosen.len());
-    for (n, &i) in chosen.iter().enumerate() {
+    let mut n_new = 0;
+    for &i in &chosen {
         let s = &sites[i];
         let a = &samples[s.sample].avp;
+        let existing = site_existing[i].map(|ti| &settings.existing_tags[ti]);
+        if existing.is_none() {
+            n_new += 1;
+        }
         let road = ctx.as_ref().map(|c| c.at(s.distance_m));
         let speed = site_speed_mps(a.state.v[0].hypot(a.state.v[1]), road);
         let (sa, sc) = scn.rfid.fix_sigmas(mountings[i], speed);
         tags.push(PlannedTag {
-            tag_id: format!("T{:04}", n + 1),
-            lat: a.state.lat.to_degrees(),
-            lon: a.state.lon.to_degrees(),
-            height_m: a.state.h,
+            tag_id: existing.map_or_else(|| format!("T{n_new:04}"), |t| t.id.clone()),
+            lat: existing.map_or(a.state.lat, |t| t.lat).to_degrees(),
+            lon: existing.map_or(a.state.lon, |t| t.lon).to_degrees(),
+            height_m: existing.and_then(|t| t.height_m).unwrap_or(a.state.h),
+            existing: existing.is_some(),
             route_distance_m: s.distance_m,
             t_s: a.t,
             mounting: mountings[i],
@@ -723,6 +802,7 @@ pub fn plan_with(
     let predicted = with.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
     let total_cost = tags
         .iter()
+        .filter(|t| !t.existing)
         .map(|t| {
             settings
                 .mountings
@@ -743,7 +823,8 @@ pub fn plan_with(
         } else {
             "exact: breadth-first search over the last k+1 tags (single route)".into()
         },
-        lower_bound: tags.len(),
+        lower_bound: n_new,
+        existing_off_route,
         route_length_m: length,
         candidates: n_cands,
         start_reach_m: start_reach,
@@ -878,6 +959,7 @@ pub fn uniform_baseline(
             tolerate_missed_reads: settings.tolerate_missed_reads,
             method: "uniform".into(),
             lower_bound: 0,
+            existing_off_route: 0,
             route_length_m: length,
             candidates: 0,
             start_reach_m: 0.0,

@@ -50,7 +50,22 @@ pub fn place(
     k: usize,
     min_spacing_m: f64,
 ) -> Placement {
+    place_with(length_m, start_reach_m, candidates, &[], k, min_spacing_m)
+}
+
+/// [`place`] with some candidates already installed (`existing[i]`): they
+/// are always in the plan, cost nothing and cannot be skipped; the search
+/// (0-1 breadth-first) minimises the number of new tags.
+pub fn place_with(
+    length_m: f64,
+    start_reach_m: f64,
+    candidates: &[Candidate],
+    existing: &[bool],
+    k: usize,
+    min_spacing_m: f64,
+) -> Placement {
     const START: usize = usize::MAX;
+    let is_existing = |i: usize| i != START && existing.get(i).copied().unwrap_or(false);
     let reach = |i: usize| {
         if i == START {
             start_reach_m
@@ -58,70 +73,89 @@ pub fn place(
             candidates[i].reach_m
         }
     };
-    let at = |i: usize| {
-        if i == START {
-            f64::NEG_INFINITY
+    // Index of the first existing tag after candidate `i` (or after the start).
+    let mut next_existing = vec![usize::MAX; candidates.len() + 1];
+    for i in (0..candidates.len()).rev() {
+        next_existing[i] = if i + 1 < candidates.len() && is_existing(i + 1) {
+            i + 1
+        } else if i + 1 < candidates.len() {
+            next_existing[i + 1]
         } else {
-            candidates[i].at_m
-        }
-    };
+            usize::MAX
+        };
+    }
+    let first_existing = (0..candidates.len())
+        .find(|&i| is_existing(i))
+        .unwrap_or(usize::MAX);
     let start = vec![START; k + 1];
-    if start_reach_m >= length_m {
+    if start_reach_m >= length_m && first_existing == usize::MAX {
         return Placement::Feasible(vec![]);
     }
-    // State: the last k+1 sites (oldest first). Parent links for the path.
-    let mut parent: FxHashMap<Vec<usize>, Option<Vec<usize>>> = FxHashMap::default();
-    parent.insert(start.clone(), None);
-    let mut layer = vec![start];
+    let mut dist: FxHashMap<Vec<usize>, (usize, Option<Vec<usize>>)> = FxHashMap::default();
+    dist.insert(start.clone(), (0, None));
+    let mut deque = std::collections::VecDeque::new();
+    deque.push_back(start);
     let mut covered = start_reach_m;
-    while !layer.is_empty() {
-        let mut next = Vec::new();
-        for w in &layer {
-            let limit = reach(w[0]);
-            let last = *w.last().expect("k+1 ≥ 1");
-            let from = at(last) + min_spacing_m.max(0.0);
-            // First candidate strictly after the last one (and spaced).
-            let lo = if last == START {
-                0
-            } else {
-                candidates.partition_point(|c| c.at_m <= from.max(at(last)))
-            };
-            for (j, c) in candidates.iter().enumerate().skip(lo) {
-                if c.at_m > limit {
+    let mut done = rustc_hash::FxHashSet::default();
+    while let Some(w) = deque.pop_front() {
+        if !done.insert(w.clone()) {
+            continue;
+        }
+        let d = dist[&w].0;
+        let last = *w.last().expect("k+1 ≥ 1");
+        let must = if last == START {
+            first_existing
+        } else {
+            next_existing[last]
+        };
+        // Done when every tag of the window (the oldest, and the last k, any
+        // of which may be the last read) reaches the end, and no installed
+        // tag lies ahead.
+        if must == usize::MAX && w.iter().all(|&i| reach(i) >= length_m) {
+            let mut out = Vec::new();
+            let mut s = Some(w);
+            while let Some(st) = s {
+                let l = *st.last().expect("non-empty");
+                if l == START {
                     break;
                 }
-                if last != START && c.at_m < from {
-                    continue;
-                }
-                let mut nw: Vec<usize> = w[1..].to_vec();
-                nw.push(j);
-                if parent.contains_key(&nw) {
-                    continue;
-                }
-                parent.insert(nw.clone(), Some(w.clone()));
-                let r0 = reach(nw[0]);
-                covered = covered.max(r0);
-                // Done when every tag of the window (the oldest, and the
-                // last k, any of which may be the last read) reaches the end.
-                if nw.iter().all(|&i| reach(i) >= length_m) {
-                    // Walk back.
-                    let mut out = Vec::new();
-                    let mut s = Some(nw);
-                    while let Some(st) = s {
-                        let l = *st.last().expect("non-empty");
-                        if l == START {
-                            break;
-                        }
-                        out.push(l);
-                        s = parent[&st].clone();
-                    }
-                    out.reverse();
-                    return Placement::Feasible(out);
-                }
-                next.push(nw);
+                out.push(l);
+                s = dist[&st].1.clone();
+            }
+            out.reverse();
+            return Placement::Feasible(out);
+        }
+        let limit = reach(w[0]);
+        let lo = if last == START { 0 } else { last + 1 };
+        for (j, c) in candidates.iter().enumerate().skip(lo) {
+            if c.at_m > limit || j > must {
+                break;
+            }
+            if last != START && c.at_m <= candidates[last].at_m {
+                continue;
+            }
+            if last != START
+                && !is_existing(j)
+                && !is_existing(last)
+                && c.at_m - candidates[last].at_m < min_spacing_m
+            {
+                continue;
+            }
+            let mut nw: Vec<usize> = w[1..].to_vec();
+            nw.push(j);
+            let cost = usize::from(!is_existing(j));
+            let nd = d + cost;
+            if dist.get(&nw).is_some_and(|e| e.0 <= nd) {
+                continue;
+            }
+            covered = covered.max(reach(nw[0]));
+            dist.insert(nw.clone(), (nd, Some(w.clone())));
+            if cost == 0 {
+                deque.push_front(nw);
+            } else {
+                deque.push_back(nw);
             }
         }
-        layer = next;
     }
     // The furthest distance up to which some choice holds the bound even
     // with k missed reads.
@@ -140,10 +174,38 @@ pub fn feasible(
     k: usize,
     min_spacing_m: f64,
 ) -> bool {
+    feasible_with(
+        length_m,
+        start_reach_m,
+        candidates,
+        &[],
+        chosen,
+        k,
+        min_spacing_m,
+    )
+}
+
+/// [`feasible`] with installed tags (`existing[i]`), which must all be
+/// chosen and are exempt from the minimum spacing.
+pub fn feasible_with(
+    length_m: f64,
+    start_reach_m: f64,
+    candidates: &[Candidate],
+    existing: &[bool],
+    chosen: &[usize],
+    k: usize,
+    min_spacing_m: f64,
+) -> bool {
+    let ex = |i: usize| existing.get(i).copied().unwrap_or(false);
+    if (0..candidates.len()).any(|i| ex(i) && !chosen.contains(&i)) {
+        return false;
+    }
     let m = chosen.len();
     for w in chosen.windows(2) {
-        if candidates[w[1]].at_m - candidates[w[0]].at_m < min_spacing_m
-            || candidates[w[1]].at_m <= candidates[w[0]].at_m
+        if candidates[w[1]].at_m <= candidates[w[0]].at_m
+            || (!ex(w[0])
+                && !ex(w[1])
+                && candidates[w[1]].at_m - candidates[w[0]].at_m < min_spacing_m)
         {
             return false;
         }
@@ -173,13 +235,13 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
-    fn brute(l: f64, s: f64, c: &[Candidate], k: usize, sp: f64) -> Option<usize> {
+    fn brute(l: f64, s: f64, c: &[Candidate], ex: &[bool], k: usize, sp: f64) -> Option<usize> {
         let n = c.len();
         let mut best: Option<usize> = None;
         for mask in 0u32..(1 << n) {
             let chosen: Vec<usize> = (0..n).filter(|i| mask & (1 << i) != 0).collect();
-            if feasible(l, s, c, &chosen, k, sp) {
-                let m = chosen.len();
+            if feasible_with(l, s, c, ex, &chosen, k, sp) {
+                let m = chosen.iter().filter(|&&i| !ex[i]).count();
                 best = Some(best.map_or(m, |b: usize| b.min(m)));
             }
         }
@@ -191,7 +253,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(42);
         let mut feasible_cases = 0;
         let mut infeasible_cases = 0;
-        for case in 0..600 {
+        for case in 0..900 {
             let n = rng.random_range(1..=12);
             let l = 100.0;
             let mut at: Vec<f64> = (0..n).map(|_| rng.random_range(0.0..l)).collect();
@@ -207,11 +269,19 @@ mod tests {
             let s = rng.random_range(0.0..40.0);
             let k = case % 3;
             let sp = if case % 4 == 0 { 5.0 } else { 0.0 };
-            let want = brute(l, s, &cands, k, sp);
-            match place(l, s, &cands, k, sp) {
+            // Every third case has some tags already installed.
+            let ex: Vec<bool> = (0..n)
+                .map(|_| case % 3 == 1 && rng.random_bool(0.2))
+                .collect();
+            let want = brute(l, s, &cands, &ex, k, sp);
+            match place_with(l, s, &cands, &ex, k, sp) {
                 Placement::Feasible(ch) => {
-                    assert!(feasible(l, s, &cands, &ch, k, sp), "case {case}: {ch:?}");
-                    assert_eq!(Some(ch.len()), want, "case {case}");
+                    assert!(
+                        feasible_with(l, s, &cands, &ex, &ch, k, sp),
+                        "case {case}: {ch:?}"
+                    );
+                    let new = ch.iter().filter(|&&i| !ex[i]).count();
+                    assert_eq!(Some(new), want, "case {case}");
                     feasible_cases += 1;
                 }
                 Placement::Infeasible { .. } => {

@@ -652,6 +652,10 @@ pub struct PlannerSection {
     /// Refinements of the reaches from the planned filter (default 2; 0 = none).
     #[serde(default)]
     pub refine_iterations: Option<u32>,
+    /// Tags already installed (CSV as `--tags`, relative to the scenario's
+    /// folder): kept, not counted as new, never skipped.
+    #[serde(default)]
+    pub existing_tags: Option<std::path::PathBuf>,
 }
 
 /// What a route is made of, validated and in SI units.
