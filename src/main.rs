@@ -247,7 +247,24 @@ fn plan(
         "waymark plan: {}: covariance analysis along the route, then placement",
         scn.file.name
     );
-    let mut p = planner::plan_with(&scn, &truth, &settings, seed, false)?;
+    let bar = if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} candidate sites, {elapsed} (eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let tick = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let mut p = planner::plan_with_progress(&scn, &truth, &settings, seed, false, Some(&tick))?;
+    bar.finish_and_clear();
     let t_plan = t0.elapsed().as_secs_f64();
     if settings.validation_runs > 0 {
         eprintln!(

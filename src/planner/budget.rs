@@ -269,10 +269,31 @@ impl<'a> Budget<'a> {
         mountings: &[Mounting],
         requirement_m: f64,
     ) -> Vec<(f64, f64)> {
+        self.reaches_with_progress(sites, mountings, requirement_m, None)
+    }
+
+    /// [`Budget::reaches`], calling `progress(done, total)` after each site
+    /// (from worker threads).
+    pub fn reaches_with_progress(
+        &self,
+        sites: &[Site],
+        mountings: &[Mounting],
+        requirement_m: f64,
+        progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+    ) -> Vec<(f64, f64)> {
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let total = sites.len();
+        let tick = || {
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            if let Some(p) = progress {
+                p(n, total);
+            }
+        };
         sites
             .par_iter()
             .zip(mountings.par_iter())
             .map(|(s, &m)| {
+                tick();
                 let mut f = s.filter.clone();
                 self.apply_fix(s.sample, &mut f, m);
                 let b0 = bound95(&f.position_cov_enu());

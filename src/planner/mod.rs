@@ -507,6 +507,19 @@ pub fn plan_with(
     seed: u64,
     validate: bool,
 ) -> Result<Plan> {
+    plan_with_progress(scn, truth, settings, seed, validate, None)
+}
+
+/// [`plan_with`], calling `progress(done, total)` as the candidate sites'
+/// reaches are computed (from worker threads; once per refinement pass too).
+pub fn plan_with_progress(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    seed: u64,
+    validate: bool,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+) -> Result<Plan> {
     let req = settings.requirement_m;
     // Road context (tunnels, road ids) and the network for map matching.
     let ctx = match &scn.route {
@@ -644,7 +657,7 @@ pub fn plan_with(
         .filter(|(_, k)| **k)
         .map(|(s, _)| s)
         .collect();
-    let reaches = budget.reaches(&sites, &mountings, req);
+    let reaches = budget.reaches_with_progress(&sites, &mountings, req, progress);
     let start_reach = budget.start_reach(req);
     let cands: Vec<Candidate> = sites
         .iter()
@@ -721,7 +734,7 @@ pub fn plan_with(
         if sites2.len() != sites.len() {
             break;
         }
-        let reaches2 = budget.reaches(&sites2, &mountings, req);
+        let reaches2 = budget.reaches_with_progress(&sites2, &mountings, req, progress);
         let cands2: Vec<Candidate> = sites2
             .iter()
             .zip(&reaches2)
