@@ -96,6 +96,15 @@ fn plan_cli_on_helsinki_writes_validated_plan_and_exports() {
         geojson::GeoJson::FeatureCollection(fc) => assert_eq!(fc.features.len() as u64, n),
         _ => panic!("not a FeatureCollection"),
     }
+    let _: kml::Kml = std::fs::read_to_string(o.join("tags.kml"))
+        .unwrap()
+        .parse()
+        .expect("KML parses");
+    let g = gpx::read(std::io::BufReader::new(
+        std::fs::File::open(o.join("tags.gpx")).unwrap(),
+    ))
+    .expect("GPX parses");
+    assert_eq!(g.waypoints.len() as u64, n);
 }
 
 #[test]
