@@ -13,6 +13,7 @@ pub mod geodesy;
 pub mod matching;
 pub mod nav;
 pub mod network;
+pub mod planner;
 pub mod report;
 pub mod route;
 pub mod sensors;

@@ -85,6 +85,27 @@ enum Command {
         #[arg(long, default_value = "waymark-simulate")]
         out: PathBuf,
     },
+    /// Plans RFID tags for a scenario's route: the fewest tags keeping the predicted 95 % horizontal error within requirement_m; validates by Monte Carlo; writes tags.csv/.geojson/.kml/.gpx and plan.json.
+    #[command(
+        after_help = "Examples:\n  waymark plan scenarios/helsinki-plan-tactical.toml --out /tmp/plan\n  \
+        waymark plan drive.toml --runs 20 --seed 3 --out /tmp/drive-plan"
+    )]
+    Plan {
+        /// The scenario file (TOML) with requirement_m and an integrated navigator.
+        scenario: PathBuf,
+        /// Output folder.
+        #[arg(long, default_value = "waymark-plan")]
+        out: PathBuf,
+        /// Validation runs (default: planner.validation_runs, else 100; 0 skips validation).
+        #[arg(long)]
+        runs: Option<u64>,
+        /// Base seed of the validation (default: the scenario's `seed`, else 1).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Also find the uniform-spacing baseline: the largest spacing whose validation keeps ≥ 99 % of distance within the requirement.
+        #[arg(long)]
+        baseline: bool,
+    },
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -175,6 +196,13 @@ fn run(cli: Cli) -> Result<()> {
             out,
         } => simulate(&scenario, tags.as_deref(), runs, seed, &out),
         Command::Report { dir } => report(&dir),
+        Command::Plan {
+            scenario,
+            out,
+            runs,
+            seed,
+            baseline,
+        } => plan(&scenario, &out, runs, seed, baseline),
         Command::Match {
             map,
             track,
@@ -197,6 +225,158 @@ fn run(cli: Cli) -> Result<()> {
             inspect(&map, json, options, tolerance, defects.as_deref())
         }
     }
+}
+
+fn plan(
+    scenario: &Path,
+    out: &Path,
+    runs: Option<u64>,
+    seed: Option<u64>,
+    baseline: bool,
+) -> Result<()> {
+    use waymark::planner;
+    let t0 = Instant::now();
+    let scn = waymark::sim::Scenario::load(scenario)?;
+    let seed = seed.or(scn.file.seed).unwrap_or(1);
+    let mut settings = planner::PlannerSettings::from_scenario(&scn)?;
+    if let Some(r) = runs {
+        settings.validation_runs = r;
+    }
+    let truth = waymark::sim::TruthSource::new(&scn)?;
+    eprintln!(
+        "waymark plan: {}: covariance analysis along the route, then placement",
+        scn.file.name
+    );
+    let bar = if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} candidate sites, {elapsed} (eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let tick = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let mut p = planner::plan_with_progress(&scn, &truth, &settings, seed, false, Some(&tick))?;
+    bar.finish_and_clear();
+    let t_plan = t0.elapsed().as_secs_f64();
+    if settings.validation_runs > 0 {
+        eprintln!(
+            "waymark plan: validating {} tag(s) by {} Monte Carlo run(s)",
+            p.tag_count(),
+            settings.validation_runs
+        );
+        p.validation = Some(planner::validate_plan(
+            &scn,
+            &truth,
+            &p,
+            settings.validation_runs,
+            seed,
+        )?);
+    }
+    if baseline {
+        eprintln!("waymark plan: searching the uniform-spacing baseline");
+        p.uniform_baseline = planner::uniform_baseline(
+            &scn,
+            &truth,
+            &settings,
+            settings.validation_runs.max(1),
+            seed,
+            0.99,
+        )?;
+    }
+    let (recs, meta) = p.export(&scn)?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    use waymark::export::{tags_csv, tags_geojson, tags_gpx, tags_kml, write_atomic};
+    write_atomic(&out.join("tags.csv"), tags_csv(&recs, &meta).as_bytes())?;
+    write_atomic(
+        &out.join("tags.geojson"),
+        tags_geojson(&recs, &meta).as_bytes(),
+    )?;
+    write_atomic(&out.join("tags.kml"), tags_kml(&recs, &meta).as_bytes())?;
+    write_atomic(&out.join("tags.gpx"), tags_gpx(&recs, &meta).as_bytes())?;
+    let mut json = serde_json::to_value(&p)?;
+    json["tag_count"] = serde_json::json!(p.tag_count());
+    json["existing_tags_kept"] = serde_json::json!(p.existing_count());
+    json["tags_by_mounting"] = serde_json::json!(p.by_mounting());
+    json["waymark_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
+    json["plan_time_s"] = serde_json::json!(t_plan);
+    write_atomic(
+        &out.join("plan.json"),
+        serde_json::to_string_pretty(&json)?.as_bytes(),
+    )?;
+    let by: Vec<String> = p
+        .by_mounting()
+        .iter()
+        .map(|(k, v)| format!("{v} {k}"))
+        .collect();
+    println!(
+        "{}: {} new tag(s) ({}){} over {:.1} km, total cost {:.1}, max gap {:.0} m; requirement {} m with {} missed read(s) tolerated; predicted max 95 % bound {:.2} m (all read); method: {}",
+        p.scenario,
+        p.tag_count(),
+        if by.is_empty() { "none".to_string() } else { by.join(", ") },
+        if p.existing_count() > 0 {
+            format!(" + {} installed", p.existing_count())
+        } else {
+            String::new()
+        },
+        p.route_length_m / 1000.0,
+        p.total_cost,
+        p.max_gap_m,
+        p.requirement_m,
+        p.tolerate_missed_reads,
+        p.predicted_max_bound95_m,
+        p.method
+    );
+    if let Some(v) = &p.validation {
+        println!(
+            "validation: {} run(s), seed {}: {:.2} % of distance within {} m; max horizontal error {:.2} m (run {}, t = {:.0} s, {:.0} m along the route)",
+            v.runs,
+            v.seed,
+            100.0 * v.fraction_within_requirement,
+            p.requirement_m,
+            v.max_horizontal_error_m,
+            v.worst_run,
+            v.worst_t_s,
+            v.worst_distance_m
+        );
+    }
+    if baseline {
+        match &p.uniform_baseline {
+            Some(b) => println!(
+                "uniform baseline: {} tag(s) every {:.0} m keep {:.2} % of distance within {} m ({} run(s)); plan uses {}{}",
+                b.tag_count,
+                b.spacing_m,
+                100.0 * b.validation.fraction_within_requirement,
+                p.requirement_m,
+                b.validation.runs,
+                p.tag_count(),
+                if b.tag_count > 0 {
+                    format!(
+                        " ({:+.0} %)",
+                        100.0 * (p.tag_count() as f64 - b.tag_count as f64) / b.tag_count as f64
+                    )
+                } else {
+                    String::new()
+                }
+            ),
+            None => println!(
+                "uniform baseline: none validates, even at the candidate spacing"
+            ),
+        }
+    }
+    println!(
+        "wrote {}/tags.csv, tags.geojson, tags.kml, tags.gpx, plan.json in {:.1} s",
+        out.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
 }
 
 fn simulate(

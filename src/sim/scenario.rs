@@ -634,6 +634,28 @@ pub struct PlannerSection {
     /// Mounting types allowed.
     #[serde(default)]
     pub mountings: Option<Vec<String>>,
+    /// Spacing of candidate tag sites along a route (m, default 20).
+    #[serde(default)]
+    pub candidate_spacing_m: Option<f64>,
+    /// Smallest distance between two planned tags (m, default 0).
+    #[serde(default)]
+    pub min_spacing_m: Option<f64>,
+    /// Stretches of route distance where no tag may go: [[from_m, to_m], ...].
+    #[serde(default)]
+    pub forbidden_m: Vec<[f64; 2]>,
+    /// Monte Carlo runs validating a plan (default 100).
+    #[serde(default)]
+    pub validation_runs: Option<u64>,
+    /// Installed cost per tag by mounting, e.g. { road_surface = 1.0, roadside = 0.6 }.
+    #[serde(default)]
+    pub cost: Option<std::collections::BTreeMap<String, f64>>,
+    /// Refinements of the reaches from the planned filter (default 2; 0 = none).
+    #[serde(default)]
+    pub refine_iterations: Option<u32>,
+    /// Tags already installed (CSV as `--tags`, relative to the scenario's
+    /// folder): kept, not counted as new, never skipped.
+    #[serde(default)]
+    pub existing_tags: Option<std::path::PathBuf>,
 }
 
 /// What a route is made of, validated and in SI units.

@@ -1,0 +1,348 @@
+//! Error budget along a route by covariance analysis: the integrated
+//! navigator's own [`Filter`] is run on perfect data along the truth (ideal
+//! IMU increments, exact odometer distances and heights, the map-matching
+//! feed when the scenario uses it), so its state stays on the truth and its
+//! covariance is the predicted one: no random runs. The predicted 95 %
+//! horizontal bound is `sqrt(χ²₂(0.95) · λmax)` of the horizontal position
+//! covariance (a circle containing the 95 % ellipse).
+//!
+//! A tag fix at a site resets the bound: the filter is taken as it is at the
+//! site (from the tag-free pass), given the fix with the mounting's
+//! covariance, and propagated on until the bound exceeds the requirement;
+//! that distance is the site's reach.
+
+use crate::nav::integrated::along_across_covariance;
+use crate::nav::{Filter, FilterConfig};
+use crate::network::Network;
+use crate::sim::integrated::filter_config;
+use crate::sim::map_feed::MapFeed;
+use crate::sim::run::TruthSource;
+use crate::sim::scenario::Scenario;
+use crate::sim::tags::Mounting;
+use crate::trajectory::{ideal_imu, TruthSample};
+use rayon::prelude::*;
+
+/// χ²(2 dof) 95 % quantile.
+pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
+
+/// The 95 % horizontal bound (m) of an east-north covariance (m²).
+pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
+    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
+    let tr = 0.5 * (a + d);
+    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    (CHI2_2_95 * (tr + disc).max(0.0)).sqrt()
+}
+
+/// One point of a budget profile.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BudgetPoint {
+    /// Time (s).
+    pub t_s: f64,
+    /// Distance along the route (m).
+    pub distance_m: f64,
+    /// Predicted 95 % horizontal bound (m).
+    pub bound95_m: f64,
+}
+
+/// A snapshot of the tag-free filter at a candidate site.
+#[derive(Debug, Clone)]
+pub struct Site {
+    /// Index of the truth sample.
+    pub sample: usize,
+    /// Distance along the route (m).
+    pub distance_m: f64,
+    /// The filter there.
+    pub filter: Filter,
+}
+
+/// The covariance analysis of one route.
+pub struct Budget<'a> {
+    scn: &'a Scenario,
+    cfg: FilterConfig,
+    samples: Vec<TruthSample>,
+    network: Option<&'a Network>,
+    odo_every: usize,
+}
+
+impl std::fmt::Debug for Budget<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Budget")
+            .field("samples", &self.samples.len())
+            .finish()
+    }
+}
+
+impl<'a> Budget<'a> {
+    /// Prepares the truth (with ideal IMU increments) of a scenario's route;
+    /// `network` feeds map matching when the scenario uses it.
+    pub fn new(scn: &'a Scenario, truth: &TruthSource, network: Option<&'a Network>) -> Self {
+        let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+        let samples: Vec<TruthSample> =
+            ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
+        let odo_every =
+            ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / scn.dt).round() as usize).max(1);
+        Self {
+            scn,
+            cfg: filter_config(scn),
+            samples,
+            network: network.filter(|_| scn.file.aiding.map_matching),
+            odo_every,
+        }
+    }
+
+    /// The truth samples.
+    pub fn samples(&self) -> &[TruthSample] {
+        &self.samples
+    }
+
+    /// Route length (m).
+    pub fn length_m(&self) -> f64 {
+        self.samples.last().map_or(0.0, |s| s.avp.distance_m)
+    }
+
+    /// Steps the filter on perfect data over samples `from+1..`, calling
+    /// `visit(index, filter)` after each; stops when `visit` returns false.
+    fn run(
+        &self,
+        from: usize,
+        filter: &mut Filter,
+        mut visit: impl FnMut(usize, &mut Filter) -> bool,
+    ) {
+        let aid = self.scn.file.aiding;
+        let mut feed = self.network.map(|n| MapFeed::new(n, filter.time()));
+        let mut odo_acc = 0.0;
+        let mut last_d = self.samples[from].avp.distance_m;
+        let baro_every = (1.0 / self.scn.dt).round().max(1.0) as usize;
+        for (i, s) in self.samples.iter().enumerate().skip(from + 1) {
+            filter.step(&s.imu);
+            odo_acc += s.avp.distance_m - last_d;
+            last_d = s.avp.distance_m;
+            if i % self.odo_every == 0 {
+                // A failed odometer (fault injection) is modelled as the
+                // filter ends up treating it: disabled, constraints only.
+                let failed = self.scn.odometer.failure.is_some_and(|f| {
+                    f.from_s.is_some_and(|x| s.avp.t >= x)
+                        || f.from_m.is_some_and(|x| s.avp.distance_m >= x)
+                });
+                if aid.odometer && !failed {
+                    filter.update_odometer(odo_acc);
+                } else if self.cfg.use_nhc {
+                    filter.update_constraints();
+                }
+                odo_acc = 0.0;
+            }
+            if aid.baro && i % baro_every == 0 {
+                let var = self.scn.baro.noise_m.powi(2).max(0.01);
+                filter.update_height(s.avp.t, s.avp.state.h, var);
+            }
+            if let Some(f) = feed.as_mut() {
+                f.step(s.avp.t, filter);
+            }
+            if !visit(i, filter) {
+                break;
+            }
+        }
+    }
+
+    /// A filter at the first truth sample with the scenario's prior.
+    pub fn initial_filter(&self) -> Option<Filter> {
+        let first = self.samples.first()?;
+        Some(Filter::new(
+            first.avp.state,
+            first.avp.t,
+            self.scn.dt,
+            self.cfg,
+        ))
+    }
+
+    /// The tag-free pass: the bound profile every `every_m` of distance, and
+    /// filter snapshots at distances `sites_m` (increasing).
+    pub fn tag_free(&self, every_m: f64, sites_m: &[f64]) -> (Vec<BudgetPoint>, Vec<Site>) {
+        self.snapshots(&[], every_m, sites_m)
+    }
+
+    /// As [`Budget::tag_free`], with fixes (sample index, mounting;
+    /// increasing) applied on the way; a snapshot at a fix's sample is taken
+    /// before the fix.
+    pub fn snapshots(
+        &self,
+        fixes: &[(usize, Mounting)],
+        every_m: f64,
+        sites_m: &[f64],
+    ) -> (Vec<BudgetPoint>, Vec<Site>) {
+        let mut k = 0;
+        let Some(mut f) = self.initial_filter() else {
+            return (vec![], vec![]);
+        };
+        let mut prof = vec![BudgetPoint {
+            t_s: self.samples[0].avp.t,
+            distance_m: self.samples[0].avp.distance_m,
+            bound95_m: bound95(&f.position_cov_enu()),
+        }];
+        let mut next_prof = every_m;
+        let mut sites = Vec::with_capacity(sites_m.len());
+        let mut next_site = 0;
+        while next_site < sites_m.len() && sites_m[next_site] <= 0.0 {
+            sites.push(Site {
+                sample: 0,
+                distance_m: self.samples[0].avp.distance_m,
+                filter: f.clone(),
+            });
+            next_site += 1;
+        }
+        self.run(0, &mut f, |i, f| {
+            let a = &self.samples[i].avp;
+            if a.distance_m >= next_prof {
+                prof.push(BudgetPoint {
+                    t_s: a.t,
+                    distance_m: a.distance_m,
+                    bound95_m: bound95(&f.position_cov_enu()),
+                });
+                next_prof += every_m;
+            }
+            while next_site < sites_m.len() && a.distance_m >= sites_m[next_site] {
+                sites.push(Site {
+                    sample: i,
+                    distance_m: a.distance_m,
+                    filter: f.clone(),
+                });
+                next_site += 1;
+            }
+            while k < fixes.len() && fixes[k].0 <= i {
+                self.apply_fix(i, f, fixes[k].1);
+                k += 1;
+            }
+            true
+        });
+        (prof, sites)
+    }
+
+    /// Distance up to which the bound stays within `requirement_m` from the
+    /// start (with the scenario's prior).
+    pub fn start_reach(&self, requirement_m: f64) -> f64 {
+        let Some(mut f) = self.initial_filter() else {
+            return 0.0;
+        };
+        if bound95(&f.position_cov_enu()) > requirement_m {
+            return 0.0;
+        }
+        self.reach_from(0, &mut f, requirement_m)
+    }
+
+    fn reach_from(&self, from: usize, f: &mut Filter, requirement_m: f64) -> f64 {
+        let mut reach = self.length_m();
+        let mut prev = self.samples[from].avp.distance_m;
+        self.run(from, f, |i, f| {
+            if bound95(&f.position_cov_enu()) > requirement_m {
+                reach = prev;
+                return false;
+            }
+            prev = self.samples[i].avp.distance_m;
+            true
+        });
+        reach
+    }
+
+    /// The fix a tag of `mounting` gives at truth sample `i`: applied to
+    /// `f` with the mounting's covariance at the speed there.
+    pub fn apply_fix(&self, i: usize, f: &mut Filter, mounting: Mounting) {
+        let a = &self.samples[i].avp;
+        let speed = a.state.v[0].hypot(a.state.v[1]);
+        let fw = a.state.q.rotate([0.0, 1.0, 0.0]);
+        let (sa, sc) = self.scn.rfid.fix_sigmas(mounting, speed);
+        let cov = along_across_covariance(fw[0].atan2(fw[1]), sa, sc);
+        f.update_position(
+            a.t,
+            a.state.lat,
+            a.state.lon,
+            Some(a.state.h),
+            cov,
+            self.scn.rfid.height_sigma_m.powi(2).max(1e-4),
+        );
+    }
+
+    /// The bound right after a fix, and the reach, of each site
+    /// (`mountings[j]` at `sites[j]`), in parallel.
+    pub fn reaches(
+        &self,
+        sites: &[Site],
+        mountings: &[Mounting],
+        requirement_m: f64,
+    ) -> Vec<(f64, f64)> {
+        self.reaches_with_progress(sites, mountings, requirement_m, None)
+    }
+
+    /// [`Budget::reaches`], calling `progress(done, total)` after each site
+    /// (from worker threads).
+    pub fn reaches_with_progress(
+        &self,
+        sites: &[Site],
+        mountings: &[Mounting],
+        requirement_m: f64,
+        progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+    ) -> Vec<(f64, f64)> {
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let total = sites.len();
+        let tick = || {
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            if let Some(p) = progress {
+                p(n, total);
+            }
+        };
+        sites
+            .par_iter()
+            .zip(mountings.par_iter())
+            .map(|(s, &m)| {
+                tick();
+                let mut f = s.filter.clone();
+                self.apply_fix(s.sample, &mut f, m);
+                let b0 = bound95(&f.position_cov_enu());
+                if b0 > requirement_m {
+                    return (b0, s.distance_m);
+                }
+                (b0, self.reach_from(s.sample, &mut f, requirement_m))
+            })
+            .collect()
+    }
+
+    /// The bound profile with fixes at the given sites (sample index,
+    /// mounting; increasing), all read: the predicted error with a plan.
+    pub fn with_fixes(&self, fixes: &[(usize, Mounting)], every_m: f64) -> Vec<BudgetPoint> {
+        let Some(mut f) = self.initial_filter() else {
+            return vec![];
+        };
+        let mut prof = vec![BudgetPoint {
+            t_s: self.samples[0].avp.t,
+            distance_m: self.samples[0].avp.distance_m,
+            bound95_m: bound95(&f.position_cov_enu()),
+        }];
+        let mut next_prof = every_m;
+        let mut k = 0;
+        while k < fixes.len() && fixes[k].0 == 0 {
+            self.apply_fix(0, &mut f, fixes[k].1);
+            k += 1;
+        }
+        self.run(0, &mut f, |i, f| {
+            let a = &self.samples[i].avp;
+            let at_fix = k < fixes.len() && fixes[k].0 == i;
+            let at_end = i + 1 == self.samples.len();
+            if a.distance_m >= next_prof || at_fix || at_end {
+                // Recorded before a fix at this sample: the peak just before it.
+                prof.push(BudgetPoint {
+                    t_s: a.t,
+                    distance_m: a.distance_m,
+                    bound95_m: bound95(&f.position_cov_enu()),
+                });
+                if a.distance_m >= next_prof {
+                    next_prof += every_m;
+                }
+            }
+            while k < fixes.len() && fixes[k].0 <= i {
+                self.apply_fix(i, f, fixes[k].1);
+                k += 1;
+            }
+            true
+        });
+        prof
+    }
+}

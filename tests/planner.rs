@@ -1,0 +1,304 @@
+//! The tag planner: `waymark plan` as a real binary on the bundled Helsinki
+//! map, the library's budget and placement on the same route, and bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use waymark::planner::budget::Budget;
+use waymark::planner::{plan_with, PlannerSettings};
+use waymark::sim::{Scenario, TruthSource};
+use waymark::tags::TagPayload;
+
+fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_waymark"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("binary runs")
+}
+
+fn scenario_with(name: &str, edit: impl Fn(String) -> String) -> Scenario {
+    let path = repo(name);
+    let text = edit(std::fs::read_to_string(&path).unwrap());
+    Scenario::parse(&path, &text).unwrap()
+}
+
+#[test]
+fn plan_cli_on_helsinki_writes_validated_plan_and_exports() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn = repo("scenarios/helsinki-plan-mems.toml");
+    let out = run(
+        &[
+            "plan",
+            scn.to_str().unwrap(),
+            "--out",
+            "out",
+            "--runs",
+            "30",
+        ],
+        dir.path(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}\n{}",
+        stdout,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("validation: 30 run(s)"), "{stdout}");
+    let o = dir.path().join("out");
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("plan.json")).unwrap()).unwrap();
+    let n = plan["tag_count"].as_u64().unwrap();
+    // Without tags the predicted bound leaves 20 m; the plan needs some.
+    assert!(n >= 2, "{plan}");
+    assert_eq!(plan["requirement_m"].as_f64(), Some(20.0));
+    assert_eq!(plan["lower_bound"].as_u64(), Some(n));
+    assert!(plan["method"].as_str().unwrap().starts_with("exact"));
+    assert!(plan["predicted_max_bound95_m"].as_f64().unwrap() <= 20.0);
+    let v = &plan["validation"];
+    assert_eq!(v["runs"].as_u64(), Some(30));
+    let frac = v["fraction_within_requirement"].as_f64().unwrap();
+    assert!(frac >= 0.99, "{v}");
+    assert!(v["max_horizontal_error_m"].as_f64().unwrap() > 0.0);
+    // tags.csv: the simulator's own reader takes it; payloads decode to the rows.
+    let csv = o.join("tags.csv");
+    let tags = waymark::sim::tags::load_tags_csv(&csv).unwrap();
+    assert_eq!(tags.len() as u64, n);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("# Waymark "), "{text}");
+    assert!(text.contains("# requirement_m = 20"), "{text}");
+    let mut rdr = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .from_reader(text.as_bytes());
+    let h = rdr.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|c| c == name).unwrap();
+    for r in rdr.records() {
+        let r = r.unwrap();
+        let p = TagPayload::from_hex(&r[col("payload_hex")]).unwrap();
+        let lat: f64 = r[col("lat")].parse().unwrap();
+        let lon: f64 = r[col("lon")].parse().unwrap();
+        assert!((p.lat_deg - lat).abs() < 2e-6 && (p.lon_deg - lon).abs() < 2e-6);
+        assert_eq!(p.mounting.as_str(), &r[col("mounting")]);
+        assert!(!r[col("road_id")].is_empty());
+    }
+    for f in ["tags.geojson", "tags.kml", "tags.gpx"] {
+        assert!(o.join(f).exists(), "{f}");
+    }
+    let gj: geojson::GeoJson = std::fs::read_to_string(o.join("tags.geojson"))
+        .unwrap()
+        .parse()
+        .unwrap();
+    match gj {
+        geojson::GeoJson::FeatureCollection(fc) => assert_eq!(fc.features.len() as u64, n),
+        _ => panic!("not a FeatureCollection"),
+    }
+    let _: kml::Kml = std::fs::read_to_string(o.join("tags.kml"))
+        .unwrap()
+        .parse()
+        .expect("KML parses");
+    let g = gpx::read(std::io::BufReader::new(
+        std::fs::File::open(o.join("tags.gpx")).unwrap(),
+    ))
+    .expect("GPX parses");
+    assert_eq!(g.waypoints.len() as u64, n);
+}
+
+#[test]
+fn plan_holds_with_any_single_missed_tag_and_budget_resets_at_fixes() {
+    let scn = Scenario::load(&repo("scenarios/helsinki-plan-mems.toml")).unwrap();
+    let truth = TruthSource::new(&scn).unwrap();
+    let settings = PlannerSettings::from_scenario(&scn).unwrap();
+    assert_eq!(settings.tolerate_missed_reads, 1);
+    let plan = plan_with(&scn, &truth, &settings, 1, false).unwrap();
+    let req = settings.requirement_m;
+    // Without tags the predicted bound exceeds the requirement; with them it does not.
+    let without = plan
+        .profile_without_tags
+        .iter()
+        .map(|p| p.bound95_m)
+        .fold(0.0, f64::max);
+    assert!(without > req, "{without}");
+    assert!(plan.predicted_max_bound95_m <= req);
+    // The bound grows between fixes: the tag-free profile rises overall.
+    let first = plan.profile_without_tags[1].bound95_m;
+    let last = plan.profile_without_tags.last().unwrap().bound95_m;
+    assert!(last > 3.0 * first, "{first} {last}");
+    // A fix resets the bound to about the fix error.
+    for t in &plan.tags {
+        assert!(t.bound_after_fix_m < 1.0, "{t:?}");
+    }
+    // Drop each tag in turn (a missed read): the predicted bound, propagated
+    // by the filter with the remaining fixes, still holds.
+    let net = waymark::Network::load(&repo("maps/helsinki.osm.pbf"), &Default::default()).unwrap();
+    let budget = Budget::new(&scn, &truth, Some(&net));
+    let fixes: Vec<(usize, waymark::tags::Mounting)> = plan
+        .tags
+        .iter()
+        .map(|t| {
+            let i = budget
+                .samples()
+                .iter()
+                .position(|s| s.avp.distance_m >= t.route_distance_m - 1e-6)
+                .unwrap();
+            (i, t.mounting)
+        })
+        .collect();
+    for drop in 0..fixes.len() {
+        let mut f = fixes.clone();
+        f.remove(drop);
+        let worst = budget
+            .with_fixes(&f, 20.0)
+            .iter()
+            .map(|p| p.bound95_m)
+            .fold(0.0, f64::max);
+        assert!(worst <= req, "tag {drop} missed: {worst}");
+    }
+    // And dropping two consecutive tags (more than tolerated) breaks it,
+    // or the plan has fewer than two tags: minimality has teeth.
+    if fixes.len() >= 2 {
+        let mut broke = false;
+        for d in 0..fixes.len() - 1 {
+            let mut f = fixes.clone();
+            f.drain(d..d + 2);
+            let worst = budget
+                .with_fixes(&f, 20.0)
+                .iter()
+                .map(|p| p.bound95_m)
+                .fold(0.0, f64::max);
+            broke |= worst > req;
+        }
+        assert!(
+            broke,
+            "no pair of missed tags matters: the plan is not minimal"
+        );
+    }
+}
+
+#[test]
+fn requirement_below_best_fix_is_a_clear_error() {
+    let scn = scenario_with("scenarios/helsinki-plan-mems.toml", |t| {
+        t.replace("requirement_m = 20.0", "requirement_m = 0.3")
+    });
+    let truth = TruthSource::new(&scn).unwrap();
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let e = plan_with(&scn, &truth, &s, 1, false)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("below the best possible tag fix"), "{e}");
+}
+
+#[test]
+fn forbidden_zone_makes_an_infeasibility_report_naming_the_stretch() {
+    let scn = scenario_with("scenarios/helsinki-plan-mems.toml", |t| {
+        t.replace(
+            "validation_runs = 100",
+            "validation_runs = 100\nforbidden_m = [[100, 5000]]",
+        )
+    });
+    let truth = TruthSource::new(&scn).unwrap();
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let e = plan_with(&scn, &truth, &s, 1, false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("infeasible") && e.contains("cannot be covered"),
+        "{e}"
+    );
+    assert!(e.contains("road "), "{e}");
+}
+
+#[test]
+fn bad_planner_settings_are_rejected() {
+    for (from, to, want) in [
+        (
+            "tolerate_missed_reads = 1",
+            "tolerate_missed_reads = 1\ncoverage = \"everything\"",
+            "not one of routes, network",
+        ),
+        (
+            "mountings = [\"road_surface\", \"roadside\"]",
+            "mountings = [\"road_surface\", \"ceilling\"]",
+            "ceilling",
+        ),
+        (
+            "validation_runs = 100",
+            "validation_runs = 100\ncandidate_spacing_m = 0.1",
+            "candidate_spacing_m",
+        ),
+    ] {
+        let scn = scenario_with("scenarios/helsinki-plan-mems.toml", |t| t.replace(from, to));
+        let e = PlannerSettings::from_scenario(&scn)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want), "{e}");
+    }
+}
+
+#[test]
+fn route_leaving_the_map_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo("scenarios/helsinki-plan-mems.toml"))
+        .unwrap()
+        .replace(
+            "../maps/helsinki.osm.pbf",
+            repo("maps/helsinki.osm.pbf").to_str().unwrap(),
+        )
+        .replace("[60.1660, 24.9380]]", "[60.3000, 25.3000]]");
+    let p = dir.path().join("s.toml");
+    std::fs::write(&p, text).unwrap();
+    let out = run(&["plan", p.to_str().unwrap(), "--out", "o"], dir.path());
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("waymark: error"), "{err}");
+    assert!(!dir.path().join("o/plan.json").exists());
+}
+
+#[test]
+fn existing_tags_are_kept_and_bad_rows_are_named() {
+    let scn = Scenario::load(&repo("scenarios/helsinki-plan-mems.toml")).unwrap();
+    let truth = TruthSource::new(&scn).unwrap();
+    let mut settings = PlannerSettings::from_scenario(&scn).unwrap();
+    let first = plan_with(&scn, &truth, &settings, 1, false).unwrap();
+    assert!(first.tag_count() >= 2);
+    // The first plan's tags, installed: nothing new is needed.
+    settings.existing_tags = first.sim_tags();
+    let again = plan_with(&scn, &truth, &settings, 1, false).unwrap();
+    assert_eq!(again.tag_count(), 0, "{:?}", again.tags);
+    assert_eq!(again.existing_count(), first.tag_count());
+    assert!(again.predicted_max_bound95_m <= 20.0);
+    // Only the first one installed: the plan adds the rest, never fewer
+    // in total than the minimum.
+    settings.existing_tags = first.sim_tags()[..1].to_vec();
+    let part = plan_with(&scn, &truth, &settings, 1, false).unwrap();
+    assert_eq!(part.existing_count(), 1);
+    assert!(part.tag_count() + 1 >= first.tag_count());
+    assert!(part.predicted_max_bound95_m <= 20.0);
+    // A file with a bad row: the error names the file and the line.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("installed.csv"),
+        "tag_id,lat,lon,mounting\nA,60.17,24.94,road_surface\nB,north,24.95,road_surface\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(repo("scenarios/helsinki-plan-mems.toml"))
+        .unwrap()
+        .replace(
+            "../maps/helsinki.osm.pbf",
+            repo("maps/helsinki.osm.pbf").to_str().unwrap(),
+        )
+        .replace(
+            "validation_runs = 100",
+            "validation_runs = 100\nexisting_tags = \"installed.csv\"",
+        );
+    let p = dir.path().join("s.toml");
+    std::fs::write(&p, &text).unwrap();
+    let scn = Scenario::load(&p).unwrap();
+    let e = PlannerSettings::from_scenario(&scn)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("installed.csv") && e.contains("line 3"), "{e}");
+}
