@@ -19,10 +19,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Runs the main job on the bundled map (for now: network inspection of maps/helsinki.osm.pbf).
+    /// Runs the main job on the bundled map and scenario: plans tags for a 20 m requirement, validates them, writes the installer files and an HTML report.
     #[command(after_help = "Example:\n  waymark demo\n  waymark demo --out /tmp/waymark-demo")]
     Demo {
-        /// Output folder (unused until planning lands).
+        /// Output folder.
         #[arg(long, default_value = "waymark-demo")]
         out: PathBuf,
     },
@@ -174,20 +174,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Demo { out: _ } => {
-            let map = bundled_map();
-            eprintln!(
-                "waymark demo: planning is not built yet; inspecting the bundled map {} instead",
-                map.display()
-            );
-            inspect(
-                &map,
-                false,
-                LoadOptions::default(),
-                DEFAULT_NODE_TOLERANCE_M,
-                None,
-            )
-        }
+        Command::Demo { out } => demo(&out),
         Command::Simulate {
             scenario,
             tags,
@@ -634,12 +621,38 @@ fn match_track(
     Ok(())
 }
 
-fn bundled_map() -> PathBuf {
-    let local = PathBuf::from("maps/helsinki.osm.pbf");
+/// The main job on the bundled map: plan, validate, simulate with the
+/// planned tags, report.
+fn demo(out: &Path) -> Result<()> {
+    let t0 = Instant::now();
+    let scenario = bundled("scenarios/demo.toml");
+    say!(
+        "waymark demo: planning RFID tags for {} (bundled Helsinki map, 20 m requirement)",
+        scenario.display()
+    );
+    plan(&scenario, out, None, None, false)?;
+    say!("waymark demo: simulating the route with the planned tags (20 runs) for the report");
+    let tags = out.join("tags.csv");
+    simulate(&scenario, Some(&tags), 20, None, out)?;
+    report(out)?;
+    say!(
+        "waymark demo: done in {:.1} s. Open {} in a browser; installer files: {}/tags.csv, tags.geojson, tags.kml, tags.gpx; plan and validation: {}/plan.json",
+        t0.elapsed().as_secs_f64(),
+        out.join("report.html").display(),
+        out.display(),
+        out.display()
+    );
+    Ok(())
+}
+
+/// A file shipped with Waymark: relative to the working folder when run from
+/// the project, else from the source tree it was built from.
+fn bundled(rel: &str) -> PathBuf {
+    let local = PathBuf::from(rel);
     if local.exists() {
         local
     } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf")
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
     }
 }
 

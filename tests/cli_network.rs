@@ -124,7 +124,7 @@ fn inspect_text_and_defect_export() {
 }
 
 #[test]
-fn demo_inspects_the_bundled_map_and_says_so() {
+fn demo_plans_validates_and_reports() {
     let dir = tempfile::tempdir().unwrap();
     let out = bin().arg("demo").current_dir(dir.path()).output().unwrap();
     assert!(
@@ -132,8 +132,30 @@ fn demo_inspects_the_bundled_map_and_says_so() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(String::from_utf8_lossy(&out.stderr).contains("inspecting the bundled map"));
-    assert!(String::from_utf8_lossy(&out.stdout).contains("helsinki.osm.pbf"));
+    let demo = dir.path().join("waymark-demo");
+    for f in [
+        "tags.csv",
+        "tags.geojson",
+        "tags.kml",
+        "tags.gpx",
+        "plan.json",
+        "report.html",
+        "summary.json",
+        "errors.csv",
+    ] {
+        assert!(demo.join(f).exists(), "missing {f}");
+    }
+    let plan: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(demo.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["requirement_m"], 20.0);
+    assert!(plan["tag_count"].as_u64().unwrap() >= 1);
+    assert!(
+        plan["validation"]["fraction_within_requirement"]
+            .as_f64()
+            .unwrap()
+            >= 0.99
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("report.html"));
 }
 
 #[test]

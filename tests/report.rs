@@ -159,8 +159,14 @@ fn report_renders_in_headless_chromium() {
         eprintln!("skipping: Chromium not installed");
         return;
     };
+    // The demo's report: plan, validation, map with the tags, plots.
     let dir = tempfile::tempdir().unwrap();
-    let out = simulate_and_report(dir.path());
+    let out = dir.path().join("demo");
+    let d = bin()
+        .args(["demo", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(d.status.success(), "{}", String::from_utf8_lossy(&d.stderr));
     let shot = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/report-screenshot.png");
     let profile = dir.path().join("chromium-profile");
     let run = Command::new(browser)
