@@ -2,9 +2,7 @@
 //! [`Filter`] with odometer (+ constraints), barometer, RFID tag and external
 //! fix measurements, queued with their time stamps and applied in time order.
 
-use super::run::{
-    imu_frame, initial_estimate, Prepared, Recorder, RunResult, TagEvent, TruthSource,
-};
+use super::run::{initial_estimate, start_run, Prepared, RunResult, TagEvent, TruthSource};
 use super::scenario::{Scenario, G0};
 use super::tags::{draw_reads, Mounting, Tag};
 use crate::error::Result;
@@ -13,7 +11,6 @@ use crate::nav::integrated::along_across_covariance;
 use crate::nav::{Filter, FilterConfig, MeasurementQueue};
 use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, Imu, Odometer};
-use crate::trajectory::ideal_imu;
 use rand::Rng;
 
 const DPH: f64 = std::f64::consts::PI / 180.0 / 3600.0;
@@ -249,23 +246,9 @@ pub fn run_integrated(
     run: u64,
 ) -> RunResult {
     let dt = scn.dt;
-    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * dt;
-    let body = truth.samples().take_while(move |a| a.t <= cap);
-    let mut samples = ideal_imu(body.map(move |a| imu_frame(a, None)), dt);
-    let every = ((scn.output_interval_s / dt).round() as u64).max(1);
-    let mut rec = Recorder {
-        every,
-        rows: Vec::with_capacity((truth.duration_s() / scn.output_interval_s) as usize + 2),
-        pending: None,
-    };
+    let (mut samples, mut rec) = start_run(scn, truth, None);
     let Some(first) = samples.next() else {
-        return RunResult {
-            run,
-            rows: vec![],
-            tag_events: vec![],
-            counts: None,
-            map_feed: None,
-        };
+        return RunResult::empty(run);
     };
     let aid = scn.file.aiding;
     let cfg = filter_config(scn);

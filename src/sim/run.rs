@@ -302,6 +302,42 @@ fn error_enu(lat: f64, lon: f64, h: f64, truth: &NavState) -> V3 {
 
 type Cov3 = Option<[[f64; 3]; 3]>;
 
+/// The truth of one run up to the scenario's duration cap, as ideal IMU
+/// samples in the IMU's frame (rotation-modulated when `rot` is given), and
+/// the recorder of its error rows at the output interval.
+pub(super) fn start_run<'a>(
+    scn: &Scenario,
+    truth: &'a TruthSource,
+    rot: Option<RotationModulation>,
+) -> (
+    impl Iterator<Item = crate::trajectory::TruthSample> + 'a,
+    Recorder,
+) {
+    let dt = scn.dt;
+    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * dt;
+    let body = truth.samples().take_while(move |a| a.t <= cap);
+    let samples = ideal_imu(body.map(move |a| imu_frame(a, rot)), dt);
+    let rec = Recorder {
+        every: ((scn.output_interval_s / dt).round() as u64).max(1),
+        rows: Vec::with_capacity((truth.duration_s() / scn.output_interval_s) as usize + 2),
+        pending: None,
+    };
+    (samples, rec)
+}
+
+impl RunResult {
+    /// A run with no samples.
+    pub(super) fn empty(run: u64) -> Self {
+        RunResult {
+            run,
+            rows: vec![],
+            tag_events: vec![],
+            counts: None,
+            map_feed: None,
+        }
+    }
+}
+
 /// Keeps a row every `every` samples, and the last sample's row at the end.
 pub(super) struct Recorder {
     pub(super) every: u64,
@@ -371,23 +407,9 @@ impl Recorder {
 pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> RunResult {
     let dt = scn.dt;
     let rot = scn.rotation;
-    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * dt;
-    let body = truth.samples().take_while(move |a| a.t <= cap);
-    let mut samples = ideal_imu(body.map(move |a| imu_frame(a, rot)), dt);
-    let every = ((scn.output_interval_s / dt).round() as u64).max(1);
-    let mut rec = Recorder {
-        every,
-        rows: Vec::with_capacity((truth.duration_s() / scn.output_interval_s) as usize + 2),
-        pending: None,
-    };
+    let (mut samples, mut rec) = start_run(scn, truth, rot);
     let Some(first) = samples.next() else {
-        return RunResult {
-            run,
-            rows: vec![],
-            tag_events: vec![],
-            counts: None,
-            map_feed: None,
-        };
+        return RunResult::empty(run);
     };
     // Truth body attitude at the start (undo the modulation).
     let mut truth0 = first.avp.state;
