@@ -304,7 +304,7 @@ fn plan(
         .map(|(k, v)| format!("{v} {k}"))
         .collect();
     println!(
-        "{}: {} new tag(s) ({}){} over {:.1} km, total cost {:.1}, max gap {:.0} m; requirement {} m with {} missed read(s) tolerated; predicted max 95 % bound {:.2} m (all read); method: {}",
+        "{}: {} new tag(s) ({}){} over {:.1} km, total cost {:.1}, max gap {:.0} m; requirement {} m with {} missed read(s) tolerated; predicted max 95 % bound {:.2} m (all read); lower bound {} new tag(s){}; method: {}",
         p.scenario,
         p.tag_count(),
         if by.is_empty() { "none".to_string() } else { by.join(", ") },
@@ -319,6 +319,8 @@ fn plan(
         p.requirement_m,
         p.tolerate_missed_reads,
         p.predicted_max_bound95_m,
+        p.lower_bound,
+        if p.optimal { " (plan proven minimal)" } else { "" },
         p.method
     );
     if let Some(v) = &p.validation {

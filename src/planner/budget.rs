@@ -102,7 +102,9 @@ impl<'a> Budget<'a> {
 
     /// Steps the filter on perfect data over samples `from+1..`, calling
     /// `visit(index, filter)` after each; stops when `visit` returns false.
-    fn run(
+    /// Odometer, constraint, barometer and map-matching updates happen as in
+    /// the navigator (the map-matching feed restarts at `from`).
+    pub fn run(
         &self,
         from: usize,
         filter: &mut Filter,
@@ -303,6 +305,34 @@ impl<'a> Budget<'a> {
                 (b0, self.reach_from(s.sample, &mut f, requirement_m))
             })
             .collect()
+    }
+
+    /// The largest bound from sample `from` on, starting with filter `f`
+    /// there and applying `fixes` (sample index, mounting; increasing; those
+    /// at or before `from` are applied first); stops early once it exceeds
+    /// `stop_above_m`.
+    pub fn worst_bound_from(
+        &self,
+        from: usize,
+        mut f: Filter,
+        fixes: &[(usize, Mounting)],
+        stop_above_m: f64,
+    ) -> f64 {
+        let mut k = 0;
+        let mut worst = bound95(&f.position_cov_enu());
+        while k < fixes.len() && fixes[k].0 <= from {
+            self.apply_fix(from, &mut f, fixes[k].1);
+            k += 1;
+        }
+        self.run(from, &mut f, |i, f| {
+            worst = worst.max(bound95(&f.position_cov_enu()));
+            while k < fixes.len() && fixes[k].0 <= i {
+                self.apply_fix(i, f, fixes[k].1);
+                k += 1;
+            }
+            worst <= stop_above_m
+        });
+        worst
     }
 
     /// The bound profile with fixes at the given sites (sample index,

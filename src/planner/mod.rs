@@ -5,6 +5,7 @@
 //! simulation with the planned tags → export records.
 
 pub mod budget;
+pub mod forward;
 pub mod placement;
 
 use crate::error::{Error, Result};
@@ -242,7 +243,7 @@ impl PlannerSettings {
             min_spacing_m,
             forbidden_m: p.forbidden_m,
             validation_runs,
-            refine_iterations: p.refine_iterations.unwrap_or(2) as usize,
+            refine_iterations: p.refine_iterations.unwrap_or(0) as usize,
             existing_tags,
         })
     }
@@ -316,8 +317,13 @@ pub struct Plan {
     pub tolerate_missed_reads: usize,
     /// Placement method.
     pub method: String,
-    /// Lower bound on the tag count (equal to it: the method is exact).
+    /// Lower bound on the number of new tags: exact placement on the most
+    /// optimistic reaches (each site's filter having read a tag at every
+    /// earlier candidate).
     pub lower_bound: usize,
+    /// Whether the plan's new-tag count equals the lower bound (proven
+    /// minimal for these candidate sites and mountings).
+    pub optimal: bool,
     /// Installed tags (`existing_tags`) more than 15 m from the route, ignored.
     pub existing_off_route: usize,
     /// Route length (m).
@@ -768,6 +774,89 @@ pub fn plan_with_progress(
         }
         basis = c2;
     }
+    let new_count = |c: &[usize]| c.iter().filter(|&&i| !is_existing[i]).count();
+    // Forward placement with the plan's own filters (module `forward`):
+    // kept when it needs fewer new tags and passes the covariance check
+    // with any k consecutive tags missed.
+    let fwd_sites: Vec<forward::ForwardSite> = sites
+        .iter()
+        .enumerate()
+        .map(|(i, s)| forward::ForwardSite {
+            sample: s.sample,
+            distance_m: s.distance_m,
+            mounting: mountings[i],
+            existing: is_existing[i],
+        })
+        .collect();
+    let mut forward_used = false;
+    let fw = forward::forward_greedy(&budget, &fwd_sites, k, req, settings.min_spacing_m, k + 1);
+    if let Placement::Feasible(c3) = fw {
+        if new_count(&c3) < new_count(&chosen) {
+            let fixes3: Vec<(usize, Mounting)> = c3
+                .iter()
+                .map(|&i| (sites[i].sample, mountings[i]))
+                .collect();
+            if robust(&budget, &fixes3, k, req, settings.candidate_spacing_m) {
+                chosen = c3;
+                forward_used = true;
+            }
+        }
+    }
+    // Lower bound: the most optimistic reaches (each site's filter having
+    // read a tag at every earlier candidate site). By the monotonicity of
+    // the filter's covariance in the information it has had, no plan on
+    // these sites reaches further from any site, so the exact placement on
+    // these reaches needs no more tags than any feasible plan.
+    let lower_bound = {
+        let all: Vec<(usize, Mounting)> = sites
+            .iter()
+            .zip(&mountings)
+            .map(|(s, &m)| (s.sample, m))
+            .collect();
+        let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
+        let (_, opt_sites) = budget.snapshots(&all, settings.candidate_spacing_m, &at);
+        if opt_sites.len() == sites.len() {
+            let r = budget.reaches_with_progress(&opt_sites, &mountings, req, progress);
+            let c: Vec<Candidate> = opt_sites
+                .iter()
+                .zip(&r)
+                .map(|(s, &(_, r))| Candidate {
+                    at_m: s.distance_m,
+                    reach_m: r,
+                })
+                .collect();
+            match place_with(
+                length,
+                start_reach,
+                &c,
+                &is_existing,
+                k,
+                settings.min_spacing_m,
+            ) {
+                Placement::Feasible(c) => new_count(&c),
+                Placement::Infeasible { .. } => 0,
+            }
+        } else {
+            0
+        }
+    };
+    // Each chosen tag's bound after its fix and reach, from the plan's own
+    // filter (every planned tag read).
+    {
+        let fixes: Vec<(usize, Mounting)> = chosen
+            .iter()
+            .map(|&i| (sites[i].sample, mountings[i]))
+            .collect();
+        let at: Vec<f64> = chosen.iter().map(|&i| sites[i].distance_m).collect();
+        let (_, own) = budget.snapshots(&fixes, settings.candidate_spacing_m, &at);
+        if own.len() == chosen.len() {
+            let m: Vec<Mounting> = chosen.iter().map(|&i| mountings[i]).collect();
+            let r = budget.reaches(&own, &m, req);
+            for (n, &i) in chosen.iter().enumerate() {
+                reaches[i] = r[n];
+            }
+        }
+    }
     let mut tags = Vec::with_capacity(chosen.len());
     let mut n_new = 0;
     for &i in &chosen {
@@ -829,14 +918,18 @@ pub fn plan_with_progress(
         scenario: scn.file.name.clone(),
         requirement_m: req,
         tolerate_missed_reads: k,
-        method: if refined > 0 {
+        method: if forward_used {
+            "forward: furthest site each step with the plan's own filters (missed-read windows tracked), checked by covariance with any k consecutive tags missed".into()
+        } else if refined > 0 {
             format!(
                 "exact: breadth-first search over the last k+1 tags (single route), reaches refined {refined}x from the planned filter and confirmed with any k consecutive tags missed"
             )
         } else {
-            "exact: breadth-first search over the last k+1 tags (single route)".into()
+            "exact: breadth-first search over the last k+1 tags (single route) on tag-free reaches"
+                .into()
         },
-        lower_bound: n_new,
+        lower_bound,
+        optimal: lower_bound == n_new,
         existing_off_route,
         route_length_m: length,
         candidates: n_cands,
@@ -972,6 +1065,7 @@ pub fn uniform_baseline(
             tolerate_missed_reads: settings.tolerate_missed_reads,
             method: "uniform".into(),
             lower_bound: 0,
+            optimal: false,
             existing_off_route: 0,
             route_length_m: length,
             candidates: 0,
@@ -1043,11 +1137,21 @@ pub fn robust(
         return true;
     }
     let n = fixes.len();
+    // Each window of k missed tags starts from the all-read filter just
+    // before its first tag (snapshots from one all-read pass).
+    let at: Vec<f64> = fixes
+        .iter()
+        .map(|&(i, _)| budget.samples()[i].avp.distance_m)
+        .collect();
+    let (_, snaps) = budget.snapshots(fixes, every_m, &at);
+    if snaps.len() != n {
+        return false;
+    }
     let drops: Vec<usize> = (0..n.saturating_sub(k - 1).max(1)).collect();
     drops.par_iter().all(|&d| {
-        let mut f = fixes.to_vec();
-        f.drain(d..(d + k).min(n));
-        worst(&f) <= requirement_m
+        let rest = &fixes[(d + k).min(n)..];
+        budget.worst_bound_from(fixes[d].0, snaps[d].filter.clone(), rest, requirement_m)
+            <= requirement_m
     })
 }
 

@@ -649,7 +649,7 @@ pub struct PlannerSection {
     /// Installed cost per tag by mounting, e.g. { road_surface = 1.0, roadside = 0.6 }.
     #[serde(default)]
     pub cost: Option<std::collections::BTreeMap<String, f64>>,
-    /// Refinements of the reaches from the planned filter (default 2; 0 = none).
+    /// Refinements of the reaches from the planned filter (default 0 = none).
     #[serde(default)]
     pub refine_iterations: Option<u32>,
     /// Tags already installed (CSV as `--tags`, relative to the scenario's
