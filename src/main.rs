@@ -102,7 +102,7 @@ enum Command {
         /// Base seed of the validation (default: the scenario's `seed`, else 1).
         #[arg(long)]
         seed: Option<u64>,
-        /// Also find the uniform-spacing baseline: the largest spacing whose validation keeps ≥ 99 % of distance within the requirement.
+        /// Also find the uniform-spacing baseline: the largest spacing that passes the plan's covariance check (any k consecutive tags missed) and whose validation keeps ≥ 99 % of distance within the requirement.
         #[arg(long)]
         baseline: bool,
     },
@@ -339,7 +339,8 @@ fn plan(
     if baseline {
         match &p.uniform_baseline {
             Some(b) => println!(
-                "uniform baseline: {} tag(s) every {:.0} m keep {:.2} % of distance within {} m ({} run(s)); plan uses {}{}",
+                "uniform baseline (same standard: covariance check with {} missed read(s) tolerated, then Monte Carlo): {} tag(s) every {:.0} m keep {:.2} % of distance within {} m ({} run(s)); plan uses {}{}",
+                b.tolerate_missed_reads,
                 b.tag_count,
                 b.spacing_m,
                 100.0 * b.validation.fraction_within_requirement,
@@ -356,7 +357,7 @@ fn plan(
                 }
             ),
             None => println!(
-                "uniform baseline: none validates, even at the candidate spacing"
+                "uniform baseline: none passes, even at the candidate spacing"
             ),
         }
     }

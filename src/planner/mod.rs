@@ -353,8 +353,9 @@ pub struct Plan {
 }
 
 /// Tags at a uniform spacing along the route: the largest spacing (a
-/// multiple of the candidate spacing) whose Monte Carlo validation keeps at
-/// least `min_fraction` of distance within the requirement.
+/// multiple of the candidate spacing) that passes the plan's own covariance
+/// check (any `k` consecutive tags missed) and whose Monte Carlo validation
+/// keeps at least `min_fraction` of distance within the requirement.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct UniformBaseline {
     /// Spacing (m).
@@ -363,9 +364,12 @@ pub struct UniformBaseline {
     pub tag_count: usize,
     /// Fraction of distance within the requirement asked for.
     pub min_fraction: f64,
+    /// Consecutive missed tags the covariance check tolerated (as the plan).
+    pub tolerate_missed_reads: usize,
     /// Its validation.
     pub validation: Validation,
-    /// Spacings tried (m) and their fractions within the requirement.
+    /// Spacings tried (m) and their fractions within the requirement (NaN:
+    /// failed the covariance check, not simulated).
     pub tried: Vec<(f64, f64)>,
 }
 
@@ -1044,7 +1048,11 @@ pub fn uniform_tags(
 }
 
 /// Finds the uniform baseline by bisection over multiples of the candidate
-/// spacing (assuming a longer spacing never validates better).
+/// spacing (assuming a longer spacing never does better), held to the same
+/// standard as a plan: the covariance analysis keeps the predicted 95 %
+/// bound within the requirement with every tag read and with any
+/// `tolerate_missed_reads` consecutive tags missed, and the Monte Carlo
+/// validation keeps at least `min_fraction` of distance within it.
 pub fn uniform_baseline(
     scn: &Scenario,
     truth: &TruthSource,
@@ -1056,13 +1064,38 @@ pub fn uniform_baseline(
     let step = settings.candidate_spacing_m;
     let length = truth.samples().last().map_or(0.0, |a| a.distance_m);
     let req = settings.requirement_m;
+    let k = settings.tolerate_missed_reads;
+    let net = match &scn.route {
+        RouteKind::Map { map, .. } if scn.file.aiding.map_matching => {
+            Some(Network::load(map, &Default::default())?)
+        }
+        _ => None,
+    };
+    let budget = Budget::new(scn, truth, net.as_ref());
     let mut tried = Vec::new();
-    let mut check = |n: u64| -> Result<(bool, Validation, usize)> {
-        let tags = uniform_tags(truth, scn, settings, n as f64 * step);
+    let mut check = |n: u64| -> Result<(bool, Option<Validation>, usize)> {
+        let spacing = n as f64 * step;
+        let tags = uniform_tags(truth, scn, settings, spacing);
+        // The same sites as samples for the covariance check.
+        let mut fixes = Vec::with_capacity(tags.len());
+        let mut next = spacing;
+        for (i, sm) in budget.samples().iter().enumerate() {
+            if fixes.len() == tags.len() {
+                break;
+            }
+            if sm.avp.distance_m >= next {
+                fixes.push((i, tags[fixes.len()].mounting));
+                next += spacing;
+            }
+        }
+        if !robust(&budget, &fixes, k, req, step) {
+            tried.push((spacing, f64::NAN));
+            return Ok((false, None, tags.len()));
+        }
         let p = Plan {
             scenario: scn.file.name.clone(),
             requirement_m: req,
-            tolerate_missed_reads: settings.tolerate_missed_reads,
+            tolerate_missed_reads: k,
             method: "uniform".into(),
             lower_bound: 0,
             optimal: false,
@@ -1081,17 +1114,21 @@ pub fn uniform_baseline(
         };
         let res = simulate_with(scn, truth, &tags, runs.max(1), seed, None)?;
         let v = validation_of(&res, &p, runs.max(1), seed);
-        tried.push((n as f64 * step, v.fraction_within_requirement));
-        Ok((v.fraction_within_requirement >= min_fraction, v, tags.len()))
+        tried.push((spacing, v.fraction_within_requirement));
+        Ok((
+            v.fraction_within_requirement >= min_fraction,
+            Some(v),
+            tags.len(),
+        ))
     };
     let hi_n = ((length / step).ceil() as u64).max(1);
-    // The smallest spacing must validate, else there is no baseline.
+    // The smallest spacing must pass, else there is no baseline.
     let (ok, mut best_v, mut best_c) = check(1)?;
     if !ok {
         return Ok(None);
     }
     let (mut lo, mut hi) = (1u64, hi_n + 1);
-    // Invariant: lo validates; hi does not (or is beyond the route).
+    // Invariant: lo passes; hi does not (or is beyond the route).
     while hi - lo > 1 {
         let mid = (lo + hi) / 2;
         let (ok, v, c) = check(mid)?;
@@ -1104,11 +1141,12 @@ pub fn uniform_baseline(
         }
     }
     tried.sort_by(|a, b| a.0.total_cmp(&b.0));
-    Ok(Some(UniformBaseline {
+    Ok(best_v.map(|validation| UniformBaseline {
         spacing_m: lo as f64 * step,
         tag_count: best_c,
         min_fraction,
-        validation: best_v,
+        tolerate_missed_reads: k,
+        validation,
         tried,
     }))
 }
