@@ -272,6 +272,8 @@ fn init_logging(verbose: u8) {
         .init();
 }
 
+/// Runs the command; each returns its `--json` object (`Null` when it has
+/// printed its own).
 fn run(cli: Cli) -> Result<()> {
     let quiet = cli.quiet;
     let out = |json: bool| Out { quiet, json };
@@ -329,7 +331,7 @@ fn run(cli: Cli) -> Result<()> {
             )
         }
     };
-    if json {
+    if json && !value.is_null() {
         use std::io::Write as _;
         let _ = writeln!(
             std::io::stdout(),
@@ -889,8 +891,17 @@ fn inspect(
         waymark::export::write_atomic(path, waymark::export::defects_geojson(&defects).as_bytes())
             .with_context(|| "writing the defect file")?;
     }
-    if !out.json {
-        out.text_raw(format_args!("{}", report.to_text()));
+    if out.json {
+        // Printed here, in the report's own field order, as before `--json`
+        // became common to every command.
+        use std::io::Write as _;
+        let _ = writeln!(
+            std::io::stdout(),
+            "{}",
+            serde_json::to_string_pretty(&report)?
+        );
+        return Ok(serde_json::Value::Null);
     }
-    Ok(serde_json::to_value(&report)?)
+    out.text_raw(format_args!("{}", report.to_text()));
+    Ok(serde_json::Value::Null)
 }

@@ -133,6 +133,21 @@ fn simulate_records_tag_passes_and_odometer_faults_and_the_report_shows_them() {
     for png in ["error_time.png", "error_distance.png"] {
         assert!(out.join("plots").join(png).exists());
     }
+
+    // A damaged tag_passes.csv is one clear line, not a panic.
+    std::fs::write(
+        out.join("tag_passes.csv"),
+        "t_s,distance_m,tag_id,mounting,read\n5000,x,tag-0,road_surface,1\n",
+    )
+    .unwrap();
+    let r = bin(&["report", o]);
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("tag_passes.csv") && err.contains("line 2: 'distance_m' is not a number"),
+        "{err}"
+    );
 }
 
 #[test]
