@@ -210,6 +210,15 @@ impl Network {
         let mut net = Network::from_model(model, options.grid_n)?;
         net.timings.read_ms = read_ms;
         net.timings.load_ms = load_ms;
+        tracing::info!(
+            roads = net.roads.len(),
+            sections = net.sections.len(),
+            segments = net.segments.len(),
+            read_ms,
+            load_ms,
+            "loaded map {}",
+            path.display()
+        );
         Ok(net)
     }
 

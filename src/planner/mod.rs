@@ -530,6 +530,7 @@ pub fn plan_with_progress(
     validate: bool,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Plan> {
+    tracing::info!(scenario = %scn.file.name, requirement_m = settings.requirement_m, "planning tags");
     let req = settings.requirement_m;
     // Road context (tunnels, road ids) and the network for map matching.
     let ctx = match &scn.route {

@@ -31,6 +31,26 @@ pub struct ErrorSeries {
     pub envelope: Option<(Vec<f64>, [Vec<f64>; 3])>,
 }
 
+/// What came of a pass by a tag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PassKind {
+    /// Read, and the filter accepted the fix.
+    Accepted,
+    /// Read, but the filter's gate rejected the fix.
+    Rejected,
+    /// Not read (or read after the run ended).
+    Missed,
+}
+
+/// A tag pass to mark: its abscissa and what came of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TagMark {
+    /// Time (s) or distance (m), as the plot's x axis.
+    pub x: f64,
+    /// Read and accepted, rejected, or missed.
+    pub kind: PassKind,
+}
+
 /// What to draw besides the series.
 #[derive(Debug, Clone, Default)]
 pub struct PlotDecor {
@@ -40,10 +60,21 @@ pub struct PlotDecor {
     pub x_label: String,
     /// Requirement line (m).
     pub requirement_m: Option<f64>,
-    /// Abscissae of tag passes (vertical ticks).
-    pub tag_passes: Vec<f64>,
+    /// Tag passes (ticks at the bottom: accepted reads purple and tall,
+    /// rejected reads red, missed passes grey and short).
+    pub tag_passes: Vec<TagMark>,
     /// Abscissa intervals to shade (odometer faults).
     pub shaded: Vec<(f64, f64)>,
+    /// Legend of the main series (default "horizontal error (run 0)").
+    pub error_label: Option<String>,
+    /// Legend of the bound series (default "filter 95 % bound").
+    pub bound_label: Option<String>,
+    /// Label of the y axis (default "horizontal error (m)").
+    pub y_label: Option<String>,
+    /// Top of the y axis (m); series above it are clipped to it.
+    pub y_max: Option<f64>,
+    /// Legend of accepted tag reads (default "tag read").
+    pub tag_label: Option<String>,
 }
 
 fn draw<DB: DrawingBackend>(
@@ -70,7 +101,12 @@ where
     if let Some(r) = d.requirement_m {
         y_max = y_max.max(r * 1.1);
     }
+    let y_max = match d.y_max {
+        Some(m) if m > 0.0 => y_max.min(m),
+        _ => y_max,
+    };
     let y_max = if y_max > 0.0 { y_max * 1.05 } else { 1.0 };
+    let clip = |v: f64| v.min(y_max);
     let mut chart = ChartBuilder::on(&root)
         .caption(&d.title, (FONT, 20))
         .margin(12)
@@ -81,17 +117,19 @@ where
     chart
         .configure_mesh()
         .x_desc(&d.x_label)
-        .y_desc("horizontal error (m)")
+        .y_desc(d.y_label.as_deref().unwrap_or("horizontal error (m)"))
         .label_style((FONT, 13))
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(|e| err(&e))?;
-    for &(a, b) in &d.shaded {
+    if !d.shaded.is_empty() {
         chart
-            .draw_series(std::iter::once(Rectangle::new(
-                [(a, 0.0), (b, y_max)],
-                RGBAColor(255, 165, 0, 0.18).filled(),
-            )))
+            .draw_series(d.shaded.iter().map(|&(a, b)| {
+                Rectangle::new(
+                    [(a.max(0.0), 0.0), (b.min(x_max), y_max)],
+                    RGBAColor(255, 165, 0, 0.18).filled(),
+                )
+            }))
             .map_err(|e| err(&e))?
             .label("odometer fault")
             .legend(|(x, y)| {
@@ -116,7 +154,7 @@ where
             let c = colours[k];
             chart
                 .draw_series(LineSeries::new(
-                    ex.iter().copied().zip(env[k].iter().copied()),
+                    ex.iter().copied().zip(env[k].iter().map(|&v| clip(v))),
                     c.stroke_width(1),
                 ))
                 .map_err(|e| err(&e))?
@@ -127,24 +165,28 @@ where
     let bound: Vec<(f64, f64)> =
         s.x.iter()
             .zip(&s.bound95)
-            .filter_map(|(x, b)| b.map(|b| (*x, b)))
+            .filter_map(|(x, b)| b.map(|b| (*x, clip(b))))
             .collect();
     if !bound.is_empty() {
         let c = RGBColor(0, 140, 70);
         chart
             .draw_series(LineSeries::new(bound, c.stroke_width(2)))
             .map_err(|e| err(&e))?
-            .label("filter 95 % bound")
+            .label(d.bound_label.as_deref().unwrap_or("filter 95 % bound"))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c));
     }
     let c = RGBColor(20, 70, 200);
     chart
         .draw_series(LineSeries::new(
-            s.x.iter().copied().zip(s.error.iter().copied()),
+            s.x.iter().copied().zip(s.error.iter().map(|&v| clip(v))),
             c.stroke_width(2),
         ))
         .map_err(|e| err(&e))?
-        .label("horizontal error (run 0)")
+        .label(
+            d.error_label
+                .as_deref()
+                .unwrap_or("horizontal error (run 0)"),
+        )
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c));
     if let Some(r) = d.requirement_m {
         chart
@@ -158,17 +200,44 @@ where
             .label(format!("requirement {r} m"))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));
     }
-    if !d.tag_passes.is_empty() {
-        let c = RGBColor(180, 0, 160);
+    for (kind, colour, height, label) in [
+        (
+            PassKind::Missed,
+            RGBColor(150, 150, 150),
+            0.04,
+            "tag missed",
+        ),
+        (
+            PassKind::Rejected,
+            RGBColor(200, 30, 30),
+            0.055,
+            "tag read, rejected by the filter",
+        ),
+        (
+            PassKind::Accepted,
+            RGBColor(180, 0, 160),
+            0.07,
+            d.tag_label.as_deref().unwrap_or("tag read"),
+        ),
+    ] {
+        let xs: Vec<f64> = d
+            .tag_passes
+            .iter()
+            .filter(|m| m.kind == kind && m.x >= 0.0 && m.x <= x_max)
+            .map(|m| m.x)
+            .collect();
+        if xs.is_empty() {
+            continue;
+        }
         chart
-            .draw_series(
-                d.tag_passes.iter().map(|&x| {
-                    PathElement::new(vec![(x, 0.0), (x, y_max * 0.04)], c.stroke_width(2))
-                }),
-            )
+            .draw_series(xs.into_iter().map(move |x| {
+                PathElement::new(vec![(x, 0.0), (x, y_max * height)], colour.stroke_width(2))
+            }))
             .map_err(|e| err(&e))?
-            .label("tag read")
-            .legend(move |(x, y)| PathElement::new(vec![(x + 7, y - 5), (x + 7, y + 5)], c));
+            .label(label)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x + 7, y - 5), (x + 7, y + 5)], colour.stroke_width(2))
+            });
     }
     chart
         .configure_series_labels()

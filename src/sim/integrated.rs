@@ -2,7 +2,9 @@
 //! [`Filter`] with odometer (+ constraints), barometer, RFID tag and external
 //! fix measurements, queued with their time stamps and applied in time order.
 
-use super::run::{initial_estimate, start_run, Prepared, RunResult, TagEvent, TruthSource};
+use super::run::{
+    initial_estimate, start_run, PassRecord, Prepared, RunResult, TagEvent, TruthSource,
+};
 use super::scenario::{Scenario, G0};
 use super::tags::{draw_reads, Mounting, Tag};
 use crate::error::Result;
@@ -302,6 +304,11 @@ pub fn run_integrated(
     };
     let mut next_read = 0usize;
     let mut tag_events = Vec::with_capacity(reads.len());
+    // What the filter made of each read (accepted, NIS), and the distance
+    // driven at each pass (interpolated between samples).
+    let mut read_outcome: Vec<Option<(bool, f64)>> = vec![None; reads.len()];
+    let mut pass_distance: Vec<f64> = Vec::with_capacity(prep.passes.len());
+    let (mut prev_t, mut prev_d) = (first.avp.t, first.avp.distance_m);
     // External fix source.
     let mut fix_rng = stream(seed, run, FIX_STREAM);
     let xf = scn.file.external_fix.clone().filter(|_| aid.external_fix);
@@ -324,6 +331,18 @@ pub fn run_integrated(
     for s in samples {
         k += 1;
         let t = s.avp.t;
+        while let Some(p) = prep.passes.get(pass_distance.len()) {
+            if p.t_abeam > t {
+                break;
+            }
+            let w = if t > prev_t {
+                ((p.t_abeam - prev_t) / (t - prev_t)).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            pass_distance.push(prev_d + w * (s.avp.distance_m - prev_d));
+        }
+        (prev_t, prev_d) = (t, s.avp.distance_m);
         let m = imu.measure(&s.imu);
         filter.step(&m);
         // Sensors due at this epoch.
@@ -392,6 +411,7 @@ pub fn run_integrated(
                         cov,
                         scn.rfid.height_sigma_m.powi(2).max(1e-4),
                     );
+                    read_outcome[i] = Some((o.accepted, o.nis));
                     tag_events.push(TagEvent {
                         tag_id: tag.id.clone(),
                         t_s: tm,
@@ -420,10 +440,34 @@ pub fn run_integrated(
     if let Some(p) = rec.pending.as_mut() {
         p.4 = Some(filter.position_cov_enu());
     }
+    let mut read_of_pass: Vec<Option<usize>> = vec![None; prep.passes.len()];
+    for (i, r) in reads.iter().enumerate() {
+        read_of_pass[r.pass] = Some(i);
+    }
+    let tag_passes = prep
+        .passes
+        .iter()
+        .zip(&pass_distance)
+        .zip(&read_of_pass)
+        .map(|((p, &d), r)| {
+            let outcome = r.and_then(|i| read_outcome[i]);
+            PassRecord {
+                t_s: p.t_abeam,
+                distance_m: d,
+                tag_id: prep.tags[p.tag].id.clone(),
+                mounting: prep.tags[p.tag].mounting,
+                read: r.is_some(),
+                read_t_s: r.map(|i| reads[i].t),
+                accepted: outcome.map(|o| o.0),
+                nis: outcome.map(|o| o.1),
+            }
+        })
+        .collect();
     RunResult {
         run,
         rows: rec.finish(),
         tag_events,
+        tag_passes,
         counts: Some(filter.counts),
         map_feed: map_feed.map(|f| f.counts),
     }

@@ -63,6 +63,60 @@ pub struct Summary {
     pub tags: Option<TagSummary>,
     /// Update counts of run 0 (integrated mode).
     pub updates_run0: Option<crate::nav::integrated::UpdateCounts>,
+    /// Odometer faults injected by the scenario (`[odometer] failure`) while
+    /// the navigator uses the odometer, as intervals of time and distance.
+    pub odometer_faults: Vec<FaultInterval>,
+}
+
+/// An interval during which a sensor is faulty (run 0's time and distance).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct FaultInterval {
+    /// What fails (`odometer_failure`).
+    pub kind: String,
+    /// Start (s).
+    pub from_s: f64,
+    /// End (s): the end of the run.
+    pub to_s: f64,
+    /// Distance driven at the start (m).
+    pub from_m: f64,
+    /// Distance driven at the end (m).
+    pub to_m: f64,
+}
+
+/// The scenario's odometer failure as an interval of run 0's rows; none if
+/// the navigator does not use the odometer or the failure starts after the run.
+fn odometer_faults(scn: &Scenario, rows: &[super::run::ErrorRow]) -> Vec<FaultInterval> {
+    use super::scenario::NavMode;
+    let uses_odometer = match scn.file.navigator.mode {
+        NavMode::DeadReckoning => true,
+        NavMode::Integrated => scn.file.aiding.odometer,
+        _ => false,
+    };
+    let (Some(f), Some(last)) = (scn.odometer.failure, rows.last()) else {
+        return vec![];
+    };
+    if !uses_odometer {
+        return vec![];
+    }
+    let start = rows.iter().position(|r| {
+        f.from_s.is_some_and(|s| r.t_s >= s) || f.from_m.is_some_and(|m| r.distance_m >= m)
+    });
+    let Some(k) = start else {
+        return vec![];
+    };
+    // The exact start where the scenario gives it, else the first row at or past it.
+    let (from_s, from_m) = match (f.from_s, f.from_m) {
+        (Some(s), None) => (s, rows[k].distance_m),
+        (None, Some(m)) => (rows[k].t_s, m),
+        _ => (rows[k].t_s, rows[k].distance_m),
+    };
+    vec![FaultInterval {
+        kind: "odometer_failure".into(),
+        from_s,
+        to_s: last.t_s,
+        from_m,
+        to_m: last.distance_m,
+    }]
 }
 
 /// Horizontal error statistics over runs at one output time.
@@ -285,5 +339,8 @@ pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
         nees,
         tags,
         updates_run0: runs.first().and_then(|r| r.counts),
+        odometer_faults: runs
+            .first()
+            .map_or_else(Vec::new, |r| odometer_faults(scn, &r.rows)),
     }
 }

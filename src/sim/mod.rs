@@ -11,6 +11,7 @@ pub mod tags;
 
 pub use metrics::Summary;
 pub use run::{
-    simulate, simulate_with, ErrorRow, Prepared, RunResult, SimResult, TagEvent, TruthSource,
+    simulate, simulate_with, ErrorRow, PassRecord, Prepared, RunResult, SimResult, TagEvent,
+    TruthSource,
 };
 pub use scenario::{NavMode, Scenario};

@@ -1,8 +1,9 @@
 //! The files of `waymark simulate --out DIR`: `errors.csv` (run 0's error at
 //! the output interval, with the filter's 1-sigma columns, empty for modes
-//! without a filter) and `summary.json`. Both are written atomically.
+//! without a filter), `summary.json` and, for the integrated navigator,
+//! `tag_passes.csv` (run 0's passes by tags). All are written atomically.
 
-use super::run::{ErrorRow, SimResult};
+use super::run::{ErrorRow, PassRecord, SimResult};
 use crate::error::{Error, Result};
 use crate::export::write_atomic;
 use std::fmt::Write as _;
@@ -35,11 +36,57 @@ pub fn errors_csv(rows: &[ErrorRow]) -> String {
     s
 }
 
-/// Writes DIR/errors.csv and DIR/summary.json (creating DIR if needed).
+/// The header of tag_passes.csv.
+pub const TAG_PASSES_HEADER: &str = "t_s,distance_m,tag_id,mounting,read,accepted,read_t_s,nis";
+
+/// tag_passes.csv text: one row per pass by a tag (run 0), read or missed.
+/// `read` and `accepted` are 1 or 0; `accepted`, `read_t_s` and `nis` are
+/// empty when the filter did not see a read.
+pub fn tag_passes_csv(passes: &[PassRecord]) -> String {
+    let mut s = String::with_capacity(64 * (passes.len() + 1));
+    s.push_str(TAG_PASSES_HEADER);
+    s.push('\n');
+    let opt = |x: Option<f64>, d: usize| x.map(|v| format!("{v:.d$}")).unwrap_or_default();
+    for p in passes {
+        let _ = writeln!(
+            s,
+            "{:.3},{:.3},{},{},{},{},{},{}",
+            p.t_s,
+            p.distance_m,
+            csv_field(&p.tag_id),
+            p.mounting.as_str(),
+            u8::from(p.read),
+            p.accepted
+                .map(|a| u8::from(a).to_string())
+                .unwrap_or_default(),
+            opt(p.read_t_s, 3),
+            opt(p.nis, 3),
+        );
+    }
+    s
+}
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn csv_field(v: &str) -> std::borrow::Cow<'_, str> {
+    if v.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", v.replace('"', "\"\"")).into()
+    } else {
+        v.into()
+    }
+}
+
+/// Writes DIR/errors.csv and DIR/summary.json (creating DIR if needed), and
+/// DIR/tag_passes.csv for the integrated navigator.
 pub fn write(dir: &Path, result: &SimResult) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let rows = result.runs.first().map_or(&[][..], |r| &r.rows[..]);
     write_atomic(&dir.join("errors.csv"), errors_csv(rows).as_bytes())?;
+    if let Some(r) = result.runs.first().filter(|r| r.counts.is_some()) {
+        write_atomic(
+            &dir.join("tag_passes.csv"),
+            tag_passes_csv(&r.tag_passes).as_bytes(),
+        )?;
+    }
     let json = serde_json::to_string_pretty(&result.summary)
         .map_err(|e| Error::InvalidParameter(format!("summary: {e}")))?;
     write_atomic(&dir.join("summary.json"), json.as_bytes())

@@ -61,6 +61,27 @@ pub struct TagEvent {
     pub nis: f64,
 }
 
+/// A pass of the vehicle by a tag in one run, and what came of it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PassRecord {
+    /// Time the vehicle is abeam the tag (s).
+    pub t_s: f64,
+    /// Distance driven then (m).
+    pub distance_m: f64,
+    /// The tag.
+    pub tag_id: String,
+    /// Its mounting.
+    pub mounting: super::tags::Mounting,
+    /// Whether the reader read it (false: missed, or RFID aiding off).
+    pub read: bool,
+    /// Time of the read (s), if read.
+    pub read_t_s: Option<f64>,
+    /// Whether the filter accepted the fix (None: not read, or read after the run ended).
+    pub accepted: Option<bool>,
+    /// The fix's normalised innovation squared, if the filter saw it.
+    pub nis: Option<f64>,
+}
+
 /// The rows of one run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunResult {
@@ -70,6 +91,8 @@ pub struct RunResult {
     pub rows: Vec<ErrorRow>,
     /// Tag reads and the filter's verdicts (integrated mode).
     pub tag_events: Vec<TagEvent>,
+    /// Every pass by a tag, read or missed, in time order (integrated mode).
+    pub tag_passes: Vec<PassRecord>,
     /// Update counts (integrated mode).
     pub counts: Option<crate::nav::integrated::UpdateCounts>,
     /// What the map-matching feed did (integrated mode with `aiding.map_matching`).
@@ -225,6 +248,15 @@ pub fn simulate_with(
     } else {
         Prepared::default()
     };
+    tracing::info!(
+        scenario = %scn.file.name,
+        runs,
+        seed,
+        tags = prep.tags.len(),
+        tag_passes = prep.passes.len(),
+        "simulating"
+    );
+    let t0 = std::time::Instant::now();
     let results: Vec<RunResult> = (0..runs)
         .into_par_iter()
         .map(|run| {
@@ -233,6 +265,7 @@ pub fn simulate_with(
             } else {
                 run_once(scn, truth, seed, run)
             };
+            tracing::debug!(run, rows = r.rows.len(), "run done");
             if let Some(p) = progress {
                 p();
             }
@@ -240,6 +273,12 @@ pub fn simulate_with(
         })
         .collect();
     let summary = summarize(scn, seed, &results);
+    tracing::info!(
+        runs,
+        max_horizontal_error_m = summary.max_horizontal_error_m,
+        elapsed_ms = t0.elapsed().as_secs_f64() * 1e3,
+        "simulation done"
+    );
     Ok(SimResult {
         runs: results,
         summary,
@@ -332,6 +371,7 @@ impl RunResult {
             run,
             rows: vec![],
             tag_events: vec![],
+            tag_passes: vec![],
             counts: None,
             map_feed: None,
         }
@@ -543,6 +583,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
         run,
         rows: rec.finish(),
         tag_events: vec![],
+        tag_passes: vec![],
         counts: None,
         map_feed: None,
     }

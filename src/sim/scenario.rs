@@ -772,6 +772,7 @@ impl Scenario {
     /// Reads and validates a scenario file.
     pub fn load(path: &Path) -> Result<Scenario> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        tracing::debug!("reading scenario {}", path.display());
         Self::parse(path, &text)
     }
 

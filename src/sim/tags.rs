@@ -152,6 +152,8 @@ pub struct TagPass {
 pub struct TagRead {
     /// Index of the tag.
     pub tag: usize,
+    /// Index of the pass (in the `passes` given to [`draw_reads`]).
+    pub pass: usize,
     /// Read time (s).
     pub t: f64,
     /// Reported latitude, longitude (rad).
@@ -260,7 +262,7 @@ pub fn draw_reads(
     rng: &mut ChaCha8Rng,
 ) -> Vec<TagRead> {
     let mut out = Vec::with_capacity(passes.len());
-    for p in passes {
+    for (pass, p) in passes.iter().enumerate() {
         let u: f64 = rng.random();
         // Draw the errors whether or not the read succeeds, so that the read
         // probability does not shift other reads' errors.
@@ -305,6 +307,7 @@ pub fn draw_reads(
         let lon = tag.lon + lateral * re / (rn * tag.lat.cos());
         out.push(TagRead {
             tag: p.tag,
+            pass,
             t: p.t_abeam + dt,
             lat,
             lon,

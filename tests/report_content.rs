@@ -1,0 +1,262 @@
+//! What the report shows: tag passes marked (read, rejected, missed) and
+//! odometer faults shaded on a simulation's plots, from the files `simulate`
+//! records; and the report of a `plan` output folder (map with the tags, the
+//! predicted bound profile, the plan summary, the verdict, the scenario).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_waymark"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A legend entry (or any text) as plotters writes it in SVG.
+fn legend(label: &str) -> String {
+    format!(">\n{label}\n</text>")
+}
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// The RFID paper's odometer-failure case (odometer failed from 3600 s, tags
+/// at 5000, 5800, 7900 and 10000 s), cut at 6000 s, with a read probability
+/// of 0.5: with seed 2, run 0 reads the first tag and misses the second.
+fn short_odfail_scenario(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(repo("scenarios/rfid-paper-integrated-odfail-tags.toml"))
+        .unwrap()
+        .replace(
+            "requirement_m = 20.0\n",
+            "requirement_m = 20.0\nduration_s = 6000\n",
+        );
+    assert!(text.contains("duration_s = 6000"));
+    let path = dir.join("odfail-short.toml");
+    std::fs::write(&path, format!("{text}\n[rfid]\nread_probability = 0.5\n")).unwrap();
+    path
+}
+
+#[test]
+fn simulate_records_tag_passes_and_odometer_faults_and_the_report_shows_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn = short_odfail_scenario(dir.path());
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    ok(&bin(&[
+        "simulate",
+        scn.to_str().unwrap(),
+        "--seed",
+        "2",
+        "--out",
+        o,
+    ]));
+
+    // tag_passes.csv: the two tags passed before 6000 s, one read and
+    // accepted, one missed.
+    let passes = std::fs::read_to_string(out.join("tag_passes.csv")).unwrap();
+    let mut lines = passes.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "t_s,distance_m,tag_id,mounting,read,accepted,read_t_s,nis"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2, "{passes}");
+    for (row, t, id) in [(&rows[0], 5000.0, "tag-0"), (&rows[1], 5800.0, "tag-1")] {
+        let t_s: f64 = row[0].parse().unwrap();
+        assert!((t_s - t).abs() < 0.5, "{passes}");
+        assert_eq!(row[2], id);
+        assert_eq!(row[3], "road_surface");
+    }
+    // The distance driven at a pass is the truth's: 83.3 km/h cruise.
+    let d0: f64 = rows[0][1].parse().unwrap();
+    let d1: f64 = rows[1][1].parse().unwrap();
+    assert!(((d1 - d0) / 800.0 - 83.3 / 3.6).abs() < 0.5, "{d0} {d1}");
+    assert_eq!(&rows[0][4..6], ["1", "1"], "first pass read and accepted");
+    let read_t: f64 = rows[0][6].parse().unwrap();
+    assert!((read_t - 5000.0).abs() < 0.1);
+    assert!(rows[0][7].parse::<f64>().unwrap() >= 0.0, "NIS recorded");
+    assert_eq!(&rows[1][4..], ["0", "", "", ""], "second pass missed");
+
+    // summary.json: the odometer failure as an interval of time and distance.
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let faults = summary["odometer_faults"].as_array().unwrap();
+    assert_eq!(faults.len(), 1);
+    assert_eq!(faults[0]["kind"], "odometer_failure");
+    assert_eq!(faults[0]["from_s"], 3600.0);
+    assert_eq!(faults[0]["to_s"], 6000.0);
+    let from_m = faults[0]["from_m"].as_f64().unwrap();
+    assert!(from_m > 80_000.0 && from_m < d0, "{from_m}");
+
+    // The report: both plots shade the fault and mark the passes.
+    ok(&bin(&["report", o]));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for label in ["odometer fault", "tag read", "tag missed"] {
+        assert_eq!(
+            html.matches(&legend(label)).count(),
+            2,
+            "legend '{label}' in the time and distance plots"
+        );
+    }
+    assert!(!html.contains(&legend("tag read, rejected by the filter")));
+    // Each plot: one tick per pass plus the legend's swatch, in its own colour.
+    assert_eq!(
+        html.matches("stroke=\"#B400A0\"").count(),
+        2 * 2,
+        "read ticks"
+    );
+    assert_eq!(
+        html.matches("stroke=\"#969696\"").count(),
+        2 * 2,
+        "missed ticks"
+    );
+    // The shaded fault: a translucent orange rectangle from 3600 s (time plot).
+    assert!(
+        html.matches("fill=\"#FFA500\"").count() >= 2,
+        "shaded faults"
+    );
+    assert!(
+        html.contains("failed from 3600 s"),
+        "fault in the summary table"
+    );
+    assert!(html.contains("2: 1 read and accepted, 0 rejected by the filter, 1 missed"));
+    for png in ["error_time.png", "error_distance.png"] {
+        assert!(out.join("plots").join(png).exists());
+    }
+
+    // A damaged tag_passes.csv is one clear line, not a panic.
+    std::fs::write(
+        out.join("tag_passes.csv"),
+        "t_s,distance_m,tag_id,mounting,read\n5000,x,tag-0,road_surface,1\n",
+    )
+    .unwrap();
+    let r = bin(&["report", o]);
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("tag_passes.csv") && err.contains("line 2: 'distance_m' is not a number"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_scenario_without_faults_or_tags_records_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("dr");
+    ok(&bin(&[
+        "simulate",
+        repo("scenarios/dr-straight-10km.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["odometer_faults"], serde_json::json!([]));
+    assert!(
+        !out.join("tag_passes.csv").exists(),
+        "no filter, no tag passes"
+    );
+    ok(&bin(&["report", out.to_str().unwrap()]));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(!html.contains(&legend("odometer fault")));
+    assert!(!html.contains(&legend("tag read")));
+}
+
+#[test]
+fn report_of_a_plan_folder_shows_the_map_profile_summary_and_verdict() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plan");
+    let o = out.to_str().unwrap();
+    ok(&bin(&[
+        "plan",
+        repo("scenarios/demo.toml").to_str().unwrap(),
+        "--runs",
+        "4",
+        "--out",
+        o,
+    ]));
+    for f in ["profile.csv", "scenario.toml", "inputs.json", "plan.json"] {
+        assert!(out.join(f).exists(), "plan wrote {f}");
+    }
+    let plan: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("plan.json")).unwrap()).unwrap();
+    let n = plan["tag_count"].as_u64().unwrap();
+    assert!(n >= 1);
+    // profile.csv: the bound with tags never above the bound without.
+    let profile = std::fs::read_to_string(out.join("profile.csv")).unwrap();
+    let mut lines = profile.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "t_s,distance_m,bound95_with_tags_m,bound95_without_tags_m"
+    );
+    let rows: Vec<[f64; 4]> = lines
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            [v[0], v[1], v[2], v[3]]
+        })
+        .collect();
+    assert!(rows.len() > 50);
+    assert!(rows.iter().all(|r| r[2] <= r[3] + 1e-6));
+    let max_with = rows.iter().map(|r| r[2]).fold(0.0, f64::max);
+    let predicted = plan["predicted_max_bound95_m"].as_f64().unwrap();
+    assert!(
+        (max_with - predicted).abs() < 0.01,
+        "{max_with} {predicted}"
+    );
+    assert!(rows.iter().map(|r| r[3]).fold(0.0, f64::max) > 20.0);
+
+    let r = bin(&["report", o]);
+    ok(&r);
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("<h2>Verdict</h2>"));
+    assert!(
+        html.contains("Plan validated") || html.contains("Plan not validated"),
+        "plan verdict"
+    );
+    assert!(html.contains("4 Monte Carlo run(s)"));
+    assert!(html.contains("<h2>Plan</h2>"));
+    assert!(
+        html.contains(&format!("<th>new tags</th><td>{n} (")),
+        "tags by mounting"
+    );
+    for row in [
+        "total cost",
+        "largest gap between tags",
+        "predicted max 95 % bound (all read)",
+        "missed reads tolerated",
+    ] {
+        assert!(html.contains(&format!("<th>{row}</th>")), "{row}");
+    }
+    // The map: the roads, the route coloured by the predicted bound, and one
+    // circle per tag in the road-surface or roadside colour.
+    assert!(html.contains("<h2>Map</h2>"));
+    assert!(html.matches("<polyline").count() > 500, "Helsinki roads");
+    assert!(html.contains("coloured by the predicted 95 % bound"));
+    let circles = html.matches("<circle").count();
+    assert_eq!(circles as u64, n, "one circle per planned tag");
+    assert!(html.contains("fill=\"#f39c12\"") || html.contains("fill=\"#27ae60\""));
+    // The predicted profile with and without tags, the tags marked.
+    assert!(html.contains("<h2>Predicted 95 % horizontal bound along the route</h2>"));
+    for label in [
+        "with the planned tags (all read)",
+        "without tags",
+        "planned tag",
+        "requirement 20 m",
+    ] {
+        assert!(html.contains(&legend(label)), "{label}");
+    }
+    assert!(html.contains("<h2>Scenario</h2>") && html.contains("name = &quot;demo&quot;"));
+    assert!(!html.contains("<h2>Summary</h2>"), "no simulation here");
+    assert!(out.join("plots/plan_profile.png").exists());
+}
