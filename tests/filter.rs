@@ -707,6 +707,7 @@ fn tags_are_read_only_within_their_mounting_geometry() {
         height_m: None,
         mounting: m,
         survey_error_m: [0.0, 0.0],
+        lane_width_m: None,
     };
     let tags = vec![
         tag_at(0.3, Mounting::RoadSurface),
@@ -801,6 +802,7 @@ fn tag_fix_errors_follow_the_mounting_models() {
             height_m: None,
             mounting: m,
             survey_error_m: [0.0, 0.0],
+            lane_width_m: None,
         }];
         // Heading north, abeam the tag at t = 100 s.
         let passes: Vec<TagPass> = (0..2000)

@@ -138,6 +138,44 @@ fn plan_holds_with_any_single_missed_tag_and_budget_resets_at_fixes() {
     for t in &plan.tags {
         assert!(t.bound_after_fix_m < 1.0, "{t:?}");
     }
+    // Each tag's road chainage (what installers measure) puts it where the
+    // tag is: walk the road's sections to the chainage, within 1 m.
+    let net0 = waymark::Network::load(&repo("maps/helsinki.osm.pbf"), &Default::default()).unwrap();
+    for t in &plan.tags {
+        let id = t.road_id.as_deref().unwrap();
+        let road = net0
+            .model
+            .roads
+            .iter()
+            .find(|r| r.attributes.id == id)
+            .unwrap();
+        let mut left = t.road_chainage_m.unwrap();
+        assert!(left >= 0.0 && left <= road.length_m + 1e-6, "{t:?}");
+        let mut at = None;
+        for &sec in &road.sections {
+            let len = net0.sections[sec as usize].length_m;
+            if left <= len + 1e-9 {
+                let g = net0
+                    .section_segments(sec)
+                    .iter()
+                    .find(|g| g.section_offset_m + g.length_m >= left - 1e-9)
+                    .unwrap();
+                let u = ((left - g.section_offset_m) / g.length_m).clamp(0.0, 1.0);
+                at = Some([
+                    g.a[0] + u * (g.b[0] - g.a[0]),
+                    g.a[1] + u * (g.b[1] - g.a[1]),
+                ]);
+                break;
+            }
+            left -= len;
+        }
+        let p = at.unwrap();
+        let g = net0.frame.to_geodetic([p[0], p[1], 0.0]);
+        let (rm, rn) = waymark::geodesy::radii(t.lat.to_radians());
+        let de = (g.lon_deg() - t.lon).to_radians() * rn * t.lat.to_radians().cos();
+        let dn = (g.lat_deg() - t.lat).to_radians() * rm;
+        assert!(de.hypot(dn) < 1.0, "{t:?}: {} m off", de.hypot(dn));
+    }
     // Drop each tag in turn (a missed read): the predicted bound, propagated
     // by the filter with the remaining fixes, still holds.
     let net = waymark::Network::load(&repo("maps/helsinki.osm.pbf"), &Default::default()).unwrap();

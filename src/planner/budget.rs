@@ -62,6 +62,9 @@ pub struct Budget<'a> {
     samples: Vec<TruthSample>,
     network: Option<&'a Network>,
     odo_every: usize,
+    /// Lane width (m) at each sample, from the road under the route (empty
+    /// without a map: `[rfid]`'s lane width everywhere).
+    lane_width: Vec<f32>,
 }
 
 impl std::fmt::Debug for Budget<'_> {
@@ -74,20 +77,47 @@ impl std::fmt::Debug for Budget<'_> {
 
 impl<'a> Budget<'a> {
     /// Prepares the truth (with ideal IMU increments) of a scenario's route;
-    /// `network` feeds map matching when the scenario uses it.
+    /// `network` (the scenario's map) gives each sample's lane width (for
+    /// roadside fixes) and feeds map matching when the scenario uses it.
     pub fn new(scn: &'a Scenario, truth: &TruthSource, network: Option<&'a Network>) -> Self {
         let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
         let samples: Vec<TruthSample> =
             ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
         let odo_every =
             ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / scn.dt).round() as usize).max(1);
+        let lane_width = match (network, &scn.route) {
+            (Some(net), crate::sim::scenario::RouteKind::Map { waypoints, .. }) => {
+                match crate::route::plan_route(net, waypoints) {
+                    Ok(route) => {
+                        let len = samples.last().map_or(0.0, |s| s.avp.distance_m);
+                        let scale = if len > 0.0 { route.length_m / len } else { 1.0 };
+                        samples
+                            .iter()
+                            .map(|s| {
+                                let span = route.span_at(s.avp.distance_m * scale);
+                                let a = &net.model.roads[span.road as usize].attributes;
+                                super::lane_width_m(a) as f32
+                            })
+                            .collect()
+                    }
+                    Err(_) => vec![],
+                }
+            }
+            _ => vec![],
+        };
         Self {
             scn,
             cfg: filter_config(scn),
             samples,
             network: network.filter(|_| scn.file.aiding.map_matching),
             odo_every,
+            lane_width,
         }
+    }
+
+    /// The lane width (m) at sample `i`, when the route is on a map.
+    pub fn lane_width_at(&self, i: usize) -> Option<f64> {
+        self.lane_width.get(i).map(|&w| f64::from(w))
     }
 
     /// The truth samples.
@@ -251,7 +281,11 @@ impl<'a> Budget<'a> {
         let a = &self.samples[i].avp;
         let speed = a.state.v[0].hypot(a.state.v[1]);
         let fw = a.state.q.rotate([0.0, 1.0, 0.0]);
-        let (sa, sc) = self.scn.rfid.fix_sigmas(mounting, speed);
+        let (sa, sc) = self
+            .scn
+            .rfid
+            .with_lane_width(self.lane_width_at(i))
+            .fix_sigmas(mounting, speed);
         let cov = along_across_covariance(fw[0].atan2(fw[1]), sa, sc);
         f.update_position(
             a.t,

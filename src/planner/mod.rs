@@ -184,7 +184,7 @@ impl PlannerSettings {
                 ))
             })?;
             let mut o = MountingOption::default_for(m);
-            o.read_probability = scn.rfid.read_probability;
+            o.read_probability = scn.rfid.read_probability_of(m);
             if let Some(c) = p.cost.as_ref().and_then(|c| c.get(n.as_str())) {
                 if !(c.is_finite() && *c >= 0.0) {
                     return Err(bad(format!("planner.cost.{n} = {c} must be ≥ 0")));
@@ -262,6 +262,9 @@ pub struct PlannedTag {
     pub height_m: f64,
     /// Distance along the route (m).
     pub route_distance_m: f64,
+    /// Chainage along the road `road_id` in its digitised direction (m),
+    /// when on a map.
+    pub road_chainage_m: Option<f64>,
     /// Time the vehicle passes (s).
     pub t_s: f64,
     /// Mounting.
@@ -275,6 +278,9 @@ pub struct PlannedTag {
     pub existing: bool,
     /// Whether the site is in a tunnel.
     pub tunnel: bool,
+    /// Lane width at the site (m; from the road's OSM `width`/`lanes` or
+    /// its class), when on a map.
+    pub lane_width_m: Option<f64>,
     /// Whether the vehicle drives in the road's digitised direction there.
     pub digitised_forward: Option<bool>,
     /// Predicted 95 % bound just after the fix (m).
@@ -404,6 +410,7 @@ impl Plan {
                 height_m: Some(t.height_m),
                 mounting: t.mounting,
                 survey_error_m: [0.0, 0.0],
+                lane_width_m: t.lane_width_m,
             })
             .collect()
     }
@@ -425,7 +432,9 @@ impl Plan {
                 lon: t.lon,
                 height_m: t.height_m,
                 road_id: t.road_id.clone(),
-                chainage_m: Some(t.route_distance_m),
+                // Along the road where there is one (what installers
+                // measure), else along the route.
+                chainage_m: Some(t.road_chainage_m.unwrap_or(t.route_distance_m)),
                 // Roadside readers look right (right-hand traffic): the
                 // post is on the right of travel, i.e. left of the road's
                 // digitised direction when driving against it.
@@ -478,7 +487,11 @@ impl Plan {
         p.insert("ceiling_sigma_m".into(), r.ceiling_sigma_m.to_string());
         p.insert(
             "chainage_m".into(),
-            "distance along the planned route".into(),
+            if matches!(scn.route, RouteKind::Map { .. }) {
+                "distance along road_id in its digitised direction".into()
+            } else {
+                "distance along the planned route".into()
+            },
         );
         if matches!(scn.route, RouteKind::Map { .. }) {
             meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
@@ -498,6 +511,31 @@ impl RoadContext {
     fn at(&self, distance_m: f64) -> &RoadAttributes {
         let span = self.route.span_at(distance_m * self.scale.get());
         &self.net.model.roads[span.road as usize].attributes
+    }
+
+    /// Chainage along the road (its digitised direction, from its first
+    /// section present in the map) at a route distance.
+    fn road_chainage_m(&self, distance_m: f64) -> f64 {
+        let c = distance_m * self.scale.get();
+        let span = self.route.span_at(c);
+        let road = &self.net.model.roads[span.road as usize];
+        let before: f64 = road
+            .sections
+            .iter()
+            .take_while(|&&s| s != span.section.section)
+            .map(|&s| self.net.sections[s as usize].length_m)
+            .sum();
+        let sign = if span.to_offset_m >= span.from_offset_m {
+            1.0
+        } else {
+            -1.0
+        };
+        let off = span.from_offset_m + sign * (c - span.start_chainage_m).max(0.0);
+        before
+            + off.clamp(
+                span.from_offset_m.min(span.to_offset_m),
+                span.from_offset_m.max(span.to_offset_m),
+            )
     }
 }
 
@@ -873,7 +911,11 @@ pub fn plan_with_progress(
         }
         let road = ctx.as_ref().map(|c| c.at(s.distance_m));
         let speed = site_speed_mps(a.state.v[0].hypot(a.state.v[1]), road);
-        let (sa, sc) = scn.rfid.fix_sigmas(mountings[i], speed);
+        let lane = budget.lane_width_at(s.sample);
+        let (sa, sc) = scn
+            .rfid
+            .with_lane_width(lane)
+            .fix_sigmas(mountings[i], speed);
         tags.push(PlannedTag {
             tag_id: existing.map_or_else(|| format!("T{n_new:04}"), |t| t.id.clone()),
             lat: existing.map_or(a.state.lat, |t| t.lat).to_degrees(),
@@ -881,11 +923,13 @@ pub fn plan_with_progress(
             height_m: existing.and_then(|t| t.height_m).unwrap_or(a.state.h),
             existing: existing.is_some(),
             route_distance_m: s.distance_m,
+            road_chainage_m: ctx.as_ref().map(|c| c.road_chainage_m(s.distance_m)),
             t_s: a.t,
             mounting: mountings[i],
             expected_fix_sigma_m: sa.max(sc),
             road_id: road.map(|r| r.id.clone()),
             tunnel: tunnels[i],
+            lane_width_m: lane,
             digitised_forward: ctx.as_ref().map(|c| {
                 let sp = c.route.span_at(s.distance_m * c.scale.get());
                 sp.to_offset_m >= sp.from_offset_m
@@ -1039,6 +1083,7 @@ pub fn uniform_tags(
                 height_m: Some(a.state.h),
                 mounting: m,
                 survey_error_m: [0.0, 0.0],
+                lane_width_m: None,
             });
             last_d = a.distance_m;
             next += spacing_m;
@@ -1067,9 +1112,7 @@ pub fn uniform_baseline(
     let req = settings.requirement_m;
     let k = settings.tolerate_missed_reads;
     let net = match &scn.route {
-        RouteKind::Map { map, .. } if scn.file.aiding.map_matching => {
-            Some(Network::load(map, &Default::default())?)
-        }
+        RouteKind::Map { map, .. } => Some(Network::load(map, &Default::default())?),
         _ => None,
     };
     let budget = Budget::new(scn, truth, net.as_ref());

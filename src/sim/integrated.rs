@@ -52,6 +52,7 @@ pub fn scenario_tags(scn: &Scenario, truth: &TruthSource) -> Result<Vec<Tag>> {
             height_m: t.height_m,
             mounting,
             survey_error_m: survey,
+            lane_width_m: None,
         });
     }
     if !need.is_empty() {
@@ -401,7 +402,10 @@ pub fn run_integrated(
                     let st = filter.state();
                     let speed = st.v[0].hypot(st.v[1]);
                     let f = st.q.rotate([0.0, 1.0, 0.0]);
-                    let (sa, sc) = scn.rfid.fix_sigmas(r.mounting, speed);
+                    let (sa, sc) = scn
+                        .rfid
+                        .with_lane_width(tag.lane_width_m)
+                        .fix_sigmas(r.mounting, speed);
                     let cov = along_across_covariance(f[0].atan2(f[1]), sa, sc);
                     let o = filter.update_position(
                         tm,

@@ -595,6 +595,15 @@ pub struct RfidSection {
     /// Probability that a passed tag is read.
     #[serde(default)]
     pub read_probability: Option<f64>,
+    /// Read probability of road-surface tags (default `read_probability`).
+    #[serde(default)]
+    pub read_probability_road_surface: Option<f64>,
+    /// Read probability of roadside tags (default `read_probability`).
+    #[serde(default)]
+    pub read_probability_roadside: Option<f64>,
+    /// Read probability of ceiling readers (default `read_probability`).
+    #[serde(default)]
+    pub read_probability_ceiling: Option<f64>,
     /// Lane width D (m, default 3.75).
     #[serde(default)]
     pub lane_width_m: Option<f64>,
@@ -1035,6 +1044,22 @@ impl Scenario {
                 1.0,
                 &mut rfid.read_probability,
             )?;
+            for (i, (name, x)) in [
+                (
+                    "read_probability_road_surface",
+                    p.read_probability_road_surface,
+                ),
+                ("read_probability_roadside", p.read_probability_roadside),
+                ("read_probability_ceiling", p.read_probability_ceiling),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                if let Some(x) = x {
+                    rfid.read_probability_by_mounting[i] =
+                        Some(c.range(&format!("rfid.{name}"), x, 0.0, 1.0)?);
+                }
+            }
             opt(
                 "lane_width_m",
                 p.lane_width_m,

@@ -44,6 +44,9 @@ pub struct Tag {
     pub mounting: Mounting,
     /// Stored minus physical position, east and north (m).
     pub survey_error_m: [f64; 2],
+    /// Width of the lane the tag serves (m), when known (the planner takes
+    /// it from the road's OSM `width`/`lanes` or class); else `[rfid]`'s.
+    pub lane_width_m: Option<f64>,
 }
 
 /// RFID reader settings (from `[rfid]`).
@@ -51,6 +54,9 @@ pub struct Tag {
 pub struct RfidModel {
     /// Probability that a passed tag is read.
     pub read_probability: f64,
+    /// Read probability by mounting (road surface, roadside, ceiling),
+    /// overriding `read_probability` where given.
+    pub read_probability_by_mounting: [Option<f64>; 3],
     /// Lane width D (m).
     pub lane_width_m: f64,
     /// Vehicle width d (m).
@@ -76,6 +82,7 @@ impl Default for RfidModel {
     fn default() -> Self {
         Self {
             read_probability: 1.0,
+            read_probability_by_mounting: [None; 3],
             lane_width_m: 3.75,
             vehicle_width_m: 2.5,
             roadside_distance_m: 5.63,
@@ -90,6 +97,25 @@ impl Default for RfidModel {
 }
 
 impl RfidModel {
+    /// The probability that a pass by a tag of mounting `m` is read.
+    pub fn read_probability_of(&self, m: Mounting) -> f64 {
+        let i = match m {
+            Mounting::RoadSurface => 0,
+            Mounting::Roadside => 1,
+            Mounting::Ceiling => 2,
+        };
+        self.read_probability_by_mounting[i].unwrap_or(self.read_probability)
+    }
+
+    /// The model for a tag whose lane width is known (`None`: unchanged).
+    pub fn with_lane_width(&self, lane_width_m: Option<f64>) -> Self {
+        let mut m = *self;
+        if let Some(w) = lane_width_m {
+            m.lane_width_m = w;
+        }
+        m
+    }
+
     /// Half-width of the lateral band within which a tag is read (m).
     pub fn read_half_width(&self, m: Mounting) -> f64 {
         match m {
@@ -268,10 +294,11 @@ pub fn draw_reads(
         // probability does not shift other reads' errors.
         let z1 = normal(rng);
         let u2: f64 = rng.random();
-        if u >= rfid.read_probability {
+        let tag = &tags[p.tag];
+        let rfid = &rfid.with_lane_width(tag.lane_width_m);
+        if u >= rfid.read_probability_of(tag.mounting) {
             continue;
         }
-        let tag = &tags[p.tag];
         let v = p.speed_mps.max(0.1);
         // Time of the read relative to abeam, and the lateral offset of the
         // reported point from the vehicle (m, right positive).
@@ -415,7 +442,78 @@ pub fn parse_tags_csv(path: &Path, text: &str) -> Result<Vec<Tag>> {
             height_m,
             mounting,
             survey_error_m: [0.0, 0.0],
+            lane_width_m: None,
         });
     }
     Ok(tags)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn read_probability_by_mounting_overrides_the_common_one() {
+        let mut m = RfidModel {
+            read_probability: 0.977,
+            ..RfidModel::default()
+        };
+        m.read_probability_by_mounting[2] = Some(0.999);
+        assert_eq!(m.read_probability_of(Mounting::Ceiling), 0.999);
+        assert_eq!(m.read_probability_of(Mounting::Roadside), 0.977);
+        assert_eq!(m.read_probability_of(Mounting::RoadSurface), 0.977);
+    }
+
+    #[test]
+    fn lane_width_widens_the_roadside_cross_track_error() {
+        // (D − d)/2 with d = 2.5 m: 0.25 m on a 3 m lane, 0.75 m on a 4 m lane.
+        let m = RfidModel::default();
+        let (_, narrow) = m
+            .with_lane_width(Some(3.0))
+            .fix_sigmas(Mounting::Roadside, 10.0);
+        let (_, wide) = m
+            .with_lane_width(Some(4.0))
+            .fix_sigmas(Mounting::Roadside, 10.0);
+        assert!((narrow - 0.25 / 3f64.sqrt()).abs() < 1e-12, "{narrow}");
+        assert!((wide - 0.75 / 3f64.sqrt()).abs() < 1e-12, "{wide}");
+        assert_eq!(m.with_lane_width(None), m);
+    }
+
+    #[test]
+    fn draw_reads_uses_the_mounting_read_probability() {
+        use rand::SeedableRng;
+        let tag = |m| Tag {
+            id: "t".into(),
+            lat: 0.0,
+            lon: 0.0,
+            height_m: None,
+            mounting: m,
+            survey_error_m: [0.0; 2],
+            lane_width_m: None,
+        };
+        let tags = vec![tag(Mounting::Roadside), tag(Mounting::Ceiling)];
+        let mut m = RfidModel {
+            read_probability: 0.5,
+            ..RfidModel::default()
+        };
+        m.read_probability_by_mounting[2] = Some(1.0);
+        let pass = |i: usize| TagPass {
+            tag: i,
+            t_abeam: i as f64,
+            speed_mps: 10.0,
+            lateral_m: 0.0,
+            forward_en: [0.0, 1.0],
+        };
+        let passes: Vec<TagPass> = (0..2000).map(|i| pass(i % 2)).collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let reads = draw_reads(&passes, &tags, &m, &mut rng);
+        let ceiling = reads
+            .iter()
+            .filter(|r| r.mounting == Mounting::Ceiling)
+            .count();
+        let roadside = reads.len() - ceiling;
+        // Every ceiling pass read; roadside about half of 1000 (±5σ = ±79).
+        assert_eq!(ceiling, 1000);
+        assert!((roadside as f64 - 500.0).abs() < 79.0, "{roadside}");
+    }
 }
