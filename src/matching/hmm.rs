@@ -215,29 +215,28 @@ struct Emission {
 /// keeps the −½ ln(S/r²) term, so a candidate across which the drift is
 /// uncertain does not gain from that uncertainty.
 #[inline]
-fn emission(net: &Network, seg: SegmentId, raw: [f64; 2], d: &Drift, r2: f64) -> Emission {
-    let sg = &net.segments[seg as usize];
-    let (dx, dy) = (sg.b[0] - sg.a[0], sg.b[1] - sg.a[1]);
-    let len = dx.hypot(dy);
-    let u = if len > 1e-9 {
-        [dx / len, dy / len]
-    } else {
-        [1.0, 0.0]
-    };
+fn emission(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Emission {
+    let u = line.u;
     let n = [-u[1], u[0]];
-    let rel = [raw[0] - d.mean[0] - sg.a[0], raw[1] - d.mean[1] - sg.a[1]];
+    let rel = [
+        raw[0] - d.mean[0] - line.a[0],
+        raw[1] - d.mean[1] - line.a[1],
+    ];
     let along = rel[0] * u[0] + rel[1] * u[1];
     let across = rel[0] * n[0] + rel[1] * n[1];
     let over = if along < 0.0 {
         along
-    } else if along > len {
-        along - len
+    } else if along > line.len {
+        along - line.len
     } else {
         0.0
     };
     let s_n = d.var(n) + r2;
-    let s_u = d.var(u) + r2;
-    let log_p = -0.5 * (across * across / s_n + over * over / s_u) - 0.5 * (s_n / r2).ln();
+    let log_p = if over == 0.0 {
+        -0.5 * across * across / s_n
+    } else {
+        -0.5 * (across * across / s_n + over * over / (d.var(u) + r2))
+    } - 0.5 * (s_n / r2).ln();
     Emission {
         log_p,
         normal: n,
@@ -246,9 +245,32 @@ fn emission(net: &Network, seg: SegmentId, raw: [f64; 2], d: &Drift, r2: f64) ->
     }
 }
 
+/// A segment as a start point, unit direction and length (ENU, m).
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    a: [f64; 2],
+    u: [f64; 2],
+    len: f64,
+}
+
+impl Line {
+    fn of(net: &Network, seg: SegmentId) -> Self {
+        let sg = &net.segments[seg as usize];
+        let (dx, dy) = (sg.b[0] - sg.a[0], sg.b[1] - sg.a[1]);
+        let len = dx.hypot(dy);
+        let u = if len > 1e-9 {
+            [dx / len, dy / len]
+        } else {
+            [1.0, 0.0]
+        };
+        Line { a: sg.a, u, len }
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Cand {
     seg: SegmentId,
+    line: Line,
     at: OnSection,
     /// Emission under the common drift (candidate ranking, chain starts).
     emission: f64,
@@ -303,6 +325,7 @@ pub struct HmmMatcher<'a> {
     drift: Drift,
     drift_at: Option<[f64; 2]>,
     seg_buf: Vec<SegmentId>,
+    near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
     pred_buf: Vec<Drift>,
     spare: Vec<Step>,
 }
@@ -328,6 +351,7 @@ impl<'a> HmmMatcher<'a> {
             drift: Drift::prior(params.drift_sigma_m),
             drift_at: None,
             seg_buf: Vec::with_capacity(64),
+            near_buf: Vec::with_capacity(64),
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
         }
@@ -375,12 +399,27 @@ impl<'a> HmmMatcher<'a> {
             .within_radius_into(fix.enu, self.params.search_radius_m, &mut self.seg_buf);
         let r2 = self.params.sigma_m * self.params.sigma_m;
         let corrected = [fix.enu[0] - d.mean[0], fix.enu[1] - d.mean[1]];
+        // The nearest segment of each section to the fix less the drift.
+        let mut nearest = std::mem::take(&mut self.near_buf);
+        nearest.clear();
         for &seg in &self.seg_buf {
-            let (t, _, _) = project(net, seg, corrected);
+            let (t, _, dist) = project(net, seg, corrected);
+            let section = net.segments[seg as usize].section;
+            match nearest.iter_mut().find(|n| n.0 == section) {
+                Some(n) => {
+                    if dist < n.2 {
+                        *n = (section, seg, dist, t);
+                    }
+                }
+                None => nearest.push((section, seg, dist, t)),
+            }
+        }
+        for &(section, seg, _, t) in &nearest {
             let s = &net.segments[seg as usize];
-            let base = emission(net, seg, fix.enu, d, r2).log_p;
+            let line = Line::of(net, seg);
+            let base = emission(&line, fix.enu, d, r2).log_p;
             let offset_m = s.section_offset_m + t * s.length_m;
-            let oneway = net.sections[s.section as usize].oneway;
+            let oneway = net.sections[section as usize].oneway;
             // One state per permitted direction of the section.
             for forward in [true, false] {
                 if !(if forward {
@@ -394,41 +433,27 @@ impl<'a> HmmMatcher<'a> {
                     Some((h, kappa)) => kappa * (directed_cos(net, seg, h, forward) - 1.0),
                     None => 0.0,
                 };
-                let e = base + h;
-                let len = s.length_m.max(1e-9);
                 let sign = if forward { 1.0 } else { -1.0 };
-                let c = Cand {
+                cands.push(Cand {
                     seg,
+                    line,
                     at: OnSection {
-                        section: s.section,
+                        section,
                         offset_m,
                         forward: Some(forward),
                     },
-                    emission: e,
+                    emission: base + h,
                     heading: h,
-                    dir: [
-                        sign * (s.b[0] - s.a[0]) / len,
-                        sign * (s.b[1] - s.a[1]) / len,
-                    ],
+                    dir: [sign * line.u[0], sign * line.u[1]],
                     anchor_dir: [0.0; 2],
                     anchor_m: 0.0,
                     road: s.road,
                     anchor_road: s.road,
                     drift: *d,
-                };
-                match cands
-                    .iter_mut()
-                    .find(|o| o.at.section == s.section && o.at.forward == Some(forward))
-                {
-                    Some(o) => {
-                        if e > o.emission {
-                            *o = c;
-                        }
-                    }
-                    None => cands.push(c),
-                }
+                });
             }
         }
+        self.near_buf = nearest;
         cands.sort_unstable_by(|a, b| b.emission.total_cmp(&a.emission));
         cands.truncate(self.params.max_candidates);
     }
@@ -477,7 +502,6 @@ impl<'a> HmmMatcher<'a> {
         preds.clear();
         let prev = self.window.back().expect("a previous step");
         preds.extend(prev.cands.iter().map(|p| self.predict(&p.drift, gc)));
-        let net = self.net;
         let track = self.params.track_drift;
         let mut any = false;
         step.score.clear();
@@ -509,7 +533,7 @@ impl<'a> HmmMatcher<'a> {
                 } else {
                     d
                 };
-                let e = emission(net, c.seg, step.fix.enu, &preds[i], r2);
+                let e = emission(&c.line, step.fix.enu, &preds[i], r2);
                 let s = prev.score[i] - (charged - gc).abs() * inv_beta + e.log_p + c.heading;
                 if s > best {
                     best = s;
@@ -870,7 +894,7 @@ impl Matcher for HmmMatcher<'_> {
                 c.anchor_road = c.road;
                 c.drift = common;
                 if self.params.track_drift {
-                    let e = emission(self.net, c.seg, fix.enu, &common, r2);
+                    let e = emission(&c.line, fix.enu, &common, r2);
                     c.drift.update(e.normal, e.nu, e.s);
                 }
                 step.score.push(c.emission - m);
