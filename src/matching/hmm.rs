@@ -62,7 +62,11 @@
 //!   from the last drift estimate, relaxed towards the prior over the
 //!   distance since; each break is recorded, off-road fixes are reported
 //!   unmatched.
-//! - Confidence: the chosen road's share of the step's (filtered) probability.
+//! - Confidence: the chosen road's smoothed posterior probability given
+//!   every fix in the lag window (forward–backward over the window on the
+//!   Viterbi's own transition and emission weights, each emission under the
+//!   drift of the surviving path into its predecessor). Points are emitted
+//!   `lag` steps late anyway, so the later fixes inform it at no delay.
 
 use super::paths::{NetworkDistances, OnSection};
 use super::{project, Break, BreakReason, Fix, MatchState, MatchedPoint, Matcher};
@@ -302,6 +306,12 @@ struct Step {
     cands: Vec<Cand>,
     score: Vec<f64>,
     back: Vec<u32>,
+    /// Forward (filtered) probability of each candidate, normalised.
+    alpha: Vec<f64>,
+    /// Transition × emission weights from the previous step's candidates
+    /// (rows) into this step's (columns), scaled to a largest weight of 1;
+    /// empty at a chain's first step.
+    pair: Vec<f64>,
     /// Fixes after this step, before the next (index, fix).
     pending: Vec<(u64, Fix)>,
 }
@@ -326,6 +336,7 @@ pub struct HmmMatcher<'a> {
     drift_at: Option<[f64; 2]>,
     seg_buf: Vec<SegmentId>,
     near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
+    post_buf: Vec<f64>,
     pred_buf: Vec<Drift>,
     spare: Vec<Step>,
 }
@@ -352,6 +363,7 @@ impl<'a> HmmMatcher<'a> {
             drift_at: None,
             seg_buf: Vec::with_capacity(64),
             near_buf: Vec::with_capacity(64),
+            post_buf: Vec::with_capacity(params.max_candidates),
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
         }
@@ -466,6 +478,8 @@ impl<'a> HmmMatcher<'a> {
                 s.cands.clear();
                 s.score.clear();
                 s.back.clear();
+                s.alpha.clear();
+                s.pair.clear();
                 s.pending.clear();
                 s
             }
@@ -475,6 +489,8 @@ impl<'a> HmmMatcher<'a> {
                 cands: Vec::with_capacity(self.params.max_candidates),
                 score: Vec::with_capacity(self.params.max_candidates),
                 back: Vec::with_capacity(self.params.max_candidates),
+                alpha: Vec::with_capacity(self.params.max_candidates),
+                pair: Vec::with_capacity(self.params.max_candidates * self.params.max_candidates),
                 pending: Vec::new(),
             },
         }
@@ -506,7 +522,10 @@ impl<'a> HmmMatcher<'a> {
         let mut any = false;
         step.score.clear();
         step.back.clear();
-        for c in step.cands.iter_mut() {
+        let nc = step.cands.len();
+        step.pair.clear();
+        step.pair.resize(prev.cands.len() * nc, f64::NEG_INFINITY);
+        for (k, c) in step.cands.iter_mut().enumerate() {
             let mut best = f64::NEG_INFINITY;
             let mut arg = 0u32;
             let mut anchor = (c.dir, 0.0, c.road);
@@ -534,7 +553,9 @@ impl<'a> HmmMatcher<'a> {
                     d
                 };
                 let e = emission(&c.line, step.fix.enu, &preds[i], r2);
-                let s = prev.score[i] - (charged - gc).abs() * inv_beta + e.log_p + c.heading;
+                let psi = e.log_p + c.heading - (charged - gc).abs() * inv_beta;
+                step.pair[i * nc + k] = psi;
+                let s = prev.score[i] + psi;
                 if s > best {
                     best = s;
                     arg = i as u32;
@@ -566,8 +587,59 @@ impl<'a> HmmMatcher<'a> {
             for s in &mut step.score {
                 *s -= m;
             }
+            // Forward (sum-product) recursion on the same weights.
+            let m = step.pair.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            for w in &mut step.pair {
+                *w = (*w - m).exp();
+            }
+            step.alpha.clear();
+            step.alpha.resize(nc, 0.0);
+            for (i, a) in prev.alpha.iter().enumerate() {
+                if *a > 0.0 {
+                    for (x, w) in step.alpha.iter_mut().zip(&step.pair[i * nc..(i + 1) * nc]) {
+                        *x += a * w;
+                    }
+                }
+            }
+            if !normalise(&mut step.alpha) {
+                softmax_into(&step.score, &mut step.alpha);
+            }
         }
         any
+    }
+
+    /// The smoothed posterior of the window's oldest step given every fix in
+    /// the window (forward–backward over the lag window) into `out`.
+    fn front_posterior(&self, out: &mut Vec<f64>) {
+        let len = self.window.len();
+        let mut beta = vec![1.0; self.window[len - 1].cands.len()];
+        let mut next = Vec::with_capacity(self.params.max_candidates);
+        for t in (1..len).rev() {
+            let (st, np) = (&self.window[t], self.window[t - 1].cands.len());
+            let nc = st.cands.len();
+            next.clear();
+            if st.pair.len() != np * nc {
+                next.resize(np, 1.0);
+            } else {
+                next.extend((0..np).map(|i| {
+                    st.pair[i * nc..(i + 1) * nc]
+                        .iter()
+                        .zip(&beta)
+                        .map(|(w, b)| w * b)
+                        .sum::<f64>()
+                }));
+                if !normalise(&mut next) {
+                    next.iter_mut().for_each(|x| *x = 1.0);
+                }
+            }
+            std::mem::swap(&mut beta, &mut next);
+        }
+        let front = &self.window[0];
+        out.clear();
+        out.extend(front.alpha.iter().zip(&beta).map(|(a, b)| a * b));
+        if !normalise(out) {
+            softmax_into(&front.score, out);
+        }
     }
 
     /// Back-traces the window from its newest step's best state: the chosen
@@ -589,15 +661,22 @@ impl<'a> HmmMatcher<'a> {
 
     /// Decides and emits the oldest step (given its choice and the next step's).
     fn emit_front(&mut self, choice: u32, next_choice: Option<u32>, out: &mut Vec<MatchedPoint>) {
+        let mut post = std::mem::take(&mut self.post_buf);
+        self.front_posterior(&mut post);
         let step = self.window.pop_front().expect("a step");
         let net = self.net;
         let c = step.cands[choice as usize];
-        // The share of the step's probability on the chosen road (both
-        // directions, every section of it).
-        let road = net.segments[c.seg as usize].road;
-        let confidence = share(&step.score, |k| {
-            net.segments[step.cands[k].seg as usize].road == road
-        });
+        // The smoothed probability of the chosen road (both directions,
+        // every section of it).
+        let confidence = step
+            .cands
+            .iter()
+            .zip(&post)
+            .filter(|(k, _)| k.road == c.road)
+            .map(|(_, p)| p)
+            .sum::<f64>()
+            .clamp(0.0, 1.0);
+        self.post_buf = post;
         // Matched points: the fixes less the chosen state's drift, projected.
         let b = c.drift.mean;
         let corrected = |f: &Fix| Fix {
@@ -706,21 +785,27 @@ fn argmax(v: &[f64]) -> u32 {
     k as u32
 }
 
-/// The share of the probability in `scores` (log) held by the states `pick` selects.
-fn share(scores: &[f64], pick: impl Fn(usize) -> bool) -> f64 {
+/// Scales `v` to sum 1; false (and `v` untouched) when its sum is not a
+/// positive finite number.
+fn normalise(v: &mut [f64]) -> bool {
+    let sum: f64 = v.iter().sum();
+    if !(sum > 0.0 && sum.is_finite()) {
+        return false;
+    }
+    v.iter_mut().for_each(|x| *x /= sum);
+    true
+}
+
+/// Probabilities from log scores into `out` (all zero if none is finite).
+fn softmax_into(scores: &[f64], out: &mut Vec<f64>) {
     let m = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    out.clear();
     if !m.is_finite() {
-        return 0.0;
+        out.resize(scores.len(), 0.0);
+        return;
     }
-    let (mut part, mut sum) = (0.0, 0.0);
-    for (k, s) in scores.iter().enumerate() {
-        let p = (s - m).exp();
-        sum += p;
-        if pick(k) {
-            part += p;
-        }
-    }
-    (part / sum).clamp(0.0, 1.0)
+    out.extend(scores.iter().map(|s| (s - m).exp()));
+    normalise(out);
 }
 
 /// The nearest segment to `p` on the path pieces: (piece index, segment).
@@ -900,6 +985,8 @@ impl Matcher for HmmMatcher<'_> {
                 step.score.push(c.emission - m);
                 step.back.push(0);
             }
+            step.pair.clear();
+            softmax_into(&step.score, &mut step.alpha);
         }
         let best = argmax(&step.score) as usize;
         self.drift = step.cands[best].drift;
@@ -918,5 +1005,67 @@ impl Matcher for HmmMatcher<'_> {
 
     fn breaks(&self) -> &[Break] {
         &self.breaks
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A road observes the drift across it only: the update pulls the mean
+    /// and shrinks the variance across (north, for an east-west road) and
+    /// leaves the drift along it (east) as uncertain as before.
+    #[test]
+    fn a_road_observes_the_drift_across_it_only() {
+        let mut d = Drift::prior(20.0);
+        let line = Line {
+            a: [0.0, 0.0],
+            u: [1.0, 0.0],
+            len: 100.0,
+        };
+        // A fix 12 m north of the road, 3 m east of its start.
+        let e = emission(&line, [3.0, 12.0], &d, 25.0);
+        assert!((e.nu - 12.0).abs() < 1e-9 && (e.s - 425.0).abs() < 1e-9);
+        d.update(e.normal, e.nu, e.s);
+        // Kalman gain 400/425 on the north component.
+        assert!((d.mean[1] - 12.0 * 400.0 / 425.0).abs() < 1e-9);
+        assert_eq!(d.mean[0], 0.0);
+        assert!((d.cov[2] - 400.0 * 25.0 / 425.0).abs() < 1e-9);
+        assert_eq!(d.cov[0], 400.0);
+        // With the drift removed, the same fix fits the road far better.
+        let after = emission(&line, [3.0, 12.0], &d, 25.0);
+        assert!(after.nu.abs() < 1.0 && after.log_p > e.log_p);
+    }
+
+    /// The Gauss–Markov prediction keeps every estimate within the prior:
+    /// the mean relaxes towards zero and the variance towards σ², never
+    /// beyond, however far the vehicle drives unobserved.
+    #[test]
+    fn prediction_stays_within_the_prior() {
+        let d = Drift {
+            mean: [30.0, -10.0],
+            cov: [4.0, 1.0, 9.0],
+        };
+        let mut last = d;
+        for ds in [10.0, 100.0, 1000.0, 1e6] {
+            let p = d.predict(ds, 400.0, 19.4);
+            assert!(p.mean[0].abs() < last.mean[0].abs());
+            assert!(p.cov[0] <= 19.4 * 19.4 + 1e-9 && p.cov[2] <= 19.4 * 19.4 + 1e-9);
+            assert!(p.cov[0] >= d.cov[0] && p.cov[1].abs() <= d.cov[1].abs());
+            last = p;
+        }
+        let far = d.predict(1e6, 400.0, 19.4);
+        assert!(far.mean[0].abs() < 1e-9 && (far.cov[0] - 19.4 * 19.4).abs() < 1e-6);
+    }
+
+    #[test]
+    fn normalise_and_softmax_handle_degenerate_input() {
+        let mut v = vec![0.0, 0.0];
+        assert!(!normalise(&mut v));
+        let mut out = Vec::new();
+        softmax_into(&[f64::NEG_INFINITY, f64::NEG_INFINITY], &mut out);
+        assert_eq!(out, vec![0.0, 0.0]);
+        softmax_into(&[0.0, 0.0f64.ln_1p()], &mut out);
+        assert!((out[0] - 0.5).abs() < 1e-12);
     }
 }

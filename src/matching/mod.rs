@@ -92,8 +92,8 @@ pub struct MatchedPoint {
     pub point: [f64; 2],
     /// Distance from the fix to the matched point (m).
     pub distance_m: f64,
-    /// Confidence in 0..=1 (the HMM's share of the chosen candidate; the
-    /// incremental matcher's score f).
+    /// Confidence in 0..=1 (the HMM's smoothed posterior probability of the
+    /// chosen road over its lag window; the incremental matcher's score f).
     pub confidence: f64,
     /// Direction of travel along the section (`true`: its digitised
     /// direction), where the matcher decides it (the HMM).
