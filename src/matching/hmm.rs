@@ -261,7 +261,7 @@ impl Line {
     fn of(net: &Network, seg: SegmentId) -> Self {
         let sg = &net.segments[seg as usize];
         let (dx, dy) = (sg.b[0] - sg.a[0], sg.b[1] - sg.a[1]);
-        let len = dx.hypot(dy);
+        let len = (dx * dx + dy * dy).sqrt();
         let u = if len > 1e-9 {
             [dx / len, dy / len]
         } else {
@@ -391,7 +391,7 @@ impl<'a> HmmMatcher<'a> {
     /// The common drift predicted to the fix at `p`.
     fn common_drift(&self, p: [f64; 2]) -> Drift {
         match self.drift_at {
-            Some(q) => self.predict(&self.drift, (p[0] - q[0]).hypot(p[1] - q[1])),
+            Some(q) => self.predict(&self.drift, dist(p, q)),
             None => self.drift,
         }
     }
@@ -504,7 +504,7 @@ impl<'a> HmmMatcher<'a> {
     /// across-road innovation (per-survivor estimation).
     fn transition(&mut self, step: &mut Step) -> bool {
         let prev = self.window.back().expect("a previous step");
-        let gc = (step.fix.enu[0] - prev.fix.enu[0]).hypot(step.fix.enu[1] - prev.fix.enu[1]);
+        let gc = dist(step.fix.enu, prev.fix.enu);
         let bound = gc + 2.0 * self.params.search_radius_m + 100.0;
         let backtrack = self.params.backtrack_m;
         let inv_beta = 1.0 / self.params.beta_m;
@@ -701,8 +701,7 @@ impl<'a> HmmMatcher<'a> {
             let pieces = next_choice.and_then(|nc| {
                 let next = self.window.front().expect("the next step");
                 let b = next.cands[nc as usize].at;
-                let gc =
-                    (next.fix.enu[0] - step.fix.enu[0]).hypot(next.fix.enu[1] - step.fix.enu[1]);
+                let gc = dist(next.fix.enu, step.fix.enu);
                 let bound = gc + 2.0 * self.params.search_radius_m + 100.0;
                 self.paths.path(c.at, b, bound, self.params.backtrack_m)
             });
@@ -751,10 +750,18 @@ impl<'a> HmmMatcher<'a> {
     }
 }
 
+/// Distance between two points (m); coordinates are metres in a local
+/// frame, so the plain formula cannot overflow (and is cheaper than `hypot`).
+#[inline]
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (a[0] - b[0], a[1] - b[1]);
+    (dx * dx + dy * dy).sqrt()
+}
+
 /// The point reported against the fix as given.
 fn with_raw(mut m: MatchedPoint, raw: [f64; 2]) -> MatchedPoint {
     m.fix = raw;
-    m.distance_m = (raw[0] - m.point[0]).hypot(raw[1] - m.point[1]);
+    m.distance_m = dist(raw, m.point);
     m
 }
 
@@ -762,7 +769,7 @@ fn with_raw(mut m: MatchedPoint, raw: [f64; 2]) -> MatchedPoint {
 fn directed_cos(net: &Network, seg: SegmentId, heading_rad: f64, forward: bool) -> f64 {
     let s = &net.segments[seg as usize];
     let (dx, dy) = (s.b[0] - s.a[0], s.b[1] - s.a[1]);
-    let len = dx.hypot(dy);
+    let len = (dx * dx + dy * dy).sqrt();
     if len <= 0.0 {
         return 0.0;
     }
@@ -828,7 +835,7 @@ fn nearest_on_pieces(
             let d = if off < lo || off > hi {
                 let off = off.clamp(lo, hi);
                 let q = point_at(net, seg, off);
-                (p[0] - q[0]).hypot(p[1] - q[1])
+                dist(p, q)
             } else {
                 d
             };
@@ -878,7 +885,7 @@ fn clamp_to_range(
     let q = point_at(net, seg, off);
     m.point = q;
     m.road_offset_m = s.road_offset_m + (off - s.section_offset_m).clamp(0.0, s.length_m);
-    m.distance_m = (fix.enu[0] - q[0]).hypot(fix.enu[1] - q[1]);
+    m.distance_m = dist(fix.enu, q);
 }
 
 impl Matcher for HmmMatcher<'_> {
@@ -897,7 +904,7 @@ impl Matcher for HmmMatcher<'_> {
             ..*raw_fix
         };
         if let Some(last) = self.last_fix {
-            let d = (fix.enu[0] - last.enu[0]).hypot(fix.enu[1] - last.enu[1]);
+            let d = dist(fix.enu, last.enu);
             if (d > self.params.gap_m || fix.t_s - last.t_s > self.params.gap_s)
                 && self.pending_break.is_none()
             {
