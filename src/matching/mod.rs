@@ -92,8 +92,8 @@ pub struct MatchedPoint {
     pub point: [f64; 2],
     /// Distance from the fix to the matched point (m).
     pub distance_m: f64,
-    /// Confidence in 0..=1 (the HMM's share of the chosen candidate; the
-    /// incremental matcher's score f).
+    /// Confidence in 0..=1 (the HMM's smoothed posterior probability of the
+    /// chosen road over its lag window; the incremental matcher's score f).
     pub confidence: f64,
     /// Direction of travel along the section (`true`: its digitised
     /// direction), where the matcher decides it (the HMM).
@@ -222,7 +222,9 @@ pub(crate) fn project(net: &Network, seg: SegmentId, p: [f64; 2]) -> (f64, [f64;
         0.0
     };
     let q = [s.a[0] + t * dx, s.a[1] + t * dy];
-    (t, q, (p[0] - q[0]).hypot(p[1] - q[1]))
+    let (ex, ey) = (p[0] - q[0], p[1] - q[1]);
+    // Metres in a local frame: the plain formula cannot overflow.
+    (t, q, (ex * ex + ey * ey).sqrt())
 }
 
 /// Cosine of the angle between a heading (clockwise from north) and the
