@@ -1,0 +1,1 @@
+//! Network coverage (in progress).
