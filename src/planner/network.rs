@@ -79,7 +79,7 @@ use std::time::Instant;
 /// Default candidate spacing on networks (m).
 pub const DEFAULT_NETWORK_SPACING_M: f64 = 50.0;
 /// Largest instance (candidate sites) tried with the exact method.
-pub const ILP_MAX_CANDIDATES: usize = 400;
+pub const ILP_MAX_CANDIDATES: usize = 150;
 /// Installed tags farther than this from every road are ignored (m).
 pub const EXISTING_SNAP_M: f64 = 15.0;
 /// Longest straight drive of the reach analysis (m), and its time cap (s).
@@ -874,8 +874,18 @@ pub fn plan_network_on(
             }
         ))
     };
+    // The greedy first: a feasible selection, the warm start of the exact
+    // method and the fallback.
+    let (greedy_sel, st) = match cover::greedy_with_stats(p) {
+        (Solved::Feasible(s), st) => (s, st),
+        (Solved::Infeasible(w), _) => return Err(infeasible(&w)),
+    };
+    let greedy_method = format!(
+        "greedy: set multicover over violating walks ({} round(s), {} tag(s) added), exact reverse deletion ({} removed), verified by the walk DP",
+        st.rounds, st.added, st.removed
+    );
     if p.sites.len() <= ILP_MAX_CANDIDATES {
-        match ilp::solve(p, IlpLimits::default()) {
+        match ilp::solve(p, IlpLimits::default(), Some(&greedy_sel)) {
             IlpOutcome::Optimal {
                 selected: s,
                 cost,
@@ -883,7 +893,7 @@ pub fn plan_network_on(
                 constraints,
             } => {
                 method = format!(
-                    "exact: integer programme with lazy walk constraints ({rounds} round(s), {constraints} walk constraints; microlp), verified by the walk DP"
+                    "exact: integer programme with lazy walk constraints ({rounds} round(s), {constraints} walk constraints; microlp, warm-started by the greedy), verified by the walk DP"
                 );
                 lb_cost = lb_cost.max(cost);
                 selected = Some(s);
@@ -900,16 +910,10 @@ pub fn plan_network_on(
     }
     let sel = match selected {
         Some(s) => s,
-        None => match cover::greedy_with_stats(p) {
-            (Solved::Feasible(s), st) => {
-                method.push_str(&format!(
-                    "greedy: set multicover over violating walks ({} round(s), {} tag(s) added), exact reverse deletion ({} removed), verified by the walk DP",
-                    st.rounds, st.added, st.removed
-                ));
-                s
-            }
-            (Solved::Infeasible(w), _) => return Err(infeasible(&w)),
-        },
+        None => {
+            method.push_str(&greedy_method);
+            greedy_sel
+        }
     };
     timings.insert("solve".into(), t.elapsed().as_secs_f64() * 1e3);
     let res = cover::check(p, &sel);
@@ -1141,6 +1145,104 @@ pub fn validate_network_plan(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::network::{model_from_polylines, Oneway, RoadAttributes};
+
+    fn road(id: &str, oneway: Oneway, maxspeed: Option<f64>) -> RoadAttributes {
+        RoadAttributes {
+            id: id.into(),
+            name: Some(format!("Street {id}")),
+            highway: "residential".into(),
+            oneway,
+            lanes: None,
+            width_m: None,
+            maxspeed_kmh: maxspeed,
+            tunnel: false,
+            bridge: false,
+            layer: 0,
+        }
+    }
+
+    /// A 600 m × 600 m block near Helsinki: four two-way streets and a
+    /// one-way diagonal.
+    fn block() -> Network {
+        let (la, lo) = (60.17f64, 24.94f64);
+        let dlat = 600.0 / 111_400.0;
+        let dlon = 600.0 / (111_400.0 * la.to_radians().cos());
+        let c = [
+            [la, lo],
+            [la, lo + dlon],
+            [la + dlat, lo + dlon],
+            [la + dlat, lo],
+        ];
+        let mut roads = Vec::new();
+        for i in 0..4 {
+            roads.push((
+                road(&format!("{}", i + 1), Oneway::Both, Some(50.0)),
+                vec![vec![c[i], c[(i + 1) % 4]]],
+            ));
+        }
+        roads.push((
+            road("9", Oneway::Forward, Some(30.0)),
+            vec![vec![c[0], c[2]]],
+        ));
+        Network::from_model(model_from_polylines(roads).unwrap(), None).unwrap()
+    }
+
+    fn scenario() -> Scenario {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenarios/helsinki-network-plan.toml");
+        let text = std::fs::read_to_string(&path)
+            .unwrap()
+            .replace("candidate_spacing_m = 50", "candidate_spacing_m = 200");
+        Scenario::parse(&path, &text).unwrap()
+    }
+
+    #[test]
+    fn small_network_is_planned_exactly_and_verified() {
+        let scn = scenario();
+        let s = PlannerSettings::from_scenario(&scn).unwrap();
+        let net = block();
+        let p = plan_network_on(&scn, &s, &net).unwrap();
+        // 4 two-way streets + 1 one-way: 9 directed edges, ⌈ℓ / 200 m⌉
+        // candidates each.
+        assert_eq!(p.directed_edges, 9);
+        let want: usize = net
+            .sections
+            .iter()
+            .map(|x| {
+                let n = (x.length_m / 200.0).ceil() as usize;
+                if x.oneway.is_oneway() {
+                    n
+                } else {
+                    2 * n
+                }
+            })
+            .sum();
+        assert_eq!(p.candidates, want);
+        assert!((25..=40).contains(&want), "{want}");
+        assert!(p.method.starts_with("exact"), "{}", p.method);
+        assert!(p.verified);
+        let prob = p.problem.as_ref().unwrap();
+        assert!(cover::check(prob, &p.selected).feasible());
+        // Exact: the lower bound is the optimum's cost, and the greedy is
+        // never cheaper.
+        assert!((p.lower_bound_cost - p.total_cost).abs() < 1e-9);
+        if let Solved::Feasible(g) = cover::greedy(prob) {
+            assert!(g.iter().filter(|&&x| x).count() >= p.tag_count());
+        }
+        // The 30 km/h one-way street adds a slower speed class.
+        assert!(p
+            .reach_classes
+            .iter()
+            .any(|c| (c.speed_kmh - 30.0).abs() < 1e-6));
+        // Every two-way street forms a cycle with its U-turns: ≥ 1 tag each.
+        assert!(p.tag_count() >= 4);
+        // Tags on the one-way street sit on its centreline, others on the
+        // lane right of travel.
+        for t in &p.tags {
+            assert_eq!(t.oneway, t.road_id == "9");
+        }
+    }
 
     #[test]
     fn speed_classes_round_down_to_5_kmh_and_respect_the_scenario_speed() {
