@@ -171,6 +171,7 @@ impl PlannerSettings {
                 cost: None,
                 refine_iterations: None,
                 existing_tags: None,
+                u_turns: None,
             });
         let coverage = match p.coverage.as_deref() {
             None | Some("routes") => Coverage::Routes,

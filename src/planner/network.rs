@@ -82,6 +82,8 @@ pub const DEFAULT_NETWORK_SPACING_M: f64 = 50.0;
 pub const ILP_MAX_CANDIDATES: usize = 150;
 /// Installed tags farther than this from every road are ignored (m).
 pub const EXISTING_SNAP_M: f64 = 15.0;
+/// Length of a junction connector when U-turns are restricted (m).
+const CONNECTOR_M: f64 = 1e-3;
 /// Longest straight drive of the reach analysis (m), and its time cap (s).
 const DRIVE_MAX_M: f64 = 100_000.0;
 const DRIVE_MAX_S: f64 = 7_200.0;
@@ -213,6 +215,8 @@ pub struct NetworkPlan {
     pub reach_classes: Vec<ReachClass>,
     /// Directed edges (section, direction).
     pub directed_edges: usize,
+    /// Where walks may turn back: "anywhere" or "dead_ends".
+    pub u_turns: String,
     /// Length of all directed edges (km).
     pub directed_length_km: f64,
     /// Candidate sites (installed tags included).
@@ -378,8 +382,18 @@ pub fn scenario_network(scn: &Scenario) -> Result<Network> {
     Network::load(map, &Default::default())
 }
 
-/// Checks the network-specific settings.
-fn check_settings(scn: &Scenario, settings: &PlannerSettings) -> Result<f64> {
+/// Where walks may turn back onto the road they came along.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UTurns {
+    /// At any junction or road end (`"anywhere"`, the default): the
+    /// topology's successors, the most conservative.
+    Anywhere,
+    /// Only at dead ends (`"dead_ends"`: nodes where a single road ends).
+    DeadEnds,
+}
+
+/// Checks the network-specific settings: candidate spacing and U-turns.
+fn check_settings(scn: &Scenario, settings: &PlannerSettings) -> Result<(f64, UTurns)> {
     let p = scn.file.planner.as_ref();
     if !settings.forbidden_m.is_empty() {
         return Err(Error::scenario(
@@ -394,8 +408,21 @@ fn check_settings(scn: &Scenario, settings: &PlannerSettings) -> Result<f64> {
             "planner.min_spacing_m is not supported with coverage = \"network\"",
         ));
     }
-    Ok(p.and_then(|p| p.candidate_spacing_m)
-        .unwrap_or(DEFAULT_NETWORK_SPACING_M))
+    let u = match p.and_then(|p| p.u_turns.as_deref()) {
+        None | Some("anywhere") => UTurns::Anywhere,
+        Some("dead_ends") => UTurns::DeadEnds,
+        Some(o) => {
+            return Err(Error::scenario(
+                &scn.path,
+                format!("planner.u_turns = \"{o}\" is not one of anywhere, dead_ends"),
+            ))
+        }
+    };
+    Ok((
+        p.and_then(|p| p.candidate_spacing_m)
+            .unwrap_or(DEFAULT_NETWORK_SPACING_M),
+        u,
+    ))
 }
 
 /// The reach of one class: a straight drive north at `speed_mps` from
@@ -550,6 +577,8 @@ struct Built {
     edge_speed: Vec<f64>,
     existing_off: usize,
     directed_length_m: f64,
+    /// Directed road edges (connectors come after them).
+    physical_edges: usize,
 }
 
 fn edge_speed(scn_speed: f64, maxspeed_kmh: Option<f64>) -> f64 {
@@ -565,6 +594,7 @@ fn build(
     scn_speed: f64,
     spacing: f64,
     reach_m: f64,
+    u_turns: UTurns,
 ) -> Result<Built> {
     let mut edges = Vec::new();
     let mut edge_dir = Vec::new();
@@ -666,14 +696,42 @@ fn build(
         site_mounting.push(t.mounting);
         site_existing.push(Some(ti));
     }
-    let problem = CoverProblem::new(
-        net.nodes.len(),
-        edges,
-        sites,
-        reach_m,
-        settings.tolerate_missed_reads,
-    )
-    .map_err(|m| Error::InvalidParameter(format!("network coverage instance: {m}")))?;
+    // U-turns only at dead ends: every directed edge gets its own end
+    // nodes, joined by connectors (1 mm, no sites) for each permitted
+    // transition; the walk model is unchanged and walks gain at most 1 mm per
+    // junction (conservative).
+    let physical = edges.len();
+    let nodes = match u_turns {
+        UTurns::Anywhere => net.nodes.len(),
+        UTurns::DeadEnds => {
+            for e in 0..physical {
+                let (sec, fwd) = edge_dir[e];
+                let v = edges[e].head;
+                for d in net.topology.departures(net, v) {
+                    let Some(&e2) = dir_index.get(&(d.section, d.forward)) else {
+                        continue;
+                    };
+                    let u_turn = d.section == sec && d.forward != fwd;
+                    if u_turn && net.topology.degree(v) > 1 {
+                        continue;
+                    }
+                    edges.push(CoverEdge {
+                        tail: 2 * e as u32 + 1,
+                        head: 2 * e2,
+                        length_m: CONNECTOR_M,
+                    });
+                }
+            }
+            for (e, ed) in edges.iter_mut().enumerate().take(physical) {
+                ed.tail = 2 * e as u32;
+                ed.head = 2 * e as u32 + 1;
+            }
+            2 * physical
+        }
+    };
+    let problem =
+        CoverProblem::new(nodes, edges, sites, reach_m, settings.tolerate_missed_reads)
+            .map_err(|m| Error::InvalidParameter(format!("network coverage instance: {m}")))?;
     Ok(Built {
         problem,
         edge_dir,
@@ -682,6 +740,7 @@ fn build(
         edge_speed: edge_speed_v,
         existing_off,
         directed_length_m,
+        physical_edges: physical,
     })
 }
 
@@ -722,7 +781,11 @@ fn describe_walk(net: &Network, built: &Built, w: &Walk) -> String {
     let mut seen = BTreeSet::new();
     let mut pieces: Vec<&(u32, f64, f64)> = w.pieces.iter().collect();
     pieces.sort_by(|a, b| (b.2 - b.1).total_cmp(&(a.2 - a.1)));
-    for &&(e, a, b) in pieces.iter().take(3) {
+    for &&(e, a, b) in pieces
+        .iter()
+        .filter(|p| (p.0 as usize) < built.physical_edges)
+        .take(3)
+    {
         let (sec, fwd) = built.edge_dir[e as usize];
         if !seen.insert((sec, fwd)) {
             continue;
@@ -783,7 +846,7 @@ pub fn plan_network_on(
     net: &Network,
 ) -> Result<NetworkPlan> {
     let (_, profile, height_m) = map_route(scn)?;
-    let spacing = check_settings(scn, settings)?;
+    let (spacing, u_turns) = check_settings(scn, settings)?;
     let req = settings.requirement_m;
     let k = settings.tolerate_missed_reads;
     let best_fix = settings
@@ -805,7 +868,7 @@ pub fn plan_network_on(
     let mut timings = BTreeMap::new();
     // Instance with a placeholder reach, to learn the speed classes and mountings.
     let t = Instant::now();
-    let mut built = build(net, settings, profile.speed_mps, spacing, 1.0)?;
+    let mut built = build(net, settings, profile.speed_mps, spacing, 1.0, u_turns)?;
     timings.insert("build".into(), t.elapsed().as_secs_f64() * 1e3);
     // Reach per (speed, mounting) class in use.
     let t = Instant::now();
@@ -994,7 +1057,11 @@ pub fn plan_network_on(
         steady_reach_m: steady,
         start_reach_m: start,
         reach_classes,
-        directed_edges: p.edges.len(),
+        directed_edges: built.physical_edges,
+        u_turns: match u_turns {
+            UTurns::Anywhere => "anywhere".into(),
+            UTurns::DeadEnds => "dead_ends".into(),
+        },
         directed_length_km: built.directed_length_m / 1000.0,
         candidates: p.sites.len(),
         candidate_spacing_m: spacing,
@@ -1242,6 +1309,30 @@ mod tests {
         for t in &p.tags {
             assert_eq!(t.oneway, t.road_id == "9");
         }
+        // U-turns only at dead ends (there are none here): fewer walks, so
+        // the optimum cannot cost more; still exact and verified.
+        let path = scn.path.clone();
+        let text = std::fs::read_to_string(&path)
+            .unwrap()
+            .replace("candidate_spacing_m = 50", "candidate_spacing_m = 200")
+            .replace(
+                "coverage = \"network\"",
+                "coverage = \"network\"\nu_turns = \"dead_ends\"",
+            );
+        let scn2 = Scenario::parse(&path, &text).unwrap();
+        let p2 = plan_network_on(&scn2, &s, &net).unwrap();
+        assert_eq!(p2.u_turns, "dead_ends");
+        assert!(
+            p2.verified && p2.method.starts_with("exact"),
+            "{}",
+            p2.method
+        );
+        assert!(p2.total_cost <= p.total_cost);
+        assert_eq!(p2.directed_edges, 9);
+        let bad = text.replace("\"dead_ends\"", "\"sometimes\"");
+        let scn3 = Scenario::parse(&path, &bad).unwrap();
+        let e = plan_network_on(&scn3, &s, &net).unwrap_err().to_string();
+        assert!(e.contains("not one of anywhere, dead_ends"), "{e}");
     }
 
     #[test]

@@ -254,8 +254,13 @@ impl<'a> Dp<'a> {
 
     /// Label-correcting fixed point over the edges with `mask[e]` (all when
     /// `None`), starting from the nodes in `start`.
-    fn solve(&mut self, mask: Option<&[bool]>, start: &[u32]) {
+    /// With `stop`, returns `true` as soon as a walk with at most k passes
+    /// is seen to exceed R (at a node or just before a site), leaving the
+    /// queue flags cleared; otherwise runs to the fixed point and returns
+    /// `false`.
+    fn solve(&mut self, mask: Option<&[bool]>, start: &[u32], stop: bool) -> bool {
         let k = self.p.k;
+        let r = self.p.reach_m + EPS;
         let mut q: VecDeque<u32> = VecDeque::with_capacity(start.len());
         for &v in start {
             if !self.queued[v as usize] {
@@ -279,12 +284,28 @@ impl<'a> Dp<'a> {
                         changed = true;
                     }
                 }
+                if stop {
+                    let ps = &self.pos[e as usize];
+                    let early = self.at(h, k) > r
+                        || ps
+                            .iter()
+                            .take(k + 1)
+                            .enumerate()
+                            .any(|(i, &pi)| self.at(v, k - i) + pi > r);
+                    if early {
+                        for &x in &q {
+                            self.queued[x as usize] = false;
+                        }
+                        return true;
+                    }
+                }
                 if changed && !self.queued[h as usize] {
                     self.queued[h as usize] = true;
                     q.push_back(h);
                 }
             }
         }
+        false
     }
 
     /// Violations at the heads of masked edges and just before their selected sites.
@@ -417,7 +438,7 @@ pub fn check_with_witnesses(
 ) -> (CheckResult, Vec<Walk>) {
     let mut dp = Dp::new(p, selected);
     let all: Vec<u32> = (0..p.nodes as u32).collect();
-    dp.solve(None, &all);
+    dp.solve(None, &all, false);
     let edges: Vec<u32> = (0..p.edges.len() as u32).collect();
     let violations = dp.violations(None, &edges);
     let longest_m =
@@ -671,8 +692,8 @@ impl<'a> LocalChecker<'a> {
             .collect();
         nodes.sort_unstable();
         nodes.dedup();
-        self.dp.solve(Some(&self.mask), &nodes);
-        let ok = self.dp.violations(Some(&self.mask), &edges).is_empty();
+        let ok = !self.dp.solve(Some(&self.mask), &nodes, true)
+            && self.dp.violations(Some(&self.mask), &edges).is_empty();
         self.dp.reset(&nodes);
         for &e in &edges {
             self.mask[e as usize] = false;
