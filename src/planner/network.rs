@@ -7,9 +7,12 @@
 //! * **Graph.** Directed edges are (road section, direction) for every
 //!   section of the loaded (drivable) network in each permitted direction
 //!   (one-way honoured); nodes are the topology's junctions and road ends.
-//!   Any turn at a node is allowed, U-turns included (a superset of the
-//!   topology's successors, so conservative); turning round inside a road is
-//!   not modelled.
+//!   Any turn at a node is allowed, U-turns included (the topology's
+//!   successors; `planner.u_turns = "anywhere"`, the default). With
+//!   `u_turns = "dead_ends"` a walk turns back only where a single road ends:
+//!   each directed edge then has its own end nodes, joined by 1 mm
+//!   connectors (no sites) for each permitted transition, so the same walk
+//!   machinery applies. Turning round inside a road is not modelled.
 //! * **Tags serve one direction**: a road-surface tag in one lane, a roadside
 //!   post on the right of travel (right-hand traffic), a ceiling reader above
 //!   one lane. A one-way road has one directed edge, so its tags serve all its
