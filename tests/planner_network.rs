@@ -112,12 +112,9 @@ fn network_plan_cli_on_helsinki_writes_verified_validated_plan() {
     assert!(csv.contains("coverage = network") || csv.contains("coverage"));
 
     // Re-planning with the plan installed (its tags.csv as existing_tags):
-    // the installed tags snap back onto their directed roads and the walk DP
-    // finds them sufficient, so little is added. Installed tags snap to the
-    // nearest road within 15 m; a tag at the lane centre (1.6 m off the
-    // centreline) in the middle of a very short section next to a junction
-    // can be nearer another road, and then its own direction lacks it: 29 of
-    // 642 (4.5 %) when this was written, hence the 8 % allowance.
+    // every installed tag snaps back onto its own directed road (the best
+    // fit as a lane-centre point among the roads within 15 m) and the walk
+    // DP finds them sufficient, so nothing is added.
     let s2 = scenario_file(dir.path(), |t| {
         t.replace(
             "validation_runs = 100",
@@ -130,9 +127,10 @@ fn network_plan_cli_on_helsinki_writes_verified_validated_plan() {
     let scn2 = Scenario::load(&s2).unwrap();
     let set2 = PlannerSettings::from_scenario(&scn2).unwrap();
     let p2 = plan_network(&scn2, &set2, 1, false).unwrap();
-    assert_eq!(p2.existing_kept + p2.existing_off_network, n);
-    assert!(p2.existing_kept >= n * 98 / 100, "{}", p2.existing_kept);
-    assert!(p2.tag_count() <= n * 8 / 100, "added {}", p2.tag_count());
+    assert_eq!(p2.existing_kept, n);
+    assert_eq!(p2.existing_off_network, 0);
+    assert_eq!(p2.tag_count(), 0, "added {}", p2.tag_count());
+    assert!(p2.verified);
 }
 
 #[test]

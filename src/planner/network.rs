@@ -22,9 +22,11 @@
 //!   is large and the reach is hundreds of metres or more): `ceil(ℓ/d)` sites
 //!   evenly spread, so an edge shorter than the spacing gets one at its
 //!   midpoint. Each site takes the cheapest allowed mounting (ceiling only in
-//!   tunnels) and its cost. Installed tags (`existing_tags`) snap to the
-//!   nearest directed edge within 15 m (the direction whose right-hand side
-//!   they are on, digitised forward when on the centreline) and count as free
+//!   tunnels) and its cost. Installed tags (`existing_tags`) snap to a
+//!   directed edge within 15 m — among the roads there, the one the point
+//!   fits best as a lane centre (so a tag next to a junction or a parallel
+//!   carriageway keeps its own road), in the direction whose right-hand side
+//!   it is on (digitised forward on the centreline) — and count as free
 //!   selected sites. `forbidden_m` (stretches of *route* distance) and
 //!   `min_spacing_m` do not apply to networks and are rejected.
 //! * **Error budget.** The reach `R` comes from the navigation [`Filter`]
@@ -656,7 +658,7 @@ fn build(
             "the map has no drivable road section to cover".into(),
         ));
     }
-    // Installed tags: nearest directed edge within 15 m.
+    // Installed tags: the best-fitting directed edge within 15 m.
     let mut existing_off = 0;
     for (ti, t) in settings.existing_tags.iter().enumerate() {
         let p = net.frame.to_enu(&crate::geodesy::Geodetic {
@@ -665,20 +667,43 @@ fn build(
             height: 0.0,
         });
         let p2 = [p[0], p[1]];
-        let Some((seg_id, d)) = net.rtree.nearest(p2) else {
+        // Among the segments within 15 m, the one the tag fits best as a
+        // lane-centre point: its lateral offset closest to half a lane (two-way
+        // roads) or to the centreline (one-way), projection inside the
+        // segment preferred. The side gives the direction served.
+        let mut best: Option<(f64, u32, f64, f64)> = None; // (score, segment, offset, cross)
+        for (seg_id, d) in net.rtree.nearest_iter(p2) {
+            if d > EXISTING_SNAP_M {
+                break;
+            }
+            let seg = &net.segments[seg_id as usize];
+            let (dx, dy) = (seg.b[0] - seg.a[0], seg.b[1] - seg.a[1]);
+            let l2 = (dx * dx + dy * dy).max(1e-12);
+            let raw = ((p2[0] - seg.a[0]) * dx + (p2[1] - seg.a[1]) * dy) / l2;
+            let tpar = raw.clamp(0.0, 1.0);
+            let cross = (dx * (p2[1] - seg.a[1]) - dy * (p2[0] - seg.a[0])) / l2.sqrt();
+            let sec = &net.sections[seg.section as usize];
+            let expected = if sec.oneway.is_oneway() {
+                0.0
+            } else {
+                0.5 * lane_width_m(&net.roads[sec.road as usize].attributes)
+            };
+            let outside = (raw - tpar).abs() * l2.sqrt();
+            let score = (cross.abs() - expected).abs() + outside;
+            if best.is_none_or(|b| score < b.0 - 1e-9) {
+                best = Some((
+                    score,
+                    seg_id,
+                    seg.section_offset_m + tpar * seg.length_m,
+                    cross,
+                ));
+            }
+        }
+        let Some((_, seg_id, off, cross)) = best else {
             existing_off += 1;
             continue;
         };
-        if d > EXISTING_SNAP_M {
-            existing_off += 1;
-            continue;
-        }
         let seg = &net.segments[seg_id as usize];
-        let (dx, dy) = (seg.b[0] - seg.a[0], seg.b[1] - seg.a[1]);
-        let l2 = (dx * dx + dy * dy).max(1e-12);
-        let tpar = (((p2[0] - seg.a[0]) * dx + (p2[1] - seg.a[1]) * dy) / l2).clamp(0.0, 1.0);
-        let off = seg.section_offset_m + tpar * seg.length_m;
-        let cross = dx * (p2[1] - seg.a[1]) - dy * (p2[0] - seg.a[0]);
         // Right of the digitised direction (or on it): forward; left: backward.
         let prefer_fwd = cross <= 0.0;
         let sec = seg.section;
