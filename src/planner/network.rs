@@ -1364,6 +1364,73 @@ mod tests {
     }
 
     #[test]
+    fn reach_analysis_agrees_with_the_route_budget_on_a_straight_drive() {
+        // The same straight drive north as a motion-command route: the route
+        // planner's covariance budget (budget.rs) must find the same start
+        // reach and the same reach after a fix where the bound first exceeds
+        // the requirement (to one IMU sample: 50 km/h × 10 ms = 0.14 m).
+        let text = r#"name = "straight"
+requirement_m = 20.0
+[[route]]
+start = { lat = 60.17, lon = 24.94, height_m = 0.0, heading_deg = 0.0, speed_kmh = 50 }
+motion = [ { kind = "cruise", distance_m = 12000 } ]
+[navigator]
+mode = "integrated"
+[imu]
+rate_hz = 100
+gyro_bias_dph = [10, 10, 10]
+accel_bias_ug = [1000, 1000, 1000]
+gyro_arw_dprh = 0.3
+accel_vrw_ugprhz = 100
+[odometer]
+scale_factor_error = 0.01
+[aiding]
+odometer = true
+baro = true
+rfid = true
+"#;
+        let scn = Scenario::parse(std::path::Path::new("straight.toml"), text).unwrap();
+        let truth = TruthSource::new(&scn).unwrap();
+        let budget = crate::planner::budget::Budget::new(&scn, &truth, None);
+        let req = 20.0;
+        let m = Mounting::RoadSurface;
+        let c = reach_class(
+            &scn,
+            60.17f64.to_radians(),
+            24.94f64.to_radians(),
+            0.0,
+            50.0 / 3.6,
+            m,
+            req,
+        )
+        .unwrap();
+        let r0 = budget.start_reach(req);
+        assert!(
+            (c.start_reach_m - r0).abs() < 0.2,
+            "{} vs {r0}",
+            c.start_reach_m
+        );
+        assert!(c.start_reach_m > 500.0 && c.start_reach_m < 10_000.0);
+        // The fix sample: the first past the start reach.
+        let fix_at = budget
+            .samples()
+            .iter()
+            .find(|x| x.avp.distance_m > r0 + 1e-9)
+            .unwrap()
+            .avp
+            .distance_m;
+        let (_, sites) = budget.tag_free(100.0, &[fix_at]);
+        let (_, reach_abs) = budget.reaches(&sites, &[m], req)[0];
+        let period = reach_abs - sites[0].distance_m;
+        assert!(
+            (c.periods_m[0] - period).abs() < 0.2,
+            "{:?} vs {period}",
+            c.periods_m
+        );
+        assert!(!c.capped && c.steady_reach_m <= c.periods_m[0]);
+    }
+
+    #[test]
     fn speed_classes_round_down_to_5_kmh_and_respect_the_scenario_speed() {
         let v = 50.0 / 3.6;
         assert!((edge_speed(v, Some(30.0)) * 3.6 - 30.0).abs() < 1e-9);

@@ -23,9 +23,14 @@
 //!   exactly by the dynamic programme restricted to the ball of radius `R + 1`
 //!   around the tag (a violation created by removing a tag lies on a walk of
 //!   length just over `R` through it).
-//! * [`packing_lower_bound`]: edge-disjoint walks longer than `R`, each of
-//!   which needs `k + 1` passes of distinct sites, so any feasible selection
+//! * [`packing_lower_bound`]: short cycles and edge-disjoint walks longer
+//!   than `R`, each of which needs tags of its own, so any feasible selection
 //!   has at least the sum of their needs.
+//!
+//! The greedy carries no worst-case guarantee across rounds (within a round
+//! it is the classic greedy multicover, within a harmonic factor of that
+//! round's optimum); instead every plan reports its own lower bound, and
+//! the gap between the two is the stated bound.
 
 use std::collections::{BinaryHeap, VecDeque};
 
