@@ -429,7 +429,7 @@ fn write_network_plan(
         .collect();
     println!(
         "{}: network coverage: {} new tag(s) ({}){} on {} directed road sections ({:.1} km, {} candidates), total cost {:.1}; \
-         requirement {} m with {} missed read(s) tolerated; reach R = {:.0} m (steady {:.0} m, start {:.0} m); \
+         requirement {} m with {} missed read(s) tolerated; reach R = {:.0}–{:.0} m by speed class (slowest: steady {:.0} m, start {:.0} m); \
          method: {}; lower bound {} tag(s); verified: {}",
         p.scenario,
         p.tag_count(),
@@ -442,11 +442,12 @@ fn write_network_plan(
         p.requirement_m,
         p.tolerate_missed_reads,
         p.reach_m,
+        p.budget_reference_m,
         p.steady_reach_m,
         p.start_reach_m,
         p.method,
         p.lower_bound,
-        if p.verified { "no walk longer than R with ≤ k tags" } else { "NO" },
+        if p.verified { "no walk exceeds the error budget with ≤ k tags" } else { "NO" },
     );
     if let Some(v) = &p.validation {
         println!(

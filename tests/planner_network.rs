@@ -70,8 +70,10 @@ fn network_plan_cli_on_helsinki_writes_verified_validated_plan() {
     assert!((200.0..5000.0).contains(&r), "{r}");
     assert!(r <= plan["steady_reach_m"].as_f64().unwrap() + 1e-9);
     assert!(r <= plan["start_reach_m"].as_f64().unwrap() + 1e-9);
-    // The longest walk with ≤ k tags stays within the reach.
-    assert!(plan["longest_walk_m"].as_f64().unwrap() <= r + 1e-6);
+    // The longest walk with ≤ k tags stays within the error budget, and the
+    // budget's reference (fastest class) is at least the tightest reach.
+    assert!(plan["longest_walk_budget"].as_f64().unwrap() <= 1.0 + 1e-9);
+    assert!(plan["budget_reference_m"].as_f64().unwrap() >= r);
     assert!(lb > 0 && lb <= n, "lower bound {lb}, tags {n}");
     assert!(plan["directed_edges"].as_u64().unwrap() > 1000);
     assert!(plan["candidates"].as_u64().unwrap() >= plan["directed_edges"].as_u64().unwrap());

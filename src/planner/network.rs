@@ -43,11 +43,16 @@
 //!   attitude uncertainty after earlier fixes included). Fixes at most
 //!   `R_steady` apart keep the bound within the requirement if a shorter gap
 //!   never leaves the filter worse off (covariance monotone in the gap).
-//!   The constraint uses `R = min(R_steady, R_start)` over all classes.
-//!   Stops (standing still) are not modelled.
+//!   Each speed class `c` gets `R_c = min(R_steady, R_start)` over the
+//!   mountings in use, and a metre of road in class `c` consumes `1/R_c` of
+//!   the error budget (the instance measures it as `R_ref/R_c` metres
+//!   against the fastest class's reach `R_ref`): exact when the error grows
+//!   with time alone (`R_c ∝ v_c`) or with distance alone (`R_c` equal),
+//!   an approximation for mixtures, checked by the validation. Stops
+//!   (standing still) are not modelled.
 //! * **Constraint**: every directed walk (revisiting edges and looping
-//!   allowed) longer than `R` passes at least `k + 1` tags (with
-//!   multiplicity). Checked exactly by dynamic programming
+//!   allowed) that consumes more than the error budget passes at least
+//!   `k + 1` tags (with multiplicity). Checked exactly by dynamic programming
 //!   ([`network_cover::check`]).
 //! * **Optimisation**: minimum total cost. Exact by integer programming with
 //!   lazy walk constraints ([`network_ilp`]) when the instance is small
@@ -210,8 +215,12 @@ pub struct NetworkPlan {
     pub lower_bound: usize,
     /// Lower bound on the cost of new tags.
     pub lower_bound_cost: f64,
-    /// Reach used in the constraint, min(steady, start) (m).
+    /// Reach of the slowest speed class, min(steady, start) over the
+    /// mountings in use (m): the tightest.
     pub reach_m: f64,
+    /// Reach of the fastest class (m): the budget's reference; a metre of
+    /// a road of class c consumes `1/R_c` of the budget.
+    pub budget_reference_m: f64,
     /// Steady-state reach between fixes (m).
     pub steady_reach_m: f64,
     /// Reach from the prior at a start (m).
@@ -236,10 +245,12 @@ pub struct NetworkPlan {
     pub tags: Vec<NetworkTag>,
     /// Total cost of new tags.
     pub total_cost: f64,
-    /// The dynamic programme finds no walk longer than R with ≤ k passes.
+    /// The dynamic programme finds no walk consuming more than the budget
+    /// with ≤ k passes.
     pub verified: bool,
-    /// Longest walk with at most k passes (m; capped at R + 1).
-    pub longest_walk_m: f64,
+    /// Largest budget fraction consumed by a walk with at most k passes
+    /// (≤ 1 when verified; capped just above 1).
+    pub longest_walk_budget: f64,
     /// Time per stage (ms): load, reach, build, solve.
     pub timings_ms: BTreeMap<String, f64>,
     /// Monte Carlo validation, when run.
@@ -584,12 +595,16 @@ struct Built {
     directed_length_m: f64,
     /// Directed road edges (connectors come after them).
     physical_edges: usize,
+    /// Budget metres per metre of each edge (R_ref / R of its speed class).
+    edge_scale: Vec<f64>,
 }
 
 fn edge_speed(scn_speed: f64, maxspeed_kmh: Option<f64>) -> f64 {
     let v = maxspeed_kmh.map_or(scn_speed, |m| (m / 3.6).min(scn_speed));
-    // 5 km/h classes, rounded down, at least 10 km/h.
-    let kmh = ((v * 3.6 / 5.0).floor() * 5.0).max(10.0);
+    // 5 km/h classes, rounded down (slower is the worse case); a speed
+    // below 5 km/h is its own class (at least 1 km/h).
+    let kmh = (v * 3.6 / 5.0).floor() * 5.0;
+    let kmh = if kmh < 5.0 { (v * 3.6).max(1.0) } else { kmh };
     kmh / 3.6
 }
 
@@ -769,6 +784,7 @@ fn build(
         existing_off,
         directed_length_m,
         physical_edges: physical,
+        edge_scale: vec![1.0; physical],
     })
 }
 
@@ -818,6 +834,8 @@ fn describe_walk(net: &Network, built: &Built, w: &Walk) -> String {
         if !seen.insert((sec, fwd)) {
             continue;
         }
+        let f = built.edge_scale[e as usize];
+        let (a, b) = (a / f, b / f);
         let s = &net.sections[sec as usize];
         let len = s.length_m;
         let (sa, sb) = if fwd { (a, b) } else { (len - b, len - a) };
@@ -903,7 +921,7 @@ pub fn plan_network_on(
     let speeds: BTreeSet<u64> = built
         .edge_speed
         .iter()
-        .map(|v| (v * 3.6).round() as u64)
+        .map(|v| (v * 3.6 * 100.0).round() as u64)
         .collect();
     let mountings: BTreeSet<&'static str> =
         built.site_mounting.iter().map(|m| m.as_str()).collect();
@@ -912,7 +930,7 @@ pub fn plan_network_on(
         .flat_map(|&s| {
             mountings
                 .iter()
-                .filter_map(move |m| Mounting::parse(m).map(|m| (s as f64 / 3.6, m)))
+                .filter_map(move |m| Mounting::parse(m).map(|m| (s as f64 / 360.0, m)))
         })
         .collect();
     if classes.is_empty() {
@@ -935,13 +953,37 @@ pub fn plan_network_on(
         .iter()
         .map(|c| c.start_reach_m)
         .fold(f64::INFINITY, f64::min);
-    let reach_m = steady.min(start);
-    if reach_m <= 0.0 {
+    // Reach per speed class: the smallest over the mountings in use, steady
+    // and from the prior.
+    let key = |v: f64| (v * 3.6 * 100.0).round() as u64;
+    let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
+    for (c, &(v, _)) in reach_classes.iter().zip(&classes) {
+        let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
+        *r = r.min(c.steady_reach_m.min(c.start_reach_m));
+    }
+    let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);
+    let r_ref = class_reach.values().copied().fold(0.0, f64::max);
+    if !(reach_m > 0.0 && r_ref.is_finite()) {
         return Err(Error::InvalidParameter(format!(
             "infeasible: the {req} m requirement leaves no distance between fixes (reach 0 m)"
         )));
     }
-    built.problem.reach_m = reach_m;
+    // Error budget consumed: a metre of a road in speed class c uses
+    // 1/R_c of it, so the instance measures it as R_ref/R_c metres against
+    // the reach R_ref (exact when the error grows with time alone, or with
+    // distance alone; a mixture is approximated).
+    for e in 0..built.physical_edges {
+        let r = class_reach
+            .get(&key(built.edge_speed[e]))
+            .copied()
+            .unwrap_or(reach_m);
+        built.edge_scale[e] = r_ref / r;
+        built.problem.edges[e].length_m *= built.edge_scale[e];
+    }
+    for site in &mut built.problem.sites {
+        site.at_m *= built.edge_scale[site.edge as usize];
+    }
+    built.problem.reach_m = r_ref;
     let p = &built.problem;
     // Solve.
     let t = Instant::now();
@@ -950,14 +992,21 @@ pub fn plan_network_on(
     let mut lb_cost = lb_pack_cost;
     let mut selected: Option<Vec<bool>> = None;
     let infeasible = |w: &Walk| -> Error {
+        let metres: f64 = w
+            .pieces
+            .iter()
+            .filter(|x| (x.0 as usize) < built.physical_edges)
+            .map(|x| (x.2 - x.1) / built.edge_scale[x.0 as usize])
+            .sum();
         Error::InvalidParameter(format!(
             "infeasible: the {req} m requirement cannot be held with {k} missed read(s) tolerated on a walk of \
-             {:.0} m through {}: its candidate sites cannot give {} read(s) within the reach R = {:.0} m \
-             (candidate spacing {spacing} m{})",
-            w.length_m(),
+             {:.0} m through {}: its candidate sites cannot give {} read(s) within the error budget \
+             (reach R = {:.0} m on the slowest roads, {:.0} m on the fastest; candidate spacing {spacing} m{})",
+            metres,
             describe_walk(net, &built, w),
             k + 1,
             reach_m,
+            r_ref,
             if reach_m < spacing * (k + 1) as f64 {
                 "; R is shorter than the spacing allows: lower planner.candidate_spacing_m"
             } else {
@@ -1029,11 +1078,8 @@ pub fn plan_network_on(
         let (sec, fwd) = built.edge_dir[site.edge as usize];
         let s = &net.sections[sec as usize];
         let a = &net.roads[s.road as usize].attributes;
-        let off = if fwd {
-            site.at_m
-        } else {
-            s.length_m - site.at_m
-        };
+        let at = site.at_m / built.edge_scale[site.edge as usize];
+        let off = if fwd { at } else { s.length_m - at };
         let (ll, enu, chain, dir) = section_point(net, sec, off);
         let oneway = s.oneway.is_oneway();
         let lane = if oneway { 0.0 } else { 0.5 * lane_width_m(a) };
@@ -1098,7 +1144,8 @@ pub fn plan_network_on(
         tags,
         total_cost,
         verified: res.feasible(),
-        longest_walk_m: res.longest_m,
+        longest_walk_budget: res.longest_m / r_ref,
+        budget_reference_m: r_ref,
         timings_ms: timings,
         validation: None,
         selected: sel,
@@ -1436,7 +1483,8 @@ rfid = true
         assert!((edge_speed(v, Some(30.0)) * 3.6 - 30.0).abs() < 1e-9);
         assert!((edge_speed(v, Some(80.0)) * 3.6 - 50.0).abs() < 1e-9);
         assert!((edge_speed(v, None) * 3.6 - 50.0).abs() < 1e-9);
-        assert!((edge_speed(v, Some(3.0)) * 3.6 - 10.0).abs() < 1e-9);
+        assert!((edge_speed(v, Some(3.0)) * 3.6 - 3.0).abs() < 1e-9);
+        assert!((edge_speed(v, Some(8.0)) * 3.6 - 5.0).abs() < 1e-9);
         assert!((edge_speed(v, Some(47.0)) * 3.6 - 45.0).abs() < 1e-9);
     }
 }
