@@ -620,11 +620,52 @@ impl<'a> LocalChecker<'a> {
         }
     }
 
+    /// Nodes within `lim` of `from` (reached at distance `d0`) along edges
+    /// (`forward`) or against them.
+    fn ball(&mut self, from: u32, d0: f64, lim: f64, forward: bool) -> Vec<u32> {
+        let p = self.p;
+        let mut touched: Vec<u32> = Vec::new();
+        let mut heap: BinaryHeap<(std::cmp::Reverse<u64>, u32)> = BinaryHeap::new();
+        if d0 <= lim {
+            self.dist[from as usize] = d0;
+            touched.push(from);
+            heap.push((std::cmp::Reverse(d0.to_bits()), from));
+        }
+        while let Some((std::cmp::Reverse(db), v)) = heap.pop() {
+            let d = f64::from_bits(db);
+            if d > self.dist[v as usize] {
+                continue;
+            }
+            let adj = if forward {
+                &p.out_edges[v as usize]
+            } else {
+                &p.in_edges[v as usize]
+            };
+            for &e in adj {
+                let ed = &p.edges[e as usize];
+                let w = if forward { ed.head } else { ed.tail };
+                let nd = d + ed.length_m;
+                if nd < self.dist[w as usize] && nd <= lim {
+                    if self.dist[w as usize].is_infinite() {
+                        touched.push(w);
+                    }
+                    self.dist[w as usize] = nd;
+                    heap.push((std::cmp::Reverse(nd.to_bits()), w));
+                }
+            }
+        }
+        for &v in &touched {
+            self.dist[v as usize] = f64::INFINITY;
+        }
+        touched
+    }
+
     /// Removes selected site `s` if the selection stays feasible; returns
     /// whether it did. Exact: a violation created by the removal lies on a
-    /// walk of length just over R through the site, hence within network
-    /// distance R + 1 of it (either direction), and the dynamic programme
-    /// over that ball sees exactly the walks inside it.
+    /// walk of length just over R through the site, whose parts before and
+    /// after the site are walks of at most R + 1 to and from it; the
+    /// dynamic programme over the edges entering the backward ball and
+    /// leaving the forward ball sees every such walk, and only real walks.
     pub fn try_remove(&mut self, s: u32) -> bool {
         let p = self.p;
         let site = p.sites[s as usize];
@@ -647,43 +688,18 @@ impl<'a> LocalChecker<'a> {
             }
         }
         let lim = p.reach_m + 1.0;
-        // Dijkstra over the undirected graph from the site.
-        let mut touched_nodes: Vec<u32> = Vec::new();
-        let mut heap: BinaryHeap<(std::cmp::Reverse<u64>, u32)> = BinaryHeap::new();
-        for (v, d) in [(e0.tail, site.at_m), (e0.head, e0.length_m - site.at_m)] {
-            if d < self.dist[v as usize] {
-                if self.dist[v as usize].is_infinite() {
-                    touched_nodes.push(v);
-                }
-                self.dist[v as usize] = d;
-                heap.push((std::cmp::Reverse(d.to_bits()), v));
-            }
-        }
-        while let Some((std::cmp::Reverse(db), v)) = heap.pop() {
-            let d = f64::from_bits(db);
-            if d > self.dist[v as usize] || d > lim {
-                continue;
-            }
-            for &e in p.out_edges[v as usize]
-                .iter()
-                .chain(&p.in_edges[v as usize])
-            {
-                let ed = &p.edges[e as usize];
-                let w = if ed.tail == v { ed.head } else { ed.tail };
-                let nd = d + ed.length_m;
-                if nd < self.dist[w as usize] && nd <= lim {
-                    if self.dist[w as usize].is_infinite() {
-                        touched_nodes.push(w);
-                    }
-                    self.dist[w as usize] = nd;
-                    heap.push((std::cmp::Reverse(nd.to_bits()), w));
-                }
-            }
-        }
-        // Edges touching a node of the ball, and the site's edge.
+        // The violating walk's part after the site is a forward walk from
+        // it, the part before a backward walk to it, each at most R + 1
+        // long: Dijkstra forward from the head and backward from the tail.
+        let fwd = self.ball(e0.head, e0.length_m - site.at_m, lim, true);
+        let bwd = self.ball(e0.tail, site.at_m, lim, false);
+        // Edges leaving the forward ball, entering the backward ball, and
+        // the site's edge.
         let mut edges: Vec<u32> = vec![site.edge];
-        for &v in &touched_nodes {
+        for &v in &fwd {
             edges.extend_from_slice(&p.out_edges[v as usize]);
+        }
+        for &v in &bwd {
             edges.extend_from_slice(&p.in_edges[v as usize]);
         }
         edges.sort_unstable();
@@ -702,9 +718,6 @@ impl<'a> LocalChecker<'a> {
         self.dp.reset(&nodes);
         for &e in &edges {
             self.mask[e as usize] = false;
-        }
-        for &v in &touched_nodes {
-            self.dist[v as usize] = f64::INFINITY;
         }
         if !ok {
             let pe = &mut self.dp.pos[site.edge as usize];
