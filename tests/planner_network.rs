@@ -108,10 +108,32 @@ fn network_plan_cli_on_helsinki_writes_verified_validated_plan() {
     let gj: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(o.join("tags.geojson")).unwrap()).unwrap();
     assert_eq!(gj["features"].as_array().unwrap().len(), n);
-    for f in ["tags.kml", "tags.gpx"] {
-        assert!(std::fs::metadata(o.join(f)).unwrap().len() > 1000, "{f}");
+    let _: kml::Kml = std::fs::read_to_string(o.join("tags.kml"))
+        .unwrap()
+        .parse()
+        .expect("KML parses");
+    let g = gpx::read(std::io::BufReader::new(
+        std::fs::File::open(o.join("tags.gpx")).unwrap(),
+    ))
+    .expect("GPX parses");
+    assert_eq!(g.waypoints.len(), n);
+    // The metadata names the coverage and the reach.
+    assert!(
+        csv.contains("coverage") && csv.contains("network"),
+        "{}",
+        &csv[..400]
+    );
+    assert!(csv.contains("reach_m"));
+    // Every tag lies within the map's Helsinki extract (sanity of the
+    // chainage → position conversion).
+    for f in gj["features"].as_array().unwrap() {
+        let c = &f["geometry"]["coordinates"];
+        let (lon, lat) = (c[0].as_f64().unwrap(), c[1].as_f64().unwrap());
+        assert!(
+            (60.1..60.25).contains(&lat) && (24.8..25.1).contains(&lon),
+            "{lat} {lon}"
+        );
     }
-    assert!(csv.contains("coverage = network") || csv.contains("coverage"));
 
     // Re-planning with the plan installed (its tags.csv as existing_tags):
     // every installed tag snaps back onto its own directed road (the best

@@ -324,6 +324,11 @@ impl NetworkPlan {
         p.insert("method".into(), self.method.clone());
         p.insert("reach_m".into(), format!("{:.1}", self.reach_m));
         p.insert(
+            "budget_reference_m".into(),
+            format!("{:.1}", self.budget_reference_m),
+        );
+        p.insert("u_turns".into(), self.u_turns.clone());
+        p.insert(
             "tolerate_missed_reads".into(),
             self.tolerate_missed_reads.to_string(),
         );
