@@ -358,6 +358,9 @@ fn plan(
     if let Some(r) = runs {
         settings.validation_runs = r;
     }
+    if settings.coverage == planner::Coverage::Network {
+        return write_network_plan(&scn, &settings, out_dir, seed, baseline, out);
+    }
     let truth = waymark::sim::TruthSource::new(&scn)?;
     note!(
         out,
@@ -526,6 +529,128 @@ fn keep_inputs(scenario: &Path, out_dir: &Path, tags: Option<&Path>) -> Result<(
     waymark::export::write_atomic(&out_dir.join("scenario.toml"), &text)?;
     waymark::report::write_inputs(out_dir, scenario, tags)?;
     Ok(())
+}
+
+/// `waymark plan` for `coverage = "network"`: plan, validate, write the files.
+fn write_network_plan(
+    scn: &waymark::sim::Scenario,
+    settings: &waymark::planner::PlannerSettings,
+    out_dir: &Path,
+    seed: u64,
+    baseline: bool,
+    out: Out,
+) -> Result<serde_json::Value> {
+    use waymark::export::{tags_csv, tags_geojson, tags_gpx, tags_kml, write_atomic};
+    use waymark::planner::network;
+    if baseline {
+        anyhow::bail!("--baseline compares with uniform spacing along a route; it does not apply to coverage = \"network\"");
+    }
+    let t0 = Instant::now();
+    note!(
+        out,
+        "waymark plan: {}: network coverage (reach from the filter, then placement on every directed road)",
+        scn.file.name
+    );
+    let mut p = network::plan_network(scn, settings, seed, false)?;
+    let t_plan = t0.elapsed().as_secs_f64();
+    if settings.validation_runs > 0 {
+        note!(
+            out,
+            "waymark plan: validating {} tag(s) by {} Monte Carlo run(s) on sampled paths",
+            p.tag_count(),
+            settings.validation_runs
+        );
+        let net = network::scenario_network(scn)?;
+        p.validation = Some(network::validate_network_plan(
+            scn,
+            &net,
+            &p,
+            settings.validation_runs,
+            seed,
+        )?);
+    }
+    let (recs, meta) = p.export(scn)?;
+    std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+    write_atomic(&out_dir.join("tags.csv"), tags_csv(&recs, &meta).as_bytes())?;
+    write_atomic(
+        &out_dir.join("tags.geojson"),
+        tags_geojson(&recs, &meta).as_bytes(),
+    )?;
+    write_atomic(&out_dir.join("tags.kml"), tags_kml(&recs, &meta).as_bytes())?;
+    write_atomic(&out_dir.join("tags.gpx"), tags_gpx(&recs, &meta).as_bytes())?;
+    let mut json = serde_json::to_value(&p)?;
+    json["tag_count"] = serde_json::json!(p.tag_count());
+    json["tags_by_mounting"] = serde_json::json!(p.by_mounting());
+    json["waymark_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
+    json["plan_time_s"] = serde_json::json!(t_plan);
+    write_atomic(
+        &out_dir.join("plan.json"),
+        serde_json::to_string_pretty(&json)?.as_bytes(),
+    )?;
+    let by: Vec<String> = p
+        .by_mounting()
+        .iter()
+        .map(|(k, v)| format!("{v} {k}"))
+        .collect();
+    text!(
+        out,
+        "{}: network coverage: {} new tag(s) ({}){} on {} directed road sections ({:.1} km, {} candidates), total cost {:.1}; \
+         requirement {} m with {} missed read(s) tolerated; reach R = {:.0}–{:.0} m by speed class (slowest: steady {:.0} m, start {:.0} m); \
+         method: {}; lower bound {} tag(s); verified: {}",
+        p.scenario,
+        p.tag_count(),
+        if by.is_empty() { "none".to_string() } else { by.join(", ") },
+        if p.existing_kept > 0 { format!(" + {} installed", p.existing_kept) } else { String::new() },
+        p.directed_edges,
+        p.directed_length_km,
+        p.candidates,
+        p.total_cost,
+        p.requirement_m,
+        p.tolerate_missed_reads,
+        p.reach_m,
+        p.budget_reference_m,
+        p.steady_reach_m,
+        p.start_reach_m,
+        p.method,
+        p.lower_bound,
+        if p.verified { "no walk exceeds the error budget with ≤ k tags" } else { "NO" },
+    );
+    if let Some(v) = &p.validation {
+        text!(
+        out,
+            "validation: {} run(s) on {} sampled path(s) ({:.1} km), seed {}: {:.2} % of distance within {} m; \
+             max horizontal error {:.2} m (path {}, run {}, {:.0} m along it, at {:.6}, {:.6}{})",
+            v.runs,
+            v.paths,
+            v.paths_length_km,
+            v.seed,
+            100.0 * v.fraction_within_requirement,
+            p.requirement_m,
+            v.max_horizontal_error_m,
+            v.worst_path,
+            v.worst_run,
+            v.worst_distance_m,
+            v.worst_lat,
+            v.worst_lon,
+            v.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default()
+        );
+    }
+    text!(
+        out,
+        "wrote {}/tags.csv, tags.geojson, tags.kml, tags.gpx, plan.json in {:.1} s",
+        out_dir.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    json["out"] = serde_json::json!(out_dir.display().to_string());
+    json["files"] = serde_json::json!([
+        "tags.csv",
+        "tags.geojson",
+        "tags.kml",
+        "tags.gpx",
+        "plan.json"
+    ]);
+    json["elapsed_s"] = serde_json::json!(t0.elapsed().as_secs_f64());
+    Ok(json)
 }
 
 fn simulate(

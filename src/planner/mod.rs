@@ -6,6 +6,9 @@
 
 pub mod budget;
 pub mod forward;
+pub mod network;
+pub mod network_cover;
+pub mod network_ilp;
 pub mod placement;
 
 use crate::error::{Error, Result};
@@ -96,9 +99,22 @@ pub fn fix_bound95(rfid: &RfidModel, m: Mounting, v: f64) -> f64 {
     (CHI2_2_95 * a.max(c).powi(2)).sqrt()
 }
 
+/// What a plan must cover (`planner.coverage`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Coverage {
+    /// The scenario's route (`"routes"`, the default).
+    #[default]
+    Routes,
+    /// Every drivable road in each permitted direction (`"network"`):
+    /// see [`network`].
+    Network,
+}
+
 /// Planner settings, from the scenario's `[planner]` with defaults.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlannerSettings {
+    /// What the plan covers.
+    pub coverage: Coverage,
     /// Horizontal requirement (m).
     pub requirement_m: f64,
     /// Consecutive missed reads tolerated.
@@ -156,20 +172,17 @@ impl PlannerSettings {
                 cost: None,
                 refine_iterations: None,
                 existing_tags: None,
+                u_turns: None,
             });
-        match p.coverage.as_deref() {
-            None | Some("routes") => {}
-            Some("network") => {
-                return Err(bad(
-                    "planner.coverage = \"network\" is not implemented yet; use \"routes\"".into(),
-                ))
-            }
+        let coverage = match p.coverage.as_deref() {
+            None | Some("routes") => Coverage::Routes,
+            Some("network") => Coverage::Network,
             Some(o) => {
                 return Err(bad(format!(
                     "planner.coverage = \"{o}\" is not one of routes, network"
                 )))
             }
-        }
+        };
         let names = p
             .mountings
             .unwrap_or_else(|| vec!["road_surface".into(), "roadside".into(), "ceiling".into()]);
@@ -236,6 +249,7 @@ impl PlannerSettings {
             None => vec![],
         };
         Ok(Self {
+            coverage,
             requirement_m,
             tolerate_missed_reads: p.tolerate_missed_reads.unwrap_or(1) as usize,
             mountings,
@@ -569,6 +583,11 @@ pub fn plan_with_progress(
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Plan> {
     tracing::info!(scenario = %scn.file.name, requirement_m = settings.requirement_m, "planning tags");
+    if settings.coverage == Coverage::Network {
+        return Err(Error::InvalidParameter(
+            "planner.coverage = \"network\" plans with planner::network::plan_network".into(),
+        ));
+    }
     let req = settings.requirement_m;
     // Road context (tunnels, road ids) and the network for map matching.
     let ctx = match &scn.route {

@@ -665,6 +665,10 @@ pub struct PlannerSection {
     /// folder): kept, not counted as new, never skipped.
     #[serde(default)]
     pub existing_tags: Option<std::path::PathBuf>,
+    /// Network coverage: where walks may turn back, "anywhere" (any
+    /// junction, the default) or "dead_ends".
+    #[serde(default)]
+    pub u_turns: Option<String>,
 }
 
 /// What a route is made of, validated and in SI units.

@@ -1,0 +1,300 @@
+//! Network coverage (`planner.coverage = "network"`): `waymark plan` as a
+//! real binary on the bundled Helsinki map, the library's plan checked by the
+//! walk DP, re-planning with the plan installed, and bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use waymark::planner::network::{plan_network, plan_network_on, scenario_network};
+use waymark::planner::network_cover::check;
+use waymark::planner::PlannerSettings;
+use waymark::sim::Scenario;
+
+fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_waymark"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("binary runs")
+}
+
+/// The Helsinki network scenario, edited, written next to a copy-free map
+/// path (absolute) in `dir`.
+fn scenario_file(dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string(repo("scenarios/helsinki-network-plan.toml"))
+        .unwrap()
+        .replace(
+            "../maps/helsinki.osm.pbf",
+            repo("maps/helsinki.osm.pbf").to_str().unwrap(),
+        );
+    let p = dir.join("s.toml");
+    std::fs::write(&p, edit(text)).unwrap();
+    p
+}
+
+#[test]
+fn network_plan_cli_on_helsinki_writes_verified_validated_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn = repo("scenarios/helsinki-network-plan.toml");
+    let out = run(
+        &[
+            "plan",
+            scn.to_str().unwrap(),
+            "--out",
+            "out",
+            "--runs",
+            "20",
+        ],
+        dir.path(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}{stdout}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("network coverage"), "{stdout}");
+    let o = dir.path().join("out");
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["coverage"], "network");
+    assert_eq!(plan["verified"], true);
+    let n = plan["tag_count"].as_u64().unwrap() as usize;
+    let lb = plan["lower_bound"].as_u64().unwrap() as usize;
+    let r = plan["reach_m"].as_f64().unwrap();
+    // A 20 m requirement with a MEMS IMU and odometer: the reach is a few
+    // hundred metres to a few km, never more than the steady or start reach.
+    assert!((200.0..5000.0).contains(&r), "{r}");
+    assert!(r <= plan["steady_reach_m"].as_f64().unwrap() + 1e-9);
+    assert!(r <= plan["start_reach_m"].as_f64().unwrap() + 1e-9);
+    // The longest walk with ≤ k tags stays within the error budget, and the
+    // budget's reference (fastest class) is at least the tightest reach.
+    assert!(plan["longest_walk_budget"].as_f64().unwrap() <= 1.0 + 1e-9);
+    assert!(plan["budget_reference_m"].as_f64().unwrap() >= r);
+    assert!(lb > 0 && lb <= n, "lower bound {lb}, tags {n}");
+    assert!(plan["directed_edges"].as_u64().unwrap() > 1000);
+    assert!(plan["candidates"].as_u64().unwrap() >= plan["directed_edges"].as_u64().unwrap());
+    assert!(plan["method"]
+        .as_str()
+        .unwrap()
+        .contains("verified by the walk DP"));
+    assert_eq!(
+        plan["tags_by_mounting"]["road_surface"].as_u64().unwrap() as usize,
+        n
+    );
+    // Validation: 20 runs on sampled paths, ≥ 99 % of distance within 20 m
+    // (the plan holds the predicted 95 % bound within 20 m on every walk, so
+    // far fewer than 1 % of distance may exceed it).
+    let v = &plan["validation"];
+    assert_eq!(v["runs"].as_u64().unwrap(), 20);
+    assert!(v["paths"].as_u64().unwrap() >= 5);
+    assert!(
+        v["fraction_within_requirement"].as_f64().unwrap() >= 0.99,
+        "{v}"
+    );
+    assert!(v["max_horizontal_error_m"].as_f64().unwrap() > 0.0);
+    assert!(v["worst_lat"].as_f64().unwrap() > 60.0);
+    // Files: one CSV row and one feature per new tag, with payloads.
+    let csv = std::fs::read_to_string(o.join("tags.csv")).unwrap();
+    let rows: Vec<&str> = csv
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("tag_id"))
+        .collect();
+    assert_eq!(rows.len(), n);
+    assert!(rows.iter().all(|r| r.split(',').count() >= 10));
+    let gj: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("tags.geojson")).unwrap()).unwrap();
+    assert_eq!(gj["features"].as_array().unwrap().len(), n);
+    let _: kml::Kml = std::fs::read_to_string(o.join("tags.kml"))
+        .unwrap()
+        .parse()
+        .expect("KML parses");
+    let g = gpx::read(std::io::BufReader::new(
+        std::fs::File::open(o.join("tags.gpx")).unwrap(),
+    ))
+    .expect("GPX parses");
+    assert_eq!(g.waypoints.len(), n);
+    // The metadata names the coverage and the reach.
+    assert!(
+        csv.contains("coverage") && csv.contains("network"),
+        "{}",
+        &csv[..400]
+    );
+    assert!(csv.contains("reach_m"));
+    // Every tag lies within the map's Helsinki extract (sanity of the
+    // chainage → position conversion).
+    for f in gj["features"].as_array().unwrap() {
+        let c = &f["geometry"]["coordinates"];
+        let (lon, lat) = (c[0].as_f64().unwrap(), c[1].as_f64().unwrap());
+        assert!(
+            (60.1..60.25).contains(&lat) && (24.8..25.1).contains(&lon),
+            "{lat} {lon}"
+        );
+    }
+
+    // Re-planning with the plan installed (its tags.csv as existing_tags):
+    // every installed tag snaps back onto its own directed road (the best
+    // fit as a lane-centre point among the roads within 15 m) and the walk
+    // DP finds them sufficient, so nothing is added.
+    let s2 = scenario_file(dir.path(), |t| {
+        t.replace(
+            "validation_runs = 100",
+            &format!(
+                "validation_runs = 0\nexisting_tags = \"{}\"",
+                o.join("tags.csv").display()
+            ),
+        )
+    });
+    let scn2 = Scenario::load(&s2).unwrap();
+    let set2 = PlannerSettings::from_scenario(&scn2).unwrap();
+    let p2 = plan_network(&scn2, &set2, 1, false).unwrap();
+    assert_eq!(p2.existing_kept, n);
+    assert_eq!(p2.existing_off_network, 0);
+    assert_eq!(p2.tag_count(), 0, "added {}", p2.tag_count());
+    assert!(p2.verified);
+}
+
+#[test]
+fn network_plan_is_verified_by_the_dp_and_not_below_its_bound() {
+    let scn = Scenario::load(&repo("scenarios/helsinki-network-plan.toml")).unwrap();
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let net = scenario_network(&scn).unwrap();
+    let p = plan_network_on(&scn, &s, &net).unwrap();
+    let prob = p.problem.as_ref().unwrap();
+    assert!(check(prob, &p.selected).feasible());
+    assert!(p.verified);
+    // Every directed edge's candidates are considered, and the plan only
+    // uses candidates.
+    assert_eq!(p.selected.len(), prob.sites.len());
+    assert!(p.tag_count() >= p.lower_bound);
+    // Dropping all tags of the plan leaves violations (the check can fail).
+    let none = vec![false; prob.sites.len()];
+    assert!(!check(prob, &none).feasible());
+    // Tolerating no missed read needs fewer tags, and still verifies.
+    let s0 = PlannerSettings {
+        tolerate_missed_reads: 0,
+        ..s.clone()
+    };
+    let p0 = plan_network_on(&scn, &s0, &net).unwrap();
+    assert!(p0.verified);
+    assert!(
+        p0.tag_count() < p.tag_count(),
+        "{} {}",
+        p0.tag_count(),
+        p.tag_count()
+    );
+    // Tags serve one direction: their positions are the lane centre, right
+    // of travel on two-way roads (offset > 0), on the centreline of one-way
+    // roads.
+    for t in &p.tags {
+        assert_eq!(t.oneway, t.lane_offset_m == 0.0);
+        assert!(t.lane_offset_m <= 2.5);
+    }
+}
+
+#[test]
+fn network_coverage_bad_input_gives_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    // A motion-command route has no network.
+    let motion = r#"name = "m"
+requirement_m = 20.0
+[[route]]
+start = { lat = 60.0, lon = 24.0, height_m = 0.0, heading_deg = 0.0, speed_kmh = 36 }
+motion = [ { kind = "cruise", duration_s = 60 } ]
+[navigator]
+mode = "integrated"
+[aiding]
+odometer = true
+rfid = true
+[planner]
+coverage = "network"
+"#;
+    let p = dir.path().join("motion.toml");
+    std::fs::write(&p, motion).unwrap();
+    let scn = Scenario::load(&p).unwrap();
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let e = plan_network(&scn, &s, 1, false).unwrap_err().to_string();
+    assert!(e.contains("needs a road map"), "{e}");
+    let out = run(&["plan", p.to_str().unwrap(), "--out", "o"], dir.path());
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("needs a road map"), "{err}");
+    assert!(!dir.path().join("o/plan.json").exists());
+
+    // Empty and invalid maps.
+    for (name, content, want) in [
+        ("empty.osm.pbf", "", "empty"),
+        ("bad.geojson", "{ not json", "json"),
+        (
+            "nothing.geojson",
+            r#"{"type":"FeatureCollection","features":[]}"#,
+            "empty",
+        ),
+    ] {
+        let m = dir.path().join(name);
+        std::fs::write(&m, content).unwrap();
+        let sp = scenario_file(dir.path(), |t| {
+            t.replace(
+                repo("maps/helsinki.osm.pbf").to_str().unwrap(),
+                m.to_str().unwrap(),
+            )
+        });
+        let out = run(&["plan", sp.to_str().unwrap(), "--out", "o2"], dir.path());
+        let err = String::from_utf8_lossy(&out.stderr).to_lowercase();
+        assert!(!out.status.success(), "{name}");
+        assert!(
+            err.contains("waymark: error") && err.contains(want),
+            "{name}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+
+    // Route-distance settings do not apply to networks.
+    for (extra, want) in [
+        ("forbidden_m = [[0, 100]]", "forbidden_m"),
+        ("min_spacing_m = 30", "min_spacing_m"),
+    ] {
+        let sp = scenario_file(dir.path(), |t| {
+            t.replace(
+                "validation_runs = 100",
+                &format!("validation_runs = 0\n{extra}"),
+            )
+        });
+        let scn = Scenario::load(&sp).unwrap();
+        let s = PlannerSettings::from_scenario(&scn).unwrap();
+        let e = plan_network(&scn, &s, 1, false).unwrap_err().to_string();
+        assert!(e.contains(want) && e.contains("network"), "{e}");
+    }
+
+    // A requirement below what a fix leaves, and one the candidate spacing
+    // cannot meet: infeasibility reports naming roads.
+    let sp = scenario_file(dir.path(), |t| {
+        t.replace("requirement_m = 20.0", "requirement_m = 0.05")
+    });
+    let scn = Scenario::load(&sp).unwrap();
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let e = plan_network(&scn, &s, 1, false).unwrap_err().to_string();
+    assert!(e.contains("below the best possible tag fix"), "{e}");
+    // 0.3 m: above the ceiling fix, below the navigator's prior.
+    let sp = scenario_file(dir.path(), |t| {
+        t.replace("requirement_m = 20.0", "requirement_m = 0.3")
+    });
+    let scn = Scenario::load(&sp).unwrap();
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let e = plan_network(&scn, &s, 1, false).unwrap_err().to_string();
+    assert!(
+        e.contains("infeasible") && e.contains("initial position uncertainty"),
+        "{e}"
+    );
+    let sp = scenario_file(dir.path(), |t| {
+        t.replace("requirement_m = 20.0", "requirement_m = 5.0")
+            .replace("candidate_spacing_m = 50", "candidate_spacing_m = 2000")
+    });
+    let scn = Scenario::load(&sp).unwrap();
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let e = plan_network(&scn, &s, 1, false).unwrap_err().to_string();
+    assert!(e.contains("infeasible") && e.contains("road "), "{e}");
+}
