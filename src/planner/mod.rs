@@ -263,6 +263,30 @@ impl PlannerSettings {
     }
 }
 
+impl PlannerSettings {
+    /// An error when the requirement is below the best fix any allowed
+    /// mounting can give (its 95 % bound at 10 m/s).
+    pub fn check_best_fix(&self, rfid: &RfidModel) -> Result<()> {
+        let req = self.requirement_m;
+        let best_fix = self
+            .mountings
+            .iter()
+            .map(|o| fix_bound95(rfid, o.mounting, 10.0))
+            .fold(f64::INFINITY, f64::min);
+        if best_fix >= req {
+            return Err(Error::InvalidParameter(format!(
+                "requirement_m = {req} m is below the best possible tag fix (95 % bound {best_fix:.2} m with {})",
+                self.mountings
+                    .iter()
+                    .map(|o| o.mounting.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// One planned tag.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PlannedTag {
@@ -614,22 +638,7 @@ pub fn plan_with_progress(
         c.scale.set(c.route.length_m / length);
     }
     // Best possible fix against the requirement.
-    let best_fix = settings
-        .mountings
-        .iter()
-        .map(|o| fix_bound95(&scn.rfid, o.mounting, 10.0))
-        .fold(f64::INFINITY, f64::min);
-    if best_fix >= req {
-        return Err(Error::InvalidParameter(format!(
-            "requirement_m = {req} m is below the best possible tag fix (95 % bound {best_fix:.2} m with {})",
-            settings
-                .mountings
-                .iter()
-                .map(|o| o.mounting.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )));
-    }
+    settings.check_best_fix(&scn.rfid)?;
     // Candidate sites.
     // Installed tags: on the route where the path passes within 15 m.
     let samples = budget.samples();

@@ -68,7 +68,7 @@
 
 use super::network_cover::{self as cover, CoverEdge, CoverProblem, CoverSite, Solved, Walk};
 use super::network_ilp::{self as ilp, IlpLimits, IlpOutcome};
-use super::{fix_bound95, lane_width_m, PlannerSettings};
+use super::{lane_width_m, PlannerSettings};
 use crate::error::{Error, Result};
 use crate::export::{ExportMetadata, TagRecord};
 use crate::nav::integrated::along_across_covariance;
@@ -901,22 +901,7 @@ pub fn plan_network_on(
     let (spacing, u_turns) = check_settings(scn, settings)?;
     let req = settings.requirement_m;
     let k = settings.tolerate_missed_reads;
-    let best_fix = settings
-        .mountings
-        .iter()
-        .map(|o| fix_bound95(&scn.rfid, o.mounting, 10.0))
-        .fold(f64::INFINITY, f64::min);
-    if best_fix >= req {
-        return Err(Error::InvalidParameter(format!(
-            "requirement_m = {req} m is below the best possible tag fix (95 % bound {best_fix:.2} m with {})",
-            settings
-                .mountings
-                .iter()
-                .map(|o| o.mounting.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )));
-    }
+    settings.check_best_fix(&scn.rfid)?;
     let mut timings = BTreeMap::new();
     // Instance with a placeholder reach, to learn the speed classes and mountings.
     let t = Instant::now();
