@@ -284,6 +284,32 @@ fn bad_planner_settings_are_rejected() {
 }
 
 #[test]
+fn bad_per_mounting_read_probability_is_a_clear_cli_error() {
+    // An impossible probability: one line naming the file and the field,
+    // exit 1, no panic, no output folder.
+    let dir = tempfile::tempdir().unwrap();
+    let map = repo("maps/helsinki.osm.pbf");
+    let text = std::fs::read_to_string(repo("scenarios/helsinki-plan-mems.toml"))
+        .unwrap()
+        .replace("../maps/helsinki.osm.pbf", map.to_str().unwrap())
+        .replace(
+            "read_probability = 0.977",
+            "read_probability = 0.977\nread_probability_roadside = 1.5",
+        );
+    std::fs::write(dir.path().join("bad.toml"), text).unwrap();
+    let out = run(&["plan", "bad.toml", "--out", "o"], dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("bad.toml") && err.contains("rfid.read_probability_roadside"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!dir.path().join("o").exists());
+}
+
+#[test]
 fn route_leaving_the_map_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(repo("scenarios/helsinki-plan-mems.toml"))
@@ -453,5 +479,35 @@ fn plan_is_minimal_against_brute_force_with_the_filter() {
             "k = {k}: {c} candidates, plan {n} tags ({}), lower bound {}",
             plan.method, plan.lower_bound
         );
+    }
+}
+
+/// The uniform baseline is held to the plan's standard, and its sites are
+/// candidate sites, so the (minimal) plan can never need more tags than it.
+#[test]
+fn uniform_baseline_passes_the_plans_check_and_never_beats_the_plan() {
+    let scn = small_mems_scenario(0, 20.0, 400.0);
+    let truth = TruthSource::new(&scn).unwrap();
+    let settings = PlannerSettings::from_scenario(&scn).unwrap();
+    let plan = plan_with(&scn, &truth, &settings, 1, false).unwrap();
+    let b = waymark::planner::uniform_baseline(&scn, &truth, &settings, 5, 1, 0.99)
+        .unwrap()
+        .expect("tags at every candidate site pass");
+    assert_eq!(b.tolerate_missed_reads, 0);
+    assert!(b.validation.fraction_within_requirement >= 0.99, "{b:?}");
+    assert!(
+        b.tag_count >= plan.tag_count(),
+        "{b:?} vs {}",
+        plan.tag_count()
+    );
+    assert!(b.spacing_m >= settings.candidate_spacing_m);
+    // The next longer spacing tried fails (the search found the largest).
+    let longer = b
+        .tried
+        .iter()
+        .find(|(s, _)| *s > b.spacing_m)
+        .map(|&(_, f)| f);
+    if let Some(f) = longer {
+        assert!(f.is_nan() || f < 0.99, "{:?}", b.tried);
     }
 }

@@ -113,8 +113,9 @@ pub fn forward_greedy(
         }
         // Sites whose snapshots every filter has (before the violation).
         let window = snaps.iter().map(Vec::len).min().unwrap_or(0);
-        let window_sites = (next_site..next_site + window).take_while(|&j| sites[j].sample < limit);
-        let in_window: Vec<usize> = window_sites.collect();
+        let in_window: Vec<usize> = (next_site..next_site + window)
+            .take_while(|&j| sites[j].sample < limit)
+            .collect();
         // Admissible picks, furthest first; the first installed tag in the
         // window is the next tag whatever else is admissible.
         let order: Vec<usize> = match in_window.iter().find(|&&j| sites[j].existing) {

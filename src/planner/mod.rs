@@ -1099,11 +1099,10 @@ pub fn uniform_tags(
         .find(|o| !o.tunnel_only)
         .map_or(Mounting::RoadSurface, |o| o.mounting);
     let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
-    let mut next = spacing_m;
+    let mut sites = UniformSites::new(spacing_m);
     let mut tags = Vec::new();
-    let mut last_d = f64::NEG_INFINITY;
     for a in truth.samples().take_while(|a| a.t <= cap) {
-        if a.distance_m >= next && a.distance_m > last_d {
+        if sites.take(a.distance_m) {
             tags.push(Tag {
                 id: format!("U{:04}", tags.len() + 1),
                 lat: a.state.lat,
@@ -1113,12 +1112,39 @@ pub fn uniform_tags(
                 survey_error_m: [0.0, 0.0],
                 lane_width_m: None,
             });
-            last_d = a.distance_m;
-            next += spacing_m;
         }
     }
     // The last sample is the route's end: no tag exactly there.
     tags
+}
+
+/// Picks the samples of a uniform layout: the first sample at or past each
+/// multiple of the spacing (one per sample), as distances come in order.
+struct UniformSites {
+    spacing_m: f64,
+    next_m: f64,
+    last_m: f64,
+}
+
+impl UniformSites {
+    fn new(spacing_m: f64) -> Self {
+        Self {
+            spacing_m,
+            next_m: spacing_m,
+            last_m: f64::NEG_INFINITY,
+        }
+    }
+
+    /// Whether the sample at distance `d` gets a tag.
+    fn take(&mut self, d: f64) -> bool {
+        if d >= self.next_m && d > self.last_m {
+            self.last_m = d;
+            self.next_m += self.spacing_m;
+            true
+        } else {
+            false
+        }
+    }
 }
 
 /// Finds the uniform baseline by bisection over multiples of the candidate
@@ -1148,18 +1174,17 @@ pub fn uniform_baseline(
     let mut check = |n: u64| -> Result<(bool, Option<Validation>, usize)> {
         let spacing = n as f64 * step;
         let tags = uniform_tags(truth, scn, settings, spacing);
-        // The same sites as samples for the covariance check.
-        let mut fixes = Vec::with_capacity(tags.len());
-        let mut next = spacing;
-        for (i, sm) in budget.samples().iter().enumerate() {
-            if fixes.len() == tags.len() {
-                break;
-            }
-            if sm.avp.distance_m >= next {
-                fixes.push((i, tags[fixes.len()].mounting));
-                next += spacing;
-            }
-        }
+        // The same sites as samples (the budget's samples are the truth's,
+        // capped alike) for the covariance check.
+        let mut sites = UniformSites::new(spacing);
+        let fixes: Vec<(usize, Mounting)> = budget
+            .samples()
+            .iter()
+            .enumerate()
+            .filter(|(_, sm)| sites.take(sm.avp.distance_m))
+            .zip(&tags)
+            .map(|((i, _), t)| (i, t.mounting))
+            .collect();
         if !robust(&budget, &fixes, k, req, step) {
             tried.push((spacing, f64::NAN));
             return Ok((false, None, tags.len()));
