@@ -5,78 +5,9 @@
 //! member of the FeatureCollection, KML as `ExtendedData` of the Document, GPX
 //! in its `metadata`. Coordinates are WGS-84 degrees with 7 decimals (1 cm).
 
-use crate::tags::Mounting;
+use crate::tags::{ExportMetadata, Mounting, TagRecord};
 use quick_xml::escape::escape;
-use serde::Serialize;
-use std::collections::BTreeMap;
 use std::fmt::Write;
-
-/// One tag as handed to installers.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TagRecord {
-    /// Identifier, unique in the file.
-    pub tag_id: String,
-    /// Latitude (degrees).
-    pub lat: f64,
-    /// Longitude (degrees).
-    pub lon: f64,
-    /// Height above the ellipsoid (m).
-    pub height_m: f64,
-    /// Input identifier of the road the tag serves.
-    pub road_id: Option<String>,
-    /// Distance along that road (m).
-    pub chainage_m: Option<f64>,
-    /// `left`, `right` or `centre`, seen in the road's digitised direction.
-    pub side: Option<String>,
-    /// Offset from the road's centre line (m), positive to the right.
-    pub lateral_offset_m: Option<f64>,
-    /// Mounting.
-    pub mounting: Mounting,
-    /// Expected 1-sigma fix error (m).
-    pub expected_fix_sigma_m: Option<f64>,
-    /// Tags that back each other up against missed reads share a group.
-    pub redundancy_group: Option<u32>,
-    /// The 96-bit payload as 24 hexadecimal digits.
-    pub payload_hex: Option<String>,
-}
-
-/// What every file says about how it was made.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct ExportMetadata {
-    /// Waymark version.
-    pub waymark_version: String,
-    /// The horizontal position requirement (m).
-    pub requirement_m: Option<f64>,
-    /// Model parameters, name → value.
-    pub parameters: BTreeMap<String, String>,
-    /// Data attribution of the map the tags were planned on.
-    pub attribution: Option<String>,
-}
-
-impl ExportMetadata {
-    /// Metadata stamped with this build's version.
-    pub fn new(requirement_m: Option<f64>) -> Self {
-        Self {
-            waymark_version: env!("CARGO_PKG_VERSION").to_owned(),
-            requirement_m,
-            ..Default::default()
-        }
-    }
-
-    fn lines(&self) -> Vec<String> {
-        let mut v = vec![format!("Waymark {}", self.waymark_version)];
-        if let Some(r) = self.requirement_m {
-            v.push(format!("requirement_m = {r}"));
-        }
-        for (k, val) in &self.parameters {
-            v.push(format!("{k} = {val}"));
-        }
-        if let Some(a) = &self.attribution {
-            v.push(format!("map data: {a}"));
-        }
-        v
-    }
-}
 
 /// The CSV header, in column order.
 pub const CSV_COLUMNS: &[&str] = &[
