@@ -11,22 +11,32 @@ pub use tags::{tags_csv, tags_geojson, tags_gpx, tags_kml, CSV_COLUMNS};
 
 /// The defects as a GeoJSON FeatureCollection of points (RFC 7946, [lon, lat]).
 pub fn defects_geojson(defects: &crate::network::DefectReport) -> String {
-    let features: Vec<serde_json::Value> = defects
+    let features = defects
         .items
         .iter()
         .map(|d| {
-            serde_json::json!({
-                "type": "Feature",
-                "geometry": {"type": "Point", "coordinates": [d.lat_lon[1], d.lat_lon[0]]},
-                "properties": {"kind": d.kind, "roads": d.roads, "detail": d.detail},
-            })
+            let mut properties = geojson::JsonObject::new();
+            properties.insert("kind".to_owned(), d.kind.into());
+            properties.insert("roads".to_owned(), d.roads.clone().into());
+            properties.insert("detail".to_owned(), d.detail.clone().into());
+            geojson::Feature {
+                bbox: None,
+                geometry: Some(geojson::Geometry::new(geojson::Value::Point(vec![
+                    d.lat_lon[1],
+                    d.lat_lon[0],
+                ]))),
+                id: None,
+                properties: Some(properties),
+                foreign_members: None,
+            }
         })
         .collect();
-    serde_json::to_string_pretty(&serde_json::json!({
-        "type": "FeatureCollection",
-        "features": features,
-    }))
-    .unwrap_or_default()
+    let fc = geojson::FeatureCollection {
+        bbox: None,
+        features,
+        foreign_members: None,
+    };
+    serde_json::to_string_pretty(&fc).unwrap_or_default()
 }
 
 /// The header of a plan's `profile.csv`.
