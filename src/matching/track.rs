@@ -99,10 +99,6 @@ impl<'a> CsvTable<'a> {
             if !more {
                 return Ok(None);
             }
-            // A line of blanks is one empty field.
-            if self.record.len() == 1 && self.record[0].is_empty() {
-                continue;
-            }
             // The record's position is where the previous one ended: skip
             // the line ends (and empty lines) before its first byte.
             let (mut line, mut start) = self
@@ -116,6 +112,16 @@ impl<'a> CsvTable<'a> {
                     _ => break,
                 }
                 start += 1;
+            }
+            // A line of blanks reads as one empty field: skip it (but not `""`).
+            if self.record.len() == 1
+                && self.record[0].is_empty()
+                && self.text[start..]
+                    .split('\n')
+                    .next()
+                    .is_some_and(|l| l.trim().is_empty())
+            {
+                continue;
             }
             return Ok(Some((line, start)));
         }
@@ -462,6 +468,11 @@ mod tests {
         assert!(e.contains("t.csv:3") && e.contains("no data rows"), "{e}");
         let e = err("  \n\n");
         assert!(e.contains("empty file"), "{e}");
+        let e = err("t_s,lat,lon\n \"\" \n");
+        assert!(
+            e.contains("t.csv:2") && e.contains("1 fields, the header has 3"),
+            "{e}"
+        );
         let e = err("t_s,lat,lon\n0,60.17,24.9\n1,60.17,abc\n");
         assert!(
             e.contains("t.csv:3") && e.contains("lon 'abc' is not a number"),
