@@ -9,6 +9,7 @@
 pub mod attitude;
 pub mod error;
 pub mod export;
+pub mod fsio;
 pub mod geodesy;
 pub mod matching;
 pub mod nav;

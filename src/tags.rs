@@ -1,4 +1,6 @@
-//! RFID tags: mounting types and the 96-bit payload a tag carries.
+//! RFID tags: mounting types, the record of a planned tag as handed to
+//! installers ([`TagRecord`], with the file [`ExportMetadata`]; the files
+//! themselves are written by `export`), and the 96-bit payload a tag carries.
 //!
 //! The payload fits the 96-bit EPC memory every passive UHF tag has, so the
 //! vehicle's reader gets the tag's surveyed position without any database:
@@ -18,6 +20,7 @@
 
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::fmt;
 use std::str::FromStr;
 
@@ -80,6 +83,75 @@ impl FromStr for Mounting {
     }
 }
 
+/// One tag as handed to installers.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TagRecord {
+    /// Identifier, unique in the file.
+    pub tag_id: String,
+    /// Latitude (degrees).
+    pub lat: f64,
+    /// Longitude (degrees).
+    pub lon: f64,
+    /// Height above the ellipsoid (m).
+    pub height_m: f64,
+    /// Input identifier of the road the tag serves.
+    pub road_id: Option<String>,
+    /// Distance along that road (m).
+    pub chainage_m: Option<f64>,
+    /// `left`, `right` or `centre`, seen in the road's digitised direction.
+    pub side: Option<String>,
+    /// Offset from the road's centre line (m), positive to the right.
+    pub lateral_offset_m: Option<f64>,
+    /// Mounting.
+    pub mounting: Mounting,
+    /// Expected 1-sigma fix error (m).
+    pub expected_fix_sigma_m: Option<f64>,
+    /// Tags that back each other up against missed reads share a group.
+    pub redundancy_group: Option<u32>,
+    /// The 96-bit payload as 24 hexadecimal digits.
+    pub payload_hex: Option<String>,
+}
+
+/// What every file says about how it was made.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ExportMetadata {
+    /// Waymark version.
+    pub waymark_version: String,
+    /// The horizontal position requirement (m).
+    pub requirement_m: Option<f64>,
+    /// Model parameters, name → value.
+    pub parameters: BTreeMap<String, String>,
+    /// Data attribution of the map the tags were planned on.
+    pub attribution: Option<String>,
+}
+
+impl ExportMetadata {
+    /// Metadata stamped with this build's version.
+    pub fn new(requirement_m: Option<f64>) -> Self {
+        Self {
+            waymark_version: env!("CARGO_PKG_VERSION").to_owned(),
+            requirement_m,
+            ..Default::default()
+        }
+    }
+
+    /// The metadata as text lines: the version, the requirement, each
+    /// parameter as `name = value`, the map attribution.
+    pub(crate) fn lines(&self) -> Vec<String> {
+        let mut v = vec![format!("Waymark {}", self.waymark_version)];
+        if let Some(r) = self.requirement_m {
+            v.push(format!("requirement_m = {r}"));
+        }
+        for (k, val) in &self.parameters {
+            v.push(format!("{k} = {val}"));
+        }
+        if let Some(a) = &self.attribution {
+            v.push(format!("map data: {a}"));
+        }
+        v
+    }
+}
+
 /// What a tag's payload says: its reference point and mounting.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TagPayload {
@@ -108,20 +180,12 @@ fn signed(raw: u128, bits: u32) -> i64 {
     (v ^ sign) - sign
 }
 
-/// CRC-16/CCITT-FALSE (polynomial 0x1021, initial 0xFFFF, no reflection).
+/// CRC-16/CCITT-FALSE (polynomial 0x1021, initial 0xFFFF, no reflection, no
+/// final XOR), catalogued as CRC-16/IBM-3740.
+const CRC16: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740);
+
 fn crc16(bytes: &[u8]) -> u16 {
-    let mut crc: u16 = 0xFFFF;
-    for &b in bytes {
-        crc ^= u16::from(b) << 8;
-        for _ in 0..8 {
-            crc = if crc & 0x8000 != 0 {
-                (crc << 1) ^ 0x1021
-            } else {
-                crc << 1
-            };
-        }
-    }
-    crc
+    CRC16.checksum(bytes)
 }
 
 fn check_of(upper80: u128) -> u16 {
@@ -239,6 +303,78 @@ mod tests {
     fn crc_check_value() {
         // The standard check value of CRC-16/CCITT-FALSE on "123456789".
         assert_eq!(crc16(b"123456789"), 0x29B1);
+    }
+
+    #[test]
+    fn crc_known_values() {
+        // Computed with the hand-written bitwise CRC this crate used before.
+        assert_eq!(crc16(b""), 0xFFFF);
+        assert_eq!(crc16(&[0x00]), 0xE1F0);
+        assert_eq!(crc16(&[0xFF, 0xFF]), 0x0000);
+    }
+
+    #[test]
+    fn known_payload_bits() {
+        // Payloads encoded by the hand-written CRC before the `crc` crate
+        // replaced it; the bits must never change (installed tags carry them).
+        let known = [
+            (
+                60.1719713,
+                24.9478396,
+                0.0,
+                Mounting::RoadSurface,
+                "10E589B0C2F959000000371E",
+            ),
+            (
+                60.169857,
+                24.938379,
+                -12.3,
+                Mounting::Ceiling,
+                "18E587A042F90F17FF85569C",
+            ),
+            (
+                -33.8688197,
+                151.2092955,
+                40.0,
+                Mounting::Roadside,
+                "177ECCFB12068AA001902B6E",
+            ),
+            (
+                90.0,
+                180.0,
+                6553.5,
+                Mounting::Roadside,
+                "155752A015752A00FFFFAE20",
+            ),
+            (
+                -90.0,
+                -180.0,
+                -6553.5,
+                Mounting::Ceiling,
+                "1AA8AD602A8AD6010001CCB7",
+            ),
+            (
+                0.0,
+                0.0,
+                0.0,
+                Mounting::RoadSurface,
+                "1000000000000000000075AF",
+            ),
+        ];
+        for (lat_deg, lon_deg, height_m, mounting, hex) in known {
+            let p = TagPayload {
+                lat_deg,
+                lon_deg,
+                height_m,
+                mounting,
+            };
+            assert_eq!(p.to_hex().unwrap(), hex);
+            let q = TagPayload::from_hex(hex).unwrap();
+            assert_eq!(q.mounting, mounting);
+            assert!((q.lat_deg - lat_deg).abs() <= 0.5e-6 + 1e-12);
+            assert!((q.lon_deg - lon_deg).abs() <= 0.5e-6 + 1e-12);
+            assert!((q.height_m - height_m).abs() <= 0.05 + 1e-9);
+        }
     }
 
     #[test]

@@ -4,79 +4,16 @@
 //! version: CSV as leading `#` comment lines, GeoJSON as a `waymark` foreign
 //! member of the FeatureCollection, KML as `ExtendedData` of the Document, GPX
 //! in its `metadata`. Coordinates are WGS-84 degrees with 7 decimals (1 cm).
+//!
+//! The documents are built as the `geojson`, `kml` and `gpx` crates' types and
+//! written by those crates.
 
-use crate::tags::Mounting;
-use quick_xml::escape::escape;
-use serde::Serialize;
-use std::collections::BTreeMap;
+use crate::tags::{ExportMetadata, Mounting, TagRecord};
+use geojson::{feature::Id, Feature, FeatureCollection, Geometry, JsonObject, JsonValue};
+use kml::types::{Coord, Element, Point};
+use kml::{Kml, KmlDocument, KmlVersion, KmlWriter};
+use std::collections::HashMap;
 use std::fmt::Write;
-
-/// One tag as handed to installers.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TagRecord {
-    /// Identifier, unique in the file.
-    pub tag_id: String,
-    /// Latitude (degrees).
-    pub lat: f64,
-    /// Longitude (degrees).
-    pub lon: f64,
-    /// Height above the ellipsoid (m).
-    pub height_m: f64,
-    /// Input identifier of the road the tag serves.
-    pub road_id: Option<String>,
-    /// Distance along that road (m).
-    pub chainage_m: Option<f64>,
-    /// `left`, `right` or `centre`, seen in the road's digitised direction.
-    pub side: Option<String>,
-    /// Offset from the road's centre line (m), positive to the right.
-    pub lateral_offset_m: Option<f64>,
-    /// Mounting.
-    pub mounting: Mounting,
-    /// Expected 1-sigma fix error (m).
-    pub expected_fix_sigma_m: Option<f64>,
-    /// Tags that back each other up against missed reads share a group.
-    pub redundancy_group: Option<u32>,
-    /// The 96-bit payload as 24 hexadecimal digits.
-    pub payload_hex: Option<String>,
-}
-
-/// What every file says about how it was made.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct ExportMetadata {
-    /// Waymark version.
-    pub waymark_version: String,
-    /// The horizontal position requirement (m).
-    pub requirement_m: Option<f64>,
-    /// Model parameters, name → value.
-    pub parameters: BTreeMap<String, String>,
-    /// Data attribution of the map the tags were planned on.
-    pub attribution: Option<String>,
-}
-
-impl ExportMetadata {
-    /// Metadata stamped with this build's version.
-    pub fn new(requirement_m: Option<f64>) -> Self {
-        Self {
-            waymark_version: env!("CARGO_PKG_VERSION").to_owned(),
-            requirement_m,
-            ..Default::default()
-        }
-    }
-
-    fn lines(&self) -> Vec<String> {
-        let mut v = vec![format!("Waymark {}", self.waymark_version)];
-        if let Some(r) = self.requirement_m {
-            v.push(format!("requirement_m = {r}"));
-        }
-        for (k, val) in &self.parameters {
-            v.push(format!("{k} = {val}"));
-        }
-        if let Some(a) = &self.attribution {
-            v.push(format!("map data: {a}"));
-        }
-        v
-    }
-}
 
 /// The CSV header, in column order.
 pub const CSV_COLUMNS: &[&str] = &[
@@ -134,54 +71,66 @@ fn round7(x: f64) -> f64 {
     (x * 1e7).round() / 1e7
 }
 
-/// Writes `tags.geojson`: a FeatureCollection of Points `[lon, lat, height]`.
-pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
-    let features: Vec<serde_json::Value> = tags
-        .iter()
-        .map(|t| {
-            serde_json::json!({
-                "type": "Feature",
-                "id": t.tag_id,
-                "geometry": {
-                    "type": "Point",
-                    "coordinates": [round7(t.lon), round7(t.lat), (t.height_m * 100.0).round() / 100.0],
-                },
-                "properties": {
-                    "tag_id": t.tag_id,
-                    "road_id": t.road_id,
-                    "chainage_m": t.chainage_m,
-                    "side": t.side,
-                    "lateral_offset_m": t.lateral_offset_m,
-                    "mounting": t.mounting,
-                    "expected_fix_sigma_m": t.expected_fix_sigma_m,
-                    "redundancy_group": t.redundancy_group,
-                    "payload_hex": t.payload_hex,
-                },
-            })
-        })
-        .collect();
-    let mut bbox = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
-    for t in tags {
-        bbox = [
-            bbox[0].min(t.lon),
-            bbox[1].min(t.lat),
-            bbox[2].max(t.lon),
-            bbox[3].max(t.lat),
-        ];
-    }
-    let mut fc = serde_json::json!({
-        "type": "FeatureCollection",
-        "waymark": meta,
-        "features": features,
-    });
-    if !tags.is_empty() {
-        fc["bbox"] = serde_json::json!(bbox.map(round7));
-    }
-    serde_json::to_string_pretty(&fc).unwrap_or_default()
+/// `x` as written with `decimals` decimals, read back (so a crate printing
+/// the shortest form of a float prints those digits).
+fn printed(x: f64, decimals: usize) -> f64 {
+    format!("{x:.decimals$}").parse().unwrap_or(x)
 }
 
-fn xml(s: &str) -> String {
-    escape(s).into_owned()
+/// Writes `tags.geojson`: a FeatureCollection of Points `[lon, lat, height]`.
+pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
+    let features: Vec<Feature> = tags
+        .iter()
+        .map(|t| {
+            let mut properties = JsonObject::new();
+            let mut put = |k: &str, v: JsonValue| {
+                properties.insert(k.to_owned(), v);
+            };
+            put("tag_id", t.tag_id.clone().into());
+            put("road_id", t.road_id.clone().into());
+            put("chainage_m", t.chainage_m.into());
+            put("side", t.side.clone().into());
+            put("lateral_offset_m", t.lateral_offset_m.into());
+            put("mounting", t.mounting.as_str().into());
+            put("expected_fix_sigma_m", t.expected_fix_sigma_m.into());
+            put("redundancy_group", t.redundancy_group.into());
+            put("payload_hex", t.payload_hex.clone().into());
+            Feature {
+                bbox: None,
+                geometry: Some(Geometry::new(geojson::Value::Point(vec![
+                    round7(t.lon),
+                    round7(t.lat),
+                    (t.height_m * 100.0).round() / 100.0,
+                ]))),
+                id: Some(Id::String(t.tag_id.clone())),
+                properties: Some(properties),
+                foreign_members: None,
+            }
+        })
+        .collect();
+    let bbox = (!tags.is_empty()).then(|| {
+        let mut b = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
+        for t in tags {
+            b = [
+                b[0].min(t.lon),
+                b[1].min(t.lat),
+                b[2].max(t.lon),
+                b[3].max(t.lat),
+            ];
+        }
+        b.map(round7).to_vec()
+    });
+    let mut foreign = JsonObject::new();
+    foreign.insert(
+        "waymark".to_owned(),
+        serde_json::to_value(meta).unwrap_or_default(),
+    );
+    let fc = FeatureCollection {
+        bbox,
+        features,
+        foreign_members: Some(foreign),
+    };
+    serde_json::to_string_pretty(&fc).unwrap_or_default()
 }
 
 fn description(t: &TagRecord) -> String {
@@ -204,98 +153,131 @@ fn description(t: &TagRecord) -> String {
     d
 }
 
+/// A KML element with text content.
+fn text_element(name: &str, content: impl Into<String>) -> Element {
+    Element {
+        name: name.to_owned(),
+        content: Some(content.into()),
+        ..Default::default()
+    }
+}
+
+/// A KML element with one attribute and child elements.
+fn parent_element(name: &str, attr: Option<(&str, &str)>, children: Vec<Element>) -> Element {
+    Element {
+        name: name.to_owned(),
+        attrs: attr
+            .map(|(k, v)| HashMap::from([(k.to_owned(), v.to_owned())]))
+            .unwrap_or_default(),
+        content: None,
+        children,
+    }
+}
+
+/// `<ExtendedData>` with one `<Data name=".."><value>..</value></Data>` per pair.
+fn extended_data<'a>(pairs: impl IntoIterator<Item = (&'a str, String)>) -> Element {
+    let data = pairs
+        .into_iter()
+        .map(|(k, v)| parent_element("Data", Some(("name", k)), vec![text_element("value", v)]))
+        .collect();
+    parent_element("ExtendedData", None, data)
+}
+
 /// Writes `tags.kml` (KML 2.2): one Placemark per tag, a style per mounting.
 pub fn tags_kml(tags: &[TagRecord], meta: &ExportMetadata) -> String {
-    let mut s = String::new();
-    s.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    s.push_str("<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n");
-    let _ = writeln!(s, "  <name>Waymark RFID tags</name>");
-    let _ = writeln!(
-        s,
-        "  <description>{}</description>",
-        xml(&meta.lines().join("; "))
-    );
-    s.push_str("  <ExtendedData>\n");
-    let _ = writeln!(
-        s,
-        "    <Data name=\"waymark_version\"><value>{}</value></Data>",
-        xml(&meta.waymark_version)
-    );
-    if let Some(r) = meta.requirement_m {
-        let _ = writeln!(
-            s,
-            "    <Data name=\"requirement_m\"><value>{r}</value></Data>"
-        );
-    }
-    for (k, v) in &meta.parameters {
-        let _ = writeln!(
-            s,
-            "    <Data name=\"{}\"><value>{}</value></Data>",
-            xml(k),
-            xml(v)
-        );
-    }
-    s.push_str("  </ExtendedData>\n");
+    let mut doc: Vec<Kml> = vec![
+        Kml::Element(text_element("name", "Waymark RFID tags")),
+        Kml::Element(text_element("description", meta.lines().join("; "))),
+        Kml::Element(extended_data(
+            std::iter::once(("waymark_version", meta.waymark_version.clone()))
+                .chain(meta.requirement_m.map(|r| ("requirement_m", r.to_string())))
+                .chain(meta.parameters.iter().map(|(k, v)| (k.as_str(), v.clone()))),
+        )),
+    ];
+    // Styles as plain elements: `kml::types::Style` always writes an empty
+    // `<Icon>`, which hides the placemark's icon in Google Earth.
     for (m, colour) in [
         (Mounting::RoadSurface, "ff00a5ff"),
         (Mounting::Roadside, "ff00ff00"),
         (Mounting::Ceiling, "ffff00ff"),
     ] {
-        let _ = writeln!(
-            s,
-            "  <Style id=\"{m}\"><IconStyle><color>{colour}</color></IconStyle></Style>"
-        );
+        doc.push(Kml::Element(parent_element(
+            "Style",
+            Some(("id", m.as_str())),
+            vec![parent_element(
+                "IconStyle",
+                None,
+                vec![text_element("color", colour)],
+            )],
+        )));
     }
     for t in tags {
-        s.push_str("  <Placemark>\n");
-        let _ = writeln!(s, "    <name>{}</name>", xml(&t.tag_id));
-        let _ = writeln!(s, "    <description>{}</description>", xml(&description(t)));
-        let _ = writeln!(s, "    <styleUrl>#{}</styleUrl>", t.mounting);
-        s.push_str("    <ExtendedData>\n");
-        let _ = writeln!(
-            s,
-            "      <Data name=\"mounting\"><value>{}</value></Data>",
-            t.mounting
-        );
+        let mut data = vec![("mounting", t.mounting.to_string())];
         if let Some(p) = &t.payload_hex {
-            let _ = writeln!(
-                s,
-                "      <Data name=\"payload_hex\"><value>{}</value></Data>",
-                xml(p)
-            );
+            data.push(("payload_hex", p.clone()));
         }
-        s.push_str("    </ExtendedData>\n");
-        let _ = writeln!(
-            s,
-            "    <Point><coordinates>{:.7},{:.7},{:.2}</coordinates></Point>",
-            t.lon, t.lat, t.height_m
-        );
-        s.push_str("  </Placemark>\n");
+        doc.push(Kml::Placemark(kml::types::Placemark {
+            name: Some(t.tag_id.clone()),
+            description: Some(description(t)),
+            // `style_url` would be written after the geometry; KML 2.2 puts
+            // `styleUrl` before `ExtendedData`.
+            children: vec![
+                text_element("styleUrl", format!("#{}", t.mounting)),
+                extended_data(data),
+            ],
+            geometry: Some(kml::types::Geometry::Point(Point::from(Coord::new(
+                printed(t.lon, 7),
+                printed(t.lat, 7),
+                Some(printed(t.height_m, 2)),
+            )))),
+            ..Default::default()
+        }));
     }
-    s.push_str("</Document>\n</kml>\n");
-    s
+    let kml = Kml::KmlDocument(KmlDocument {
+        version: KmlVersion::V22,
+        attrs: HashMap::from([(
+            "xmlns".to_owned(),
+            "http://www.opengis.net/kml/2.2".to_owned(),
+        )]),
+        elements: vec![Kml::Document {
+            attrs: HashMap::new(),
+            elements: doc,
+        }],
+    });
+    let mut out = b"<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n".to_vec();
+    KmlWriter::<_, f64>::from_writer(&mut out)
+        .write(&kml)
+        .expect("writing KML into memory cannot fail");
+    out.push(b'\n');
+    String::from_utf8(out).expect("the KML writer writes UTF-8")
 }
 
 /// Writes `tags.gpx` (GPX 1.1): one waypoint per tag.
 pub fn tags_gpx(tags: &[TagRecord], meta: &ExportMetadata) -> String {
-    let mut s = String::new();
-    s.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    let _ = writeln!(
-        s,
-        "<gpx version=\"1.1\" creator=\"Waymark {}\" xmlns=\"http://www.topografix.com/GPX/1/1\">",
-        xml(&meta.waymark_version)
-    );
-    s.push_str("  <metadata>\n    <name>Waymark RFID tags</name>\n");
-    let _ = writeln!(s, "    <desc>{}</desc>", xml(&meta.lines().join("; ")));
-    s.push_str("  </metadata>\n");
-    for t in tags {
-        let _ = writeln!(s, "  <wpt lat=\"{:.7}\" lon=\"{:.7}\">", t.lat, t.lon);
-        let _ = writeln!(s, "    <ele>{:.2}</ele>", t.height_m);
-        let _ = writeln!(s, "    <name>{}</name>", xml(&t.tag_id));
-        let _ = writeln!(s, "    <desc>{}</desc>", xml(&description(t)));
-        let _ = writeln!(s, "    <type>{}</type>", t.mounting);
-        s.push_str("  </wpt>\n");
-    }
-    s.push_str("</gpx>\n");
-    s
+    let waypoints = tags
+        .iter()
+        .map(|t| {
+            let mut w = gpx::Waypoint::new((printed(t.lon, 7), printed(t.lat, 7)).into());
+            w.elevation = Some(printed(t.height_m, 2));
+            w.name = Some(t.tag_id.clone());
+            w.description = Some(description(t));
+            w.type_ = Some(t.mounting.to_string());
+            w
+        })
+        .collect();
+    let doc = gpx::Gpx {
+        version: gpx::GpxVersion::Gpx11,
+        creator: Some(format!("Waymark {}", meta.waymark_version)),
+        metadata: Some(gpx::Metadata {
+            name: Some("Waymark RFID tags".to_owned()),
+            description: Some(meta.lines().join("; ")),
+            ..Default::default()
+        }),
+        waypoints,
+        ..Default::default()
+    };
+    let mut out = Vec::new();
+    gpx::write(&doc, &mut out).expect("writing GPX 1.1 into memory cannot fail");
+    out.push(b'\n');
+    String::from_utf8(out).expect("the GPX writer writes UTF-8")
 }

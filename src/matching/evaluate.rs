@@ -11,7 +11,7 @@
 //! - precision by count = |M ∩ T| / |M|; recall by count = |M ∩ T| / |T|.
 
 use super::paths::{NetworkDistances, OnSection};
-use super::track::{read_lines, split_csv};
+use super::track::{read_text, CsvTable};
 use super::MatchedPoint;
 use crate::error::{Error, Result};
 use crate::network::Network;
@@ -173,55 +173,46 @@ pub fn score(matched: &RoadLengths, truth: &RoadLengths) -> Score {
 /// length driven on that road; without it, the road's whole length in the
 /// map). A road listed twice has its lengths added.
 pub fn read_truth(path: &Path, net: &Network) -> Result<RoadLengths> {
-    let lines = read_lines(path)?;
-    let Some((hline, header)) = lines.first() else {
+    let text = read_text(path)?;
+    let Some(mut table) = CsvTable::open(path, &text)? else {
         return Err(Error::table(
             path,
             1,
             "empty file: expected a header row road_id[,length_m]",
         ));
     };
-    let names = split_csv(header);
-    let Some(cid) = names.iter().position(|n| n == "road_id") else {
+    let Some(cid) = table.names.iter().position(|n| n == "road_id") else {
         return Err(Error::table(
             path,
-            *hline,
-            format!("missing column road_id (header: '{header}')"),
+            table.header_line,
+            format!("missing column road_id (header: '{}')", table.header_text),
         ));
     };
-    let clen = names.iter().position(|n| n == "length_m");
+    let clen = table.names.iter().position(|n| n == "length_m");
     let by_id: BTreeMap<&str, f64> = net
         .roads
         .iter()
         .map(|r| (r.attributes.id.as_str(), r.length_m))
         .collect();
     let mut out = RoadLengths::new();
-    for (line, text) in lines.iter().skip(1) {
-        let f = split_csv(text);
-        if f.len() != names.len() {
-            return Err(Error::table(
-                path,
-                *line,
-                format!("{} fields, the header has {}", f.len(), names.len()),
-            ));
-        }
+    while let Some((line, f)) = table.next_record(path)? {
         let id = &f[cid];
-        let Some(&road_len) = by_id.get(id.as_str()) else {
+        let Some(&road_len) = by_id.get(id) else {
             return Err(Error::table(
                 path,
-                *line,
+                line,
                 format!("road_id '{id}' is not in the map"),
             ));
         };
         let len = match clen {
             Some(c) if !f[c].is_empty() => {
                 let v: f64 = f[c].parse().map_err(|_| {
-                    Error::table(path, *line, format!("length_m '{}' is not a number", f[c]))
+                    Error::table(path, line, format!("length_m '{}' is not a number", &f[c]))
                 })?;
                 if !(v.is_finite() && v >= 0.0) {
                     return Err(Error::table(
                         path,
-                        *line,
+                        line,
                         format!("length_m must be a non-negative number, got {v}"),
                     ));
                 }
@@ -229,7 +220,7 @@ pub fn read_truth(path: &Path, net: &Network) -> Result<RoadLengths> {
             }
             _ => road_len,
         };
-        *out.entry(id.clone()).or_default() += len;
+        *out.entry(id.to_owned()).or_default() += len;
     }
     Ok(out)
 }

@@ -32,39 +32,123 @@ pub struct TrackRow {
     pub speed_mps: Option<f64>,
 }
 
-/// Splits one CSV line (fields may be double-quoted; no embedded newlines).
-pub(crate) fn split_csv(line: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut cur = String::new();
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match c {
-            '"' if quoted && chars.peek() == Some(&'"') => {
-                cur.push('"');
-                chars.next();
-            }
-            '"' => quoted = !quoted,
-            ',' if !quoted => out.push(std::mem::take(&mut cur).trim().to_owned()),
-            _ => cur.push(c),
-        }
-    }
-    out.push(cur.trim().to_owned());
-    out
+/// A CSV table being read: the header and the data records after it, each
+/// with its 1-based line number. Fields are trimmed; blank lines are skipped;
+/// fields may be double-quoted (`""` is a quote inside a quoted field).
+pub(crate) struct CsvTable<'a> {
+    /// Line of the header row.
+    pub header_line: usize,
+    /// The header row as written in the file.
+    pub header_text: &'a str,
+    /// Column names, in order.
+    pub names: Vec<String>,
+    text: &'a str,
+    reader: csv::Reader<&'a [u8]>,
+    record: csv::StringRecord,
 }
 
-/// Reads the lines of a text file: (line number, text), skipping blank lines.
-pub(crate) fn read_lines(path: &Path) -> Result<Vec<(usize, String)>> {
+/// Reads a file as UTF-8 text without a byte-order mark.
+pub(crate) fn read_text(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = String::from_utf8(bytes)
+    let mut text = String::from_utf8(bytes)
         .map_err(|e| Error::table(path, 0, format!("not UTF-8 text ({e})")))?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-    Ok(text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim_end_matches('\r').to_owned()))
-        .filter(|(_, l)| !l.trim().is_empty())
-        .collect())
+    if text.starts_with('\u{feff}') {
+        text.drain(..'\u{feff}'.len_utf8());
+    }
+    Ok(text)
+}
+
+impl<'a> CsvTable<'a> {
+    /// Starts reading `text` (the contents of `path`); `None` when it has no
+    /// header row (no non-blank line).
+    pub(crate) fn open(path: &Path, text: &'a str) -> Result<Option<CsvTable<'a>>> {
+        let reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        let mut t = CsvTable {
+            header_line: 0,
+            header_text: "",
+            names: Vec::new(),
+            text,
+            reader,
+            record: csv::StringRecord::new(),
+        };
+        let Some((line, start)) = t.advance(path)? else {
+            return Ok(None);
+        };
+        t.header_line = line;
+        t.header_text = text[start..]
+            .lines()
+            .next()
+            .unwrap_or_default()
+            .trim_end_matches('\r');
+        t.names = t.record.iter().map(str::to_owned).collect();
+        Ok(Some(t))
+    }
+
+    /// Reads the next non-blank record; its line number and the byte offset
+    /// where it starts, or `None` at the end.
+    fn advance(&mut self, path: &Path) -> Result<Option<(usize, usize)>> {
+        loop {
+            let more = self.reader.read_record(&mut self.record).map_err(|e| {
+                let line = e.position().map_or(0, |p| p.line() as usize);
+                Error::table(path, line, format!("not readable as CSV ({e})"))
+            })?;
+            if !more {
+                return Ok(None);
+            }
+            // The record's position is where the previous one ended: skip
+            // the line ends (and empty lines) before its first byte.
+            let (mut line, mut start) = self
+                .record
+                .position()
+                .map_or((1, 0), |p| (p.line() as usize, p.byte() as usize));
+            for &b in &self.text.as_bytes()[start..] {
+                match b {
+                    b'\n' => line += 1,
+                    b'\r' => {}
+                    _ => break,
+                }
+                start += 1;
+            }
+            // A line of blanks reads as one empty field: skip it (but not `""`).
+            if self.record.len() == 1
+                && self.record[0].is_empty()
+                && self.text[start..]
+                    .split('\n')
+                    .next()
+                    .is_some_and(|l| l.trim().is_empty())
+            {
+                continue;
+            }
+            return Ok(Some((line, start)));
+        }
+    }
+
+    /// The next data record with its line number, or `None` at the end.
+    /// Errors when it has a different number of fields than the header.
+    pub(crate) fn next_record(
+        &mut self,
+        path: &Path,
+    ) -> Result<Option<(usize, &csv::StringRecord)>> {
+        let Some((line, _)) = self.advance(path)? else {
+            return Ok(None);
+        };
+        if self.record.len() != self.names.len() {
+            return Err(Error::table(
+                path,
+                line,
+                format!(
+                    "{} fields, the header has {}",
+                    self.record.len(),
+                    self.names.len()
+                ),
+            ));
+        }
+        Ok(Some((line, &self.record)))
+    }
 }
 
 fn number(path: &Path, line: usize, name: &str, v: &str) -> Result<f64> {
@@ -83,16 +167,15 @@ fn number(path: &Path, line: usize, name: &str, v: &str) -> Result<f64> {
 
 /// Reads and checks TRACK.csv.
 pub fn read_track(path: &Path) -> Result<Vec<TrackRow>> {
-    let lines = read_lines(path)?;
-    let Some((hline, header)) = lines.first() else {
+    let text = read_text(path)?;
+    let Some(mut table) = CsvTable::open(path, &text)? else {
         return Err(Error::table(
             path,
             1,
             "empty file: expected a header row t_s,lat,lon",
         ));
     };
-    let names = split_csv(header);
-    let col = |n: &str| names.iter().position(|h| h == n);
+    let col = |n: &str| table.names.iter().position(|h| h == n);
     let (Some(ct), Some(clat), Some(clon)) = (col("t_s"), col("lat"), col("lon")) else {
         let missing: Vec<&str> = ["t_s", "lat", "lon"]
             .into_iter()
@@ -100,64 +183,62 @@ pub fn read_track(path: &Path) -> Result<Vec<TrackRow>> {
             .collect();
         return Err(Error::table(
             path,
-            *hline,
+            table.header_line,
             format!(
                 "missing column(s) {} (header: '{}'; expected t_s,lat,lon[,heading_deg,speed_mps,track_id])",
                 missing.join(", "),
-                header
+                table.header_text
             ),
         ));
     };
     let (ch, cs, cid) = (col("heading_deg"), col("speed_mps"), col("track_id"));
-    let mut rows = Vec::with_capacity(lines.len());
+    let hline = table.header_line;
+    let mut rows = Vec::with_capacity(text.len() / 32); // a guess: rows are ~30 bytes
     let mut last_t: FxHashMap<String, (f64, usize)> = FxHashMap::default();
-    for (line, text) in lines.iter().skip(1) {
-        let f = split_csv(text);
-        if f.len() != names.len() {
-            return Err(Error::table(
-                path,
-                *line,
-                format!("{} fields, the header has {}", f.len(), names.len()),
-            ));
-        }
-        let t_s = number(path, *line, "t_s", &f[ct])?;
-        let lat = number(path, *line, "lat", &f[clat])?;
-        let lon = number(path, *line, "lon", &f[clon])?;
+    while let Some((line, f)) = table.next_record(path)? {
+        let t_s = number(path, line, "t_s", &f[ct])?;
+        let lat = number(path, line, "lat", &f[clat])?;
+        let lon = number(path, line, "lon", &f[clon])?;
         if !(-90.0..=90.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) {
             return Err(Error::table(
                 path,
-                *line,
+                line,
                 format!("coordinate out of range (lat {lat}, lon {lon})"),
             ));
         }
         let opt = |c: Option<usize>, name: &str| -> Result<Option<f64>> {
             match c {
-                Some(c) if !f[c].is_empty() => number(path, *line, name, &f[c]).map(Some),
+                Some(c) if !f[c].is_empty() => number(path, line, name, &f[c]).map(Some),
                 _ => Ok(None),
             }
         };
         let heading_deg = opt(ch, "heading_deg")?;
         let speed_mps = opt(cs, "speed_mps")?;
-        let track_id = cid.map(|c| f[c].clone()).unwrap_or_default();
-        if let Some(&(prev, pline)) = last_t.get(&track_id) {
-            if t_s < prev {
-                return Err(Error::table(
-                    path,
-                    *line,
-                    format!(
-                        "not in time order: t_s {t_s} is earlier than {prev} on line {pline}{}",
-                        if track_id.is_empty() {
-                            String::new()
-                        } else {
-                            format!(" (track '{track_id}')")
-                        }
-                    ),
-                ));
+        let track_id = cid.map(|c| f[c].to_owned()).unwrap_or_default();
+        match last_t.get_mut(&track_id) {
+            Some((prev, pline)) => {
+                if t_s < *prev {
+                    return Err(Error::table(
+                        path,
+                        line,
+                        format!(
+                            "not in time order: t_s {t_s} is earlier than {prev} on line {pline}{}",
+                            if track_id.is_empty() {
+                                String::new()
+                            } else {
+                                format!(" (track '{track_id}')")
+                            }
+                        ),
+                    ));
+                }
+                (*prev, *pline) = (t_s, line);
+            }
+            None => {
+                last_t.insert(track_id.clone(), (t_s, line));
             }
         }
-        last_t.insert(track_id.clone(), (t_s, *line));
         rows.push(TrackRow {
-            line: *line,
+            line,
             track_id,
             t_s,
             lat,
@@ -167,7 +248,7 @@ pub fn read_track(path: &Path) -> Result<Vec<TrackRow>> {
         });
     }
     if rows.is_empty() {
-        return Err(Error::table(path, *hline, "no data rows after the header"));
+        return Err(Error::table(path, hline, "no data rows after the header"));
     }
     Ok(rows)
 }
@@ -323,9 +404,14 @@ mod tests {
 
     #[test]
     fn csv_fields() {
-        assert_eq!(split_csv("a, b ,c"), ["a", "b", "c"]);
+        let fields = |text: &str| -> Vec<String> {
+            let mut t = CsvTable::open(Path::new("f.csv"), text).unwrap().unwrap();
+            assert!(t.next_record(Path::new("f.csv")).unwrap().is_none());
+            t.names
+        };
+        assert_eq!(fields("a, b ,c"), ["a", "b", "c"]);
         assert_eq!(
-            split_csv("\"x,y\",\"say \"\"hi\"\"\","),
+            fields("\"x,y\",\"say \"\"hi\"\"\","),
             ["x,y", "say \"hi\"", ""]
         );
         assert_eq!(csv_field("a,b"), "\"a,b\"");
@@ -358,5 +444,44 @@ mod tests {
             groups,
             vec![("a".to_string(), vec![0, 2]), ("b".to_string(), vec![1])]
         );
+    }
+
+    #[test]
+    fn errors_name_the_line_and_the_problem() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.csv");
+        let err = |text: &str| {
+            std::fs::write(&p, text).unwrap();
+            read_track(&p).unwrap_err().to_string()
+        };
+        let e = err("t_s,lat,lon\n\n0,60.17\n");
+        assert!(
+            e.contains("t.csv:3") && e.contains("2 fields, the header has 3"),
+            "{e}"
+        );
+        let e = err("\ntime, lat,lon\r\n0,1,2\n");
+        assert!(
+            e.contains("t.csv:2") && e.contains("missing column(s) t_s (header: 'time, lat,lon';"),
+            "{e}"
+        );
+        let e = err("\n \nt_s,lat,lon\n\n");
+        assert!(e.contains("t.csv:3") && e.contains("no data rows"), "{e}");
+        let e = err("  \n\n");
+        assert!(e.contains("empty file"), "{e}");
+        let e = err("t_s,lat,lon\n \"\" \n");
+        assert!(
+            e.contains("t.csv:2") && e.contains("1 fields, the header has 3"),
+            "{e}"
+        );
+        let e = err("t_s,lat,lon\n0,60.17,24.9\n1,60.17,abc\n");
+        assert!(
+            e.contains("t.csv:3") && e.contains("lon 'abc' is not a number"),
+            "{e}"
+        );
+        std::fs::write(&p, b"t_s,lat,lon\n0,60.17,\xff\n").unwrap();
+        let e = read_track(&p).unwrap_err().to_string();
+        assert!(e.contains("not UTF-8"), "{e}");
+        std::fs::write(&p, "t_s,lat,lon,track_id\n0,60.17,24.9,\"a,\"\"b\"\"\"\n").unwrap();
+        assert_eq!(read_track(&p).unwrap()[0].track_id, "a,\"b\"");
     }
 }
