@@ -16,9 +16,9 @@ use crate::nav::{Filter, FilterConfig};
 use crate::network::Network;
 use crate::sim::integrated::filter_config;
 use crate::sim::map_feed::MapFeed;
-use crate::sim::run::TruthSource;
 use crate::sim::scenario::Scenario;
 use crate::sim::tags::Mounting;
+use crate::sim::TruthSource;
 use crate::trajectory::{ideal_imu, TruthSample};
 use rayon::prelude::*;
 
@@ -85,23 +85,20 @@ impl<'a> Budget<'a> {
             ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
         let odo_every =
             ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / scn.dt).round() as usize).max(1);
-        let lane_width = match (network, &scn.route) {
-            (Some(net), crate::sim::scenario::RouteKind::Map { waypoints, .. }) => {
-                match crate::route::plan_route(net, waypoints) {
-                    Ok(route) => {
-                        let len = samples.last().map_or(0.0, |s| s.avp.distance_m);
-                        let scale = if len > 0.0 { route.length_m / len } else { 1.0 };
-                        samples
-                            .iter()
-                            .map(|s| {
-                                let span = route.span_at(s.avp.distance_m * scale);
-                                let a = &net.model.roads[span.road as usize].attributes;
-                                super::lane_width_m(a) as f32
-                            })
-                            .collect()
-                    }
-                    Err(_) => vec![],
-                }
+        // The route the truth was compiled from (planned once, with the
+        // truth's network; `network` is the same map).
+        let lane_width = match (network, truth.route()) {
+            (Some(net), Some(route)) => {
+                let len = samples.last().map_or(0.0, |s| s.avp.distance_m);
+                let scale = if len > 0.0 { route.length_m / len } else { 1.0 };
+                samples
+                    .iter()
+                    .map(|s| {
+                        let span = route.span_at(s.avp.distance_m * scale);
+                        let a = &net.model.roads[span.road as usize].attributes;
+                        super::lane_width_m(a) as f32
+                    })
+                    .collect()
             }
             _ => vec![],
         };

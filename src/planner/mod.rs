@@ -15,9 +15,9 @@ use crate::error::{Error, Result};
 use crate::export::{ExportMetadata, TagRecord};
 use crate::network::Network;
 use crate::network::RoadAttributes;
-use crate::sim::run::{simulate_with, TruthSource};
 use crate::sim::scenario::{NavMode, RouteKind, Scenario};
 use crate::sim::tags::{Mounting, RfidModel, Tag};
+use crate::sim::{simulate_with, TruthSource};
 use crate::tags::TagPayload;
 use budget::{bound95, Budget, BudgetPoint, CHI2_2_95};
 use placement::{place_with, Candidate, Placement};
@@ -539,13 +539,13 @@ impl Plan {
 }
 
 /// Road context along a map route: attributes at a route distance.
-struct RoadContext {
-    net: Network,
-    route: crate::route::Route,
+struct RoadContext<'a> {
+    net: &'a std::sync::Arc<Network>,
+    route: &'a crate::route::Route,
     scale: std::cell::Cell<f64>,
 }
 
-impl RoadContext {
+impl RoadContext<'_> {
     fn at(&self, distance_m: f64) -> &RoadAttributes {
         let span = self.route.span_at(distance_m * self.scale.get());
         &self.net.model.roads[span.road as usize].attributes
@@ -613,20 +613,17 @@ pub fn plan_with_progress(
         ));
     }
     let req = settings.requirement_m;
-    // Road context (tunnels, road ids) and the network for map matching.
-    let ctx = match &scn.route {
-        RouteKind::Map { map, waypoints, .. } => {
-            let net = Network::load(map, &Default::default())?;
-            let route = crate::route::plan_route(&net, waypoints)?;
-            Some(RoadContext {
-                net,
-                route,
-                scale: std::cell::Cell::new(1.0),
-            })
-        }
-        RouteKind::Motion { .. } => None,
+    // Road context (tunnels, road ids) and the network for map matching:
+    // the truth's own map and route, loaded and planned once.
+    let ctx = match (&scn.route, truth.network(), truth.route()) {
+        (RouteKind::Map { .. }, Some(net), Some(route)) => Some(RoadContext {
+            net,
+            route,
+            scale: std::cell::Cell::new(1.0),
+        }),
+        _ => None,
     };
-    let budget = Budget::new(scn, truth, ctx.as_ref().map(|c| &c.net));
+    let budget = Budget::new(scn, truth, ctx.as_ref().map(|c| &**c.net));
     let length = budget.length_m();
     if length <= 0.0 {
         return Err(Error::scenario(
@@ -1046,12 +1043,7 @@ pub fn validate_plan(
     Ok(validation_of(&res, plan, runs.max(1), seed))
 }
 
-fn validation_of(
-    res: &crate::sim::run::SimResult,
-    plan: &Plan,
-    runs: u64,
-    seed: u64,
-) -> Validation {
+fn validation_of(res: &crate::sim::SimResult, plan: &Plan, runs: u64, seed: u64) -> Validation {
     let req = plan.requirement_m;
     let (mut within, mut total) = (0.0, 0.0);
     let mut worst = (0.0f64, 0u64, 0.0, 0.0);
@@ -1165,11 +1157,12 @@ pub fn uniform_baseline(
     let length = truth.samples().last().map_or(0.0, |a| a.distance_m);
     let req = settings.requirement_m;
     let k = settings.tolerate_missed_reads;
+    // The truth's network (loaded once with the truth).
     let net = match &scn.route {
-        RouteKind::Map { map, .. } => Some(Network::load(map, &Default::default())?),
+        RouteKind::Map { .. } => truth.network().map(|n| &**n),
         _ => None,
     };
-    let budget = Budget::new(scn, truth, net.as_ref());
+    let budget = Budget::new(scn, truth, net);
     let mut tried = Vec::new();
     let mut check = |n: u64| -> Result<(bool, Option<Validation>, usize)> {
         let spacing = n as f64 * step;

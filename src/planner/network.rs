@@ -76,9 +76,9 @@ use crate::nav::Filter;
 use crate::network::{Network, SectionId};
 use crate::planner::budget::bound95;
 use crate::sim::integrated::filter_config;
-use crate::sim::run::{simulate_with, TruthSource};
 use crate::sim::scenario::{RouteKind, Scenario};
 use crate::sim::tags::{Mounting, Tag};
+use crate::sim::{simulate_with, TruthSource};
 use crate::tags::TagPayload;
 use crate::trajectory::{ideal_imu, Extent, Motion, MotionPlan, RoutePlan, SpeedProfile, Start};
 use rayon::prelude::*;
@@ -873,12 +873,7 @@ pub fn plan_network(
     seed: u64,
     validate: bool,
 ) -> Result<NetworkPlan> {
-    let (map, _, _) = map_route(scn)?;
-    let t0 = Instant::now();
-    let net = Network::load(map, &Default::default())?;
-    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let mut plan = plan_network_on(scn, settings, &net)?;
-    plan.timings_ms.insert("load".into(), load_ms);
+    let (net, mut plan) = plan_network_loaded(scn, settings)?;
     if validate && settings.validation_runs > 0 {
         plan.validation = Some(validate_network_plan(
             scn,
@@ -889,6 +884,22 @@ pub fn plan_network(
         )?);
     }
     Ok(plan)
+}
+
+/// Loads a network-coverage scenario's map once and plans on it, without
+/// validation: the loaded network (to share with the validation) and the
+/// plan, whose timings include the load.
+pub fn plan_network_loaded(
+    scn: &Scenario,
+    settings: &PlannerSettings,
+) -> Result<(std::sync::Arc<Network>, NetworkPlan)> {
+    let (map, _, _) = map_route(scn)?;
+    let t0 = Instant::now();
+    let net = std::sync::Arc::new(Network::load(map, &Default::default())?);
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut plan = plan_network_on(scn, settings, &net)?;
+    plan.timings_ms.insert("load".into(), load_ms);
+    Ok((net, plan))
 }
 
 /// [`plan_network`] on a loaded network, without validation.
@@ -1149,7 +1160,7 @@ pub fn plan_network_on(
 /// 10 paths, the runs split between them).
 pub fn validate_network_plan(
     scn: &Scenario,
-    net: &Network,
+    net: &std::sync::Arc<Network>,
     plan: &NetworkPlan,
     runs: u64,
     seed: u64,
@@ -1205,7 +1216,9 @@ pub fn validate_network_plan(
             .map(|s| (s.section.section, s.section.forward))
             .collect();
         let tags = plan.sim_tags(Some(&dirs));
-        let truth = TruthSource::Route(Box::new(rp));
+        let route_length_m = route.length_m;
+        let truth = TruthSource::from_route(std::sync::Arc::clone(net), route, rp);
+        let route = truth.route().expect("a route truth");
         let res = simulate_with(
             scn,
             &truth,
@@ -1214,7 +1227,7 @@ pub fn validate_network_plan(
             seed + 1000 * paths as u64,
             None,
         )?;
-        length += route.length_m;
+        length += route_length_m;
         for r in &res.runs {
             for w in r.rows.windows(2) {
                 let dd = (w[1].distance_m - w[0].distance_m).max(0.0);

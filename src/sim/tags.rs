@@ -19,7 +19,7 @@
 //! A tag's stored coordinates may differ from where it physically is
 //! (`survey_error_m`): a misplaced or rogue tag, for the filter's gate to catch.
 
-use super::run::TruthSource;
+use super::truth::TruthSource;
 use crate::error::{Error, Result};
 use crate::sensors::rng::normal;
 use rand::Rng;
