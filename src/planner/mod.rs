@@ -274,7 +274,7 @@ impl PlannerSettings {
             .map(|o| fix_bound95(rfid, o.mounting, 10.0))
             .fold(f64::INFINITY, f64::min);
         if best_fix >= req {
-            return Err(Error::InvalidParameter(format!(
+            return Err(Error::Infeasible(format!(
                 "requirement_m = {req} m is below the best possible tag fix (95 % bound {best_fix:.2} m with {})",
                 self.mountings
                     .iter()
@@ -746,8 +746,8 @@ pub fn plan_with_progress(
         let b0 = budget
             .initial_filter()
             .map_or(f64::NAN, |f| bound95(&f.position_cov_enu()));
-        return Err(Error::InvalidParameter(format!(
-            "infeasible: the navigator's initial position uncertainty (95 % bound {b0:.2} m, from \
+        return Err(Error::Infeasible(format!(
+            "the navigator's initial position uncertainty (95 % bound {b0:.2} m, from \
              navigator.initial_position_sigma_m / filter.position_sigma_m) already exceeds the {req} m \
              requirement at the start of the route"
         )));
@@ -780,8 +780,8 @@ pub fn plan_with_progress(
                 .iter()
                 .find(|c| c.at_m > covered_to_m)
                 .map_or(length, |c| c.at_m);
-            return Err(Error::InvalidParameter(format!(
-                "infeasible: the {req} m requirement cannot be held with {k} missed read(s) tolerated \
+            return Err(Error::Infeasible(format!(
+                "the {req} m requirement cannot be held with {k} missed read(s) tolerated \
                  beyond route distance {covered_to_m:.0} m{road}; the stretch {covered_to_m:.0}–{next:.0} m \
                  of {length:.0} m cannot be covered (no candidate site reaches it)"
             )));

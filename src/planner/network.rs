@@ -71,11 +71,9 @@ use super::network_ilp::{self as ilp, IlpLimits, IlpOutcome};
 use super::{lane_width_m, PlannerSettings};
 use crate::error::{Error, Result};
 use crate::export::{ExportMetadata, TagRecord};
-use crate::nav::integrated::along_across_covariance;
-use crate::nav::Filter;
 use crate::network::{Network, SectionId};
 use crate::planner::budget::bound95;
-use crate::sim::integrated::filter_config;
+use crate::sim::covariance::PerfectData;
 use crate::sim::scenario::{RouteKind, Scenario};
 use crate::sim::tags::{Mounting, Tag};
 use crate::sim::{simulate_with, TruthSource};
@@ -477,20 +475,19 @@ pub fn reach_class(
         }],
         dt,
     )?;
-    let cfg = filter_config(scn);
-    let aid = scn.file.aiding;
-    let odo_every =
-        ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / dt).round() as usize).max(1);
-    let baro_every = (1.0 / dt).round().max(1.0) as usize;
+    // The covariance engine on this synthetic drive: no map matching, and
+    // the scenario's odometer failure (a time and distance on its route)
+    // does not apply.
+    let data = PerfectData::new(scn).without_faults();
     let mut samples = ideal_imu(plan.trajectory(), dt);
     let Some(first) = samples.next() else {
         return Err(Error::InvalidParameter("empty reach drive".into()));
     };
-    let mut f = Filter::new(first.avp.state, first.avp.t, dt, cfg);
+    let mut f = data.filter_at(&first.avp);
     let b0 = bound95(&f.position_cov_enu());
     if b0 > req {
-        return Err(Error::InvalidParameter(format!(
-            "infeasible: the navigator's initial position uncertainty (95 % bound {b0:.2} m, from \
+        return Err(Error::Infeasible(format!(
+            "the navigator's initial position uncertainty (95 % bound {b0:.2} m, from \
              navigator.initial_position_sigma_m / filter.position_sigma_m) already exceeds the {req} m \
              requirement where a vehicle starts"
         )));
@@ -498,24 +495,11 @@ pub fn reach_class(
     let mut start_reach: Option<f64> = None;
     let mut periods: Vec<f64> = Vec::new();
     let (mut last_fix, mut prev_d) = (0.0, 0.0);
-    let mut odo_acc = 0.0;
     let mut bound_after = f64::NAN;
+    let mut prop = data.start(&f, 0.0);
     for (n, s) in samples.enumerate() {
         let i = n + 1;
-        f.step(&s.imu);
-        odo_acc += s.avp.distance_m - prev_d;
-        if i % odo_every == 0 {
-            if aid.odometer {
-                f.update_odometer(odo_acc);
-            } else if cfg.use_nhc {
-                f.update_constraints();
-            }
-            odo_acc = 0.0;
-        }
-        if aid.baro && i % baro_every == 0 {
-            let var = scn.baro.noise_m.powi(2).max(0.01);
-            f.update_height(s.avp.t, s.avp.state.h, var);
-        }
+        prop.step(i, &s, &mut f);
         if bound95(&f.position_cov_enu()) > req {
             let reach = prev_d - last_fix;
             match start_reach {
@@ -524,22 +508,11 @@ pub fn reach_class(
             }
             // The fix, as the budget applies it.
             let a = &s.avp;
-            let speed = a.state.v[0].hypot(a.state.v[1]);
-            let fw = a.state.q.rotate([0.0, 1.0, 0.0]);
-            let (sa, sc) = scn.rfid.fix_sigmas(mounting, speed);
-            let cov = along_across_covariance(fw[0].atan2(fw[1]), sa, sc);
-            f.update_position(
-                a.t,
-                a.state.lat,
-                a.state.lon,
-                Some(a.state.h),
-                cov,
-                scn.rfid.height_sigma_m.powi(2).max(1e-4),
-            );
+            data.apply_fix(a, &mut f, mounting, None);
             bound_after = bound95(&f.position_cov_enu());
             if bound_after > req {
-                return Err(Error::InvalidParameter(format!(
-                    "infeasible: requirement_m = {req} m is below what a {} fix leaves \
+                return Err(Error::Infeasible(format!(
+                    "requirement_m = {req} m is below what a {} fix leaves \
                      (95 % bound {bound_after:.2} m right after the fix at {:.0} km/h)",
                     mounting.as_str(),
                     speed_mps * 3.6
@@ -966,8 +939,8 @@ pub fn plan_network_on(
     let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);
     let r_ref = class_reach.values().copied().fold(0.0, f64::max);
     if !(reach_m > 0.0 && r_ref.is_finite()) {
-        return Err(Error::InvalidParameter(format!(
-            "infeasible: the {req} m requirement leaves no distance between fixes (reach 0 m)"
+        return Err(Error::Infeasible(format!(
+            "the {req} m requirement leaves no distance between fixes (reach 0 m)"
         )));
     }
     // Error budget consumed: a metre of a road in speed class c uses
@@ -1000,8 +973,8 @@ pub fn plan_network_on(
             .filter(|x| (x.0 as usize) < built.physical_edges)
             .map(|x| (x.2 - x.1) / built.edge_scale[x.0 as usize])
             .sum();
-        Error::InvalidParameter(format!(
-            "infeasible: the {req} m requirement cannot be held with {k} missed read(s) tolerated on a walk of \
+        Error::Infeasible(format!(
+            "the {req} m requirement cannot be held with {k} missed read(s) tolerated on a walk of \
              {:.0} m through {}: its candidate sites cannot give {} read(s) within the error budget \
              (reach R = {:.0} m on the slowest roads, {:.0} m on the fastest; candidate spacing {spacing} m{})",
             metres,

@@ -7,7 +7,6 @@ use super::tags::{draw_reads, find_passes, Mounting, Tag, TagPass};
 use super::truth::{initial_estimate, start_run, TruthSource};
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
-use crate::nav::integrated::along_across_covariance;
 use crate::nav::{Filter, FilterConfig, MeasurementQueue};
 use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, Imu, Odometer};
@@ -440,21 +439,17 @@ pub fn run_integrated(
                 Meas::Tag(i) => {
                     let r = &reads[i];
                     let tag = &prep.tags[r.tag];
-                    let st = filter.state();
-                    let speed = st.v[0].hypot(st.v[1]);
-                    let f = st.q.rotate([0.0, 1.0, 0.0]);
-                    let (sa, sc) = scn
+                    let cov = scn
                         .rfid
                         .with_lane_width(tag.lane_width_m)
-                        .fix_sigmas(r.mounting, speed);
-                    let cov = along_across_covariance(f[0].atan2(f[1]), sa, sc);
+                        .fix_covariance(r.mounting, filter.state());
                     let o = filter.update_position(
                         tm,
                         r.lat,
                         r.lon,
                         r.height_m,
                         cov,
-                        scn.rfid.height_sigma_m.powi(2).max(1e-4),
+                        scn.rfid.fix_height_var(),
                     );
                     read_outcome[i] = Some((o.accepted, o.nis));
                     tag_events.push(TagEvent {

@@ -158,6 +158,24 @@ impl RfidModel {
     }
 }
 
+impl RfidModel {
+    /// The horizontal covariance (east, north; m²) of a fix by a tag of
+    /// mounting `m` for a vehicle in navigation state `state` (its speed
+    /// and heading set the along- and cross-track axes): the one fix model
+    /// of the simulator and the covariance analysis.
+    pub fn fix_covariance(&self, m: Mounting, state: &crate::nav::NavState) -> [[f64; 2]; 2] {
+        let speed = state.v[0].hypot(state.v[1]);
+        let f = state.q.rotate([0.0, 1.0, 0.0]);
+        let (sa, sc) = self.fix_sigmas(m, speed);
+        crate::nav::integrated::along_across_covariance(f[0].atan2(f[1]), sa, sc)
+    }
+
+    /// The vertical variance of a tag fix (m²).
+    pub fn fix_height_var(&self) -> f64 {
+        self.height_sigma_m.powi(2).max(1e-4)
+    }
+}
+
 /// A pass of the vehicle by a tag (from the truth, the same in every run).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TagPass {
