@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::network::RoadAttributes;
-use crate::sim::covariance::CHI2_2_95;
+use crate::sim::covariance::bound95_of_sigmas;
 use crate::sim::scenario::{NavMode, Scenario};
 use crate::sim::tags::{Mounting, RfidModel, Tag};
 
@@ -80,7 +80,7 @@ impl MountingOption {
 /// The 95 % horizontal bound (m) of a fix of a mounting at speed `v`.
 pub fn fix_bound95(rfid: &RfidModel, m: Mounting, v: f64) -> f64 {
     let (a, c) = rfid.fix_sigmas(m, v);
-    (CHI2_2_95 * a.max(c).powi(2)).sqrt()
+    bound95_of_sigmas([a, c])
 }
 
 /// What a plan must cover (`planner.coverage`).

@@ -41,13 +41,12 @@ pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
     (CHI2_2_95 * (tr + disc).max(0.0)).sqrt()
 }
 
-/// [`bound95`] of an uncorrelated east and north 1σ (m), e.g. a filter's
-/// `sigma_east_m` and `sigma_north_m` as `errors.csv` gives them.
-pub fn bound95_of_sigmas(sigma_en: [f64; 2]) -> f64 {
-    let mut c = [[0.0; 3]; 3];
-    c[0][0] = sigma_en[0] * sigma_en[0];
-    c[1][1] = sigma_en[1] * sigma_en[1];
-    bound95(&c)
+/// [`bound95`] of a diagonal covariance given by its two 1σ (m): an
+/// uncorrelated east and north (e.g. a filter's `sigma_east_m` and
+/// `sigma_north_m` as `errors.csv` gives them), or a fix's along- and
+/// cross-track σ. Its largest eigenvalue is the larger variance.
+pub fn bound95_of_sigmas(sigma: [f64; 2]) -> f64 {
+    (CHI2_2_95 * sigma[0].max(sigma[1]).powi(2)).sqrt()
 }
 
 /// The filter settings and the perfect measurements of a scenario.
