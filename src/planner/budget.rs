@@ -81,7 +81,7 @@ impl<'a> Budget<'a> {
                     .map(|s| {
                         let span = route.span_at(s.avp.distance_m * scale);
                         let a = &net.model.roads[span.road as usize].attributes;
-                        super::lane_width_m(a) as f32
+                        super::settings::lane_width_m(a) as f32
                     })
                     .collect()
             }

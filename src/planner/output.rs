@@ -2,7 +2,7 @@
 //! tags (with payloads) and the metadata of the tag files, for route and
 //! network plans alike.
 
-use super::network::NetworkPlan;
+use super::network::types::NetworkPlan;
 use super::plan::Plan;
 use crate::error::Result;
 use crate::export::{ExportMetadata, TagRecord};

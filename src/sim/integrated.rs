@@ -2,8 +2,9 @@
 //! [`Filter`] with odometer (+ constraints), barometer, RFID tag and external
 //! fix measurements, queued with their time stamps and applied in time order.
 
+use super::passes::{draw_reads, find_passes, TagPass};
 use super::records::{PassRecord, RunResult, TagEvent};
-use super::tags::{draw_reads, find_passes, Mounting, Tag, TagPass};
+use super::tags::{Mounting, Tag};
 use super::truth::{initial_estimate, start_run, TruthSource};
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};

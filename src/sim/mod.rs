@@ -15,6 +15,7 @@ pub mod map_feed;
 pub mod metrics;
 pub mod monte_carlo;
 pub mod output;
+pub mod passes;
 pub mod records;
 pub mod scenario;
 pub mod tags;

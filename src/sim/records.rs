@@ -56,7 +56,7 @@ pub struct PassRecord {
     /// The tag.
     pub tag_id: String,
     /// Its mounting.
-    pub mounting: super::tags::Mounting,
+    pub mounting: crate::tags::Mounting,
     /// Whether the reader read it (false: missed, or RFID aiding off).
     pub read: bool,
     /// Time of the read (s), if read.

@@ -4,10 +4,10 @@
 //! and walks on the roads.
 
 use super::cover::{CoverEdge, CoverProblem, CoverSite, Walk};
-use super::{UTurns, EXISTING_SNAP_M};
+use super::settings::{UTurns, EXISTING_SNAP_M};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
-use crate::planner::{lane_width_m, PlannerSettings};
+use crate::planner::settings::{lane_width_m, PlannerSettings};
 use crate::sim::tags::Mounting;
 use std::collections::{BTreeMap, BTreeSet};
 

@@ -2,7 +2,8 @@
 //! origin–destination shortest paths, each driven with the planned tags of
 //! the directions it takes; the map is the one loaded for planning.
 
-use super::{map_route, NetworkPlan, NetworkValidation};
+use super::settings::map_route;
+use super::types::{NetworkPlan, NetworkValidation};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::sim::scenario::Scenario;
