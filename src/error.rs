@@ -3,7 +3,8 @@
 
 use std::path::PathBuf;
 
-/// Errors from loading, indexing and analysing road networks.
+/// Errors from loading, indexing and analysing road networks, reading
+/// scenarios and tables, and planning.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// The file could not be opened or read.
@@ -52,6 +53,10 @@ pub enum Error {
     /// A parameter is outside its permitted range.
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),
+    /// No plan can meet the requirement with the inputs given (the inputs
+    /// are valid): the message says where and why.
+    #[error("infeasible: {0}")]
+    Infeasible(String),
 }
 
 impl Error {

@@ -551,7 +551,7 @@ fn write_network_plan(
         "waymark plan: {}: network coverage (reach from the filter, then placement on every directed road)",
         scn.file.name
     );
-    let mut p = network::plan_network(scn, settings, seed, false)?;
+    let (net, mut p) = network::plan_network_loaded(scn, settings)?;
     let t_plan = t0.elapsed().as_secs_f64();
     if settings.validation_runs > 0 {
         note!(
@@ -560,7 +560,6 @@ fn write_network_plan(
             p.tag_count(),
             settings.validation_runs
         );
-        let net = network::scenario_network(scn)?;
         p.validation = Some(network::validate_network_plan(
             scn,
             &net,

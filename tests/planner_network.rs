@@ -4,8 +4,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use waymark::planner::network::cover::check;
 use waymark::planner::network::{plan_network, plan_network_on, scenario_network};
-use waymark::planner::network_cover::check;
 use waymark::planner::PlannerSettings;
 use waymark::sim::Scenario;
 

@@ -1,37 +1,27 @@
 //! Error budget along a route by covariance analysis: the integrated
-//! navigator's own [`Filter`] is run on perfect data along the truth (ideal
-//! IMU increments, exact odometer distances and heights, the map-matching
-//! feed when the scenario uses it), so its state stays on the truth and its
-//! covariance is the predicted one: no random runs. The predicted 95 %
-//! horizontal bound is `sqrt(χ²₂(0.95) · λmax)` of the horizontal position
-//! covariance (a circle containing the 95 % ellipse).
+//! navigator's own [`Filter`] is run on perfect data along the truth by the
+//! covariance engine ([`crate::sim::covariance`]: ideal IMU increments,
+//! exact odometer distances and heights, the map-matching feed when the
+//! scenario uses it), so its state stays on the truth and its covariance is
+//! the predicted one: no random runs. The predicted 95 % horizontal bound is
+//! [`bound95`] (`sqrt(χ²₂(0.95) · λmax)`, a circle containing the 95 %
+//! ellipse).
 //!
 //! A tag fix at a site resets the bound: the filter is taken as it is at the
 //! site (from the tag-free pass), given the fix with the mounting's
 //! covariance, and propagated on until the bound exceeds the requirement;
 //! that distance is the site's reach.
 
-use crate::nav::integrated::along_across_covariance;
-use crate::nav::{Filter, FilterConfig};
+use crate::nav::Filter;
 use crate::network::Network;
-use crate::sim::integrated::filter_config;
-use crate::sim::map_feed::MapFeed;
-use crate::sim::run::TruthSource;
+use crate::sim::covariance::PerfectData;
 use crate::sim::scenario::Scenario;
 use crate::sim::tags::Mounting;
+use crate::sim::TruthSource;
 use crate::trajectory::{ideal_imu, TruthSample};
 use rayon::prelude::*;
 
-/// χ²(2 dof) 95 % quantile.
-pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
-
-/// The 95 % horizontal bound (m) of an east-north covariance (m²).
-pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
-    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
-    let tr = 0.5 * (a + d);
-    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-    (CHI2_2_95 * (tr + disc).max(0.0)).sqrt()
-}
+pub use crate::sim::covariance::{bound95, CHI2_2_95};
 
 /// One point of a budget profile.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -57,11 +47,8 @@ pub struct Site {
 
 /// The covariance analysis of one route.
 pub struct Budget<'a> {
-    scn: &'a Scenario,
-    cfg: FilterConfig,
+    data: PerfectData<'a>,
     samples: Vec<TruthSample>,
-    network: Option<&'a Network>,
-    odo_every: usize,
     /// Lane width (m) at each sample, from the road under the route (empty
     /// without a map: `[rfid]`'s lane width everywhere).
     lane_width: Vec<f32>,
@@ -83,34 +70,27 @@ impl<'a> Budget<'a> {
         let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
         let samples: Vec<TruthSample> =
             ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
-        let odo_every =
-            ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / scn.dt).round() as usize).max(1);
-        let lane_width = match (network, &scn.route) {
-            (Some(net), crate::sim::scenario::RouteKind::Map { waypoints, .. }) => {
-                match crate::route::plan_route(net, waypoints) {
-                    Ok(route) => {
-                        let len = samples.last().map_or(0.0, |s| s.avp.distance_m);
-                        let scale = if len > 0.0 { route.length_m / len } else { 1.0 };
-                        samples
-                            .iter()
-                            .map(|s| {
-                                let span = route.span_at(s.avp.distance_m * scale);
-                                let a = &net.model.roads[span.road as usize].attributes;
-                                super::lane_width_m(a) as f32
-                            })
-                            .collect()
-                    }
-                    Err(_) => vec![],
-                }
+        // The route the truth was compiled from (planned once, with the
+        // truth's network; `network` is the same map).
+        let lane_width = match (network, truth.route()) {
+            (Some(net), Some(route)) => {
+                let len = samples.last().map_or(0.0, |s| s.avp.distance_m);
+                let scale = if len > 0.0 { route.length_m / len } else { 1.0 };
+                samples
+                    .iter()
+                    .map(|s| {
+                        let span = route.span_at(s.avp.distance_m * scale);
+                        let a = &net.model.roads[span.road as usize].attributes;
+                        super::settings::lane_width_m(a) as f32
+                    })
+                    .collect()
             }
             _ => vec![],
         };
         Self {
-            scn,
-            cfg: filter_config(scn),
+            data: PerfectData::new(scn)
+                .with_map_feed(network.filter(|_| scn.file.aiding.map_matching)),
             samples,
-            network: network.filter(|_| scn.file.aiding.map_matching),
-            odo_every,
             lane_width,
         }
     }
@@ -140,36 +120,9 @@ impl<'a> Budget<'a> {
         filter: &mut Filter,
         mut visit: impl FnMut(usize, &mut Filter) -> bool,
     ) {
-        let aid = self.scn.file.aiding;
-        let mut feed = self.network.map(|n| MapFeed::new(n, filter.time()));
-        let mut odo_acc = 0.0;
-        let mut last_d = self.samples[from].avp.distance_m;
-        let baro_every = (1.0 / self.scn.dt).round().max(1.0) as usize;
+        let mut p = self.data.start(filter, self.samples[from].avp.distance_m);
         for (i, s) in self.samples.iter().enumerate().skip(from + 1) {
-            filter.step(&s.imu);
-            odo_acc += s.avp.distance_m - last_d;
-            last_d = s.avp.distance_m;
-            if i % self.odo_every == 0 {
-                // A failed odometer (fault injection) is modelled as the
-                // filter ends up treating it: disabled, constraints only.
-                let failed = self.scn.odometer.failure.is_some_and(|f| {
-                    f.from_s.is_some_and(|x| s.avp.t >= x)
-                        || f.from_m.is_some_and(|x| s.avp.distance_m >= x)
-                });
-                if aid.odometer && !failed {
-                    filter.update_odometer(odo_acc);
-                } else if self.cfg.use_nhc {
-                    filter.update_constraints();
-                }
-                odo_acc = 0.0;
-            }
-            if aid.baro && i % baro_every == 0 {
-                let var = self.scn.baro.noise_m.powi(2).max(0.01);
-                filter.update_height(s.avp.t, s.avp.state.h, var);
-            }
-            if let Some(f) = feed.as_mut() {
-                f.step(s.avp.t, filter);
-            }
+            p.step(i, s, filter);
             if !visit(i, filter) {
                 break;
             }
@@ -179,12 +132,7 @@ impl<'a> Budget<'a> {
     /// A filter at the first truth sample with the scenario's prior.
     pub fn initial_filter(&self) -> Option<Filter> {
         let first = self.samples.first()?;
-        Some(Filter::new(
-            first.avp.state,
-            first.avp.t,
-            self.scn.dt,
-            self.cfg,
-        ))
+        Some(self.data.filter_at(&first.avp))
     }
 
     /// The tag-free pass: the bound profile every `every_m` of distance, and
@@ -278,23 +226,8 @@ impl<'a> Budget<'a> {
     /// The fix a tag of `mounting` gives at truth sample `i`: applied to
     /// `f` with the mounting's covariance at the speed there.
     pub fn apply_fix(&self, i: usize, f: &mut Filter, mounting: Mounting) {
-        let a = &self.samples[i].avp;
-        let speed = a.state.v[0].hypot(a.state.v[1]);
-        let fw = a.state.q.rotate([0.0, 1.0, 0.0]);
-        let (sa, sc) = self
-            .scn
-            .rfid
-            .with_lane_width(self.lane_width_at(i))
-            .fix_sigmas(mounting, speed);
-        let cov = along_across_covariance(fw[0].atan2(fw[1]), sa, sc);
-        f.update_position(
-            a.t,
-            a.state.lat,
-            a.state.lon,
-            Some(a.state.h),
-            cov,
-            self.scn.rfid.height_sigma_m.powi(2).max(1e-4),
-        );
+        self.data
+            .apply_fix(&self.samples[i].avp, f, mounting, self.lane_width_at(i));
     }
 
     /// The bound right after a fix, and the reach, of each site

@@ -47,11 +47,11 @@ pub struct ErrorRow {
     pub sigma_en_m: Option<[f64; 2]>,
 }
 
-/// 95 % radius of a circular 2-D Gaussian with the mean of the two variances:
-/// √(χ²₂(0.95)) = 2.4477 times the per-axis sigma.
-pub fn bound95(sigma_en: [f64; 2]) -> f64 {
-    2.447_746_830_680_816 * (0.5 * (sigma_en[0].powi(2) + sigma_en[1].powi(2))).sqrt()
-}
+/// The filter's horizontal 95 % bound from `errors.csv`'s east and north 1σ:
+/// the one definition, [`crate::sim::covariance::bound95`] (the circle
+/// containing the 95 % ellipse), of the diagonal covariance the file gives
+/// (it does not write the east-north correlation).
+pub use crate::sim::covariance::bound95_of_sigmas as bound95;
 
 /// Reads `errors.csv` by column name (extra columns are ignored).
 pub fn read_errors_csv(path: &Path) -> Result<Vec<ErrorRow>> {

@@ -2,17 +2,16 @@
 //! [`Filter`] with odometer (+ constraints), barometer, RFID tag and external
 //! fix measurements, queued with their time stamps and applied in time order.
 
-use super::run::{
-    initial_estimate, start_run, PassRecord, Prepared, RunResult, TagEvent, TruthSource,
-};
-use super::scenario::{Scenario, G0};
-use super::tags::{draw_reads, Mounting, Tag};
+use super::passes::{draw_reads, find_passes, TagPass};
+use super::records::{PassRecord, RunResult, TagEvent};
+use super::tags::{Mounting, Tag};
+use super::truth::{initial_estimate, start_run, TruthSource};
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
-use crate::nav::integrated::along_across_covariance;
 use crate::nav::{Filter, FilterConfig, MeasurementQueue};
 use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, Imu, Odometer};
+use crate::sim::scenario::{RouteKind, Scenario, G0};
 use rand::Rng;
 
 const DPH: f64 = std::f64::consts::PI / 180.0 / 3600.0;
@@ -21,6 +20,48 @@ const ARCMIN: f64 = std::f64::consts::PI / 180.0 / 60.0;
 const RFID_STREAM: u64 = 7;
 /// Random stream of the external fix.
 const FIX_STREAM: u64 = 8;
+
+/// Tags and their passes, found once for all runs; the road network when
+/// map matching aids the navigator.
+#[derive(Debug, Clone, Default)]
+pub struct Prepared {
+    /// All tags (scenario entries, then extra ones).
+    pub tags: Vec<Tag>,
+    /// Passes by tags within their read geometry, in time order.
+    pub passes: Vec<TagPass>,
+    /// The route's road network (with `aiding.map_matching`).
+    pub network: Option<std::sync::Arc<crate::network::Network>>,
+}
+
+impl Prepared {
+    /// Resolves the scenario's tags (placing on-route ones on the truth), adds
+    /// `extra` (e.g. from `--tags`) and finds the passes.
+    pub fn new(scn: &Scenario, truth: &TruthSource, extra: &[Tag]) -> Result<Prepared> {
+        let mut tags = scenario_tags(scn, truth)?;
+        tags.extend_from_slice(extra);
+        let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+        let passes = find_passes(truth, cap, &tags, &scn.rfid);
+        let network = if scn.file.aiding.map_matching {
+            // The truth's network: a map route's truth carries it.
+            match truth.network() {
+                Some(net) => Some(std::sync::Arc::clone(net)),
+                None => {
+                    return Err(crate::error::Error::scenario(
+                        &scn.path,
+                        "aiding.map_matching needs a map route ([map] and route waypoints)",
+                    ))
+                }
+            }
+        } else {
+            None
+        };
+        Ok(Prepared {
+            tags,
+            passes,
+            network,
+        })
+    }
+}
 
 /// The scenario's `[[tag]]` entries as tags; on-route ones (`at_s`, `at_m`)
 /// are placed on the truth path (stored height: the path's height there).
@@ -193,11 +234,11 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
         s0[NABLA + k] = noise.accel_bias.0;
     }
     let (rm, rn) = match &scn.route {
-        super::scenario::RouteKind::Motion { start, .. } => {
+        RouteKind::Motion { start, .. } => {
             let (a, b) = crate::geodesy::radii(start.lat);
             (a, b * start.lat.cos())
         }
-        super::scenario::RouteKind::Map { waypoints, .. } => {
+        RouteKind::Map { waypoints, .. } => {
             let lat = waypoints[0][0].to_radians();
             let (a, b) = crate::geodesy::radii(lat);
             (a, b * lat.cos())
@@ -313,7 +354,7 @@ pub fn run_integrated(
     // External fix source.
     let mut fix_rng = stream(seed, run, FIX_STREAM);
     let xf = scn.file.external_fix.clone().filter(|_| aid.external_fix);
-    let gap = |rng: &mut rand_chacha::ChaCha8Rng, x: &super::scenario::ExternalFixSection| {
+    let gap = |rng: &mut rand_chacha::ChaCha8Rng, x: &crate::sim::scenario::ExternalFixSection| {
         let [a, b] = x.interval_s;
         a + (b - a) * rng.random::<f64>()
     };
@@ -399,21 +440,17 @@ pub fn run_integrated(
                 Meas::Tag(i) => {
                     let r = &reads[i];
                     let tag = &prep.tags[r.tag];
-                    let st = filter.state();
-                    let speed = st.v[0].hypot(st.v[1]);
-                    let f = st.q.rotate([0.0, 1.0, 0.0]);
-                    let (sa, sc) = scn
+                    let cov = scn
                         .rfid
                         .with_lane_width(tag.lane_width_m)
-                        .fix_sigmas(r.mounting, speed);
-                    let cov = along_across_covariance(f[0].atan2(f[1]), sa, sc);
+                        .fix_covariance(r.mounting, filter.state());
                     let o = filter.update_position(
                         tm,
                         r.lat,
                         r.lon,
                         r.height_m,
                         cov,
-                        scn.rfid.height_sigma_m.powi(2).max(1e-4),
+                        scn.rfid.fix_height_var(),
                     );
                     read_outcome[i] = Some((o.accepted, o.nis));
                     tag_events.push(TagEvent {

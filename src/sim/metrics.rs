@@ -1,7 +1,7 @@
 //! Metrics of a simulation: error statistics over all runs' output rows and
 //! the time at which each run first exceeds the requirement.
 
-use super::run::RunResult;
+use super::records::RunResult;
 use super::scenario::Scenario;
 use serde::Serialize;
 
@@ -85,7 +85,7 @@ pub struct FaultInterval {
 
 /// The scenario's odometer failure as an interval of run 0's rows; none if
 /// the navigator does not use the odometer or the failure starts after the run.
-fn odometer_faults(scn: &Scenario, rows: &[super::run::ErrorRow]) -> Vec<FaultInterval> {
+fn odometer_faults(scn: &Scenario, rows: &[super::records::ErrorRow]) -> Vec<FaultInterval> {
     use super::scenario::NavMode;
     let uses_odometer = match scn.file.navigator.mode {
         NavMode::DeadReckoning => true,
@@ -165,7 +165,7 @@ pub struct TagSummary {
     /// Reads rejected by the gate, all runs.
     pub rejected: u64,
     /// Rejected reads of run 0.
-    pub rejected_run0: Vec<super::run::TagEvent>,
+    pub rejected_run0: Vec<super::records::TagEvent>,
 }
 
 /// The p quantile of χ²(k) (Wilson–Hilferty; within 0.5 % for k ≥ 10).

@@ -3,7 +3,8 @@
 //! without a filter), `summary.json` and, for the integrated navigator,
 //! `tag_passes.csv` (run 0's passes by tags). All are written atomically.
 
-use super::run::{ErrorRow, PassRecord, SimResult};
+use super::monte_carlo::SimResult;
+use super::records::{ErrorRow, PassRecord};
 use crate::error::{Error, Result};
 use crate::export::write_atomic;
 use std::fmt::Write as _;

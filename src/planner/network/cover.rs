@@ -1,5 +1,5 @@
 //! Walk coverage on a directed graph: the combinatorial core of
-//! `coverage = "network"` (see [`super::network`] for the model).
+//! `coverage = "network"` (see [`super`] for the model).
 //!
 //! A [`CoverProblem`] is a directed multigraph whose edges have lengths, with
 //! candidate tag sites at positions strictly inside edges. A selection of

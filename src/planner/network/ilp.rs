@@ -5,14 +5,14 @@
 //! subject to, for every walk `W` longer than `R`,
 //! `Σ_s passes_W(s) x_s ≥ k + 1`. There are infinitely many walks, so the
 //! programme starts with the witnesses of the installed-only selection; each
-//! optimum is checked exactly by [`network_cover::check`]; the witnesses of
+//! optimum is checked exactly by [`cover::check`]; the witnesses of
 //! its violations become new constraints; repeat. Every constraint is valid
 //! for every feasible selection, so each proven optimum is a lower bound, and
 //! the first optimum that passes the check is optimal. Branch and bound is
 //! limited by a node budget (deterministic, unlike a time limit); when the
 //! budget or the round limit is hit the caller falls back to the greedy.
 
-use super::network_cover::{self as cover, CoverProblem, Walk};
+use super::cover::{self, CoverProblem, Walk};
 use std::collections::HashSet;
 
 /// Limits of the exact method.
@@ -232,8 +232,8 @@ pub fn solve(p: &CoverProblem, limits: IlpLimits, warm: Option<&[bool]>) -> IlpO
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::planner::network_cover::tests::random_problem;
-    use crate::planner::network_cover::{check, greedy, Solved};
+    use crate::planner::network::cover::tests::random_problem;
+    use crate::planner::network::cover::{check, greedy, Solved};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 

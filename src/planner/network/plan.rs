@@ -1,0 +1,310 @@
+//! Planning network coverage: the instance with a reach per speed class,
+//! solved exactly (integer programme) when small, else by the greedy, and
+//! the selected sites as tags.
+
+use super::cover::{self, Solved, Walk};
+use super::ilp::{self, IlpLimits, IlpOutcome};
+use super::instance::{build, describe_walk, section_point};
+use super::reach::{reach_class, ReachClass};
+use super::settings::{check_settings, map_route, UTurns, ILP_MAX_CANDIDATES};
+use super::types::{NetworkPlan, NetworkTag};
+use super::validation::validate_network_plan;
+use crate::error::{Error, Result};
+use crate::network::Network;
+use crate::planner::settings::{lane_width_m, PlannerSettings};
+use crate::sim::scenario::Scenario;
+use crate::sim::tags::Mounting;
+use rayon::prelude::*;
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Instant;
+
+/// Plans network coverage for a scenario: loads its map, computes the
+/// reach, places tags, and validates with `validation_runs` Monte Carlo runs
+/// when `validate`.
+pub fn plan_network(
+    scn: &Scenario,
+    settings: &PlannerSettings,
+    seed: u64,
+    validate: bool,
+) -> Result<NetworkPlan> {
+    let (net, mut plan) = plan_network_loaded(scn, settings)?;
+    if validate && settings.validation_runs > 0 {
+        plan.validation = Some(validate_network_plan(
+            scn,
+            &net,
+            &plan,
+            settings.validation_runs,
+            seed,
+        )?);
+    }
+    Ok(plan)
+}
+
+/// Loads a network-coverage scenario's map once and plans on it, without
+/// validation: the loaded network (to share with the validation) and the
+/// plan, whose timings include the load.
+pub fn plan_network_loaded(
+    scn: &Scenario,
+    settings: &PlannerSettings,
+) -> Result<(std::sync::Arc<Network>, NetworkPlan)> {
+    let (map, _, _) = map_route(scn)?;
+    let t0 = Instant::now();
+    let net = std::sync::Arc::new(Network::load(map, &Default::default())?);
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut plan = plan_network_on(scn, settings, &net)?;
+    plan.timings_ms.insert("load".into(), load_ms);
+    Ok((net, plan))
+}
+
+/// [`plan_network`] on a loaded network, without validation.
+pub fn plan_network_on(
+    scn: &Scenario,
+    settings: &PlannerSettings,
+    net: &Network,
+) -> Result<NetworkPlan> {
+    let (_, profile, height_m) = map_route(scn)?;
+    let (spacing, u_turns) = check_settings(scn, settings)?;
+    let req = settings.requirement_m;
+    let k = settings.tolerate_missed_reads;
+    settings.check_best_fix(&scn.rfid)?;
+    let mut timings = BTreeMap::new();
+    // Instance with a placeholder reach, to learn the speed classes and mountings.
+    let t = Instant::now();
+    let mut built = build(net, settings, profile.speed_mps, spacing, 1.0, u_turns)?;
+    timings.insert("build".into(), t.elapsed().as_secs_f64() * 1e3);
+    // Reach per (speed, mounting) class in use.
+    let t = Instant::now();
+    let speeds: BTreeSet<u64> = built
+        .edge_speed
+        .iter()
+        .map(|v| (v * 3.6 * 100.0).round() as u64)
+        .collect();
+    let mountings: BTreeSet<&'static str> =
+        built.site_mounting.iter().map(|m| m.as_str()).collect();
+    let classes: Vec<(f64, Mounting)> = speeds
+        .iter()
+        .flat_map(|&s| {
+            mountings
+                .iter()
+                .filter_map(move |m| Mounting::parse(m).map(|m| (s as f64 / 360.0, m)))
+        })
+        .collect();
+    if classes.is_empty() {
+        return Err(Error::InvalidParameter(
+            "no candidate site: none of planner.mountings is allowed on any road (ceiling only in tunnels)"
+                .into(),
+        ));
+    }
+    let origin = net.frame.origin();
+    let reach_classes: Vec<ReachClass> = classes
+        .par_iter()
+        .map(|&(v, m)| reach_class(scn, origin.lat, origin.lon, height_m, v, m, req))
+        .collect::<Result<Vec<_>>>()?;
+    timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
+    let steady = reach_classes
+        .iter()
+        .map(|c| c.steady_reach_m)
+        .fold(f64::INFINITY, f64::min);
+    let start = reach_classes
+        .iter()
+        .map(|c| c.start_reach_m)
+        .fold(f64::INFINITY, f64::min);
+    // Reach per speed class: the smallest over the mountings in use, steady
+    // and from the prior.
+    let key = |v: f64| (v * 3.6 * 100.0).round() as u64;
+    let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
+    for (c, &(v, _)) in reach_classes.iter().zip(&classes) {
+        let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
+        *r = r.min(c.steady_reach_m.min(c.start_reach_m));
+    }
+    let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);
+    let r_ref = class_reach.values().copied().fold(0.0, f64::max);
+    if !(reach_m > 0.0 && r_ref.is_finite()) {
+        return Err(Error::Infeasible(format!(
+            "the {req} m requirement leaves no distance between fixes (reach 0 m)"
+        )));
+    }
+    // Error budget consumed: a metre of a road in speed class c uses
+    // 1/R_c of it, so the instance measures it as R_ref/R_c metres against
+    // the reach R_ref (exact when the error grows with time alone, or with
+    // distance alone; a mixture is approximated).
+    for e in 0..built.physical_edges {
+        let r = class_reach
+            .get(&key(built.edge_speed[e]))
+            .copied()
+            .unwrap_or(reach_m);
+        built.edge_scale[e] = r_ref / r;
+        built.problem.edges[e].length_m *= built.edge_scale[e];
+    }
+    for site in &mut built.problem.sites {
+        site.at_m *= built.edge_scale[site.edge as usize];
+    }
+    built.problem.reach_m = r_ref;
+    let p = &built.problem;
+    // Solve.
+    let t = Instant::now();
+    let (lb_pack, lb_pack_cost, _) = cover::packing_lower_bound(p);
+    let mut method = String::new();
+    let mut lb_cost = lb_pack_cost;
+    let mut selected: Option<Vec<bool>> = None;
+    let infeasible = |w: &Walk| -> Error {
+        let metres: f64 = w
+            .pieces
+            .iter()
+            .filter(|x| (x.0 as usize) < built.physical_edges)
+            .map(|x| (x.2 - x.1) / built.edge_scale[x.0 as usize])
+            .sum();
+        Error::Infeasible(format!(
+            "the {req} m requirement cannot be held with {k} missed read(s) tolerated on a walk of \
+             {:.0} m through {}: its candidate sites cannot give {} read(s) within the error budget \
+             (reach R = {:.0} m on the slowest roads, {:.0} m on the fastest; candidate spacing {spacing} m{})",
+            metres,
+            describe_walk(net, &built, w),
+            k + 1,
+            reach_m,
+            r_ref,
+            if reach_m < spacing * (k + 1) as f64 {
+                "; R is shorter than the spacing allows: lower planner.candidate_spacing_m"
+            } else {
+                ""
+            }
+        ))
+    };
+    // The greedy first: a feasible selection, the warm start of the exact
+    // method and the fallback.
+    let (greedy_sel, st) = match cover::greedy_with_stats(p) {
+        (Solved::Feasible(s), st) => (s, st),
+        (Solved::Infeasible(w), _) => return Err(infeasible(&w)),
+    };
+    let greedy_method = format!(
+        "greedy: set multicover over violating walks ({} round(s), {} tag(s) added), exact reverse deletion ({} removed), verified by the walk DP",
+        st.rounds, st.added, st.removed
+    );
+    if p.sites.len() <= ILP_MAX_CANDIDATES {
+        match ilp::solve(p, IlpLimits::default(), Some(&greedy_sel)) {
+            IlpOutcome::Optimal {
+                selected: s,
+                cost,
+                rounds,
+                constraints,
+            } => {
+                method = format!(
+                    "exact: integer programme with lazy walk constraints ({rounds} round(s), {constraints} walk constraints; microlp, warm-started by the greedy), verified by the walk DP"
+                );
+                lb_cost = lb_cost.max(cost);
+                selected = Some(s);
+            }
+            IlpOutcome::Infeasible(w) => return Err(infeasible(&w)),
+            IlpOutcome::GaveUp {
+                lower_bound_cost,
+                reason,
+            } => {
+                lb_cost = lb_cost.max(lower_bound_cost);
+                method = format!("(exact method gave up: {reason}) ");
+            }
+        }
+    }
+    let sel = match selected {
+        Some(s) => s,
+        None => {
+            method.push_str(&greedy_method);
+            greedy_sel
+        }
+    };
+    timings.insert("solve".into(), t.elapsed().as_secs_f64() * 1e3);
+    let res = cover::check(p, &sel);
+    let max_cost = settings
+        .mountings
+        .iter()
+        .map(|o| o.cost)
+        .fold(0.0, f64::max);
+    let lb_count = if max_cost > 0.0 {
+        lb_pack.max((lb_cost / max_cost - 1e-9).ceil().max(0.0) as usize)
+    } else {
+        lb_pack
+    };
+    // Tags.
+    let mut tags = Vec::new();
+    let mut n_new = 0;
+    let mut total_cost = 0.0;
+    for (i, site) in p.sites.iter().enumerate() {
+        if !sel[i] {
+            continue;
+        }
+        let (sec, fwd) = built.edge_dir[site.edge as usize];
+        let s = &net.sections[sec as usize];
+        let a = &net.roads[s.road as usize].attributes;
+        let at = site.at_m / built.edge_scale[site.edge as usize];
+        let off = if fwd { at } else { s.length_m - at };
+        let (ll, enu, chain, dir) = section_point(net, sec, off);
+        let oneway = s.oneway.is_oneway();
+        let lane = if oneway { 0.0 } else { 0.5 * lane_width_m(a) };
+        // Right of travel: digitised right when forward, left when backward.
+        let sign = if fwd { 1.0 } else { -1.0 };
+        let right = [dir[1] * sign, -dir[0] * sign];
+        let g = net
+            .frame
+            .to_geodetic([enu[0] + lane * right[0], enu[1] + lane * right[1], 0.0]);
+        let existing = built.site_existing[i].map(|ti| &settings.existing_tags[ti]);
+        let m = built.site_mounting[i];
+        let (sa, sc) = scn.rfid.fix_sigmas(m, built.edge_speed[site.edge as usize]);
+        if existing.is_none() {
+            n_new += 1;
+            total_cost += site.cost;
+        }
+        tags.push(NetworkTag {
+            tag_id: existing.map_or_else(|| format!("N{n_new:05}"), |t| t.id.clone()),
+            lat: existing.map_or(g.lat_deg(), |t| t.lat.to_degrees()),
+            lon: existing.map_or(g.lon_deg(), |t| t.lon.to_degrees()),
+            centre_lat: ll[0],
+            centre_lon: ll[1],
+            height_m: existing.and_then(|t| t.height_m).unwrap_or(height_m),
+            road_id: a.id.clone(),
+            road_name: a.name.clone(),
+            chainage_m: chain,
+            digitised_forward: fwd,
+            oneway,
+            mounting: m,
+            expected_fix_sigma_m: sa.max(sc),
+            tunnel: a.tunnel,
+            existing: existing.is_some(),
+            cost: site.cost,
+            lane_offset_m: lane,
+            edge: site.edge,
+            section: sec,
+        });
+    }
+    let existing_kept = tags.iter().filter(|t| t.existing).count();
+    Ok(NetworkPlan {
+        scenario: scn.file.name.clone(),
+        coverage: "network".into(),
+        requirement_m: req,
+        tolerate_missed_reads: k,
+        method,
+        lower_bound: lb_count,
+        lower_bound_cost: lb_cost,
+        reach_m,
+        steady_reach_m: steady,
+        start_reach_m: start,
+        reach_classes,
+        directed_edges: built.physical_edges,
+        u_turns: match u_turns {
+            UTurns::Anywhere => "anywhere".into(),
+            UTurns::DeadEnds => "dead_ends".into(),
+        },
+        directed_length_km: built.directed_length_m / 1000.0,
+        candidates: p.sites.len(),
+        candidate_spacing_m: spacing,
+        existing_kept,
+        existing_off_network: built.existing_off,
+        tags,
+        total_cost,
+        verified: res.feasible(),
+        longest_walk_budget: res.longest_m / r_ref,
+        budget_reference_m: r_ref,
+        timings_ms: timings,
+        validation: None,
+        selected: sel,
+        problem: Some(built.problem),
+    })
+}

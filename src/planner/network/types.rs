@@ -1,0 +1,188 @@
+//! The types of a network plan: its tags, its Monte Carlo validation and
+//! the plan itself.
+
+use super::cover::CoverProblem;
+use super::reach::ReachClass;
+use crate::network::SectionId;
+use crate::sim::tags::{Mounting, Tag};
+use serde::Serialize;
+use std::collections::{BTreeMap, HashSet};
+
+/// One tag of a network plan.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetworkTag {
+    /// Identifier.
+    pub tag_id: String,
+    /// Latitude of the tag (lane centre of its direction; degrees).
+    pub lat: f64,
+    /// Longitude (degrees).
+    pub lon: f64,
+    /// Latitude on the road's centreline (degrees).
+    pub centre_lat: f64,
+    /// Longitude on the road's centreline (degrees).
+    pub centre_lon: f64,
+    /// Height (m).
+    pub height_m: f64,
+    /// Road input id.
+    pub road_id: String,
+    /// Road name.
+    pub road_name: Option<String>,
+    /// Distance along the road (way) in its digitised direction (m).
+    pub chainage_m: f64,
+    /// Travel direction served: the road's digitised direction or against it.
+    pub digitised_forward: bool,
+    /// The road is one-way.
+    pub oneway: bool,
+    /// Mounting.
+    #[serde(serialize_with = "crate::planner::plan::ser_mounting")]
+    pub mounting: Mounting,
+    /// Expected 1σ fix error (larger axis, m).
+    pub expected_fix_sigma_m: f64,
+    /// In a tunnel.
+    pub tunnel: bool,
+    /// Installed already (`existing_tags`).
+    pub existing: bool,
+    /// Cost (0 for installed tags).
+    pub cost: f64,
+    /// Lateral offset of the lane centre right of the road centreline (m).
+    pub lane_offset_m: f64,
+    /// Directed edge index (internal).
+    #[serde(skip)]
+    pub edge: u32,
+    /// Section (internal).
+    #[serde(skip)]
+    pub section: SectionId,
+}
+
+/// Monte Carlo validation over sampled paths.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetworkValidation {
+    /// Runs in all.
+    pub runs: u64,
+    /// Sampled paths.
+    pub paths: usize,
+    /// Runs per path.
+    pub runs_per_path: u64,
+    /// Total length of the paths (km).
+    pub paths_length_km: f64,
+    /// Base seed.
+    pub seed: u64,
+    /// Fraction of distance (all runs, all paths) within the requirement.
+    pub fraction_within_requirement: f64,
+    /// Largest horizontal error (m).
+    pub max_horizontal_error_m: f64,
+    /// Where: path index, run, time (s), distance along the path (m).
+    pub worst_path: usize,
+    /// Run of the worst point.
+    pub worst_run: u64,
+    /// Time of the worst point (s).
+    pub worst_t_s: f64,
+    /// Distance along its path (m).
+    pub worst_distance_m: f64,
+    /// Position of the worst point (degrees).
+    pub worst_lat: f64,
+    /// Longitude of the worst point (degrees).
+    pub worst_lon: f64,
+    /// Road of the worst point (input id), when found.
+    pub worst_road_id: Option<String>,
+}
+
+/// A network coverage plan.
+#[derive(Debug, Clone, Serialize)]
+pub struct NetworkPlan {
+    /// Scenario name.
+    pub scenario: String,
+    /// Always `"network"`.
+    pub coverage: String,
+    /// Requirement (m).
+    pub requirement_m: f64,
+    /// Consecutive missed reads tolerated.
+    pub tolerate_missed_reads: usize,
+    /// Placement method.
+    pub method: String,
+    /// Lower bound on the number of new tags.
+    pub lower_bound: usize,
+    /// Lower bound on the cost of new tags.
+    pub lower_bound_cost: f64,
+    /// Reach of the slowest speed class, min(steady, start) over the
+    /// mountings in use (m): the tightest.
+    pub reach_m: f64,
+    /// Reach of the fastest class (m): the budget's reference; a metre of
+    /// a road of class c consumes `1/R_c` of the budget.
+    pub budget_reference_m: f64,
+    /// Steady-state reach between fixes (m).
+    pub steady_reach_m: f64,
+    /// Reach from the prior at a start (m).
+    pub start_reach_m: f64,
+    /// Reach per speed class and mounting.
+    pub reach_classes: Vec<ReachClass>,
+    /// Directed edges (section, direction).
+    pub directed_edges: usize,
+    /// Where walks may turn back: "anywhere" or "dead_ends".
+    pub u_turns: String,
+    /// Length of all directed edges (km).
+    pub directed_length_km: f64,
+    /// Candidate sites (installed tags included).
+    pub candidates: usize,
+    /// Candidate spacing (m).
+    pub candidate_spacing_m: f64,
+    /// Installed tags kept / ignored (farther than 15 m from every road).
+    pub existing_kept: usize,
+    /// Installed tags ignored.
+    pub existing_off_network: usize,
+    /// Tags (new and installed).
+    pub tags: Vec<NetworkTag>,
+    /// Total cost of new tags.
+    pub total_cost: f64,
+    /// The dynamic programme finds no walk consuming more than the budget
+    /// with ≤ k passes.
+    pub verified: bool,
+    /// Largest budget fraction consumed by a walk with at most k passes
+    /// (≤ 1 when verified; capped just above 1).
+    pub longest_walk_budget: f64,
+    /// Time per stage (ms): load, reach, build, solve.
+    pub timings_ms: BTreeMap<String, f64>,
+    /// Monte Carlo validation, when run.
+    pub validation: Option<NetworkValidation>,
+    /// The instance (for checks; not serialised).
+    #[serde(skip)]
+    pub problem: Option<CoverProblem>,
+    /// The selection (per site).
+    #[serde(skip)]
+    pub selected: Vec<bool>,
+}
+
+impl NetworkPlan {
+    /// New tags.
+    pub fn tag_count(&self) -> usize {
+        self.tags.iter().filter(|t| !t.existing).count()
+    }
+
+    /// New tags by mounting.
+    pub fn by_mounting(&self) -> BTreeMap<String, usize> {
+        let mut m = BTreeMap::new();
+        for t in self.tags.iter().filter(|t| !t.existing) {
+            *m.entry(t.mounting.as_str().to_string()).or_insert(0) += 1;
+        }
+        m
+    }
+
+    /// The tags as the simulator takes them, on the centreline (where the
+    /// simulated vehicles drive), only those of the given directed sections
+    /// (all when `None`).
+    pub fn sim_tags(&self, only: Option<&HashSet<(SectionId, bool)>>) -> Vec<Tag> {
+        self.tags
+            .iter()
+            .filter(|t| only.is_none_or(|s| s.contains(&(t.section, t.digitised_forward))))
+            .map(|t| Tag {
+                id: t.tag_id.clone(),
+                lat: t.centre_lat.to_radians(),
+                lon: t.centre_lon.to_radians(),
+                height_m: Some(t.height_m),
+                mounting: t.mounting,
+                survey_error_m: [0.0, 0.0],
+                lane_width_m: None,
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,181 @@
+//! What a plan writes to its output folder: the export records of its new
+//! tags (with payloads) and the metadata of the tag files, for route and
+//! network plans alike.
+
+use super::network::types::NetworkPlan;
+use super::plan::Plan;
+use crate::error::Result;
+use crate::export::{ExportMetadata, TagRecord};
+use crate::sim::scenario::{RouteKind, Scenario};
+use crate::sim::tags::Mounting;
+use crate::tags::TagPayload;
+
+impl Plan {
+    /// Export records (with payloads) and metadata.
+    pub fn export(&self, scn: &Scenario) -> Result<(Vec<TagRecord>, ExportMetadata)> {
+        let mut recs = Vec::with_capacity(self.tags.len());
+        for (i, t) in self.tags.iter().enumerate().filter(|(_, t)| !t.existing) {
+            let payload = TagPayload {
+                lat_deg: t.lat,
+                lon_deg: t.lon,
+                height_m: t.height_m,
+                mounting: t.mounting,
+            }
+            .to_hex()?;
+            recs.push(TagRecord {
+                tag_id: t.tag_id.clone(),
+                lat: t.lat,
+                lon: t.lon,
+                height_m: t.height_m,
+                road_id: t.road_id.clone(),
+                // Along the road where there is one (what installers
+                // measure), else along the route.
+                chainage_m: Some(t.road_chainage_m.unwrap_or(t.route_distance_m)),
+                // Roadside readers look right (right-hand traffic): the
+                // post is on the right of travel, i.e. left of the road's
+                // digitised direction when driving against it.
+                side: Some(
+                    match (t.mounting, t.digitised_forward) {
+                        (Mounting::Roadside, Some(false)) => "left",
+                        (Mounting::Roadside, _) => "right",
+                        _ => "centre",
+                    }
+                    .to_string(),
+                ),
+                // Roadside tags stand x to the right of the lane centre
+                // (their stored point is the lane centre abeam).
+                lateral_offset_m: Some(match t.mounting {
+                    Mounting::Roadside => scn.rfid.roadside_distance_m,
+                    _ => 0.0,
+                }),
+                mounting: t.mounting,
+                expected_fix_sigma_m: Some(t.expected_fix_sigma_m),
+                // Tags within one window of k+1 consecutive tags back each other up.
+                redundancy_group: Some((i / (self.tolerate_missed_reads + 1)) as u32),
+                payload_hex: Some(payload),
+            });
+        }
+        let mut meta = ExportMetadata::new(Some(self.requirement_m));
+        let r = &scn.rfid;
+        let p = &mut meta.parameters;
+        p.insert("scenario".into(), self.scenario.clone());
+        p.insert("method".into(), self.method.clone());
+        p.insert(
+            "tolerate_missed_reads".into(),
+            self.tolerate_missed_reads.to_string(),
+        );
+        p.insert("read_probability".into(), r.read_probability.to_string());
+        p.insert("lane_width_m".into(), r.lane_width_m.to_string());
+        p.insert("vehicle_width_m".into(), r.vehicle_width_m.to_string());
+        p.insert(
+            "roadside_distance_m".into(),
+            r.roadside_distance_m.to_string(),
+        );
+        p.insert(
+            "roadside_angle_deg".into(),
+            format!("{:.3}", r.roadside_angle.to_degrees()),
+        );
+        p.insert("read_time_s".into(), r.read_time_s.to_string());
+        p.insert(
+            "road_surface_sigma_m".into(),
+            r.road_surface_sigma_m.to_string(),
+        );
+        p.insert("ceiling_sigma_m".into(), r.ceiling_sigma_m.to_string());
+        p.insert(
+            "chainage_m".into(),
+            if matches!(scn.route, RouteKind::Map { .. }) {
+                "distance along road_id in its digitised direction".into()
+            } else {
+                "distance along the planned route".into()
+            },
+        );
+        if matches!(scn.route, RouteKind::Map { .. }) {
+            meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
+        }
+        Ok((recs, meta))
+    }
+}
+
+impl NetworkPlan {
+    /// Export records of the new tags (with payloads) and metadata.
+    pub fn export(&self, scn: &Scenario) -> Result<(Vec<TagRecord>, ExportMetadata)> {
+        let mut recs = Vec::new();
+        for t in self.tags.iter().filter(|t| !t.existing) {
+            let payload = TagPayload {
+                lat_deg: t.lat,
+                lon_deg: t.lon,
+                height_m: t.height_m,
+                mounting: t.mounting,
+            }
+            .to_hex()?;
+            // Side of the road's digitised direction the tag is on: the
+            // lane (and roadside post) right of travel.
+            let side = if t.oneway && t.mounting != Mounting::Roadside {
+                "centre"
+            } else if t.digitised_forward {
+                "right"
+            } else {
+                "left"
+            };
+            recs.push(TagRecord {
+                tag_id: t.tag_id.clone(),
+                lat: t.lat,
+                lon: t.lon,
+                height_m: t.height_m,
+                road_id: Some(t.road_id.clone()),
+                chainage_m: Some(t.chainage_m),
+                side: Some(side.to_string()),
+                lateral_offset_m: Some(match t.mounting {
+                    Mounting::Roadside => scn.rfid.roadside_distance_m,
+                    _ => 0.0,
+                }),
+                mounting: t.mounting,
+                expected_fix_sigma_m: Some(t.expected_fix_sigma_m),
+                redundancy_group: Some(t.edge),
+                payload_hex: Some(payload),
+            });
+        }
+        let mut meta = ExportMetadata::new(Some(self.requirement_m));
+        let r = &scn.rfid;
+        let p = &mut meta.parameters;
+        p.insert("scenario".into(), self.scenario.clone());
+        p.insert("coverage".into(), "network".into());
+        p.insert("method".into(), self.method.clone());
+        p.insert("reach_m".into(), format!("{:.1}", self.reach_m));
+        p.insert(
+            "budget_reference_m".into(),
+            format!("{:.1}", self.budget_reference_m),
+        );
+        p.insert("u_turns".into(), self.u_turns.clone());
+        p.insert(
+            "tolerate_missed_reads".into(),
+            self.tolerate_missed_reads.to_string(),
+        );
+        p.insert("read_probability".into(), r.read_probability.to_string());
+        p.insert(
+            "candidate_spacing_m".into(),
+            self.candidate_spacing_m.to_string(),
+        );
+        p.insert(
+            "roadside_distance_m".into(),
+            r.roadside_distance_m.to_string(),
+        );
+        p.insert("vehicle_width_m".into(), r.vehicle_width_m.to_string());
+        p.insert(
+            "chainage_m".into(),
+            "distance along the road (road_id) in its digitised direction".into(),
+        );
+        p.insert(
+            "side".into(),
+            "side of the road's digitised direction (right-hand traffic: the lane of the direction served); \
+             the position is the lane centre; lateral_offset_m is a roadside post's distance right of it"
+                .into(),
+        );
+        p.insert(
+            "redundancy_group".into(),
+            "directed road section (section and direction) the tag serves".into(),
+        );
+        meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
+        Ok((recs, meta))
+    }
+}

@@ -1,0 +1,177 @@
+//! The plan of a route: its tags, its Monte Carlo validation and the
+//! uniform-spacing baseline it is compared with.
+
+use super::budget::BudgetPoint;
+use crate::sim::tags::{Mounting, Tag};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// One planned tag.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlannedTag {
+    /// Identifier.
+    pub tag_id: String,
+    /// Latitude, longitude (degrees).
+    pub lat: f64,
+    /// Longitude (degrees).
+    pub lon: f64,
+    /// Height (m).
+    pub height_m: f64,
+    /// Distance along the route (m).
+    pub route_distance_m: f64,
+    /// Chainage along the road `road_id` in its digitised direction (m),
+    /// when on a map.
+    pub road_chainage_m: Option<f64>,
+    /// Time the vehicle passes (s).
+    pub t_s: f64,
+    /// Mounting.
+    #[serde(serialize_with = "ser_mounting")]
+    pub mounting: Mounting,
+    /// Expected 1σ fix error (larger axis, m).
+    pub expected_fix_sigma_m: f64,
+    /// Road input id, when the route is on a map.
+    pub road_id: Option<String>,
+    /// Already installed (from `existing_tags`), not a new tag.
+    pub existing: bool,
+    /// Whether the site is in a tunnel.
+    pub tunnel: bool,
+    /// Lane width at the site (m; from the road's OSM `width`/`lanes` or
+    /// its class), when on a map.
+    pub lane_width_m: Option<f64>,
+    /// Whether the vehicle drives in the road's digitised direction there.
+    pub digitised_forward: Option<bool>,
+    /// Predicted 95 % bound just after the fix (m).
+    pub bound_after_fix_m: f64,
+    /// Route distance up to which the bound holds after this fix (m).
+    pub reach_m: f64,
+}
+
+pub(super) fn ser_mounting<S: serde::Serializer>(
+    m: &Mounting,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_str(m.as_str())
+}
+
+/// Monte Carlo validation of a plan.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Validation {
+    /// Runs.
+    pub runs: u64,
+    /// Base seed.
+    pub seed: u64,
+    /// Fraction of distance (over all runs) within the requirement.
+    pub fraction_within_requirement: f64,
+    /// Largest horizontal error over all runs (m).
+    pub max_horizontal_error_m: f64,
+    /// Where it happened: run, time (s), route distance (m).
+    pub worst_run: u64,
+    /// Time of the worst point (s).
+    pub worst_t_s: f64,
+    /// Route distance of the worst point (m).
+    pub worst_distance_m: f64,
+}
+
+/// A plan for one route.
+#[derive(Debug, Clone, Serialize)]
+pub struct Plan {
+    /// Scenario name.
+    pub scenario: String,
+    /// Requirement (m).
+    pub requirement_m: f64,
+    /// Consecutive missed reads tolerated.
+    pub tolerate_missed_reads: usize,
+    /// Placement method.
+    pub method: String,
+    /// Lower bound on the number of new tags: exact placement on the most
+    /// optimistic reaches (each site's filter having read a tag at every
+    /// earlier candidate).
+    pub lower_bound: usize,
+    /// Whether the plan's new-tag count equals the lower bound (proven
+    /// minimal for these candidate sites and mountings).
+    pub optimal: bool,
+    /// Installed tags (`existing_tags`) more than 15 m from the route, ignored.
+    pub existing_off_route: usize,
+    /// Route length (m).
+    pub route_length_m: f64,
+    /// Candidate sites considered.
+    pub candidates: usize,
+    /// Distance the bound holds from the start without tags (m).
+    pub start_reach_m: f64,
+    /// The tags, in route order.
+    pub tags: Vec<PlannedTag>,
+    /// Total cost.
+    pub total_cost: f64,
+    /// Largest distance between consecutive tags, start and end included (m).
+    pub max_gap_m: f64,
+    /// Largest predicted 95 % bound along the route with every tag read (m).
+    pub predicted_max_bound95_m: f64,
+    /// Predicted bound profile without tags (distance, bound).
+    #[serde(skip)]
+    pub profile_without_tags: Vec<BudgetPoint>,
+    /// Predicted bound profile with the plan (all read).
+    #[serde(skip)]
+    pub profile_with_tags: Vec<BudgetPoint>,
+    /// Monte Carlo validation, when run.
+    pub validation: Option<Validation>,
+    /// The uniform-spacing baseline, when computed.
+    pub uniform_baseline: Option<UniformBaseline>,
+}
+
+/// Tags at a uniform spacing along the route: the largest spacing (a
+/// multiple of the candidate spacing) that passes the plan's own covariance
+/// check (any `k` consecutive tags missed) and whose Monte Carlo validation
+/// keeps at least `min_fraction` of distance within the requirement.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UniformBaseline {
+    /// Spacing (m).
+    pub spacing_m: f64,
+    /// Tags at that spacing.
+    pub tag_count: usize,
+    /// Fraction of distance within the requirement asked for.
+    pub min_fraction: f64,
+    /// Consecutive missed tags the covariance check tolerated (as the plan).
+    pub tolerate_missed_reads: usize,
+    /// Its validation.
+    pub validation: Validation,
+    /// Spacings tried (m) and their fractions within the requirement (NaN:
+    /// failed the covariance check, not simulated).
+    pub tried: Vec<(f64, f64)>,
+}
+
+impl Plan {
+    /// New tags to install (installed ones not counted).
+    pub fn tag_count(&self) -> usize {
+        self.tags.iter().filter(|t| !t.existing).count()
+    }
+
+    /// Installed tags kept in the plan.
+    pub fn existing_count(&self) -> usize {
+        self.tags.len() - self.tag_count()
+    }
+
+    /// Tags by mounting.
+    pub fn by_mounting(&self) -> BTreeMap<String, usize> {
+        let mut m = BTreeMap::new();
+        for t in self.tags.iter().filter(|t| !t.existing) {
+            *m.entry(t.mounting.as_str().to_string()).or_insert(0) += 1;
+        }
+        m
+    }
+
+    /// The tags as the simulator takes them.
+    pub fn sim_tags(&self) -> Vec<Tag> {
+        self.tags
+            .iter()
+            .map(|t| Tag {
+                id: t.tag_id.clone(),
+                lat: t.lat.to_radians(),
+                lon: t.lon.to_radians(),
+                height_m: Some(t.height_m),
+                mounting: t.mounting,
+                survey_error_m: [0.0, 0.0],
+                lane_width_m: t.lane_width_m,
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,508 @@
+//! Tag placement along a scenario's route: candidate sites → the route
+//! budget's reaches ([`super::budget`]) → the fewest tags holding the
+//! requirement with `k` missed reads tolerated ([`super::placement`], exact
+//! on one route; refined and forward variants kept when the covariance
+//! analysis confirms them) → the plan, validated on request.
+
+use super::budget::{bound95, Budget};
+use super::forward;
+use super::placement::{place_with, Candidate, Placement};
+use super::plan::{Plan, PlannedTag};
+use super::settings::{site_speed_mps, Coverage, PlannerSettings};
+use super::validation::{robust, validate_plan};
+use crate::error::{Error, Result};
+use crate::network::{Network, RoadAttributes};
+use crate::sim::scenario::{RouteKind, Scenario};
+use crate::sim::tags::Mounting;
+use crate::sim::TruthSource;
+
+/// Road context along a map route: attributes at a route distance.
+struct RoadContext<'a> {
+    net: &'a std::sync::Arc<Network>,
+    route: &'a crate::route::Route,
+    scale: std::cell::Cell<f64>,
+}
+
+impl RoadContext<'_> {
+    fn at(&self, distance_m: f64) -> &RoadAttributes {
+        let span = self.route.span_at(distance_m * self.scale.get());
+        &self.net.model.roads[span.road as usize].attributes
+    }
+
+    /// Chainage along the road (its digitised direction, from its first
+    /// section present in the map) at a route distance.
+    fn road_chainage_m(&self, distance_m: f64) -> f64 {
+        let c = distance_m * self.scale.get();
+        let span = self.route.span_at(c);
+        let road = &self.net.model.roads[span.road as usize];
+        let before: f64 = road
+            .sections
+            .iter()
+            .take_while(|&&s| s != span.section.section)
+            .map(|&s| self.net.sections[s as usize].length_m)
+            .sum();
+        let sign = if span.to_offset_m >= span.from_offset_m {
+            1.0
+        } else {
+            -1.0
+        };
+        let off = span.from_offset_m + sign * (c - span.start_chainage_m).max(0.0);
+        before
+            + off.clamp(
+                span.from_offset_m.min(span.to_offset_m),
+                span.from_offset_m.max(span.to_offset_m),
+            )
+    }
+}
+
+/// Plans tags for a scenario's route (validated by `validation_runs` Monte
+/// Carlo runs when `validate`).
+pub fn plan(scn: &Scenario, seed: u64, validate: bool) -> Result<Plan> {
+    let settings = PlannerSettings::from_scenario(scn)?;
+    let truth = TruthSource::new(scn)?;
+    plan_with(scn, &truth, &settings, seed, validate)
+}
+
+/// [`plan`] with a truth and settings given.
+pub fn plan_with(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    seed: u64,
+    validate: bool,
+) -> Result<Plan> {
+    plan_with_progress(scn, truth, settings, seed, validate, None)
+}
+
+/// [`plan_with`], calling `progress(done, total)` as the candidate sites'
+/// reaches are computed (from worker threads; once per refinement pass too).
+pub fn plan_with_progress(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    seed: u64,
+    validate: bool,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+) -> Result<Plan> {
+    tracing::info!(scenario = %scn.file.name, requirement_m = settings.requirement_m, "planning tags");
+    if settings.coverage == Coverage::Network {
+        return Err(Error::InvalidParameter(
+            "planner.coverage = \"network\" plans with planner::network::plan_network".into(),
+        ));
+    }
+    let req = settings.requirement_m;
+    // Road context (tunnels, road ids) and the network for map matching:
+    // the truth's own map and route, loaded and planned once.
+    let ctx = match (&scn.route, truth.network(), truth.route()) {
+        (RouteKind::Map { .. }, Some(net), Some(route)) => Some(RoadContext {
+            net,
+            route,
+            scale: std::cell::Cell::new(1.0),
+        }),
+        _ => None,
+    };
+    let budget = Budget::new(scn, truth, ctx.as_ref().map(|c| &**c.net));
+    let length = budget.length_m();
+    if length <= 0.0 {
+        return Err(Error::scenario(
+            &scn.path,
+            "the route has no length to plan",
+        ));
+    }
+    if let Some(c) = ctx.as_ref() {
+        c.scale.set(c.route.length_m / length);
+    }
+    // Best possible fix against the requirement.
+    settings.check_best_fix(&scn.rfid)?;
+    // Candidate sites.
+    // Installed tags: on the route where the path passes within 15 m.
+    let samples = budget.samples();
+    let mut existing_at: Vec<(f64, usize)> = Vec::new();
+    let mut existing_off_route = 0usize;
+    for (ti, t) in settings.existing_tags.iter().enumerate() {
+        let (rm, rn) = crate::geodesy::radii(t.lat);
+        let best = samples
+            .iter()
+            .map(|sm| {
+                let a = &sm.avp;
+                let de = (a.state.lon - t.lon) * rn * t.lat.cos();
+                let dn = (a.state.lat - t.lat) * rm;
+                (de.hypot(dn), a.distance_m)
+            })
+            .fold((f64::INFINITY, 0.0), |b, x| if x.0 < b.0 { x } else { b });
+        if best.0 <= 15.0 {
+            existing_at.push((best.1, ti));
+        } else {
+            existing_off_route += 1;
+        }
+    }
+    existing_at.sort_by(|a, b| a.0.total_cmp(&b.0));
+    existing_at.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-6);
+    let mut site_list: Vec<(f64, Option<usize>)> =
+        existing_at.iter().map(|&(d, i)| (d, Some(i))).collect();
+    let mut d = settings.candidate_spacing_m;
+    while d < length {
+        if !settings.forbidden_m.iter().any(|z| d >= z[0] && d <= z[1])
+            && !existing_at.iter().any(|e| (e.0 - d).abs() < 1.0)
+        {
+            site_list.push((d, None));
+        }
+        d += settings.candidate_spacing_m;
+    }
+    site_list.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let sites_m: Vec<f64> = site_list.iter().map(|x| x.0).collect();
+    let (profile, sites) = budget.tag_free(settings.candidate_spacing_m, &sites_m);
+    let mut mountings = Vec::with_capacity(sites.len());
+    let mut tunnels = Vec::with_capacity(sites.len());
+    for (n, s) in sites.iter().enumerate() {
+        let road = ctx.as_ref().map(|c| c.at(s.distance_m));
+        let tunnel = road.is_some_and(|a| a.tunnel);
+        let o = settings
+            .mountings
+            .iter()
+            .find(|o| o.allowed_on(tunnel))
+            .unwrap_or(&settings.mountings[0]);
+        mountings.push(match site_list[n].1 {
+            Some(ti) => settings.existing_tags[ti].mounting,
+            None => o.mounting,
+        });
+        tunnels.push(tunnel);
+    }
+    let site_existing: Vec<Option<usize>> =
+        site_list.iter().take(sites.len()).map(|x| x.1).collect();
+    // Keep sites whose mounting is allowed there.
+    let keep: Vec<bool> = sites
+        .iter()
+        .zip(&mountings)
+        .zip(&tunnels)
+        .zip(&site_existing)
+        .map(|(((_, m), &tun), ex)| {
+            ex.is_some()
+                || settings
+                    .mountings
+                    .iter()
+                    .any(|o| o.mounting == *m && o.allowed_on(tun))
+        })
+        .collect();
+    let site_existing: Vec<Option<usize>> = site_existing
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .collect();
+    let is_existing: Vec<bool> = site_existing.iter().map(Option::is_some).collect();
+    let sites: Vec<_> = sites
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .collect();
+    let mountings: Vec<_> = mountings
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .collect();
+    let tunnels: Vec<_> = tunnels
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .collect();
+    let reaches = budget.reaches_with_progress(&sites, &mountings, req, progress);
+    let start_reach = budget.start_reach(req);
+    let cands: Vec<Candidate> = sites
+        .iter()
+        .zip(&reaches)
+        .map(|(s, &(_, r))| Candidate {
+            at_m: s.distance_m,
+            reach_m: r,
+        })
+        .collect();
+    let k = settings.tolerate_missed_reads;
+    if start_reach <= 0.0 {
+        let b0 = budget
+            .initial_filter()
+            .map_or(f64::NAN, |f| bound95(&f.position_cov_enu()));
+        return Err(Error::Infeasible(format!(
+            "the navigator's initial position uncertainty (95 % bound {b0:.2} m, from \
+             navigator.initial_position_sigma_m / filter.position_sigma_m) already exceeds the {req} m \
+             requirement at the start of the route"
+        )));
+    }
+    let chosen = match place_with(
+        length,
+        start_reach,
+        &cands,
+        &is_existing,
+        k,
+        settings.min_spacing_m,
+    ) {
+        Placement::Feasible(c) => c,
+        Placement::Infeasible { covered_to_m } => {
+            let road = ctx
+                .as_ref()
+                .map(|c| {
+                    let a = c.at(covered_to_m);
+                    format!(
+                        " (road {}{})",
+                        a.id,
+                        a.name
+                            .as_ref()
+                            .map(|n| format!(" \"{n}\""))
+                            .unwrap_or_default()
+                    )
+                })
+                .unwrap_or_default();
+            let next = cands
+                .iter()
+                .find(|c| c.at_m > covered_to_m)
+                .map_or(length, |c| c.at_m);
+            return Err(Error::Infeasible(format!(
+                "the {req} m requirement cannot be held with {k} missed read(s) tolerated \
+                 beyond route distance {covered_to_m:.0} m{road}; the stretch {covered_to_m:.0}–{next:.0} m \
+                 of {length:.0} m cannot be covered (no candidate site reaches it)"
+            )));
+        }
+    };
+    // Refinement: the reaches above start from the tag-free filter, whose
+    // velocity and attitude uncertainty the planned fixes would have kept
+    // smaller. Recompute them from the filter as the plan leaves it (all
+    // planned fixes read), re-place, and keep the new plan only when the
+    // covariance analysis confirms it: the bound holds with every tag read
+    // and with any k consecutive tags missed.
+    let mut chosen = chosen;
+    let mut reaches = reaches;
+    let mut refined = 0;
+    // The plan whose filter the snapshots come from (accepted or not).
+    let mut basis = chosen.clone();
+    for _ in 0..settings.refine_iterations {
+        let fixes: Vec<(usize, Mounting)> = basis
+            .iter()
+            .map(|&i| (sites[i].sample, mountings[i]))
+            .collect();
+        let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
+        let (_, sites2) = budget.snapshots(&fixes, settings.candidate_spacing_m, &at);
+        if sites2.len() != sites.len() {
+            break;
+        }
+        let reaches2 = budget.reaches_with_progress(&sites2, &mountings, req, progress);
+        let cands2: Vec<Candidate> = sites2
+            .iter()
+            .zip(&reaches2)
+            .map(|(s, &(_, r))| Candidate {
+                at_m: s.distance_m,
+                reach_m: r,
+            })
+            .collect();
+        let Placement::Feasible(c2) = place_with(
+            length,
+            start_reach,
+            &cands2,
+            &is_existing,
+            k,
+            settings.min_spacing_m,
+        ) else {
+            break;
+        };
+        if c2 == basis {
+            break;
+        }
+        let fixes2: Vec<(usize, Mounting)> = c2
+            .iter()
+            .map(|&i| (sites[i].sample, mountings[i]))
+            .collect();
+        if c2.len() < chosen.len() && robust(&budget, &fixes2, k, req, settings.candidate_spacing_m)
+        {
+            chosen = c2.clone();
+            reaches = reaches2;
+            refined += 1;
+        }
+        basis = c2;
+    }
+    let new_count = |c: &[usize]| c.iter().filter(|&&i| !is_existing[i]).count();
+    // Forward placement with the plan's own filters (module `forward`):
+    // kept when it needs fewer new tags and passes the covariance check
+    // with any k consecutive tags missed.
+    let fwd_sites: Vec<forward::ForwardSite> = sites
+        .iter()
+        .enumerate()
+        .map(|(i, s)| forward::ForwardSite {
+            sample: s.sample,
+            distance_m: s.distance_m,
+            mounting: mountings[i],
+            existing: is_existing[i],
+        })
+        .collect();
+    let mut forward_used = false;
+    let fw = forward::forward_greedy(&budget, &fwd_sites, k, req, settings.min_spacing_m, k + 1);
+    if let Placement::Feasible(c3) = fw {
+        if new_count(&c3) < new_count(&chosen) {
+            let fixes3: Vec<(usize, Mounting)> = c3
+                .iter()
+                .map(|&i| (sites[i].sample, mountings[i]))
+                .collect();
+            if robust(&budget, &fixes3, k, req, settings.candidate_spacing_m) {
+                chosen = c3;
+                forward_used = true;
+            }
+        }
+    }
+    // Lower bound: the most optimistic reaches (each site's filter having
+    // read a tag at every earlier candidate site). By the monotonicity of
+    // the filter's covariance in the information it has had, no plan on
+    // these sites reaches further from any site, so the exact placement on
+    // these reaches needs no more tags than any feasible plan.
+    let lower_bound = {
+        let all: Vec<(usize, Mounting)> = sites
+            .iter()
+            .zip(&mountings)
+            .map(|(s, &m)| (s.sample, m))
+            .collect();
+        let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
+        let (_, opt_sites) = budget.snapshots(&all, settings.candidate_spacing_m, &at);
+        if opt_sites.len() == sites.len() {
+            let r = budget.reaches_with_progress(&opt_sites, &mountings, req, progress);
+            let c: Vec<Candidate> = opt_sites
+                .iter()
+                .zip(&r)
+                .map(|(s, &(_, r))| Candidate {
+                    at_m: s.distance_m,
+                    reach_m: r,
+                })
+                .collect();
+            match place_with(
+                length,
+                start_reach,
+                &c,
+                &is_existing,
+                k,
+                settings.min_spacing_m,
+            ) {
+                Placement::Feasible(c) => new_count(&c),
+                Placement::Infeasible { .. } => 0,
+            }
+        } else {
+            0
+        }
+    };
+    // Each chosen tag's bound after its fix and reach, from the plan's own
+    // filter (every planned tag read).
+    {
+        let fixes: Vec<(usize, Mounting)> = chosen
+            .iter()
+            .map(|&i| (sites[i].sample, mountings[i]))
+            .collect();
+        let at: Vec<f64> = chosen.iter().map(|&i| sites[i].distance_m).collect();
+        let (_, own) = budget.snapshots(&fixes, settings.candidate_spacing_m, &at);
+        if own.len() == chosen.len() {
+            let m: Vec<Mounting> = chosen.iter().map(|&i| mountings[i]).collect();
+            let r = budget.reaches(&own, &m, req);
+            for (n, &i) in chosen.iter().enumerate() {
+                reaches[i] = r[n];
+            }
+        }
+    }
+    let mut tags = Vec::with_capacity(chosen.len());
+    let mut n_new = 0;
+    for &i in &chosen {
+        let s = &sites[i];
+        let a = &samples[s.sample].avp;
+        let existing = site_existing[i].map(|ti| &settings.existing_tags[ti]);
+        if existing.is_none() {
+            n_new += 1;
+        }
+        let road = ctx.as_ref().map(|c| c.at(s.distance_m));
+        let speed = site_speed_mps(a.state.v[0].hypot(a.state.v[1]), road);
+        let lane = budget.lane_width_at(s.sample);
+        let (sa, sc) = scn
+            .rfid
+            .with_lane_width(lane)
+            .fix_sigmas(mountings[i], speed);
+        tags.push(PlannedTag {
+            tag_id: existing.map_or_else(|| format!("T{n_new:04}"), |t| t.id.clone()),
+            lat: existing.map_or(a.state.lat, |t| t.lat).to_degrees(),
+            lon: existing.map_or(a.state.lon, |t| t.lon).to_degrees(),
+            height_m: existing.and_then(|t| t.height_m).unwrap_or(a.state.h),
+            existing: existing.is_some(),
+            route_distance_m: s.distance_m,
+            road_chainage_m: ctx.as_ref().map(|c| c.road_chainage_m(s.distance_m)),
+            t_s: a.t,
+            mounting: mountings[i],
+            expected_fix_sigma_m: sa.max(sc),
+            road_id: road.map(|r| r.id.clone()),
+            tunnel: tunnels[i],
+            lane_width_m: lane,
+            digitised_forward: ctx.as_ref().map(|c| {
+                let sp = c.route.span_at(s.distance_m * c.scale.get());
+                sp.to_offset_m >= sp.from_offset_m
+            }),
+            bound_after_fix_m: reaches[i].0,
+            reach_m: reaches[i].1,
+        });
+    }
+    let mut max_gap: f64 = 0.0;
+    let mut prev = 0.0;
+    for t in &tags {
+        max_gap = max_gap.max(t.route_distance_m - prev);
+        prev = t.route_distance_m;
+    }
+    max_gap = max_gap.max(length - prev);
+    let fixes: Vec<(usize, Mounting)> = chosen
+        .iter()
+        .map(|&i| (sites[i].sample, mountings[i]))
+        .collect();
+    let with = budget.with_fixes(&fixes, settings.candidate_spacing_m);
+    let predicted = with.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
+    let total_cost = tags
+        .iter()
+        .filter(|t| !t.existing)
+        .map(|t| {
+            settings
+                .mountings
+                .iter()
+                .find(|o| o.mounting == t.mounting)
+                .map_or(1.0, |o| o.cost)
+        })
+        .fold(0.0, |a, c| a + c);
+    let n_cands = cands.len();
+    let mut plan = Plan {
+        scenario: scn.file.name.clone(),
+        requirement_m: req,
+        tolerate_missed_reads: k,
+        method: if forward_used {
+            "forward: furthest site each step with the plan's own filters (missed-read windows tracked), checked by covariance with any k consecutive tags missed".into()
+        } else if refined > 0 {
+            format!(
+                "exact: breadth-first search over the last k+1 tags (single route), reaches refined {refined}x from the planned filter and confirmed with any k consecutive tags missed"
+            )
+        } else {
+            "exact: breadth-first search over the last k+1 tags (single route) on tag-free reaches"
+                .into()
+        },
+        lower_bound,
+        optimal: lower_bound == n_new,
+        existing_off_route,
+        route_length_m: length,
+        candidates: n_cands,
+        start_reach_m: start_reach,
+        tags,
+        total_cost,
+        max_gap_m: max_gap,
+        predicted_max_bound95_m: predicted,
+        profile_without_tags: profile,
+        profile_with_tags: with,
+        validation: None,
+        uniform_baseline: None,
+    };
+    if validate {
+        plan.validation = Some(validate_plan(
+            scn,
+            truth,
+            &plan,
+            settings.validation_runs,
+            seed,
+        )?);
+    }
+    Ok(plan)
+}

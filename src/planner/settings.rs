@@ -1,0 +1,367 @@
+//! Planner settings: the scenario's `[planner]` read and checked once with
+//! its defaults, the mountings' costs and read probabilities, and the road
+//! quantities (lane width, speed at a site) the planners share.
+
+use crate::error::{Error, Result};
+use crate::network::RoadAttributes;
+use crate::sim::covariance::bound95_of_sigmas;
+use crate::sim::scenario::{NavMode, Scenario};
+use crate::sim::tags::{Mounting, RfidModel, Tag};
+
+/// Default read probability of a tag (the RFID paper's field test).
+pub const DEFAULT_READ_PROBABILITY: f64 = 0.977;
+
+/// Lane width (m) of a road from its OSM attributes: `width / lanes` when
+/// both are given (a carriageway width over its lanes), else a default by
+/// road class.
+pub fn lane_width_m(a: &RoadAttributes) -> f64 {
+    if let (Some(w), Some(n)) = (a.width_m, a.lanes) {
+        if n > 0 && w > 0.0 {
+            return (w / f64::from(n)).clamp(2.5, 5.0);
+        }
+    }
+    if let (Some(w), None) = (a.width_m, a.lanes) {
+        // A two-way road's width holds two lanes, a one-way road's one.
+        let n = if a.oneway.is_oneway() { 1.0 } else { 2.0 };
+        return (w / n).clamp(2.5, 5.0);
+    }
+    match a.highway.trim_end_matches("_link") {
+        "motorway" | "trunk" => 3.75,
+        "primary" | "secondary" => 3.5,
+        "tertiary" | "unclassified" => 3.25,
+        _ => 3.0,
+    }
+}
+
+/// Speed (m/s) at a site: the truth's speed when moving, else the road's
+/// `maxspeed`, else 30 km/h.
+pub fn site_speed_mps(truth_speed: f64, road: Option<&RoadAttributes>) -> f64 {
+    if truth_speed > 0.5 {
+        truth_speed
+    } else {
+        road.and_then(|a| a.maxspeed_kmh).unwrap_or(30.0) / 3.6
+    }
+}
+
+/// What a mounting costs, how often it is read and where it may go.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MountingOption {
+    /// The mounting.
+    pub mounting: Mounting,
+    /// Installed cost of one tag (arbitrary units).
+    pub cost: f64,
+    /// Probability that a pass is read.
+    pub read_probability: f64,
+    /// Only inside tunnels (ceiling readers).
+    pub tunnel_only: bool,
+}
+
+impl MountingOption {
+    /// Defaults: road surface cost 1, roadside 1, ceiling 3 (a reader in the
+    /// roof is expensive) and tunnels only; read probability 0.977.
+    pub fn default_for(m: Mounting) -> Self {
+        Self {
+            mounting: m,
+            cost: match m {
+                Mounting::RoadSurface | Mounting::Roadside => 1.0,
+                Mounting::Ceiling => 3.0,
+            },
+            read_probability: DEFAULT_READ_PROBABILITY,
+            tunnel_only: m == Mounting::Ceiling,
+        }
+    }
+
+    /// Whether this mounting may go on a road (tunnel or not).
+    pub fn allowed_on(&self, tunnel: bool) -> bool {
+        !self.tunnel_only || tunnel
+    }
+}
+
+/// The 95 % horizontal bound (m) of a fix of a mounting at speed `v`.
+pub fn fix_bound95(rfid: &RfidModel, m: Mounting, v: f64) -> f64 {
+    let (a, c) = rfid.fix_sigmas(m, v);
+    bound95_of_sigmas([a, c])
+}
+
+/// What a plan must cover (`planner.coverage`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Coverage {
+    /// The scenario's route (`"routes"`, the default).
+    #[default]
+    Routes,
+    /// Every drivable road in each permitted direction (`"network"`):
+    /// see [`super::network`].
+    Network,
+}
+
+/// Planner settings, from the scenario's `[planner]` with defaults.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannerSettings {
+    /// What the plan covers.
+    pub coverage: Coverage,
+    /// Horizontal requirement (m).
+    pub requirement_m: f64,
+    /// Consecutive missed reads tolerated.
+    pub tolerate_missed_reads: usize,
+    /// Allowed mountings, in preference order.
+    pub mountings: Vec<MountingOption>,
+    /// Candidate spacing (m).
+    pub candidate_spacing_m: f64,
+    /// Smallest spacing between tags (m).
+    pub min_spacing_m: f64,
+    /// Forbidden stretches of route distance (m).
+    pub forbidden_m: Vec<[f64; 2]>,
+    /// Monte Carlo validation runs.
+    pub validation_runs: u64,
+    /// Refinements of the reaches from the planned filter (0 = none).
+    pub refine_iterations: usize,
+    /// Tags already installed (`existing_tags`), kept in every plan.
+    pub existing_tags: Vec<Tag>,
+}
+
+impl PlannerSettings {
+    /// Reads and checks the scenario's planner settings.
+    pub fn from_scenario(scn: &Scenario) -> Result<Self> {
+        let bad = |m: String| Error::scenario(&scn.path, m);
+        let requirement_m = scn
+            .file
+            .requirement_m
+            .ok_or_else(|| bad("planning needs requirement_m".into()))?;
+        if !(requirement_m.is_finite() && requirement_m > 0.0) {
+            return Err(bad(format!(
+                "requirement_m = {requirement_m} must be positive"
+            )));
+        }
+        if scn.file.navigator.mode != NavMode::Integrated {
+            return Err(bad(
+                "planning needs navigator.mode = \"integrated\" (the filter whose covariance is the budget)"
+                    .into(),
+            ));
+        }
+        if !scn.file.aiding.rfid {
+            return Err(bad("planning needs aiding.rfid = true".into()));
+        }
+        let p = scn
+            .file
+            .planner
+            .clone()
+            .unwrap_or_else(|| crate::sim::scenario::PlannerSection {
+                coverage: None,
+                tolerate_missed_reads: None,
+                mountings: None,
+                candidate_spacing_m: None,
+                min_spacing_m: None,
+                forbidden_m: vec![],
+                validation_runs: None,
+                cost: None,
+                refine_iterations: None,
+                existing_tags: None,
+                u_turns: None,
+            });
+        let coverage = match p.coverage.as_deref() {
+            None | Some("routes") => Coverage::Routes,
+            Some("network") => Coverage::Network,
+            Some(o) => {
+                return Err(bad(format!(
+                    "planner.coverage = \"{o}\" is not one of routes, network"
+                )))
+            }
+        };
+        let names = p
+            .mountings
+            .unwrap_or_else(|| vec!["road_surface".into(), "roadside".into(), "ceiling".into()]);
+        if names.is_empty() {
+            return Err(bad("planner.mountings is empty".into()));
+        }
+        let mut mountings = Vec::new();
+        for n in &names {
+            let m = Mounting::parse(n).ok_or_else(|| {
+                bad(format!(
+                    "planner.mountings: \"{n}\" is not one of road_surface, roadside, ceiling"
+                ))
+            })?;
+            let mut o = MountingOption::default_for(m);
+            o.read_probability = scn.rfid.read_probability_of(m);
+            if let Some(c) = p.cost.as_ref().and_then(|c| c.get(n.as_str())) {
+                if !(c.is_finite() && *c >= 0.0) {
+                    return Err(bad(format!("planner.cost.{n} = {c} must be ≥ 0")));
+                }
+                o.cost = *c;
+            }
+            mountings.push(o);
+        }
+        if let Some(c) = &p.cost {
+            for k in c.keys() {
+                if Mounting::parse(k).is_none() {
+                    return Err(bad(format!("planner.cost: unknown mounting \"{k}\"")));
+                }
+            }
+        }
+        // Preference: cheapest, then most accurate.
+        mountings.sort_by(|a, b| {
+            a.cost.total_cmp(&b.cost).then(
+                fix_bound95(&scn.rfid, a.mounting, 10.0)
+                    .total_cmp(&fix_bound95(&scn.rfid, b.mounting, 10.0)),
+            )
+        });
+        let candidate_spacing_m = p.candidate_spacing_m.unwrap_or(20.0);
+        if !(candidate_spacing_m.is_finite() && candidate_spacing_m >= 1.0) {
+            return Err(bad(format!(
+                "planner.candidate_spacing_m = {candidate_spacing_m} must be ≥ 1"
+            )));
+        }
+        let min_spacing_m = p.min_spacing_m.unwrap_or(0.0);
+        if !(min_spacing_m.is_finite() && min_spacing_m >= 0.0) {
+            return Err(bad(format!(
+                "planner.min_spacing_m = {min_spacing_m} must be ≥ 0"
+            )));
+        }
+        for z in &p.forbidden_m {
+            if !(z[0].is_finite() && z[1].is_finite() && z[0] <= z[1]) {
+                return Err(bad(format!(
+                    "planner.forbidden_m: [{}, {}] is not a [from, to] pair",
+                    z[0], z[1]
+                )));
+            }
+        }
+        let validation_runs = p.validation_runs.unwrap_or(100);
+        let existing_tags = match &p.existing_tags {
+            Some(f) => {
+                let base = scn.path.parent().unwrap_or(std::path::Path::new("."));
+                crate::sim::tags::load_tags_csv(&base.join(f))?
+            }
+            None => vec![],
+        };
+        Ok(Self {
+            coverage,
+            requirement_m,
+            tolerate_missed_reads: p.tolerate_missed_reads.unwrap_or(1) as usize,
+            mountings,
+            candidate_spacing_m,
+            min_spacing_m,
+            forbidden_m: p.forbidden_m,
+            validation_runs,
+            refine_iterations: p.refine_iterations.unwrap_or(0) as usize,
+            existing_tags,
+        })
+    }
+}
+
+impl PlannerSettings {
+    /// An error when the requirement is below the best fix any allowed
+    /// mounting can give (its 95 % bound at 10 m/s).
+    pub fn check_best_fix(&self, rfid: &RfidModel) -> Result<()> {
+        let req = self.requirement_m;
+        let best_fix = self
+            .mountings
+            .iter()
+            .map(|o| fix_bound95(rfid, o.mounting, 10.0))
+            .fold(f64::INFINITY, f64::min);
+        if best_fix >= req {
+            return Err(Error::Infeasible(format!(
+                "requirement_m = {req} m is below the best possible tag fix (95 % bound {best_fix:.2} m with {})",
+                self.mountings
+                    .iter()
+                    .map(|o| o.mounting.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::Oneway;
+
+    fn road(
+        highway: &str,
+        lanes: Option<u32>,
+        width: Option<f64>,
+        oneway: Oneway,
+    ) -> RoadAttributes {
+        RoadAttributes {
+            id: "1".into(),
+            name: None,
+            highway: highway.into(),
+            oneway,
+            lanes,
+            width_m: width,
+            maxspeed_kmh: Some(50.0),
+            tunnel: false,
+            bridge: false,
+            layer: 0,
+        }
+    }
+
+    #[test]
+    fn lane_width_from_osm_width_and_lanes_or_class_defaults() {
+        assert_eq!(
+            lane_width_m(&road("primary", Some(4), Some(14.0), Oneway::Both)),
+            3.5
+        );
+        // Width without lanes: two lanes on a two-way road, one on a one-way road.
+        assert_eq!(
+            lane_width_m(&road("residential", None, Some(6.4), Oneway::Both)),
+            3.2
+        );
+        assert_eq!(
+            lane_width_m(&road("residential", None, Some(4.0), Oneway::Forward)),
+            4.0
+        );
+        // Class defaults; links as their road; implausible widths clamped.
+        assert_eq!(
+            lane_width_m(&road("motorway_link", None, None, Oneway::Forward)),
+            3.75
+        );
+        assert_eq!(
+            lane_width_m(&road("service", None, None, Oneway::Both)),
+            3.0
+        );
+        assert_eq!(
+            lane_width_m(&road("primary", Some(1), Some(40.0), Oneway::Both)),
+            5.0
+        );
+    }
+
+    #[test]
+    fn speed_from_truth_else_maxspeed() {
+        let r = road("primary", None, None, Oneway::Both);
+        assert_eq!(site_speed_mps(12.0, Some(&r)), 12.0);
+        assert!((site_speed_mps(0.0, Some(&r)) - 50.0 / 3.6).abs() < 1e-12);
+        assert!((site_speed_mps(0.0, None) - 30.0 / 3.6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn mounting_options_ceiling_only_in_tunnels() {
+        let c = MountingOption::default_for(Mounting::Ceiling);
+        assert!(c.allowed_on(true) && !c.allowed_on(false));
+        let r = MountingOption::default_for(Mounting::Roadside);
+        assert!(r.allowed_on(true) && r.allowed_on(false));
+        assert_eq!(r.read_probability, DEFAULT_READ_PROBABILITY);
+        assert!(c.cost > r.cost);
+    }
+
+    #[test]
+    fn roadside_fix_bound_follows_the_paper_example() {
+        // D = 3.75 m, d = 3 m, θ = 15°, v = 40 km/h, t0 = 20 ms, x = 5.63 m:
+        // dx = 0.375 m, dy = 1.286 m (paper 1.285), dr = 1.340 m (paper 1.338).
+        let m = RfidModel {
+            vehicle_width_m: 3.0,
+            ..RfidModel::default()
+        };
+        let v = 40.0 / 3.6;
+        let (along, across) = m.fix_sigmas(Mounting::Roadside, v);
+        let dy = 5.63 * 15f64.to_radians().tan() - v * 0.02;
+        assert!((along - dy).abs() < 1e-12 && (dy - 1.285).abs() < 2e-3);
+        assert!((across * 3f64.sqrt() - 0.375).abs() < 1e-12);
+        assert!((0.375f64.hypot(dy) - 1.338).abs() < 3e-3);
+        // The planner's 95 % bound of that fix: √χ²₂(0.95) × the larger σ.
+        assert!((fix_bound95(&m, Mounting::Roadside, v) - 2.4477 * dy).abs() < 1e-3);
+        // Road surface and ceiling are far tighter.
+        assert!(fix_bound95(&m, Mounting::RoadSurface, v) < 0.6);
+        assert!(fix_bound95(&m, Mounting::Ceiling, v) < 0.3);
+    }
+}

@@ -1,0 +1,105 @@
+//! Checks of a route plan: Monte Carlo validation with its tags, and the
+//! covariance check that the bound holds with any `k` consecutive tags
+//! missed.
+
+use super::budget::{bound95, Budget};
+use super::plan::{Plan, Validation};
+use crate::error::Result;
+use crate::sim::scenario::Scenario;
+use crate::sim::tags::Mounting;
+use crate::sim::{simulate_with, TruthSource};
+
+/// Monte Carlo validation of a plan with its tags (read with the scenario's
+/// read probability): fraction of distance within the requirement and the
+/// worst point.
+pub fn validate_plan(
+    scn: &Scenario,
+    truth: &TruthSource,
+    plan: &Plan,
+    runs: u64,
+    seed: u64,
+) -> Result<Validation> {
+    let res = simulate_with(scn, truth, &plan.sim_tags(), runs.max(1), seed, None)?;
+    Ok(validation_of(&res, plan, runs.max(1), seed))
+}
+
+pub(super) fn validation_of(
+    res: &crate::sim::SimResult,
+    plan: &Plan,
+    runs: u64,
+    seed: u64,
+) -> Validation {
+    let req = plan.requirement_m;
+    let (mut within, mut total) = (0.0, 0.0);
+    let mut worst = (0.0f64, 0u64, 0.0, 0.0);
+    for r in &res.runs {
+        for w in r.rows.windows(2) {
+            let dd = (w[1].distance_m - w[0].distance_m).max(0.0);
+            total += dd;
+            if w[1].horizontal_m <= req {
+                within += dd;
+            }
+        }
+        for row in &r.rows {
+            if row.horizontal_m > worst.0 {
+                worst = (row.horizontal_m, r.run, row.t_s, row.distance_m);
+            }
+        }
+    }
+    Validation {
+        runs,
+        seed,
+        fraction_within_requirement: if total > 0.0 { within / total } else { 1.0 },
+        max_horizontal_error_m: worst.0,
+        worst_run: worst.1,
+        worst_t_s: worst.2,
+        worst_distance_m: worst.3,
+    }
+}
+
+/// The bound of a filter's horizontal covariance (re-exported helper).
+pub fn horizontal_bound95(c: &[[f64; 3]; 3]) -> f64 {
+    bound95(c)
+}
+
+/// Whether the predicted bound holds along the route with fixes `fixes`
+/// all read, and with any `k` consecutive of them missed.
+pub fn robust(
+    budget: &Budget<'_>,
+    fixes: &[(usize, Mounting)],
+    k: usize,
+    requirement_m: f64,
+    every_m: f64,
+) -> bool {
+    use rayon::prelude::*;
+    let worst = |f: &[(usize, Mounting)]| {
+        budget
+            .with_fixes(f, every_m)
+            .iter()
+            .map(|p| p.bound95_m)
+            .fold(0.0, f64::max)
+    };
+    if worst(fixes) > requirement_m {
+        return false;
+    }
+    if k == 0 || fixes.is_empty() {
+        return true;
+    }
+    let n = fixes.len();
+    // Each window of k missed tags starts from the all-read filter just
+    // before its first tag (snapshots from one all-read pass).
+    let at: Vec<f64> = fixes
+        .iter()
+        .map(|&(i, _)| budget.samples()[i].avp.distance_m)
+        .collect();
+    let (_, snaps) = budget.snapshots(fixes, every_m, &at);
+    if snaps.len() != n {
+        return false;
+    }
+    let drops: Vec<usize> = (0..n.saturating_sub(k - 1).max(1)).collect();
+    drops.par_iter().all(|&d| {
+        let rest = &fixes[(d + k).min(n)..];
+        budget.worst_bound_from(fixes[d].0, snaps[d].filter.clone(), rest, requirement_m)
+            <= requirement_m
+    })
+}

@@ -1,0 +1,187 @@
+//! The perfect-data covariance engine: the integrated navigator's own
+//! [`Filter`] stepped along a truth with perfect data (ideal IMU
+//! increments, exact odometer distances and heights, the map-matching feed
+//! where asked), so that its state stays on the truth and its covariance is
+//! the predicted one: no random runs. The route budget
+//! (`planner::budget`) and the network reach analysis
+//! (`planner::network::reach`) both propagate and fix the filter through
+//! this one engine.
+//!
+//! It also holds the one definition of the horizontal 95 % bound,
+//! [`bound95`], used by the planner, the simulator's rows (the report's
+//! filter bound) and the report.
+
+use super::integrated::filter_config;
+use super::map_feed::MapFeed;
+use super::scenario::Scenario;
+use super::tags::{Mounting, RfidModel};
+use crate::nav::{Filter, FilterConfig};
+use crate::network::Network;
+use crate::sensors::odometer::OdometerFailure;
+use crate::trajectory::{Avp, TruthSample};
+
+/// χ²(2 dof) 95 % quantile.
+pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
+
+/// The horizontal 95 % bound (m) of an east-north covariance (m²; the upper
+/// left 2×2 block of `c`): `sqrt(χ²₂(0.95) · λmax)`, the radius of the circle
+/// that contains the 95 % error ellipse.
+///
+/// Why this definition: it is a guaranteed (conservative) bound — the
+/// circle contains the whole 95 % ellipse, so the probability inside it is
+/// at least 95 % whatever the ellipse's shape — and it is what the planner
+/// has always used, so no plan changes. The exact radius of the circle
+/// holding 95 % of the 2-D Gaussian equals this bound for a circular
+/// covariance and shrinks to `1.96·sqrt(λmax)` for a one-axis covariance:
+/// it lies between 0.80 times this bound and this bound.
+pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
+    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
+    let tr = 0.5 * (a + d);
+    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    (CHI2_2_95 * (tr + disc).max(0.0)).sqrt()
+}
+
+/// [`bound95`] of a diagonal covariance given by its two 1σ (m): an
+/// uncorrelated east and north (e.g. a filter's `sigma_east_m` and
+/// `sigma_north_m` as `errors.csv` gives them), or a fix's along- and
+/// cross-track σ. Its largest eigenvalue is the larger variance.
+pub fn bound95_of_sigmas(sigma: [f64; 2]) -> f64 {
+    (CHI2_2_95 * sigma[0].max(sigma[1]).powi(2)).sqrt()
+}
+
+/// The filter settings and the perfect measurements of a scenario.
+#[derive(Debug, Clone)]
+pub struct PerfectData<'a> {
+    dt: f64,
+    cfg: FilterConfig,
+    aid_odometer: bool,
+    aid_baro: bool,
+    odo_every: usize,
+    baro_every: usize,
+    baro_var: f64,
+    failure: Option<OdometerFailure>,
+    network: Option<&'a Network>,
+    rfid: RfidModel,
+}
+
+impl<'a> PerfectData<'a> {
+    /// The scenario's filter and aiding on perfect data, with the
+    /// scenario's odometer failure (fault injection) and no map matching.
+    pub fn new(scn: &Scenario) -> Self {
+        let dt = scn.dt;
+        Self {
+            dt,
+            cfg: filter_config(scn),
+            aid_odometer: scn.file.aiding.odometer,
+            aid_baro: scn.file.aiding.baro,
+            odo_every: ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / dt).round() as usize)
+                .max(1),
+            baro_every: (1.0 / dt).round().max(1.0) as usize,
+            baro_var: scn.baro.noise_m.powi(2).max(0.01),
+            failure: scn.odometer.failure,
+            network: None,
+            rfid: scn.rfid,
+        }
+    }
+
+    /// With the map-matching feed on `network` (when given).
+    pub fn with_map_feed(mut self, network: Option<&'a Network>) -> Self {
+        self.network = network;
+        self
+    }
+
+    /// Without the scenario's odometer failure (a drive that is not the
+    /// scenario's route, where its failure time and distance mean nothing).
+    pub fn without_faults(mut self) -> Self {
+        self.failure = None;
+        self
+    }
+
+    /// The filter settings.
+    pub fn config(&self) -> &FilterConfig {
+        &self.cfg
+    }
+
+    /// A filter on the truth `avp` with the scenario's prior.
+    pub fn filter_at(&self, avp: &Avp) -> Filter {
+        Filter::new(avp.state, avp.t, self.dt, self.cfg)
+    }
+
+    /// Starts propagating `filter`, which is at a truth sample at distance
+    /// `distance_m` (the map-matching feed starts there).
+    pub fn start(&self, filter: &Filter, distance_m: f64) -> Propagation<'_, 'a> {
+        Propagation {
+            data: self,
+            feed: self.network.map(|n| MapFeed::new(n, filter.time())),
+            odo_acc: 0.0,
+            last_d: distance_m,
+        }
+    }
+
+    /// The fix a tag of `mounting` gives at truth `avp` (lane width
+    /// `lane_width_m` where known), applied to `f` with the mounting's
+    /// covariance at the speed there.
+    pub fn apply_fix(
+        &self,
+        avp: &Avp,
+        f: &mut Filter,
+        mounting: Mounting,
+        lane_width_m: Option<f64>,
+    ) {
+        let a = avp;
+        let cov = self
+            .rfid
+            .with_lane_width(lane_width_m)
+            .fix_covariance(mounting, &a.state);
+        f.update_position(
+            a.t,
+            a.state.lat,
+            a.state.lon,
+            Some(a.state.h),
+            cov,
+            self.rfid.fix_height_var(),
+        );
+    }
+}
+
+/// A filter being stepped along the truth: the odometer distance since the
+/// last odometer update and the map-matching feed.
+#[derive(Debug)]
+pub struct Propagation<'d, 'a> {
+    data: &'d PerfectData<'a>,
+    feed: Option<MapFeed<'a>>,
+    odo_acc: f64,
+    last_d: f64,
+}
+
+impl Propagation<'_, '_> {
+    /// Steps `filter` to truth sample `s` (index `i` from the drive's first
+    /// sample): the IMU increment, then the odometer (or the constraints),
+    /// barometer and map-matching updates due there, as in the navigator.
+    pub fn step(&mut self, i: usize, s: &TruthSample, filter: &mut Filter) {
+        let d = self.data;
+        filter.step(&s.imu);
+        self.odo_acc += s.avp.distance_m - self.last_d;
+        self.last_d = s.avp.distance_m;
+        if i % d.odo_every == 0 {
+            // A failed odometer (fault injection) is modelled as the
+            // filter ends up treating it: disabled, constraints only.
+            let failed = d.failure.is_some_and(|f| {
+                f.from_s.is_some_and(|x| s.avp.t >= x)
+                    || f.from_m.is_some_and(|x| s.avp.distance_m >= x)
+            });
+            if d.aid_odometer && !failed {
+                filter.update_odometer(self.odo_acc);
+            } else if d.cfg.use_nhc {
+                filter.update_constraints();
+            }
+            self.odo_acc = 0.0;
+        }
+        if d.aid_baro && i % d.baro_every == 0 {
+            filter.update_height(s.avp.t, s.avp.state.h, d.baro_var);
+        }
+        if let Some(f) = self.feed.as_mut() {
+            f.step(s.avp.t, filter);
+        }
+    }
+}

@@ -1,0 +1,160 @@
+//! One run of the stand-alone navigators (free inertial, odometer dead
+//! reckoning with inertial fall-back, gyro-free 3-D dead reckoning) with its
+//! own random streams.
+
+use super::records::RunResult;
+use super::truth::{body_q, initial_estimate, start_run, TruthSource};
+use crate::attitude::{scale, V3};
+use crate::nav::{BaroDamping, Dr3d, OdometerDr, Strapdown};
+use crate::sensors::odometer::wheel_distances;
+use crate::sensors::rng::{ids, normal, stream};
+use crate::sensors::{Barometer, DiffOdometer, Imu, Odometer};
+use crate::sim::scenario::{NavMode, Scenario, VerticalChannel};
+
+/// Default time constant of the baro damping loop (s).
+pub const DEFAULT_VERTICAL_TAU_S: f64 = 50.0;
+/// One run with its own random streams.
+pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> RunResult {
+    let dt = scn.dt;
+    let rot = scn.rotation;
+    let (mut samples, mut rec) = start_run(scn, truth, rot);
+    let Some(first) = samples.next() else {
+        return RunResult::empty(run);
+    };
+    // Truth body attitude at the start (undo the modulation).
+    let mut truth0 = first.avp.state;
+    truth0.q = body_q(&first.avp.state.q, 0.0, rot);
+    let mut est0 = initial_estimate(scn, &truth0);
+    let est_body_q0 = est0.q;
+    if let Some(r) = rot {
+        est0.q = r.imu_attitude(&est0.q, 0.0);
+    }
+    rec.record(0, &first.avp, est0.lat, est0.lon, est0.h);
+    let mut imu = Imu::new(&scn.imu, dt, stream(seed, run, ids::IMU));
+    let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
+    let mut ins = Strapdown::new(est0, dt);
+    let mut damping = match scn.file.navigator.vertical_channel {
+        VerticalChannel::Baro => Some(BaroDamping::new(
+            scn.file
+                .navigator
+                .vertical_tau_s
+                .unwrap_or(DEFAULT_VERTICAL_TAU_S),
+        )),
+        VerticalChannel::Free => None,
+    };
+    let mut ins_step = |ins: &mut Strapdown, s: &crate::trajectory::TruthSample| {
+        let m = imu.measure(&s.imu);
+        ins.step(&m);
+        if let Some(d) = damping.as_mut() {
+            if let Some(hb) = baro.measure(s.avp.t, s.avp.state.h) {
+                d.set_reference(hb);
+            }
+            d.apply(ins);
+        }
+    };
+    let mut k = 0u64;
+    match scn.file.navigator.mode {
+        // Integrated runs go through `run_integrated`; here (direct calls of
+        // `run_once`) they run free inertial.
+        NavMode::FreeInertial | NavMode::Integrated => {
+            for s in samples {
+                k += 1;
+                ins_step(&mut ins, &s);
+                rec.record(k, &s.avp, ins.state.lat, ins.state.lon, ins.state.h);
+            }
+        }
+        NavMode::DeadReckoning => {
+            let mut odo = Odometer::new(&scn.odometer, stream(seed, run, ids::ODOMETER));
+            let mut dr = OdometerDr::new(est0.lat, est0.lon, est0.h);
+            let mut last_distance = first.avp.distance_m;
+            let mut q_prev = est_body_q0;
+            let mut failed = false;
+            let mut last_vel: V3 = [0.0; 3];
+            for s in samples {
+                k += 1;
+                ins_step(&mut ins, &s);
+                let q_now = body_q(&ins.state.q, s.avp.t, rot);
+                let d_true = s.avp.distance_m - last_distance;
+                last_distance = s.avp.distance_m;
+                if !failed {
+                    match odo.measure(s.avp.t, s.avp.distance_m, d_true, dt) {
+                        Some(ds) => {
+                            let d = dr.step(&q_prev, &q_now, ds);
+                            last_vel = scale(d, 1.0 / dt);
+                        }
+                        None => {
+                            // Odometer failed: continue inertially from the dead-
+                            // reckoned position and the last odometer velocity.
+                            failed = true;
+                            ins.state.lat = dr.lat;
+                            ins.state.lon = dr.lon;
+                            ins.state.h = dr.h;
+                            ins.reset_velocity(last_vel);
+                        }
+                    }
+                }
+                q_prev = q_now;
+                if failed {
+                    rec.record(k, &s.avp, ins.state.lat, ins.state.lon, ins.state.h);
+                } else {
+                    rec.record(k, &s.avp, dr.lat, dr.lon, dr.h);
+                }
+            }
+        }
+        NavMode::DeadReckoning3d => {
+            let m = scn.diff_odometer;
+            let mut wheels = DiffOdometer::new(&m, stream(seed, run, ids::DIFF_ODOMETER));
+            let mut level = stream(seed, run, ids::LEVEL);
+            let level_noise = scn.file.level_sensor.noise_deg.to_radians();
+            let mut alt = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
+            let (_, roll0_est, _) = est_body_q0.to_euler();
+            let (_, roll0_true, _) = truth0.q.to_euler();
+            let roll_bias = roll0_est - roll0_true;
+            let heading0 = -est_body_q0.to_euler().2;
+            let mut dr = Dr3d::new(
+                est0.lat,
+                est0.lon,
+                est0.h,
+                heading0,
+                m.track_width_m + m.track_width_error_m,
+            );
+            let mut last_alt = alt.measure(first.avp.t, first.avp.state.h);
+            let mut prev_truth = truth0;
+            let (mut sl, mut sr) = (0.0, 0.0);
+            for s in samples {
+                k += 1;
+                let mut tb = s.avp.state;
+                tb.q = body_q(&s.avp.state.q, s.avp.t, rot);
+                let (l, r) = wheel_distances(&prev_truth, &tb, m.track_width_m);
+                prev_truth = tb;
+                let (ml, mr) = wheels.measure(l, r, dt);
+                sl += ml;
+                sr += mr;
+                if let Some(h) = alt.measure(s.avp.t, tb.h) {
+                    let dh = last_alt.map_or(0.0, |h0| h - h0);
+                    last_alt = Some(h);
+                    let (_, roll_true, _) = tb.q.to_euler();
+                    let roll = roll_true
+                        + roll_bias
+                        + if level_noise > 0.0 {
+                            level_noise * normal(&mut level)
+                        } else {
+                            0.0
+                        };
+                    dr.step(sl, sr, dh, roll);
+                    sl = 0.0;
+                    sr = 0.0;
+                }
+                rec.record(k, &s.avp, dr.lat, dr.lon, dr.h);
+            }
+        }
+    }
+    RunResult {
+        run,
+        rows: rec.finish(),
+        tag_events: vec![],
+        tag_passes: vec![],
+        counts: None,
+        map_feed: None,
+    }
+}

@@ -1,0 +1,193 @@
+//! Where the truth comes from (motion commands or a road route on a loaded
+//! map, compiled once and streamed once per run), and the start of a run:
+//! the truth's ideal IMU samples, the recorder of its rows and the
+//! navigator's initial estimate.
+
+use super::records::Recorder;
+use crate::attitude::Quat;
+use crate::error::Result;
+use crate::geodesy::radii;
+use crate::nav::NavState;
+use crate::network::Network;
+use crate::route::Route;
+use crate::sensors::RotationModulation;
+use crate::sim::scenario::{RouteKind, Scenario};
+use crate::trajectory::route::RoutePlan;
+use crate::trajectory::{ideal_imu, Avp, MotionPlan};
+use std::sync::Arc;
+
+/// Where the truth comes from: compiled once, streamed once per run.
+#[derive(Debug, Clone)]
+pub enum TruthSource {
+    /// Motion commands.
+    Motion(MotionPlan),
+    /// A road route on a loaded map.
+    Route(Box<RouteTruth>),
+}
+
+/// A road route's truth with the map and the route it was planned on, so
+/// that every user (map matching, the planner's road context, the route
+/// budget) shares the one loaded network instead of loading it again.
+#[derive(Debug, Clone)]
+pub struct RouteTruth {
+    /// The compiled drive along the route.
+    pub plan: RoutePlan,
+    /// The route (polyline and section spans) on `network`.
+    pub route: Route,
+    /// The road network, loaded once.
+    pub network: Arc<Network>,
+}
+
+impl TruthSource {
+    /// Builds the truth source of a scenario (loads the map for a map route,
+    /// once).
+    pub fn new(scn: &Scenario) -> Result<TruthSource> {
+        match &scn.route {
+            RouteKind::Map { map, .. } => {
+                let net = Arc::new(Network::load(map, &Default::default())?);
+                Self::on_network(scn, net)
+            }
+            RouteKind::Motion { .. } => Self::motion(scn),
+        }
+    }
+
+    fn motion(scn: &Scenario) -> Result<TruthSource> {
+        match &scn.route {
+            RouteKind::Motion { start, commands } => Ok(TruthSource::Motion(MotionPlan::new(
+                *start, commands, scn.dt,
+            )?)),
+            RouteKind::Map { .. } => unreachable!("a map route is built on its network"),
+        }
+    }
+
+    /// Builds the truth source of a scenario whose map is already loaded
+    /// (`network` is the scenario's map; unused for motion commands).
+    pub fn on_network(scn: &Scenario, network: Arc<Network>) -> Result<TruthSource> {
+        match &scn.route {
+            RouteKind::Motion { .. } => Self::motion(scn),
+            RouteKind::Map {
+                waypoints,
+                profile,
+                stops,
+                height_m,
+                ..
+            } => {
+                let route = crate::route::plan_route(&network, waypoints).map_err(|e| {
+                    crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
+                })?;
+                let plan = RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
+                    .map_err(|e| {
+                        crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
+                    })?;
+                Ok(Self::from_route(network, route, plan))
+            }
+        }
+    }
+
+    /// The truth of a route already planned and compiled on `network`.
+    pub fn from_route(network: Arc<Network>, route: Route, plan: RoutePlan) -> TruthSource {
+        TruthSource::Route(Box::new(RouteTruth {
+            plan,
+            route,
+            network,
+        }))
+    }
+
+    /// The loaded road network of a map route.
+    pub fn network(&self) -> Option<&Arc<Network>> {
+        match self {
+            TruthSource::Route(r) => Some(&r.network),
+            TruthSource::Motion(_) => None,
+        }
+    }
+
+    /// The planned route of a map route.
+    pub fn route(&self) -> Option<&Route> {
+        match self {
+            TruthSource::Route(r) => Some(&r.route),
+            TruthSource::Motion(_) => None,
+        }
+    }
+
+    /// The truth samples.
+    pub fn samples(&self) -> Box<dyn Iterator<Item = Avp> + Send + '_> {
+        match self {
+            TruthSource::Motion(p) => Box::new(p.trajectory()),
+            TruthSource::Route(p) => Box::new(p.plan.trajectory()),
+        }
+    }
+
+    /// Duration (s).
+    pub fn duration_s(&self) -> f64 {
+        match self {
+            TruthSource::Motion(p) => p.duration_s,
+            TruthSource::Route(p) => p.plan.duration_s,
+        }
+    }
+}
+
+/// Applies the rotation modulation (if any) to the truth attitude: the IMU
+/// frame is what the inverse strapdown must see.
+pub(super) fn imu_frame(avp: Avp, rot: Option<RotationModulation>) -> Avp {
+    match rot {
+        Some(r) => {
+            let mut a = avp;
+            a.state.q = r.imu_attitude(&avp.state.q, avp.t);
+            a
+        }
+        None => avp,
+    }
+}
+
+pub(super) fn body_q(q_imu: &Quat, t: f64, rot: Option<RotationModulation>) -> Quat {
+    match rot {
+        Some(r) => r.body_attitude(q_imu, t),
+        None => *q_imu,
+    }
+}
+
+/// The navigator's initial state: truth plus the scenario's initial errors
+/// (attitude errors on the body's pitch, roll and heading).
+pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavState {
+    let n = &scn.file.navigator;
+    let (pitch, roll, yaw) = truth_body.q.to_euler();
+    let [dp, dr, dh] = scn.initial_attitude_error;
+    let q = Quat::from_euler(pitch + dp, roll + dr, yaw - dh);
+    let (rm, rn) = radii(truth_body.lat);
+    let [pe, pn, pu] = n.initial_position_error_m;
+    let dv = n.initial_velocity_error_mps;
+    NavState {
+        q,
+        v: [
+            truth_body.v[0] + dv[0],
+            truth_body.v[1] + dv[1],
+            truth_body.v[2] + dv[2],
+        ],
+        lat: truth_body.lat + pn / (rm + truth_body.h),
+        lon: truth_body.lon + pe / ((rn + truth_body.h) * truth_body.lat.cos()),
+        h: truth_body.h + pu,
+    }
+}
+
+/// The truth of one run up to the scenario's duration cap, as ideal IMU
+/// samples in the IMU's frame (rotation-modulated when `rot` is given), and
+/// the recorder of its error rows at the output interval.
+pub(super) fn start_run<'a>(
+    scn: &Scenario,
+    truth: &'a TruthSource,
+    rot: Option<RotationModulation>,
+) -> (
+    impl Iterator<Item = crate::trajectory::TruthSample> + 'a,
+    Recorder,
+) {
+    let dt = scn.dt;
+    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * dt;
+    let body = truth.samples().take_while(move |a| a.t <= cap);
+    let samples = ideal_imu(body.map(move |a| imu_frame(a, rot)), dt);
+    let rec = Recorder {
+        every: ((scn.output_interval_s / dt).round() as u64).max(1),
+        rows: Vec::with_capacity((truth.duration_s() / scn.output_interval_s) as usize + 2),
+        pending: None,
+    };
+    (samples, rec)
+}
