@@ -80,11 +80,10 @@ impl<'a> Budget<'a> {
     /// `network` (the scenario's map) gives each sample's lane width (for
     /// roadside fixes) and feeds map matching when the scenario uses it.
     pub fn new(scn: &'a Scenario, truth: &TruthSource, network: Option<&'a Network>) -> Self {
-        let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+        let cap = scn.duration_cap_s() + 0.5 * scn.dt;
         let samples: Vec<TruthSample> =
             ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
-        let odo_every =
-            ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / scn.dt).round() as usize).max(1);
+        let odo_every = ((scn.filter().odometer_interval_s / scn.dt).round() as usize).max(1);
         let lane_width = match (network, &scn.route) {
             (Some(net), crate::sim::scenario::RouteKind::Map { waypoints, .. }) => {
                 match crate::route::plan_route(net, waypoints) {
@@ -109,7 +108,7 @@ impl<'a> Budget<'a> {
             scn,
             cfg: filter_config(scn),
             samples,
-            network: network.filter(|_| scn.file.aiding.map_matching),
+            network: network.filter(|_| scn.aiding().map_matching),
             odo_every,
             lane_width,
         }
@@ -140,7 +139,7 @@ impl<'a> Budget<'a> {
         filter: &mut Filter,
         mut visit: impl FnMut(usize, &mut Filter) -> bool,
     ) {
-        let aid = self.scn.file.aiding;
+        let aid = self.scn.aiding();
         let mut feed = self.network.map(|n| MapFeed::new(n, filter.time()));
         let mut odo_acc = 0.0;
         let mut last_d = self.samples[from].avp.distance_m;

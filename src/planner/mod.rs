@@ -15,8 +15,9 @@ use crate::error::{Error, Result};
 use crate::export::{ExportMetadata, TagRecord};
 use crate::network::Network;
 use crate::network::RoadAttributes;
+pub use crate::scenario::Coverage;
+use crate::scenario::{NavMode, RouteKind, Scenario};
 use crate::sim::run::{simulate_with, TruthSource};
-use crate::sim::scenario::{NavMode, RouteKind, Scenario};
 use crate::sim::tags::{Mounting, RfidModel, Tag};
 use crate::tags::TagPayload;
 use budget::{bound95, Budget, BudgetPoint, CHI2_2_95};
@@ -78,10 +79,7 @@ impl MountingOption {
     pub fn default_for(m: Mounting) -> Self {
         Self {
             mounting: m,
-            cost: match m {
-                Mounting::RoadSurface | Mounting::Roadside => 1.0,
-                Mounting::Ceiling => 3.0,
-            },
+            cost: crate::scenario::default_mounting_cost(m),
             read_probability: DEFAULT_READ_PROBABILITY,
             tunnel_only: m == Mounting::Ceiling,
         }
@@ -97,17 +95,6 @@ impl MountingOption {
 pub fn fix_bound95(rfid: &RfidModel, m: Mounting, v: f64) -> f64 {
     let (a, c) = rfid.fix_sigmas(m, v);
     (CHI2_2_95 * a.max(c).powi(2)).sqrt()
-}
-
-/// What a plan must cover (`planner.coverage`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Coverage {
-    /// The scenario's route (`"routes"`, the default).
-    #[default]
-    Routes,
-    /// Every drivable road in each permitted direction (`"network"`):
-    /// see [`network`].
-    Network,
 }
 
 /// Planner settings, from the scenario's `[planner]` with defaults.
@@ -136,82 +123,34 @@ pub struct PlannerSettings {
 }
 
 impl PlannerSettings {
-    /// Reads and checks the scenario's planner settings.
+    /// The scenario's planner settings (validated with the scenario); checks
+    /// that the scenario can be planned and reads its existing tags.
     pub fn from_scenario(scn: &Scenario) -> Result<Self> {
         let bad = |m: String| Error::scenario(&scn.path, m);
         let requirement_m = scn
-            .file
-            .requirement_m
+            .requirement_m()
             .ok_or_else(|| bad("planning needs requirement_m".into()))?;
         if !(requirement_m.is_finite() && requirement_m > 0.0) {
             return Err(bad(format!(
                 "requirement_m = {requirement_m} must be positive"
             )));
         }
-        if scn.file.navigator.mode != NavMode::Integrated {
+        if scn.navigator().mode != NavMode::Integrated {
             return Err(bad(
                 "planning needs navigator.mode = \"integrated\" (the filter whose covariance is the budget)"
                     .into(),
             ));
         }
-        if !scn.file.aiding.rfid {
+        if !scn.aiding().rfid {
             return Err(bad("planning needs aiding.rfid = true".into()));
         }
-        let p = scn
-            .file
-            .planner
-            .clone()
-            .unwrap_or_else(|| crate::sim::scenario::PlannerSection {
-                coverage: None,
-                tolerate_missed_reads: None,
-                mountings: None,
-                candidate_spacing_m: None,
-                min_spacing_m: None,
-                forbidden_m: vec![],
-                validation_runs: None,
-                cost: None,
-                refine_iterations: None,
-                existing_tags: None,
-                u_turns: None,
-            });
-        let coverage = match p.coverage.as_deref() {
-            None | Some("routes") => Coverage::Routes,
-            Some("network") => Coverage::Network,
-            Some(o) => {
-                return Err(bad(format!(
-                    "planner.coverage = \"{o}\" is not one of routes, network"
-                )))
-            }
-        };
-        let names = p
-            .mountings
-            .unwrap_or_else(|| vec!["road_surface".into(), "roadside".into(), "ceiling".into()]);
-        if names.is_empty() {
-            return Err(bad("planner.mountings is empty".into()));
-        }
+        let p = scn.planner();
         let mut mountings = Vec::new();
-        for n in &names {
-            let m = Mounting::parse(n).ok_or_else(|| {
-                bad(format!(
-                    "planner.mountings: \"{n}\" is not one of road_surface, roadside, ceiling"
-                ))
-            })?;
-            let mut o = MountingOption::default_for(m);
-            o.read_probability = scn.rfid.read_probability_of(m);
-            if let Some(c) = p.cost.as_ref().and_then(|c| c.get(n.as_str())) {
-                if !(c.is_finite() && *c >= 0.0) {
-                    return Err(bad(format!("planner.cost.{n} = {c} must be ≥ 0")));
-                }
-                o.cost = *c;
-            }
+        for c in &p.mountings {
+            let mut o = MountingOption::default_for(c.mounting);
+            o.read_probability = scn.rfid.read_probability_of(c.mounting);
+            o.cost = c.cost;
             mountings.push(o);
-        }
-        if let Some(c) = &p.cost {
-            for k in c.keys() {
-                if Mounting::parse(k).is_none() {
-                    return Err(bad(format!("planner.cost: unknown mounting \"{k}\"")));
-                }
-            }
         }
         // Preference: cheapest, then most accurate.
         mountings.sort_by(|a, b| {
@@ -220,44 +159,20 @@ impl PlannerSettings {
                     .total_cmp(&fix_bound95(&scn.rfid, b.mounting, 10.0)),
             )
         });
-        let candidate_spacing_m = p.candidate_spacing_m.unwrap_or(20.0);
-        if !(candidate_spacing_m.is_finite() && candidate_spacing_m >= 1.0) {
-            return Err(bad(format!(
-                "planner.candidate_spacing_m = {candidate_spacing_m} must be ≥ 1"
-            )));
-        }
-        let min_spacing_m = p.min_spacing_m.unwrap_or(0.0);
-        if !(min_spacing_m.is_finite() && min_spacing_m >= 0.0) {
-            return Err(bad(format!(
-                "planner.min_spacing_m = {min_spacing_m} must be ≥ 0"
-            )));
-        }
-        for z in &p.forbidden_m {
-            if !(z[0].is_finite() && z[1].is_finite() && z[0] <= z[1]) {
-                return Err(bad(format!(
-                    "planner.forbidden_m: [{}, {}] is not a [from, to] pair",
-                    z[0], z[1]
-                )));
-            }
-        }
-        let validation_runs = p.validation_runs.unwrap_or(100);
         let existing_tags = match &p.existing_tags {
-            Some(f) => {
-                let base = scn.path.parent().unwrap_or(std::path::Path::new("."));
-                crate::sim::tags::load_tags_csv(&base.join(f))?
-            }
+            Some(f) => crate::sim::tags::load_tags_csv(f)?,
             None => vec![],
         };
         Ok(Self {
-            coverage,
+            coverage: p.coverage,
             requirement_m,
-            tolerate_missed_reads: p.tolerate_missed_reads.unwrap_or(1) as usize,
+            tolerate_missed_reads: p.tolerate_missed_reads,
             mountings,
-            candidate_spacing_m,
-            min_spacing_m,
-            forbidden_m: p.forbidden_m,
-            validation_runs,
-            refine_iterations: p.refine_iterations.unwrap_or(0) as usize,
+            candidate_spacing_m: p.candidate_spacing_m,
+            min_spacing_m: p.min_spacing_m,
+            forbidden_m: p.forbidden_m.clone(),
+            validation_runs: p.validation_runs,
+            refine_iterations: p.refine_iterations,
             existing_tags,
         })
     }
@@ -606,7 +521,7 @@ pub fn plan_with_progress(
     validate: bool,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Plan> {
-    tracing::info!(scenario = %scn.file.name, requirement_m = settings.requirement_m, "planning tags");
+    tracing::info!(scenario = %scn.name(), requirement_m = settings.requirement_m, "planning tags");
     if settings.coverage == Coverage::Network {
         return Err(Error::InvalidParameter(
             "planner.coverage = \"network\" plans with planner::network::plan_network".into(),
@@ -992,7 +907,7 @@ pub fn plan_with_progress(
         .fold(0.0, |a, c| a + c);
     let n_cands = cands.len();
     let mut plan = Plan {
-        scenario: scn.file.name.clone(),
+        scenario: scn.name().to_string(),
         requirement_m: req,
         tolerate_missed_reads: k,
         method: if forward_used {
@@ -1098,7 +1013,7 @@ pub fn uniform_tags(
         .iter()
         .find(|o| !o.tunnel_only)
         .map_or(Mounting::RoadSurface, |o| o.mounting);
-    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+    let cap = scn.duration_cap_s() + 0.5 * scn.dt;
     let mut sites = UniformSites::new(spacing_m);
     let mut tags = Vec::new();
     for a in truth.samples().take_while(|a| a.t <= cap) {
@@ -1190,7 +1105,7 @@ pub fn uniform_baseline(
             return Ok((false, None, tags.len()));
         }
         let p = Plan {
-            scenario: scn.file.name.clone(),
+            scenario: scn.name().to_string(),
             requirement_m: req,
             tolerate_missed_reads: k,
             method: "uniform".into(),

@@ -75,9 +75,10 @@ use crate::nav::integrated::along_across_covariance;
 use crate::nav::Filter;
 use crate::network::{Network, SectionId};
 use crate::planner::budget::bound95;
+pub use crate::scenario::UTurns;
+use crate::scenario::{RouteKind, Scenario};
 use crate::sim::integrated::filter_config;
 use crate::sim::run::{simulate_with, TruthSource};
-use crate::sim::scenario::{RouteKind, Scenario};
 use crate::sim::tags::{Mounting, Tag};
 use crate::tags::TagPayload;
 use crate::trajectory::{ideal_imu, Extent, Motion, MotionPlan, RoutePlan, SpeedProfile, Start};
@@ -86,8 +87,7 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet, HashSet};
 use std::time::Instant;
 
-/// Default candidate spacing on networks (m).
-pub const DEFAULT_NETWORK_SPACING_M: f64 = 50.0;
+pub use crate::scenario::DEFAULT_NETWORK_SPACING_M;
 /// Largest instance (candidate sites) tried with the exact method.
 pub const ILP_MAX_CANDIDATES: usize = 150;
 /// Installed tags farther than this from every road are ignored (m).
@@ -404,19 +404,9 @@ pub fn scenario_network(scn: &Scenario) -> Result<Network> {
     Network::load(map, &Default::default())
 }
 
-/// Where walks may turn back onto the road they came along.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum UTurns {
-    /// At any junction or road end (`"anywhere"`, the default): the
-    /// topology's successors, the most conservative.
-    Anywhere,
-    /// Only at dead ends (`"dead_ends"`: nodes where a single road ends).
-    DeadEnds,
-}
-
 /// Checks the network-specific settings: candidate spacing and U-turns.
 fn check_settings(scn: &Scenario, settings: &PlannerSettings) -> Result<(f64, UTurns)> {
-    let p = scn.file.planner.as_ref();
+    let p = scn.planner();
     if !settings.forbidden_m.is_empty() {
         return Err(Error::scenario(
             &scn.path,
@@ -430,21 +420,7 @@ fn check_settings(scn: &Scenario, settings: &PlannerSettings) -> Result<(f64, UT
             "planner.min_spacing_m is not supported with coverage = \"network\"",
         ));
     }
-    let u = match p.and_then(|p| p.u_turns.as_deref()) {
-        None | Some("anywhere") => UTurns::Anywhere,
-        Some("dead_ends") => UTurns::DeadEnds,
-        Some(o) => {
-            return Err(Error::scenario(
-                &scn.path,
-                format!("planner.u_turns = \"{o}\" is not one of anywhere, dead_ends"),
-            ))
-        }
-    };
-    Ok((
-        p.and_then(|p| p.candidate_spacing_m)
-            .unwrap_or(DEFAULT_NETWORK_SPACING_M),
-        u,
-    ))
+    Ok((p.candidate_spacing_m, p.u_turns))
 }
 
 /// The reach of one class: a straight drive north at `speed_mps` from
@@ -478,9 +454,8 @@ pub fn reach_class(
         dt,
     )?;
     let cfg = filter_config(scn);
-    let aid = scn.file.aiding;
-    let odo_every =
-        ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / dt).round() as usize).max(1);
+    let aid = scn.aiding();
+    let odo_every = ((scn.filter().odometer_interval_s / dt).round() as usize).max(1);
     let baro_every = (1.0 / dt).round().max(1.0) as usize;
     let mut samples = ideal_imu(plan.trajectory(), dt);
     let Some(first) = samples.next() else {
@@ -1111,7 +1086,7 @@ pub fn plan_network_on(
     }
     let existing_kept = tags.iter().filter(|t| t.existing).count();
     Ok(NetworkPlan {
-        scenario: scn.file.name.clone(),
+        scenario: scn.name().to_string(),
         coverage: "network".into(),
         requirement_m: req,
         tolerate_missed_reads: k,

@@ -6,21 +6,18 @@
 //! so a 3.6 h run at 100 Hz needs no more memory than its output rows.
 
 use super::metrics::{summarize, Summary};
-use super::scenario::{NavMode, RouteKind, Scenario, VerticalChannel};
 use super::tags::{find_passes, Tag, TagPass};
 use crate::attitude::{scale, Quat, V3};
 use crate::error::Result;
 use crate::geodesy::radii;
 use crate::nav::{BaroDamping, Dr3d, NavState, OdometerDr, Strapdown};
+use crate::scenario::{NavMode, RouteKind, Scenario, VerticalChannel};
 use crate::sensors::odometer::wheel_distances;
 use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, DiffOdometer, Imu, Odometer, RotationModulation};
 use crate::trajectory::route::RoutePlan;
 use crate::trajectory::{ideal_imu, Avp, MotionPlan};
 use rayon::prelude::*;
-
-/// Default time constant of the baro damping loop (s).
-pub const DEFAULT_VERTICAL_TAU_S: f64 = 50.0;
 
 /// Navigation error at one output time.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -184,9 +181,9 @@ impl Prepared {
     pub fn new(scn: &Scenario, truth: &TruthSource, extra: &[Tag]) -> Result<Prepared> {
         let mut tags = super::integrated::scenario_tags(scn, truth)?;
         tags.extend_from_slice(extra);
-        let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+        let cap = scn.duration_cap_s() + 0.5 * scn.dt;
         let passes = find_passes(truth, cap, &tags, &scn.rfid);
-        let network = if scn.file.aiding.map_matching {
+        let network = if scn.aiding().map_matching {
             match &scn.route {
                 RouteKind::Map { map, .. } => Some(std::sync::Arc::new(
                     crate::network::Network::load(map, &Default::default())?,
@@ -224,20 +221,20 @@ pub fn simulate_with(
             "the number of runs must be at least 1".into(),
         ));
     }
-    let integrated = scn.file.navigator.mode == NavMode::Integrated;
+    let integrated = scn.navigator().mode == NavMode::Integrated;
     if integrated && scn.rotation.is_some() {
         return Err(crate::error::Error::scenario(
             &scn.path,
             "navigator.mode = \"integrated\" does not support imu.rotation_modulation",
         ));
     }
-    if !integrated && scn.file.aiding.map_matching {
+    if !integrated && scn.aiding().map_matching {
         return Err(crate::error::Error::scenario(
             &scn.path,
             "aiding.map_matching is used only by navigator.mode = \"integrated\"",
         ));
     }
-    if !integrated && (!extra_tags.is_empty() || !scn.file.tag.is_empty()) {
+    if !integrated && (!extra_tags.is_empty() || !scn.tags().is_empty()) {
         return Err(crate::error::Error::scenario(
             &scn.path,
             "tags are used only by navigator.mode = \"integrated\"",
@@ -249,7 +246,7 @@ pub fn simulate_with(
         Prepared::default()
     };
     tracing::info!(
-        scenario = %scn.file.name,
+        scenario = %scn.name(),
         runs,
         seed,
         tags = prep.tags.len(),
@@ -308,7 +305,7 @@ fn body_q(q_imu: &Quat, t: f64, rot: Option<RotationModulation>) -> Quat {
 /// The navigator's initial state: truth plus the scenario's initial errors
 /// (attitude errors on the body's pitch, roll and heading).
 pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavState {
-    let n = &scn.file.navigator;
+    let n = scn.navigator();
     let (pitch, roll, yaw) = truth_body.q.to_euler();
     let [dp, dr, dh] = scn.initial_attitude_error;
     let q = Quat::from_euler(pitch + dp, roll + dr, yaw - dh);
@@ -353,7 +350,7 @@ pub(super) fn start_run<'a>(
     Recorder,
 ) {
     let dt = scn.dt;
-    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * dt;
+    let cap = scn.duration_cap_s() + 0.5 * dt;
     let body = truth.samples().take_while(move |a| a.t <= cap);
     let samples = ideal_imu(body.map(move |a| imu_frame(a, rot)), dt);
     let rec = Recorder {
@@ -463,13 +460,8 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
     let mut imu = Imu::new(&scn.imu, dt, stream(seed, run, ids::IMU));
     let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
     let mut ins = Strapdown::new(est0, dt);
-    let mut damping = match scn.file.navigator.vertical_channel {
-        VerticalChannel::Baro => Some(BaroDamping::new(
-            scn.file
-                .navigator
-                .vertical_tau_s
-                .unwrap_or(DEFAULT_VERTICAL_TAU_S),
-        )),
+    let mut damping = match scn.navigator().vertical_channel {
+        VerticalChannel::Baro => Some(BaroDamping::new(scn.navigator().vertical_tau_s)),
         VerticalChannel::Free => None,
     };
     let mut ins_step = |ins: &mut Strapdown, s: &crate::trajectory::TruthSample| {
@@ -483,7 +475,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
         }
     };
     let mut k = 0u64;
-    match scn.file.navigator.mode {
+    match scn.navigator().mode {
         // Integrated runs go through `run_integrated`; here (direct calls of
         // `run_once`) they run free inertial.
         NavMode::FreeInertial | NavMode::Integrated => {
@@ -535,7 +527,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
             let m = scn.diff_odometer;
             let mut wheels = DiffOdometer::new(&m, stream(seed, run, ids::DIFF_ODOMETER));
             let mut level = stream(seed, run, ids::LEVEL);
-            let level_noise = scn.file.level_sensor.noise_deg.to_radians();
+            let level_noise = scn.level_sensor_noise();
             let mut alt = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
             let (_, roll0_est, _) = est_body_q0.to_euler();
             let (_, roll0_true, _) = truth0.q.to_euler();
