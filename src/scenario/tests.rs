@@ -115,10 +115,9 @@ fn unknown_mountings_name_the_field() {
         "bad.toml: line 6: planner.mountings[1] \"ceilling\" is not one of road_surface, roadside, ceiling"
     );
     let e = parse_err("[planner]\ncost = { roadside = 1, tunnel = 2 }\n");
-    assert!(e.starts_with("bad.toml: line 6: "), "{e}");
-    assert!(
-        e.contains("\"tunnel\" is not one of road_surface, roadside, ceiling"),
-        "{e}"
+    assert_eq!(
+        e,
+        "bad.toml: line 6: planner.cost \"tunnel\" is not one of road_surface, roadside, ceiling"
     );
     let e = parse_err("[[tag]]\nat_s = 1\n[[tag]]\nat_s = 2\nmounting = \"wall\"\n");
     assert_eq!(
@@ -185,4 +184,15 @@ fn defaults_are_applied_once() {
     assert_eq!(s.planner().coverage, Coverage::Network);
     assert_eq!(s.planner().u_turns, UTurns::DeadEnds);
     assert_eq!(s.planner().candidate_spacing_m, DEFAULT_NETWORK_SPACING_M);
+}
+
+#[test]
+fn unknown_fields_name_their_table() {
+    let e = parse_err("[imu]\nsurprise = 1\n");
+    assert!(
+        e.starts_with("bad.toml: line 6: imu: unknown field `surprise`"),
+        "{e}"
+    );
+    let e = parse_err("[external_fix]\ninterval_s = [1, 2]\n");
+    assert_eq!(e, "bad.toml: line 5: external_fix: missing field `white_m`");
 }

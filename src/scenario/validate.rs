@@ -93,13 +93,18 @@ fn unknown_variant(msg: &str) -> Option<String> {
 }
 
 /// The dotted name (`planner.mountings[1]`, `route[0].motion[2].kind`) of the
-/// value whose span is `span`, searched from `table` named `prefix`.
+/// value whose span is `span`, or of the table holding the key whose span it
+/// is, searched from `table` named `prefix`.
 fn field_at(
     table: &toml::de::DeTable<'_>,
     span: &std::ops::Range<usize>,
     prefix: &str,
 ) -> Option<String> {
     for (k, v) in table {
+        if k.span() == *span && !prefix.is_empty() {
+            // An unknown key or map key: name the table holding it.
+            return Some(prefix.to_string());
+        }
         let name = if prefix.is_empty() {
             k.get_ref().to_string()
         } else {
