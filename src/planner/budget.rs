@@ -14,10 +14,10 @@
 use crate::nav::integrated::along_across_covariance;
 use crate::nav::{Filter, FilterConfig};
 use crate::network::Network;
+use crate::scenario::Scenario;
 use crate::sim::integrated::filter_config;
 use crate::sim::map_feed::MapFeed;
 use crate::sim::run::TruthSource;
-use crate::sim::scenario::Scenario;
 use crate::sim::tags::Mounting;
 use crate::trajectory::{ideal_imu, TruthSample};
 use rayon::prelude::*;
@@ -85,7 +85,7 @@ impl<'a> Budget<'a> {
             ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
         let odo_every = ((scn.filter().odometer_interval_s / scn.dt).round() as usize).max(1);
         let lane_width = match (network, &scn.route) {
-            (Some(net), crate::sim::scenario::RouteKind::Map { waypoints, .. }) => {
+            (Some(net), crate::scenario::RouteKind::Map { waypoints, .. }) => {
                 match crate::route::plan_route(net, waypoints) {
                     Ok(route) => {
                         let len = samples.last().map_or(0.0, |s| s.avp.distance_m);

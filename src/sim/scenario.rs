@@ -1,4 +1,0 @@
-//! The scenario moved to [`crate::scenario`]; this re-export keeps the old
-//! path importable.
-
-pub use crate::scenario::*;
