@@ -1098,10 +1098,7 @@ pub fn plan_network_on(
         start_reach_m: start,
         reach_classes,
         directed_edges: built.physical_edges,
-        u_turns: match u_turns {
-            UTurns::Anywhere => "anywhere".into(),
-            UTurns::DeadEnds => "dead_ends".into(),
-        },
+        u_turns: u_turns.as_str().into(),
         directed_length_km: built.directed_length_m / 1000.0,
         candidates: p.sites.len(),
         candidate_spacing_m: spacing,

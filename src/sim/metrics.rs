@@ -250,16 +250,6 @@ fn profile_and_nees(runs: &[RunResult]) -> (Vec<ProfilePoint>, Option<NeesSummar
     )
 }
 
-fn mode_name(m: crate::scenario::NavMode) -> &'static str {
-    use crate::scenario::NavMode::*;
-    match m {
-        FreeInertial => "free_inertial",
-        DeadReckoning => "dead_reckoning",
-        DeadReckoning3d => "dead_reckoning_3d",
-        Integrated => "integrated",
-    }
-}
-
 /// Summarizes runs.
 pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
     let req = scn.requirement_m();
@@ -319,7 +309,7 @@ pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
     });
     Summary {
         name: scn.name().to_string(),
-        mode: mode_name(scn.navigator().mode).into(),
+        mode: scn.navigator().mode.as_str().into(),
         runs: runs.len() as u64,
         seed,
         duration_s: last0.map_or(0.0, |x| x.t_s),
