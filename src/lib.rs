@@ -17,10 +17,12 @@ pub mod network;
 pub mod planner;
 pub mod report;
 pub mod route;
+pub mod scenario;
 pub mod sensors;
 pub mod sim;
 pub mod tags;
 pub mod trajectory;
+pub mod units;
 
 pub use error::{Error, Result};
 pub use network::{LoadOptions, Network};

@@ -353,7 +353,7 @@ fn plan(
     use waymark::planner;
     let t0 = Instant::now();
     let scn = waymark::sim::Scenario::load(scenario)?;
-    let seed = seed.or(scn.file.seed).unwrap_or(1);
+    let seed = seed.unwrap_or(scn.seed());
     let mut settings = planner::PlannerSettings::from_scenario(&scn)?;
     if let Some(r) = runs {
         settings.validation_runs = r;
@@ -365,7 +365,7 @@ fn plan(
     note!(
         out,
         "waymark plan: {}: covariance analysis along the route, then placement",
-        scn.file.name
+        scn.name()
     );
     let bar = out.bar(
         0,
@@ -549,7 +549,7 @@ fn write_network_plan(
     note!(
         out,
         "waymark plan: {}: network coverage (reach from the filter, then placement on every directed road)",
-        scn.file.name
+        scn.name()
     );
     let (net, mut p) = network::plan_network_loaded(scn, settings)?;
     let t_plan = t0.elapsed().as_secs_f64();
@@ -665,7 +665,7 @@ fn simulate(
     }
     let t0 = Instant::now();
     let scn = waymark::sim::Scenario::load(scenario)?;
-    let seed = seed.or(scn.file.seed).unwrap_or(1);
+    let seed = seed.unwrap_or(scn.seed());
     let truth = waymark::sim::TruthSource::new(&scn)?;
     let extra = match tags {
         Some(p) => waymark::sim::tags::load_tags_csv(p)?,

@@ -111,7 +111,7 @@ fn every_bundled_scenario_loads() {
             let scn = Scenario::load(&p).unwrap_or_else(|e| panic!("{e}"));
             // Benchmark-only scenarios read maps from ../shared/data, which a
             // fresh clone does not have.
-            if let waymark::sim::scenario::RouteKind::Map { map, .. } = &scn.route {
+            if let waymark::scenario::RouteKind::Map { map, .. } = &scn.route {
                 if !map.exists() && map.to_string_lossy().contains("shared/data") {
                     eprintln!("skipping {}: {} not found", p.display(), map.display());
                     continue;

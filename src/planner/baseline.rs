@@ -6,7 +6,7 @@ use super::plan::{Plan, UniformBaseline, Validation};
 use super::settings::PlannerSettings;
 use super::validation::{robust, validation_of};
 use crate::error::Result;
-use crate::sim::scenario::{RouteKind, Scenario};
+use crate::scenario::{RouteKind, Scenario};
 use crate::sim::tags::{Mounting, Tag};
 use crate::sim::{simulate_with, TruthSource};
 
@@ -23,7 +23,7 @@ pub fn uniform_tags(
         .iter()
         .find(|o| !o.tunnel_only)
         .map_or(Mounting::RoadSurface, |o| o.mounting);
-    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+    let cap = scn.duration_cap_s() + 0.5 * scn.dt;
     let mut sites = UniformSites::new(spacing_m);
     let mut tags = Vec::new();
     for a in truth.samples().take_while(|a| a.t <= cap) {
@@ -116,7 +116,7 @@ pub fn uniform_baseline(
             return Ok((false, None, tags.len()));
         }
         let p = Plan {
-            scenario: scn.file.name.clone(),
+            scenario: scn.name().to_string(),
             requirement_m: req,
             tolerate_missed_reads: k,
             method: "uniform".into(),

@@ -14,8 +14,8 @@
 
 use crate::nav::Filter;
 use crate::network::Network;
+use crate::scenario::Scenario;
 use crate::sim::covariance::PerfectData;
-use crate::sim::scenario::Scenario;
 use crate::sim::tags::Mounting;
 use crate::sim::TruthSource;
 use crate::trajectory::{ideal_imu, TruthSample};
@@ -67,7 +67,7 @@ impl<'a> Budget<'a> {
     /// `network` (the scenario's map) gives each sample's lane width (for
     /// roadside fixes) and feeds map matching when the scenario uses it.
     pub fn new(scn: &'a Scenario, truth: &TruthSource, network: Option<&'a Network>) -> Self {
-        let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+        let cap = scn.duration_cap_s() + 0.5 * scn.dt;
         let samples: Vec<TruthSample> =
             ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
         // The route the truth was compiled from (planned once, with the
@@ -89,7 +89,7 @@ impl<'a> Budget<'a> {
         };
         Self {
             data: PerfectData::new(scn)
-                .with_map_feed(network.filter(|_| scn.file.aiding.map_matching)),
+                .with_map_feed(network.filter(|_| scn.aiding().map_matching)),
             samples,
             lane_width,
         }

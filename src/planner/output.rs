@@ -6,7 +6,7 @@ use super::network::types::NetworkPlan;
 use super::plan::Plan;
 use crate::error::Result;
 use crate::export::{ExportMetadata, TagRecord};
-use crate::sim::scenario::{RouteKind, Scenario};
+use crate::scenario::{RouteKind, Scenario};
 use crate::sim::tags::Mounting;
 use crate::tags::TagPayload;
 

@@ -12,7 +12,7 @@ use super::settings::{site_speed_mps, Coverage, PlannerSettings};
 use super::validation::{robust, validate_plan};
 use crate::error::{Error, Result};
 use crate::network::{Network, RoadAttributes};
-use crate::sim::scenario::{RouteKind, Scenario};
+use crate::scenario::{RouteKind, Scenario};
 use crate::sim::tags::Mounting;
 use crate::sim::TruthSource;
 
@@ -84,7 +84,7 @@ pub fn plan_with_progress(
     validate: bool,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Plan> {
-    tracing::info!(scenario = %scn.file.name, requirement_m = settings.requirement_m, "planning tags");
+    tracing::info!(scenario = %scn.name(), requirement_m = settings.requirement_m, "planning tags");
     if settings.coverage == Coverage::Network {
         return Err(Error::InvalidParameter(
             "planner.coverage = \"network\" plans with planner::network::plan_network".into(),
@@ -467,7 +467,7 @@ pub fn plan_with_progress(
         .fold(0.0, |a, c| a + c);
     let n_cands = cands.len();
     let mut plan = Plan {
-        scenario: scn.file.name.clone(),
+        scenario: scn.name().to_string(),
         requirement_m: req,
         tolerate_missed_reads: k,
         method: if forward_used {

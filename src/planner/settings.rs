@@ -4,8 +4,8 @@
 
 use crate::error::{Error, Result};
 use crate::network::RoadAttributes;
+use crate::scenario::{NavMode, Scenario};
 use crate::sim::covariance::bound95_of_sigmas;
-use crate::sim::scenario::{NavMode, Scenario};
 use crate::sim::tags::{Mounting, RfidModel, Tag};
 
 /// Default read probability of a tag (the RFID paper's field test).
@@ -62,10 +62,7 @@ impl MountingOption {
     pub fn default_for(m: Mounting) -> Self {
         Self {
             mounting: m,
-            cost: match m {
-                Mounting::RoadSurface | Mounting::Roadside => 1.0,
-                Mounting::Ceiling => 3.0,
-            },
+            cost: crate::scenario::default_mounting_cost(m),
             read_probability: DEFAULT_READ_PROBABILITY,
             tunnel_only: m == Mounting::Ceiling,
         }
@@ -83,16 +80,7 @@ pub fn fix_bound95(rfid: &RfidModel, m: Mounting, v: f64) -> f64 {
     bound95_of_sigmas([a, c])
 }
 
-/// What a plan must cover (`planner.coverage`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Coverage {
-    /// The scenario's route (`"routes"`, the default).
-    #[default]
-    Routes,
-    /// Every drivable road in each permitted direction (`"network"`):
-    /// see [`super::network`].
-    Network,
-}
+pub use crate::scenario::Coverage;
 
 /// Planner settings, from the scenario's `[planner]` with defaults.
 #[derive(Debug, Clone, PartialEq)]
@@ -120,82 +108,34 @@ pub struct PlannerSettings {
 }
 
 impl PlannerSettings {
-    /// Reads and checks the scenario's planner settings.
+    /// The scenario's planner settings (validated with the scenario); checks
+    /// that the scenario can be planned and reads its existing tags.
     pub fn from_scenario(scn: &Scenario) -> Result<Self> {
         let bad = |m: String| Error::scenario(&scn.path, m);
         let requirement_m = scn
-            .file
-            .requirement_m
+            .requirement_m()
             .ok_or_else(|| bad("planning needs requirement_m".into()))?;
         if !(requirement_m.is_finite() && requirement_m > 0.0) {
             return Err(bad(format!(
                 "requirement_m = {requirement_m} must be positive"
             )));
         }
-        if scn.file.navigator.mode != NavMode::Integrated {
+        if scn.navigator().mode != NavMode::Integrated {
             return Err(bad(
                 "planning needs navigator.mode = \"integrated\" (the filter whose covariance is the budget)"
                     .into(),
             ));
         }
-        if !scn.file.aiding.rfid {
+        if !scn.aiding().rfid {
             return Err(bad("planning needs aiding.rfid = true".into()));
         }
-        let p = scn
-            .file
-            .planner
-            .clone()
-            .unwrap_or_else(|| crate::sim::scenario::PlannerSection {
-                coverage: None,
-                tolerate_missed_reads: None,
-                mountings: None,
-                candidate_spacing_m: None,
-                min_spacing_m: None,
-                forbidden_m: vec![],
-                validation_runs: None,
-                cost: None,
-                refine_iterations: None,
-                existing_tags: None,
-                u_turns: None,
-            });
-        let coverage = match p.coverage.as_deref() {
-            None | Some("routes") => Coverage::Routes,
-            Some("network") => Coverage::Network,
-            Some(o) => {
-                return Err(bad(format!(
-                    "planner.coverage = \"{o}\" is not one of routes, network"
-                )))
-            }
-        };
-        let names = p
-            .mountings
-            .unwrap_or_else(|| vec!["road_surface".into(), "roadside".into(), "ceiling".into()]);
-        if names.is_empty() {
-            return Err(bad("planner.mountings is empty".into()));
-        }
+        let p = scn.planner();
         let mut mountings = Vec::new();
-        for n in &names {
-            let m = Mounting::parse(n).ok_or_else(|| {
-                bad(format!(
-                    "planner.mountings: \"{n}\" is not one of road_surface, roadside, ceiling"
-                ))
-            })?;
-            let mut o = MountingOption::default_for(m);
-            o.read_probability = scn.rfid.read_probability_of(m);
-            if let Some(c) = p.cost.as_ref().and_then(|c| c.get(n.as_str())) {
-                if !(c.is_finite() && *c >= 0.0) {
-                    return Err(bad(format!("planner.cost.{n} = {c} must be ≥ 0")));
-                }
-                o.cost = *c;
-            }
+        for c in &p.mountings {
+            let mut o = MountingOption::default_for(c.mounting);
+            o.read_probability = scn.rfid.read_probability_of(c.mounting);
+            o.cost = c.cost;
             mountings.push(o);
-        }
-        if let Some(c) = &p.cost {
-            for k in c.keys() {
-                if Mounting::parse(k).is_none() {
-                    return Err(bad(format!("planner.cost: unknown mounting \"{k}\"")));
-                }
-            }
         }
         // Preference: cheapest, then most accurate.
         mountings.sort_by(|a, b| {
@@ -204,44 +144,20 @@ impl PlannerSettings {
                     .total_cmp(&fix_bound95(&scn.rfid, b.mounting, 10.0)),
             )
         });
-        let candidate_spacing_m = p.candidate_spacing_m.unwrap_or(20.0);
-        if !(candidate_spacing_m.is_finite() && candidate_spacing_m >= 1.0) {
-            return Err(bad(format!(
-                "planner.candidate_spacing_m = {candidate_spacing_m} must be ≥ 1"
-            )));
-        }
-        let min_spacing_m = p.min_spacing_m.unwrap_or(0.0);
-        if !(min_spacing_m.is_finite() && min_spacing_m >= 0.0) {
-            return Err(bad(format!(
-                "planner.min_spacing_m = {min_spacing_m} must be ≥ 0"
-            )));
-        }
-        for z in &p.forbidden_m {
-            if !(z[0].is_finite() && z[1].is_finite() && z[0] <= z[1]) {
-                return Err(bad(format!(
-                    "planner.forbidden_m: [{}, {}] is not a [from, to] pair",
-                    z[0], z[1]
-                )));
-            }
-        }
-        let validation_runs = p.validation_runs.unwrap_or(100);
         let existing_tags = match &p.existing_tags {
-            Some(f) => {
-                let base = scn.path.parent().unwrap_or(std::path::Path::new("."));
-                crate::sim::tags::load_tags_csv(&base.join(f))?
-            }
+            Some(f) => crate::sim::tags::load_tags_csv(f)?,
             None => vec![],
         };
         Ok(Self {
-            coverage,
+            coverage: p.coverage,
             requirement_m,
-            tolerate_missed_reads: p.tolerate_missed_reads.unwrap_or(1) as usize,
+            tolerate_missed_reads: p.tolerate_missed_reads,
             mountings,
-            candidate_spacing_m,
-            min_spacing_m,
-            forbidden_m: p.forbidden_m,
-            validation_runs,
-            refine_iterations: p.refine_iterations.unwrap_or(0) as usize,
+            candidate_spacing_m: p.candidate_spacing_m,
+            min_spacing_m: p.min_spacing_m,
+            forbidden_m: p.forbidden_m.clone(),
+            validation_runs: p.validation_runs,
+            refine_iterations: p.refine_iterations,
             existing_tags,
         })
     }

@@ -5,7 +5,7 @@
 use super::budget::{bound95, Budget};
 use super::plan::{Plan, Validation};
 use crate::error::Result;
-use crate::sim::scenario::Scenario;
+use crate::scenario::Scenario;
 use crate::sim::tags::Mounting;
 use crate::sim::{simulate_with, TruthSource};
 

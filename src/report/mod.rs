@@ -109,7 +109,7 @@ pub fn scenario_map(
     colour_by: &[(f64, f64)],
     extra_tags: &[crate::sim::tags::Tag],
 ) -> Result<Option<(crate::network::Network, MapOverlay)>> {
-    let crate::sim::scenario::RouteKind::Map { map, waypoints, .. } = &scn.route else {
+    let crate::scenario::RouteKind::Map { map, waypoints, .. } = &scn.route else {
         return Ok(None);
     };
     let net = crate::network::Network::load(map, &crate::network::LoadOptions::default())?;
@@ -135,17 +135,13 @@ pub fn scenario_map(
             .map(|v| (v.lat_lon, error_at(v.chainage_m)))
             .collect(),
         tags: Vec::new(),
-        requirement_m: scn.file.requirement_m,
+        requirement_m: scn.requirement_m(),
     };
-    for t in &scn.file.tag {
-        let m = t
-            .mounting
-            .as_deref()
-            .and_then(crate::tags::Mounting::parse)
-            .unwrap_or(crate::tags::Mounting::RoadSurface);
-        let ll = match (t.lat, t.lon, t.at_m) {
-            (Some(lat), Some(lon), _) => Some([lat, lon]),
-            (_, _, Some(at)) => {
+    for t in scn.tags() {
+        let m = t.mounting;
+        let ll = match t.place {
+            crate::scenario::TagPlace::LatLonDeg(ll) => Some(ll),
+            crate::scenario::TagPlace::AtDistance(at) => {
                 let p = route.position_at(at);
                 let g = net.frame.to_geodetic([p[0], p[1], 0.0]);
                 Some([g.lat_deg(), g.lon_deg()])

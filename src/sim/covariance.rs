@@ -13,10 +13,10 @@
 
 use super::integrated::filter_config;
 use super::map_feed::MapFeed;
-use super::scenario::Scenario;
 use super::tags::{Mounting, RfidModel};
 use crate::nav::{Filter, FilterConfig};
 use crate::network::Network;
+use crate::scenario::Scenario;
 use crate::sensors::odometer::OdometerFailure;
 use crate::trajectory::{Avp, TruthSample};
 
@@ -72,10 +72,9 @@ impl<'a> PerfectData<'a> {
         Self {
             dt,
             cfg: filter_config(scn),
-            aid_odometer: scn.file.aiding.odometer,
-            aid_baro: scn.file.aiding.baro,
-            odo_every: ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / dt).round() as usize)
-                .max(1),
+            aid_odometer: scn.aiding().odometer,
+            aid_baro: scn.aiding().baro,
+            odo_every: ((scn.filter().odometer_interval_s / dt).round() as usize).max(1),
             baro_every: (1.0 / dt).round().max(1.0) as usize,
             baro_var: scn.baro.noise_m.powi(2).max(0.01),
             failure: scn.odometer.failure,

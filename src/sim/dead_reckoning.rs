@@ -6,13 +6,11 @@ use super::records::RunResult;
 use super::truth::{body_q, initial_estimate, start_run, TruthSource};
 use crate::attitude::{scale, V3};
 use crate::nav::{BaroDamping, Dr3d, OdometerDr, Strapdown};
+use crate::scenario::{NavMode, Scenario, VerticalChannel};
 use crate::sensors::odometer::wheel_distances;
 use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, DiffOdometer, Imu, Odometer};
-use crate::sim::scenario::{NavMode, Scenario, VerticalChannel};
 
-/// Default time constant of the baro damping loop (s).
-pub const DEFAULT_VERTICAL_TAU_S: f64 = 50.0;
 /// One run with its own random streams.
 pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> RunResult {
     let dt = scn.dt;
@@ -33,13 +31,8 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
     let mut imu = Imu::new(&scn.imu, dt, stream(seed, run, ids::IMU));
     let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
     let mut ins = Strapdown::new(est0, dt);
-    let mut damping = match scn.file.navigator.vertical_channel {
-        VerticalChannel::Baro => Some(BaroDamping::new(
-            scn.file
-                .navigator
-                .vertical_tau_s
-                .unwrap_or(DEFAULT_VERTICAL_TAU_S),
-        )),
+    let mut damping = match scn.navigator().vertical_channel {
+        VerticalChannel::Baro => Some(BaroDamping::new(scn.navigator().vertical_tau_s)),
         VerticalChannel::Free => None,
     };
     let mut ins_step = |ins: &mut Strapdown, s: &crate::trajectory::TruthSample| {
@@ -53,7 +46,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
         }
     };
     let mut k = 0u64;
-    match scn.file.navigator.mode {
+    match scn.navigator().mode {
         // Integrated runs go through `run_integrated`; here (direct calls of
         // `run_once`) they run free inertial.
         NavMode::FreeInertial | NavMode::Integrated => {
@@ -105,7 +98,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
             let m = scn.diff_odometer;
             let mut wheels = DiffOdometer::new(&m, stream(seed, run, ids::DIFF_ODOMETER));
             let mut level = stream(seed, run, ids::LEVEL);
-            let level_noise = scn.file.level_sensor.noise_deg.to_radians();
+            let level_noise = scn.level_sensor_noise();
             let mut alt = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
             let (_, roll0_est, _) = est_body_q0.to_euler();
             let (_, roll0_true, _) = truth0.q.to_euler();

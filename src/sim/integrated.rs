@@ -4,18 +4,16 @@
 
 use super::passes::{draw_reads, find_passes, TagPass};
 use super::records::{PassRecord, RunResult, TagEvent};
-use super::tags::{Mounting, Tag};
+use super::tags::Tag;
 use super::truth::{initial_estimate, start_run, TruthSource};
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
 use crate::nav::{Filter, FilterConfig, MeasurementQueue};
+use crate::scenario::{Adaptive, ExternalFix, RouteKind, Scenario, TagPlace};
 use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, Imu, Odometer};
-use crate::sim::scenario::{RouteKind, Scenario, G0};
 use rand::Rng;
 
-const DPH: f64 = std::f64::consts::PI / 180.0 / 3600.0;
-const ARCMIN: f64 = std::f64::consts::PI / 180.0 / 60.0;
 /// Random stream of the RFID reads.
 const RFID_STREAM: u64 = 7;
 /// Random stream of the external fix.
@@ -39,9 +37,9 @@ impl Prepared {
     pub fn new(scn: &Scenario, truth: &TruthSource, extra: &[Tag]) -> Result<Prepared> {
         let mut tags = scenario_tags(scn, truth)?;
         tags.extend_from_slice(extra);
-        let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * scn.dt;
+        let cap = scn.duration_cap_s() + 0.5 * scn.dt;
         let passes = find_passes(truth, cap, &tags, &scn.rfid);
-        let network = if scn.file.aiding.map_matching {
+        let network = if scn.aiding().map_matching {
             // The truth's network: a map route's truth carries it.
             match truth.network() {
                 Some(net) => Some(std::sync::Arc::clone(net)),
@@ -66,28 +64,24 @@ impl Prepared {
 /// The scenario's `[[tag]]` entries as tags; on-route ones (`at_s`, `at_m`)
 /// are placed on the truth path (stored height: the path's height there).
 pub fn scenario_tags(scn: &Scenario, truth: &TruthSource) -> Result<Vec<Tag>> {
-    let mut tags = Vec::with_capacity(scn.file.tag.len());
+    let mut tags = Vec::with_capacity(scn.tags().len());
     let mut need: Vec<(usize, bool, f64)> = Vec::new();
-    for (i, t) in scn.file.tag.iter().enumerate() {
-        let mounting = t
-            .mounting
-            .as_deref()
-            .and_then(Mounting::parse)
-            .unwrap_or(Mounting::RoadSurface);
-        let survey = t.survey_error_m.unwrap_or([0.0, 0.0]);
-        let (lat, lon) = match (t.lat, t.lon) {
-            (Some(a), Some(b)) => (a.to_radians(), b.to_radians()),
-            _ => {
-                match (t.at_s, t.at_m) {
-                    (Some(x), _) => need.push((i, true, x)),
-                    (_, Some(x)) => need.push((i, false, x)),
-                    _ => {}
-                }
+    for (i, t) in scn.tags().iter().enumerate() {
+        let mounting = t.mounting;
+        let survey = t.survey_error_m;
+        let (lat, lon) = match t.place {
+            TagPlace::LatLonDeg([a, b]) => (a.to_radians(), b.to_radians()),
+            TagPlace::AtTime(x) => {
+                need.push((i, true, x));
+                (f64::NAN, f64::NAN)
+            }
+            TagPlace::AtDistance(x) => {
+                need.push((i, false, x));
                 (f64::NAN, f64::NAN)
             }
         };
         tags.push(Tag {
-            id: t.id.clone().unwrap_or_else(|| format!("tag-{i}")),
+            id: t.id.clone(),
             lat,
             lon,
             height_m: t.height_m,
@@ -140,38 +134,18 @@ fn place(tag: &mut Tag, s: &crate::nav::NavState) {
 /// The filter settings of a scenario: priors and noise from the simulated
 /// sensor models unless `[filter]` says otherwise.
 pub fn filter_config(scn: &Scenario) -> FilterConfig {
-    let f = &scn.file.filter;
-    let imu = &scn.file.imu;
-    let rms3 = |v: [f64; 3]| ((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) / 3.0).sqrt();
-    let gyro_sigma_dph = f.gyro_bias_sigma_dph.unwrap_or_else(|| {
-        (rms3(imu.gyro_bias_dph).powi(2)
-            + imu.gyro_bias_random_dph.powi(2)
-            + imu.gyro_bias_instability_dph.powi(2))
-        .sqrt()
-        .max(0.001)
-    });
-    let accel_sigma_ug = f.accel_bias_sigma_ug.unwrap_or_else(|| {
-        (rms3(imu.accel_bias_ug).powi(2)
-            + imu.accel_bias_random_ug.powi(2)
-            + imu.accel_bias_instability_ug.powi(2))
-        .sqrt()
-        .max(5.0)
-    });
-    let sf = scn.odometer.scale_factor_error;
-    let odo_sigma = f.odometer_scale_sigma.unwrap_or(sf.abs().max(5e-4));
-    let mis_sigma = f
-        .odometer_misalignment_sigma_deg
-        .unwrap_or(0.2)
-        .to_radians();
+    let f = scn.filter();
+    let odo_sigma = f.odometer_scale_sigma;
+    let mis_sigma = f.odometer_misalignment_sigma;
     let b = &scn.baro;
     let baro_sigma = (b.initial_bias_m.powi(2) + b.bias_drift_m.powi(2))
         .sqrt()
         .max(0.1);
-    let (fix_rw, sage) = match (&scn.file.external_fix, scn.file.aiding.external_fix) {
+    let (fix_rw, sage) = match (scn.external_fix(), scn.aiding().external_fix) {
         (Some(x), true) => (
             x.random_walk_m_per_rts.max(1e-3),
-            if x.adaptive.as_deref() == Some("sage_husa") {
-                Some(x.fading_b.unwrap_or(0.95))
+            if x.adaptive == Adaptive::SageHusa {
+                Some(x.fading_b)
             } else {
                 None
             },
@@ -180,54 +154,23 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
     };
     let noise = NoiseModel {
         gyro_arw: scn.imu.gyro_arw.max(0.0005f64.to_radians() / 60.0),
-        accel_vrw: scn.imu.accel_vrw.max(1e-6 * G0),
+        accel_vrw: scn.imu.accel_vrw.max(1e-6 * crate::units::G0),
         // Constant (turn-on) biases are random constants: a Gauss–Markov
         // process with a correlation time much longer than the run.
-        gyro_bias: (
-            gyro_sigma_dph * DPH,
-            if imu.gyro_bias_instability_dph > 0.0 {
-                imu.gyro_bias_tau_s
-            } else {
-                1e6
-            },
-        ),
-        accel_bias: (
-            accel_sigma_ug * 1e-6 * G0,
-            if imu.accel_bias_instability_ug > 0.0 {
-                imu.accel_bias_tau_s
-            } else {
-                1e6
-            },
-        ),
-        odo_scale: (odo_sigma, f.odometer_scale_tau_s.unwrap_or(1e6)),
+        gyro_bias: (f.gyro_bias_sigma, f.gyro_bias_tau_s),
+        accel_bias: (f.accel_bias_sigma, f.accel_bias_tau_s),
+        odo_scale: (odo_sigma, f.odometer_scale_tau_s),
         odo_misalign: (mis_sigma, 1e6),
         fix_rw,
         baro_bias: (baro_sigma, b.bias_tau_s),
     };
-    let nav = &scn.file.navigator;
-    let ia = nav.initial_attitude_error_arcmin;
-    let ias = nav.initial_attitude_sigma_arcmin;
-    let [sa_level, sa_head] = f.attitude_sigma_arcmin.unwrap_or([
-        ia[0].abs().max(ia[1].abs()).hypot(ias[0]).max(0.5),
-        ia[2].abs().hypot(ias[1]).max(1.0),
-    ]);
-    let ip = nav.initial_position_error_m;
-    let ips = nav.initial_position_sigma_m;
-    let [sp_h, sp_v] = f.position_sigma_m.unwrap_or([
-        ip[0].abs().max(ip[1].abs()).hypot(ips[0]).max(1.0),
-        ip[2].abs().hypot(ips[1]).max(1.0),
-    ]);
-    let iv = nav.initial_velocity_error_mps;
-    let sv = f.velocity_sigma_mps.unwrap_or(
-        iv.iter()
-            .fold(0.0f64, |a, x| a.max(x.abs()))
-            .hypot(nav.initial_velocity_sigma_mps)
-            .max(0.05),
-    );
+    let [sa_level, sa_head] = f.attitude_sigma;
+    let [sp_h, sp_v] = f.position_sigma_m;
+    let sv = f.velocity_sigma_mps;
     let mut s0 = [0.0; N];
-    s0[PHI] = sa_level * ARCMIN;
-    s0[PHI + 1] = sa_level * ARCMIN;
-    s0[PHI + 2] = sa_head * ARCMIN;
+    s0[PHI] = sa_level;
+    s0[PHI + 1] = sa_level;
+    s0[PHI + 2] = sa_head;
     for k in 0..3 {
         s0[DV + k] = sv;
         s0[EPS + k] = noise.gyro_bias.0;
@@ -254,20 +197,10 @@ pub fn filter_config(scn: &Scenario) -> FilterConfig {
     s0[RW + 1] = 0.01;
     s0[BARO] = baro_sigma;
     let mut cfg = FilterConfig::new(noise, s0);
-    cfg.interval_s = f.interval_s.unwrap_or(0.1);
-    let odo_t = f.odometer_interval_s.unwrap_or(0.1);
-    let n = (odo_t / scn.dt).round().max(1.0);
-    let o = &scn.odometer;
-    cfg.odo_noise_mps = f.odometer_noise_mps.unwrap_or_else(|| {
-        ((o.noise_mps * o.noise_mps / n) + (o.pulse_m / odo_t).powi(2) / 6.0 + 0.01f64.powi(2))
-            .sqrt()
-    });
-    cfg.nhc_noise_mps = f.nhc_noise_mps.unwrap_or(0.05);
-    cfg.use_nhc = scn
-        .file
-        .aiding
-        .non_holonomic
-        .unwrap_or(scn.file.aiding.odometer);
+    cfg.interval_s = f.interval_s;
+    cfg.odo_noise_mps = f.odometer_noise_mps;
+    cfg.nhc_noise_mps = f.nhc_noise_mps;
+    cfg.use_nhc = scn.aiding().non_holonomic;
     cfg.sage_husa_b = sage;
     cfg
 }
@@ -294,14 +227,14 @@ pub fn run_integrated(
     let Some(first) = samples.next() else {
         return RunResult::empty(run);
     };
-    let aid = scn.file.aiding;
+    let aid = scn.aiding();
     let cfg = filter_config(scn);
     let mut est0 = initial_estimate(scn, &first.avp.state);
     let mut init = stream(seed, run, ids::INIT);
     {
         // Random initial errors drawn per run (the prior the filter assumes).
-        let n = &scn.file.navigator;
-        let [sl, sh] = n.initial_attitude_sigma_arcmin.map(|x| x * ARCMIN);
+        let n = scn.navigator();
+        let [sl, sh] = n.initial_attitude_sigma;
         let phi = [
             sl * normal(&mut init),
             sl * normal(&mut init),
@@ -325,8 +258,8 @@ pub fn run_integrated(
     rec.record_cov(0, &first.avp, est0.lat, est0.lon, est0.h, Some(p));
     // Per-run turn-on biases.
     let mut imu_model = scn.imu;
-    let gr = scn.file.imu.gyro_bias_random_dph * DPH;
-    let ar = scn.file.imu.accel_bias_random_ug * 1e-6 * G0;
+    let gr = scn.gyro_bias_random();
+    let ar = scn.accel_bias_random();
     for k in 0..3 {
         imu_model.gyro_bias[k] += gr * normal(&mut init);
         imu_model.accel_bias[k] += ar * normal(&mut init);
@@ -334,8 +267,7 @@ pub fn run_integrated(
     let mut imu = Imu::new(&imu_model, dt, stream(seed, run, ids::IMU));
     let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
     let mut odo = Odometer::new(&scn.odometer, stream(seed, run, ids::ODOMETER));
-    let odo_every =
-        ((scn.file.filter.odometer_interval_s.unwrap_or(0.1) / dt).round() as u64).max(1);
+    let odo_every = ((scn.filter().odometer_interval_s / dt).round() as u64).max(1);
     let mut odo_acc = 0.0;
     let mut last_distance = first.avp.distance_m;
     let mut rfid_rng = stream(seed, run, RFID_STREAM);
@@ -353,8 +285,8 @@ pub fn run_integrated(
     let (mut prev_t, mut prev_d) = (first.avp.t, first.avp.distance_m);
     // External fix source.
     let mut fix_rng = stream(seed, run, FIX_STREAM);
-    let xf = scn.file.external_fix.clone().filter(|_| aid.external_fix);
-    let gap = |rng: &mut rand_chacha::ChaCha8Rng, x: &crate::sim::scenario::ExternalFixSection| {
+    let xf = scn.external_fix().copied().filter(|_| aid.external_fix);
+    let gap = |rng: &mut rand_chacha::ChaCha8Rng, x: &ExternalFix| {
         let [a, b] = x.interval_s;
         a + (b - a) * rng.random::<f64>()
     };
@@ -462,7 +394,7 @@ pub fn run_integrated(
                 }
                 Meas::Fix(lat, lon) => {
                     let x = xf.as_ref().expect("fix source");
-                    let w = x.filter_white_m.unwrap_or(x.white_m).max(1e-3);
+                    let w = x.filter_white_m.max(1e-3);
                     filter.update_external_fix(tm, lat, lon, w * w);
                 }
             }

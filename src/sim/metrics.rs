@@ -2,7 +2,7 @@
 //! the time at which each run first exceeds the requirement.
 
 use super::records::RunResult;
-use super::scenario::Scenario;
+use crate::scenario::Scenario;
 use serde::Serialize;
 
 /// Per-run figures.
@@ -86,10 +86,10 @@ pub struct FaultInterval {
 /// The scenario's odometer failure as an interval of run 0's rows; none if
 /// the navigator does not use the odometer or the failure starts after the run.
 fn odometer_faults(scn: &Scenario, rows: &[super::records::ErrorRow]) -> Vec<FaultInterval> {
-    use super::scenario::NavMode;
-    let uses_odometer = match scn.file.navigator.mode {
+    use crate::scenario::NavMode;
+    let uses_odometer = match scn.navigator().mode {
         NavMode::DeadReckoning => true,
-        NavMode::Integrated => scn.file.aiding.odometer,
+        NavMode::Integrated => scn.aiding().odometer,
         _ => false,
     };
     let (Some(f), Some(last)) = (scn.odometer.failure, rows.last()) else {
@@ -250,19 +250,9 @@ fn profile_and_nees(runs: &[RunResult]) -> (Vec<ProfilePoint>, Option<NeesSummar
     )
 }
 
-fn mode_name(m: super::scenario::NavMode) -> &'static str {
-    use super::scenario::NavMode::*;
-    match m {
-        FreeInertial => "free_inertial",
-        DeadReckoning => "dead_reckoning",
-        DeadReckoning3d => "dead_reckoning_3d",
-        Integrated => "integrated",
-    }
-}
-
 /// Summarizes runs.
 pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
-    let req = scn.file.requirement_m;
+    let req = scn.requirement_m();
     let mut all: Vec<f64> = runs
         .iter()
         .flat_map(|r| r.rows.iter().map(|x| x.horizontal_m))
@@ -318,8 +308,8 @@ pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
             .count() as u64
     });
     Summary {
-        name: scn.file.name.clone(),
-        mode: mode_name(scn.file.navigator.mode).into(),
+        name: scn.name().to_string(),
+        mode: scn.navigator().mode.as_str().into(),
         runs: runs.len() as u64,
         seed,
         duration_s: last0.map_or(0.0, |x| x.t_s),

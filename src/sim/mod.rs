@@ -24,13 +24,12 @@ pub mod monte_carlo;
 pub mod output;
 pub mod passes;
 pub mod records;
-pub mod scenario;
 pub mod tags;
 pub mod truth;
 
+pub use crate::scenario::{NavMode, Scenario};
 pub use integrated::Prepared;
 pub use metrics::Summary;
 pub use monte_carlo::{simulate, simulate_with, SimResult};
 pub use records::{ErrorRow, PassRecord, RunResult, TagEvent};
-pub use scenario::{NavMode, Scenario};
 pub use truth::{RouteTruth, TruthSource};

@@ -9,7 +9,7 @@ use super::records::RunResult;
 use super::tags::Tag;
 use super::truth::TruthSource;
 use crate::error::Result;
-use crate::sim::scenario::{NavMode, Scenario};
+use crate::scenario::{NavMode, Scenario};
 use rayon::prelude::*;
 
 /// All runs and their summary.
@@ -41,20 +41,20 @@ pub fn simulate_with(
             "the number of runs must be at least 1".into(),
         ));
     }
-    let integrated = scn.file.navigator.mode == NavMode::Integrated;
+    let integrated = scn.navigator().mode == NavMode::Integrated;
     if integrated && scn.rotation.is_some() {
         return Err(crate::error::Error::scenario(
             &scn.path,
             "navigator.mode = \"integrated\" does not support imu.rotation_modulation",
         ));
     }
-    if !integrated && scn.file.aiding.map_matching {
+    if !integrated && scn.aiding().map_matching {
         return Err(crate::error::Error::scenario(
             &scn.path,
             "aiding.map_matching is used only by navigator.mode = \"integrated\"",
         ));
     }
-    if !integrated && (!extra_tags.is_empty() || !scn.file.tag.is_empty()) {
+    if !integrated && (!extra_tags.is_empty() || !scn.tags().is_empty()) {
         return Err(crate::error::Error::scenario(
             &scn.path,
             "tags are used only by navigator.mode = \"integrated\"",
@@ -66,7 +66,7 @@ pub fn simulate_with(
         Prepared::default()
     };
     tracing::info!(
-        scenario = %scn.file.name,
+        scenario = %scn.name(),
         runs,
         seed,
         tags = prep.tags.len(),

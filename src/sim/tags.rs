@@ -22,7 +22,7 @@
 use crate::error::{Error, Result};
 use std::path::Path;
 
-pub use crate::tags::Mounting;
+pub use crate::tags::{Mounting, RfidModel};
 
 /// A tag as the navigator knows it, and where it really is.
 #[derive(Debug, Clone, PartialEq)]
@@ -42,133 +42,6 @@ pub struct Tag {
     /// Width of the lane the tag serves (m), when known (the planner takes
     /// it from the road's OSM `width`/`lanes` or class); else `[rfid]`'s.
     pub lane_width_m: Option<f64>,
-}
-
-/// RFID reader settings (from `[rfid]`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RfidModel {
-    /// Probability that a passed tag is read.
-    pub read_probability: f64,
-    /// Read probability by mounting (road surface, roadside, ceiling),
-    /// overriding `read_probability` where given.
-    pub read_probability_by_mounting: [Option<f64>; 3],
-    /// Lane width D (m).
-    pub lane_width_m: f64,
-    /// Vehicle width d (m).
-    pub vehicle_width_m: f64,
-    /// Lateral reader-to-tag distance x of roadside tags (m).
-    pub roadside_distance_m: f64,
-    /// Angle θ at which a roadside tag first answers (rad).
-    pub roadside_angle: f64,
-    /// Read time t0 (s).
-    pub read_time_s: f64,
-    /// Largest lateral distance from the path at which a roadside tag's
-    /// stored point is still read (m).
-    pub roadside_range_m: f64,
-    /// σ of the road-surface fix (m), capped at 0.5 m.
-    pub road_surface_sigma_m: f64,
-    /// σ of the ceiling fix (m), capped at 0.3 m.
-    pub ceiling_sigma_m: f64,
-    /// σ of a tag's stored height (m).
-    pub height_sigma_m: f64,
-}
-
-impl Default for RfidModel {
-    fn default() -> Self {
-        Self {
-            read_probability: 1.0,
-            read_probability_by_mounting: [None; 3],
-            lane_width_m: 3.75,
-            vehicle_width_m: 2.5,
-            roadside_distance_m: 5.63,
-            roadside_angle: 15f64.to_radians(),
-            read_time_s: 0.02,
-            roadside_range_m: 10.0,
-            road_surface_sigma_m: 0.2,
-            ceiling_sigma_m: 0.1,
-            height_sigma_m: 0.1,
-        }
-    }
-}
-
-impl RfidModel {
-    /// The probability that a pass by a tag of mounting `m` is read.
-    pub fn read_probability_of(&self, m: Mounting) -> f64 {
-        let i = match m {
-            Mounting::RoadSurface => 0,
-            Mounting::Roadside => 1,
-            Mounting::Ceiling => 2,
-        };
-        self.read_probability_by_mounting[i].unwrap_or(self.read_probability)
-    }
-
-    /// The model for a tag whose lane width is known (`None`: unchanged).
-    pub fn with_lane_width(&self, lane_width_m: Option<f64>) -> Self {
-        let mut m = *self;
-        if let Some(w) = lane_width_m {
-            m.lane_width_m = w;
-        }
-        m
-    }
-
-    /// Half-width of the lateral band within which a tag is read (m).
-    pub fn read_half_width(&self, m: Mounting) -> f64 {
-        match m {
-            Mounting::RoadSurface => 0.5 * self.vehicle_width_m,
-            Mounting::Roadside => self.roadside_range_m,
-            Mounting::Ceiling => 0.5 * self.lane_width_m,
-        }
-    }
-
-    /// Half-width of the vehicle's lateral place over a road-surface tag (m):
-    /// half the lane's free width (D − d)/2, at most 0.4 m.
-    pub fn road_surface_lateral_m(&self) -> f64 {
-        (0.5 * (self.lane_width_m - self.vehicle_width_m)).clamp(0.0, 0.4)
-    }
-
-    /// The filter's fix covariance (along-track σ, cross-track σ) for a
-    /// mounting at speed `v` (m/s).
-    pub fn fix_sigmas(&self, m: Mounting, v: f64) -> (f64, f64) {
-        match m {
-            Mounting::RoadSurface => {
-                let s = self.road_surface_sigma_m.min(0.5);
-                (
-                    s.max(0.05),
-                    (self.road_surface_lateral_m() / 3f64.sqrt()).max(0.05),
-                )
-            }
-            Mounting::Ceiling => {
-                let s = self.ceiling_sigma_m.min(0.3);
-                (s.max(0.05), s.max(0.05))
-            }
-            Mounting::Roadside => {
-                let dy =
-                    self.roadside_distance_m * self.roadside_angle.tan() - v * self.read_time_s;
-                let dx = 0.5 * (self.lane_width_m - self.vehicle_width_m).max(0.0);
-                // dy is a bias at a given speed: taken as a 1σ error; dx is
-                // the half-width of a uniform spread (σ = dx/√3).
-                (dy.abs().max(0.2), (dx / 3f64.sqrt()).max(0.1))
-            }
-        }
-    }
-}
-
-impl RfidModel {
-    /// The horizontal covariance (east, north; m²) of a fix by a tag of
-    /// mounting `m` for a vehicle in navigation state `state` (its speed
-    /// and heading set the along- and cross-track axes): the one fix model
-    /// of the simulator and the covariance analysis.
-    pub fn fix_covariance(&self, m: Mounting, state: &crate::nav::NavState) -> [[f64; 2]; 2] {
-        let speed = state.v[0].hypot(state.v[1]);
-        let f = state.q.rotate([0.0, 1.0, 0.0]);
-        let (sa, sc) = self.fix_sigmas(m, speed);
-        crate::nav::integrated::along_across_covariance(f[0].atan2(f[1]), sa, sc)
-    }
-
-    /// The vertical variance of a tag fix (m²).
-    pub fn fix_height_var(&self) -> f64 {
-        self.height_sigma_m.powi(2).max(1e-4)
-    }
 }
 
 /// Reads a tags CSV (header row; `tag_id,lat,lon,mounting` required,

@@ -10,8 +10,8 @@ use crate::geodesy::radii;
 use crate::nav::NavState;
 use crate::network::Network;
 use crate::route::Route;
+use crate::scenario::{RouteKind, Scenario};
 use crate::sensors::RotationModulation;
-use crate::sim::scenario::{RouteKind, Scenario};
 use crate::trajectory::route::RoutePlan;
 use crate::trajectory::{ideal_imu, Avp, MotionPlan};
 use std::sync::Arc;
@@ -149,7 +149,7 @@ pub(super) fn body_q(q_imu: &Quat, t: f64, rot: Option<RotationModulation>) -> Q
 /// The navigator's initial state: truth plus the scenario's initial errors
 /// (attitude errors on the body's pitch, roll and heading).
 pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavState {
-    let n = &scn.file.navigator;
+    let n = scn.navigator();
     let (pitch, roll, yaw) = truth_body.q.to_euler();
     let [dp, dr, dh] = scn.initial_attitude_error;
     let q = Quat::from_euler(pitch + dp, roll + dr, yaw - dh);
@@ -181,7 +181,7 @@ pub(super) fn start_run<'a>(
     Recorder,
 ) {
     let dt = scn.dt;
-    let cap = scn.file.duration_s.unwrap_or(f64::INFINITY) + 0.5 * dt;
+    let cap = scn.duration_cap_s() + 0.5 * dt;
     let body = truth.samples().take_while(move |a| a.t <= cap);
     let samples = ideal_imu(body.map(move |a| imu_frame(a, rot)), dt);
     let rec = Recorder {

@@ -98,7 +98,7 @@ mod tests {
     use crate::network::Network;
     use crate::network::{model_from_polylines, Oneway, RoadAttributes};
     use crate::planner::settings::PlannerSettings;
-    use crate::sim::scenario::Scenario;
+    use crate::scenario::Scenario;
     use crate::sim::tags::Mounting;
     use crate::sim::TruthSource;
 

@@ -6,13 +6,13 @@ use super::cover::{self, Solved, Walk};
 use super::ilp::{self, IlpLimits, IlpOutcome};
 use super::instance::{build, describe_walk, section_point};
 use super::reach::{reach_class, ReachClass};
-use super::settings::{check_settings, map_route, UTurns, ILP_MAX_CANDIDATES};
+use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::{NetworkPlan, NetworkTag};
 use super::validation::validate_network_plan;
 use crate::error::{Error, Result};
 use crate::network::Network;
 use crate::planner::settings::{lane_width_m, PlannerSettings};
-use crate::sim::scenario::Scenario;
+use crate::scenario::Scenario;
 use crate::sim::tags::Mounting;
 use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
@@ -276,7 +276,7 @@ pub fn plan_network_on(
     }
     let existing_kept = tags.iter().filter(|t| t.existing).count();
     Ok(NetworkPlan {
-        scenario: scn.file.name.clone(),
+        scenario: scn.name().to_string(),
         coverage: "network".into(),
         requirement_m: req,
         tolerate_missed_reads: k,
@@ -288,10 +288,7 @@ pub fn plan_network_on(
         start_reach_m: start,
         reach_classes,
         directed_edges: built.physical_edges,
-        u_turns: match u_turns {
-            UTurns::Anywhere => "anywhere".into(),
-            UTurns::DeadEnds => "dead_ends".into(),
-        },
+        u_turns: u_turns.as_str().into(),
         directed_length_km: built.directed_length_m / 1000.0,
         candidates: p.sites.len(),
         candidate_spacing_m: spacing,

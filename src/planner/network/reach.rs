@@ -4,8 +4,8 @@
 //! the requirement, until the distances between fixes settle.
 
 use crate::error::{Error, Result};
+use crate::scenario::Scenario;
 use crate::sim::covariance::{bound95, PerfectData};
-use crate::sim::scenario::Scenario;
 use crate::sim::tags::Mounting;
 use crate::trajectory::{ideal_imu, Extent, Motion, MotionPlan, Start};
 use serde::Serialize;

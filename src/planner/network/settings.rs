@@ -5,11 +5,10 @@
 use crate::error::{Error, Result};
 use crate::network::Network;
 use crate::planner::settings::PlannerSettings;
-use crate::sim::scenario::{RouteKind, Scenario};
+use crate::scenario::{RouteKind, Scenario};
 use crate::trajectory::SpeedProfile;
 
-/// Default candidate spacing on networks (m).
-pub const DEFAULT_NETWORK_SPACING_M: f64 = 50.0;
+pub use crate::scenario::DEFAULT_NETWORK_SPACING_M;
 /// Largest instance (candidate sites) tried with the exact method.
 pub const ILP_MAX_CANDIDATES: usize = 150;
 /// Installed tags farther than this from every road are ignored (m).
@@ -38,19 +37,11 @@ pub fn scenario_network(scn: &Scenario) -> Result<Network> {
     Network::load(map, &Default::default())
 }
 
-/// Where walks may turn back onto the road they came along.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum UTurns {
-    /// At any junction or road end (`"anywhere"`, the default): the
-    /// topology's successors, the most conservative.
-    Anywhere,
-    /// Only at dead ends (`"dead_ends"`: nodes where a single road ends).
-    DeadEnds,
-}
+pub use crate::scenario::UTurns;
 
 /// Checks the network-specific settings: candidate spacing and U-turns.
 pub(crate) fn check_settings(scn: &Scenario, settings: &PlannerSettings) -> Result<(f64, UTurns)> {
-    let p = scn.file.planner.as_ref();
+    let p = scn.planner();
     if !settings.forbidden_m.is_empty() {
         return Err(Error::scenario(
             &scn.path,
@@ -64,19 +55,5 @@ pub(crate) fn check_settings(scn: &Scenario, settings: &PlannerSettings) -> Resu
             "planner.min_spacing_m is not supported with coverage = \"network\"",
         ));
     }
-    let u = match p.and_then(|p| p.u_turns.as_deref()) {
-        None | Some("anywhere") => UTurns::Anywhere,
-        Some("dead_ends") => UTurns::DeadEnds,
-        Some(o) => {
-            return Err(Error::scenario(
-                &scn.path,
-                format!("planner.u_turns = \"{o}\" is not one of anywhere, dead_ends"),
-            ))
-        }
-    };
-    Ok((
-        p.and_then(|p| p.candidate_spacing_m)
-            .unwrap_or(DEFAULT_NETWORK_SPACING_M),
-        u,
-    ))
+    Ok((p.candidate_spacing_m, p.u_turns))
 }

@@ -6,7 +6,7 @@ use super::settings::map_route;
 use super::types::{NetworkPlan, NetworkValidation};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
-use crate::sim::scenario::Scenario;
+use crate::scenario::Scenario;
 use crate::sim::{simulate_with, TruthSource};
 use crate::trajectory::RoutePlan;
 use std::collections::HashSet;

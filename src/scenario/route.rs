@@ -1,0 +1,219 @@
+//! Validation of the first `[[route]]`: waypoints on a map or a start with
+//! motion commands, checked and converted to SI.
+
+use super::schema::{MotionKind, MotionSpec, ScenarioFile};
+use super::sections::RouteKind;
+use super::validate::Check;
+use crate::error::{Error, Result};
+use crate::trajectory::{Extent, Motion, Start};
+use std::path::Path;
+
+/// The first route of `file`, validated.
+pub(super) fn route(c: &Check, path: &Path, file: &ScenarioFile) -> Result<RouteKind> {
+    let Some(r) = file.route.first() else {
+        return Err(c.err("no [[route]]: give waypoints (with [map]) or start and motion"));
+    };
+    match (&r.waypoints, &r.start) {
+        (Some(_), Some(_)) => Err(c.err(
+            "route[0] has both waypoints and start; use waypoints on a map or start with motion commands",
+        )),
+        (None, None) => Err(c.err("route[0] needs waypoints (with [map]) or start and motion")),
+        (None, Some(st)) => {
+            if r.speed_kmh.is_some() || !r.stops.is_empty() {
+                return Err(c.err(
+                    "route[0]: speed_kmh and stops belong to waypoint routes; motion routes set speed with accelerate",
+                ));
+            }
+            c.range("route[0].start.lat", st.lat, -89.0, 89.0)?;
+            c.range("route[0].start.lon", st.lon, -180.0, 180.0)?;
+            c.range("route[0].start.height_m", st.height_m, -1000.0, 10_000.0)?;
+            c.finite("route[0].start.heading_deg", st.heading_deg)?;
+            c.range("route[0].start.pitch_deg", st.pitch_deg, -45.0, 45.0)?;
+            c.range("route[0].start.roll_deg", st.roll_deg, -60.0, 60.0)?;
+            c.range("route[0].start.speed_kmh", st.speed_kmh, 0.0, 400.0)?;
+            let start = Start {
+                lat: st.lat.to_radians(),
+                lon: st.lon.to_radians(),
+                h: st.height_m,
+                heading: st.heading_deg.to_radians(),
+                pitch: st.pitch_deg.to_radians(),
+                roll: st.roll_deg.to_radians(),
+                speed_mps: st.speed_kmh / 3.6,
+            };
+            let mut commands = Vec::with_capacity(r.motion.len());
+            for (i, m) in r.motion.iter().enumerate() {
+                commands.push(motion(c, i, m)?);
+            }
+            // Compile once here so impossible motions are reported at load.
+            crate::trajectory::MotionPlan::new(start, &commands, 1.0 / file.imu.rate_hz)
+                .map_err(|e| c.err(strip_invalid(e)))?;
+            Ok(RouteKind::Motion { start, commands })
+        }
+        (Some(w), None) => {
+            if !r.motion.is_empty() {
+                return Err(c.err("route[0]: motion commands need a start, not waypoints"));
+            }
+            let Some(map) = &file.map else {
+                return Err(c.err("route[0] has waypoints but there is no [map] path"));
+            };
+            if w.len() < 2 {
+                return Err(c.err("route[0].waypoints needs at least two points"));
+            }
+            for (i, p) in w.iter().enumerate() {
+                c.range(&format!("route[0].waypoints[{i}] latitude"), p[0], -89.0, 89.0)?;
+                c.range(&format!("route[0].waypoints[{i}] longitude"), p[1], -180.0, 180.0)?;
+            }
+            let speed = c.range("route[0].speed_kmh", r.speed_kmh.unwrap_or(40.0), 1.0, 300.0)?;
+            let mut profile = crate::trajectory::route::SpeedProfile {
+                speed_mps: speed / 3.6,
+                ..Default::default()
+            };
+            if let Some(x) = r.max_lateral_accel_mps2 {
+                profile.max_lateral_accel_mps2 =
+                    c.range("route[0].max_lateral_accel_mps2", x, 0.1, 8.0)?;
+            }
+            if let Some(x) = r.accel_mps2 {
+                profile.accel_mps2 = c.range("route[0].accel_mps2", x, 0.05, 9.81)?;
+            }
+            if let Some(x) = r.brake_mps2 {
+                profile.brake_mps2 = c.range("route[0].brake_mps2", x, 0.05, 9.81)?;
+            }
+            let mut stops = Vec::new();
+            for (i, s) in r.stops.iter().enumerate() {
+                stops.push((
+                    c.non_negative(&format!("route[0].stops[{i}].at_m"), s.at_m)?,
+                    c.positive(&format!("route[0].stops[{i}].duration_s"), s.duration_s)?,
+                ));
+            }
+            let height_m = c.range("route[0].height_m", r.height_m.unwrap_or(0.0), -1000.0, 10_000.0)?;
+            let base = path.parent().unwrap_or(Path::new("."));
+            Ok(RouteKind::Map {
+                map: base.join(&map.path),
+                waypoints: w.clone(),
+                profile,
+                stops,
+                height_m,
+            })
+        }
+    }
+}
+
+fn strip_invalid(e: Error) -> String {
+    match e {
+        Error::InvalidParameter(m) => m.replacen("route.", "route[0].", 1),
+        other => other.to_string(),
+    }
+}
+
+fn motion(c: &Check, i: usize, m: &MotionSpec) -> Result<Motion> {
+    let f = |name: &str| format!("route[0].motion[{i}].{name}");
+    let need = |name: &str, x: Option<f64>| -> Result<f64> {
+        x.ok_or_else(|| {
+            c.err(format!(
+                "route[0].motion[{i}] ({}) needs {name}",
+                m.kind.as_str()
+            ))
+        })
+    };
+    let extent = || -> Result<Extent> {
+        match (m.duration_s, m.distance_m) {
+            (Some(t), None) => Ok(Extent::Duration(c.positive(&f("duration_s"), t)?)),
+            (None, Some(d)) => Ok(Extent::Distance(c.positive(&f("distance_m"), d)?)),
+            _ => Err(c.err(format!(
+                "route[0].motion[{i}] ({}) needs exactly one of duration_s and distance_m",
+                m.kind.as_str()
+            ))),
+        }
+    };
+    let forbid = |names: &[(&str, bool)]| -> Result<()> {
+        for (n, present) in names {
+            if *present {
+                return Err(c.err(format!(
+                    "route[0].motion[{i}] ({}) does not take {n}",
+                    m.kind.as_str()
+                )));
+            }
+        }
+        Ok(())
+    };
+    let speed_fields = [
+        ("to_kmh", m.to_kmh.is_some()),
+        ("accel_mps2", m.accel_mps2.is_some()),
+    ];
+    let turn_fields = [
+        ("angle_deg", m.angle_deg.is_some()),
+        ("radius_m", m.radius_m.is_some()),
+    ];
+    let grade_fields = [
+        ("grade_percent", m.grade_percent.is_some()),
+        ("pitch_rate_dps", m.pitch_rate_dps.is_some()),
+    ];
+    let time_fields = [
+        ("duration_s", m.duration_s.is_some()),
+        ("distance_m", m.distance_m.is_some()),
+    ];
+    let kind = m.kind;
+    Ok(match kind {
+        MotionKind::Stay => {
+            forbid(&speed_fields)?;
+            forbid(&turn_fields)?;
+            forbid(&grade_fields)?;
+            forbid(&[("distance_m", m.distance_m.is_some())])?;
+            Motion::Stay {
+                duration_s: c.positive(&f("duration_s"), need("duration_s", m.duration_s)?)?,
+            }
+        }
+        MotionKind::Accelerate | MotionKind::Decelerate => {
+            forbid(&turn_fields)?;
+            forbid(&grade_fields)?;
+            forbid(&time_fields)?;
+            Motion::ChangeSpeed {
+                to_mps: c.range(&f("to_kmh"), need("to_kmh", m.to_kmh)?, 0.0, 400.0)? / 3.6,
+                accel_mps2: c.positive(&f("accel_mps2"), m.accel_mps2.unwrap_or(1.0))?,
+                decelerate: kind == MotionKind::Decelerate,
+            }
+        }
+        MotionKind::Cruise => {
+            forbid(&speed_fields)?;
+            forbid(&turn_fields)?;
+            forbid(&grade_fields)?;
+            Motion::Cruise { extent: extent()? }
+        }
+        MotionKind::Turn => {
+            forbid(&speed_fields)?;
+            forbid(&grade_fields)?;
+            forbid(&time_fields)?;
+            let a = c.range(
+                &f("angle_deg"),
+                need("angle_deg", m.angle_deg)?,
+                -3600.0,
+                3600.0,
+            )?;
+            if a == 0.0 {
+                return Err(c.err(format!("{} must not be zero", f("angle_deg"))));
+            }
+            Motion::Turn {
+                angle: a.to_radians(),
+                radius_m: c.positive(&f("radius_m"), need("radius_m", m.radius_m)?)?,
+            }
+        }
+        MotionKind::Climb | MotionKind::Descend => {
+            forbid(&speed_fields)?;
+            forbid(&turn_fields)?;
+            let g = c.range(
+                &f("grade_percent"),
+                need("grade_percent", m.grade_percent)?,
+                0.0,
+                100.0,
+            )?;
+            let sign = if kind == MotionKind::Climb { 1.0 } else { -1.0 };
+            Motion::Climb {
+                grade: sign * g / 100.0,
+                extent: extent()?,
+                pitch_rate: c
+                    .positive(&f("pitch_rate_dps"), m.pitch_rate_dps.unwrap_or(1.0))?
+                    .to_radians(),
+            }
+        }
+    })
+}

@@ -1,0 +1,198 @@
+//! Tests of the scenario's parsing and validation.
+
+use super::*;
+use crate::units::G0;
+use std::path::Path;
+
+/// The scenario sketch of DESIGN.md parses as written (map route, all sections).
+#[test]
+fn design_sketch_parses() {
+    let text = r#"
+name = "tunnel-run"
+requirement_m = 20.0
+duration_s = 3600
+[map]
+path = "maps/helsinki.osm.pbf"
+[[route]]
+waypoints = [[60.170, 24.940], [60.175, 24.950]]
+speed_kmh = 40
+[vehicle]
+width_m = 2.5
+[navigator]
+mode = "integrated"
+[imu]
+rate_hz = 100
+gyro_bias_dph = [0.01, 0.01, 0.01]
+accel_bias_ug = [50, 50, 50]
+gyro_arw_dprh = 0.001
+accel_vrw_ugprhz = 5
+[odometer]
+scale_factor_error = 0.00131
+failure = { from_s = 3600 }
+[aiding]
+odometer = true
+rfid = true
+map_matching = false
+baro = true
+[rfid]
+read_probability = 0.977
+[planner]
+coverage = "routes"
+tolerate_missed_reads = 1
+mountings = ["road_surface", "roadside", "ceiling"]
+"#;
+    let s = Scenario::parse(Path::new("/x/scn.toml"), text).unwrap();
+    match &s.route {
+        RouteKind::Map {
+            map,
+            waypoints,
+            profile,
+            ..
+        } => {
+            assert_eq!(map, Path::new("/x/maps/helsinki.osm.pbf"));
+            assert_eq!(waypoints.len(), 2);
+            assert!((profile.speed_mps - 40.0 / 3.6).abs() < 1e-12);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(s.navigator().mode, NavMode::Integrated);
+    // Units converted at the edge: 0.01 °/h and 50 µg.
+    assert!((s.imu.gyro_bias[0] - 0.01f64.to_radians() / 3600.0).abs() < 1e-20);
+    assert!((s.imu.accel_bias[2] - 50e-6 * G0).abs() < 1e-15);
+    assert_eq!(s.odometer.failure.unwrap().from_s, Some(3600.0));
+}
+
+#[test]
+fn errors_name_the_file_and_line() {
+    let e = Scenario::parse(Path::new("a.toml"), "name = \"x\"\n\nbogus = 1\n")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("a.toml: line 3:") && e.contains("bogus"),
+        "{e}"
+    );
+    let e = Scenario::parse(
+        Path::new("a.toml"),
+        "name = \"x\"\n[[route]]\nstart = { lat = 95.0, lon = 0.0 }\n",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("route[0].start.lat"), "{e}");
+}
+
+/// A minimal motion route, for tests that look at other sections.
+const ROUTE: &str = "name = \"x\"\n[[route]]\nstart = { lat = 30.0, lon = 117.0 }\nmotion = [ { kind = \"stay\", duration_s = 10 } ]\n";
+
+fn parse_err(extra: &str) -> String {
+    Scenario::parse(Path::new("bad.toml"), &format!("{ROUTE}{extra}"))
+        .unwrap_err()
+        .to_string()
+}
+
+#[test]
+fn unknown_coverage_names_the_file_line_and_field() {
+    let e = parse_err("[planner]\ncoverage = \"everything\"\n");
+    assert_eq!(
+        e,
+        "bad.toml: line 6: planner.coverage \"everything\" is not one of routes, network"
+    );
+}
+
+#[test]
+fn unknown_u_turns_names_the_field() {
+    let e = parse_err("[planner]\nu_turns = \"never\"\n");
+    assert_eq!(
+        e,
+        "bad.toml: line 6: planner.u_turns \"never\" is not one of anywhere, dead_ends"
+    );
+}
+
+#[test]
+fn unknown_mountings_name_the_field() {
+    let e = parse_err("[planner]\nmountings = [\"road_surface\", \"ceilling\"]\n");
+    assert_eq!(
+        e,
+        "bad.toml: line 6: planner.mountings[1] \"ceilling\" is not one of road_surface, roadside, ceiling"
+    );
+    let e = parse_err("[planner]\ncost = { roadside = 1, tunnel = 2 }\n");
+    assert_eq!(
+        e,
+        "bad.toml: line 6: planner.cost \"tunnel\" is not one of road_surface, roadside, ceiling"
+    );
+    let e = parse_err("[[tag]]\nat_s = 1\n[[tag]]\nat_s = 2\nmounting = \"wall\"\n");
+    assert_eq!(
+        e,
+        "bad.toml: line 9: tag[1].mounting \"wall\" is not one of road_surface, roadside, ceiling"
+    );
+}
+
+#[test]
+fn unknown_modes_and_kinds_name_the_field() {
+    let e = parse_err("[navigator]\nmode = \"magic\"\n");
+    assert!(
+        e.contains("navigator.mode \"magic\" is not one of free_inertial, dead_reckoning, dead_reckoning_3d, integrated"),
+        "{e}"
+    );
+    let e = parse_err("[external_fix]\ninterval_s = [1, 2]\nwhite_m = 1\nadaptive = \"kalman\"\n");
+    assert!(
+        e.contains("line 8: external_fix.adaptive \"kalman\" is not one of none, sage_husa"),
+        "{e}"
+    );
+    let e = Scenario::parse(
+        Path::new("bad.toml"),
+        "name = \"x\"\n[[route]]\nstart = { lat = 30.0, lon = 117.0 }\nmotion = [ { kind = \"stay\", duration_s = 1 }, { kind = \"fly\", duration_s = 3 } ]\n",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("line 4: route[0].motion[1].kind \"fly\" is not one of stay, accelerate"),
+        "{e}"
+    );
+}
+
+#[test]
+fn defaults_are_applied_once() {
+    let s = Scenario::parse(Path::new("a.toml"), ROUTE).unwrap();
+    assert_eq!(s.name(), "x");
+    assert_eq!(s.seed(), 1);
+    assert_eq!(s.requirement_m(), None);
+    assert_eq!(s.duration_cap_s(), f64::INFINITY);
+    assert_eq!(s.filter().odometer_interval_s, 0.1);
+    assert_eq!(s.filter().interval_s, 0.1);
+    assert_eq!(s.navigator().vertical_tau_s, DEFAULT_VERTICAL_TAU_S);
+    assert!(!s.aiding().non_holonomic);
+    let p = s.planner();
+    assert_eq!(p.coverage, Coverage::Routes);
+    assert_eq!(p.u_turns, UTurns::Anywhere);
+    assert_eq!(p.candidate_spacing_m, DEFAULT_ROUTE_SPACING_M);
+    assert_eq!(p.validation_runs, 100);
+    assert_eq!(p.mountings.len(), 3);
+    assert_eq!(p.mountings[2].cost, 3.0);
+    let s = Scenario::parse(
+        Path::new("a.toml"),
+        &format!("{ROUTE}seed = 7\n[planner]\ncoverage = \"network\"\nu_turns = \"dead_ends\"\n")
+            .replacen("seed = 7\n", "", 1)
+            .replacen(
+                "name = \"x\"\n",
+                "name = \"x\"\nseed = 7\nduration_s = 60\n",
+                1,
+            ),
+    )
+    .unwrap();
+    assert_eq!(s.seed(), 7);
+    assert_eq!(s.duration_cap_s(), 60.0);
+    assert_eq!(s.planner().coverage, Coverage::Network);
+    assert_eq!(s.planner().u_turns, UTurns::DeadEnds);
+    assert_eq!(s.planner().candidate_spacing_m, DEFAULT_NETWORK_SPACING_M);
+}
+
+#[test]
+fn unknown_fields_name_their_table() {
+    let e = parse_err("[imu]\nsurprise = 1\n");
+    assert!(
+        e.starts_with("bad.toml: line 6: imu: unknown field `surprise`"),
+        "{e}"
+    );
+    let e = parse_err("[external_fix]\ninterval_s = [1, 2]\n");
+    assert_eq!(e, "bad.toml: line 5: external_fix: missing field `white_m`");
+}
