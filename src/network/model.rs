@@ -133,6 +133,13 @@ pub struct RoadNetwork {
 }
 
 impl RoadNetwork {
+    /// [`Self::bbox`] as a `geo` rectangle (east = x, north = y); `None` for
+    /// a network without segments.
+    pub fn bounding_rect(&self) -> Option<geo::Rect<f64>> {
+        let [e0, n0, e1, n1] = self.bbox;
+        (e0 <= e1 && n0 <= n1).then(|| geo::Rect::new([e0, n0], [e1, n1]))
+    }
+
     /// Total length of all sections (m).
     pub fn length_m(&self) -> f64 {
         self.sections.iter().map(|s| s.length_m).sum()
