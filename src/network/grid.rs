@@ -178,8 +178,8 @@ impl GridIndex {
         (self.cell_x(p[0]), self.cell_y(p[1]))
     }
 
-    #[inline]
     /// The cells (x0, y0, x1, y1) a segment's bounding box spans.
+    #[inline]
     fn seg_cells(&self, l: &Line<f64>) -> [u32; 4] {
         let r = l.bounding_rect();
         [
