@@ -232,6 +232,11 @@ impl GridIndex {
         let max = [p[0] + radius, p[1] + radius];
         let r2 = radius * radius;
         let pc = coord(p);
+        // The closest point is `geo`'s (`LineLocatePoint`); the squared norm
+        // is hand-written (see `geometry`). Against the former all-hand
+        // kernel: equal wall time on 2 M point–segment tests (17.4 vs
+        // 17.5 ms), 8 % more instructions for whole queries (callgrind).
+        // `geo`'s own point–segment distance (`hypot`) was 8–10× slower here.
         self.visit(min, max, out, |l| {
             let (_, q) = closest_on_segment(l, pc);
             norm_sq(pc.x - q.x, pc.y - q.y) <= r2
