@@ -139,7 +139,7 @@ pub fn snap(
         )));
     }
     let seg = &net.segments[seg_id as usize];
-    let (t, q) = closest_on_segment(&line(seg.a, seg.b), coord(p));
+    let (t, q) = closest_on_segment(&seg.line(), coord(p));
     Ok((
         SectionPoint {
             section: seg.section,
@@ -436,7 +436,7 @@ fn section_points(net: &Network, section: SectionId, from: f64, to: f64) -> Vec<
         } else {
             0.0
         };
-        point_at_ratio(&line(s.a, s.b), t).into()
+        point_at_ratio(&s.line(), t).into()
     };
     let (lo, hi) = (from.min(to), from.max(to));
     let mut pts = vec![at(lo)];

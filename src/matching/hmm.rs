@@ -70,7 +70,7 @@
 
 use super::paths::{NetworkDistances, OnSection};
 use super::{project, Break, BreakReason, Fix, MatchState, MatchedPoint, Matcher};
-use crate::network::geometry::{line, norm, point_at_ratio};
+use crate::network::geometry::{norm, point_at_ratio};
 use crate::network::{Network, RoadId, SectionId, SegmentId};
 use std::collections::VecDeque;
 
@@ -862,7 +862,7 @@ fn point_at(net: &Network, seg: SegmentId, section_offset: f64) -> [f64; 2] {
     } else {
         0.0
     };
-    point_at_ratio(&line(s.a, s.b), t).into()
+    point_at_ratio(&s.line(), t).into()
 }
 
 /// Moves a matched point into the section offset range `lo..=hi` if outside it.

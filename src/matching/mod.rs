@@ -25,7 +25,7 @@ pub use hmm::{HmmMatcher, HmmParams};
 pub use incremental::{IncrementalMatcher, IncrementalParams};
 pub use paths::{NetworkDistances, OnSection};
 
-use crate::network::geometry::{closest_on_segment, coord, line, norm};
+use crate::network::geometry::{closest_on_segment, coord, norm};
 use crate::network::{Network, Oneway, RoadId, SegmentId};
 use geo::{Euclidean, Length};
 
@@ -218,7 +218,7 @@ pub fn unmatched_spans(points: &[MatchedPoint]) -> Vec<UnmatchedSpan> {
 #[inline]
 pub(crate) fn project(net: &Network, seg: SegmentId, p: [f64; 2]) -> (f64, [f64; 2], f64) {
     let s = &net.segments[seg as usize];
-    let (t, q) = closest_on_segment(&line(s.a, s.b), coord(p));
+    let (t, q) = closest_on_segment(&s.line(), coord(p));
     (t, q.into(), norm(p[0] - q.x, p[1] - q.y))
 }
 
@@ -229,7 +229,7 @@ pub(crate) fn project(net: &Network, seg: SegmentId, p: [f64; 2]) -> (f64, [f64;
 pub(crate) fn heading_cos(net: &Network, seg: SegmentId, heading_rad: f64) -> f64 {
     let s = &net.segments[seg as usize];
     let (dx, dy) = (s.b[0] - s.a[0], s.b[1] - s.a[1]);
-    let len = Euclidean.length(&line(s.a, s.b));
+    let len = Euclidean.length(&s.line());
     if len <= 0.0 {
         return 0.0;
     }

@@ -85,10 +85,7 @@ impl GridIndex {
                 code_of[(x * n + y) as usize] = xy_to_code(n, x, y) as u32;
             }
         }
-        let ranges: Vec<[u32; 4]> = segments
-            .iter()
-            .map(|s| grid.seg_cells(&line(s.a, s.b)))
-            .collect();
+        let ranges: Vec<[u32; 4]> = segments.iter().map(|s| grid.seg_cells(&s.line())).collect();
         let mut counts = vec![0u32; cells + 1];
         for r in &ranges {
             for cx in r[0]..=r[2] {
@@ -113,7 +110,7 @@ impl GridIndex {
                 for cy in r[1]..=r[3] {
                     let code = code_of[(cx * n + cy) as usize] as usize;
                     items[fill[code] as usize] = Entry {
-                        line: line(s.a, s.b),
+                        line: s.line(),
                         id: id as SegmentId,
                         cx0: r[0] as u16,
                         cy0: r[1] as u16,

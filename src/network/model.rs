@@ -89,6 +89,14 @@ pub struct Segment {
     pub section_offset_m: f64,
 }
 
+impl Segment {
+    /// The segment in ENU (m) as a `geo` line, `a` to `b`.
+    #[inline]
+    pub fn line(&self) -> geo::Line<f64> {
+        super::geometry::line(self.a, self.b)
+    }
+}
+
 /// What a loader read and what it left out.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct LoadReport {

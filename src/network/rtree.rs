@@ -3,7 +3,7 @@
 //! Hilbert grid with the same exact predicates, plus nearest segment
 //! look-ups.
 
-use super::geometry::{closest_on_segment, coord, line, norm_sq, point_segment_distance, rect};
+use super::geometry::{closest_on_segment, coord, norm_sq, point_segment_distance, rect};
 use super::model::{Segment, SegmentId};
 use geo::{Intersects, Line, Point};
 use rstar::primitives::GeomWithData;
@@ -28,7 +28,7 @@ impl SegmentTree {
         let entries = segments
             .iter()
             .enumerate()
-            .map(|(i, s)| GeomWithData::new(line(s.a, s.b), i as SegmentId))
+            .map(|(i, s)| GeomWithData::new(s.line(), i as SegmentId))
             .collect();
         Self {
             tree: RTree::bulk_load(entries),
