@@ -9,7 +9,9 @@
 
 use crate::error::{Error, Result};
 use crate::geodesy::Geodetic;
+use crate::network::geometry::{closest_on_segment, coord, line, point_at_ratio};
 use crate::network::{DirectedSection, Network, NodeId, RoadId, SectionId};
+use geo::{Distance, Euclidean};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -105,10 +107,7 @@ impl Route {
         } else {
             0.0
         };
-        [
-            a.enu[0] + t * (b.enu[0] - a.enu[0]),
-            a.enu[1] + t * (b.enu[1] - a.enu[1]),
-        ]
+        point_at_ratio(&line(a.enu, b.enu), t).into()
     }
 }
 
@@ -140,20 +139,13 @@ pub fn snap(
         )));
     }
     let seg = &net.segments[seg_id as usize];
-    let (dx, dy) = (seg.b[0] - seg.a[0], seg.b[1] - seg.a[1]);
-    let len2 = dx * dx + dy * dy;
-    let t = if len2 > 0.0 {
-        (((p[0] - seg.a[0]) * dx + (p[1] - seg.a[1]) * dy) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let q = [seg.a[0] + t * dx, seg.a[1] + t * dy];
+    let (t, q) = closest_on_segment(&seg.line(), coord(p));
     Ok((
         SectionPoint {
             section: seg.section,
             offset_m: seg.section_offset_m + t * seg.length_m,
         },
-        q,
+        q.into(),
         d,
     ))
 }
@@ -401,7 +393,7 @@ fn assemble(net: &Network, pieces: &Pieces, waypoints: Vec<SnappedWaypoint>) -> 
         for p in section_points(net, ds.section, from, to) {
             let next_chainage = match vertices.last() {
                 Some(last) => {
-                    let step = (p[0] - last.enu[0]).hypot(p[1] - last.enu[1]);
+                    let step = Euclidean.distance(coord(p), coord(last.enu));
                     if step < 1e-3 {
                         continue;
                     }
@@ -444,10 +436,7 @@ fn section_points(net: &Network, section: SectionId, from: f64, to: f64) -> Vec<
         } else {
             0.0
         };
-        [
-            s.a[0] + t * (s.b[0] - s.a[0]),
-            s.a[1] + t * (s.b[1] - s.a[1]),
-        ]
+        point_at_ratio(&s.line(), t).into()
     };
     let (lo, hi) = (from.min(to), from.max(to));
     let mut pts = vec![at(lo)];

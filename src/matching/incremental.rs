@@ -174,6 +174,11 @@ impl Matcher for IncrementalMatcher<'_> {
         let mut chosen: Option<(SegmentId, f64, MatchState)> = None;
         if let Some(seg) = self.current {
             let s = &self.net.segments[seg as usize];
+            // The paper's η (the projection parameter, not clamped, so it
+            // tells which end was passed) and d (the distance to the
+            // segment's supporting line), written out: `geo`'s
+            // `LineLocatePoint` clamps η to 0..=1 and its distances are to
+            // the segment, not the line.
             let (dx, dy) = (s.b[0] - s.a[0], s.b[1] - s.a[1]);
             let len2 = dx * dx + dy * dy;
             let eta = ((p[0] - s.a[0]) * dx + (p[1] - s.a[1]) * dy) / len2;

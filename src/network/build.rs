@@ -4,9 +4,11 @@
 //! straight segments.
 
 use super::attributes::RoadAttributes;
+use super::geometry::coord;
 use super::model::{LoadReport, Node, Road, RoadNetwork, Section, Segment};
 use crate::error::{Error, Result};
 use crate::geodesy::{EnuFrame, Geodetic};
+use geo::{BoundingRect, Distance, Euclidean, MultiPoint, Point};
 use rustc_hash::{FxHashMap, FxHashSet};
 use std::path::Path;
 
@@ -196,7 +198,6 @@ pub(crate) fn build(
     let mut node_of: FxHashMap<u64, u32> = FxHashMap::default();
     let mut sections: Vec<Section> = Vec::new();
     let mut segments: Vec<Segment> = Vec::new();
-    let mut bbox = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
 
     let mut node_id = |v: &Vertex, nodes: &mut Vec<Node>| -> u32 {
         *node_of.entry(v.key).or_insert_with(|| {
@@ -222,12 +223,6 @@ pub(crate) fn build(
             for i in 1..part.len() {
                 let (p, q) = (&part[i - 1], &part[i]);
                 let len = dist(p.enu, q.enu);
-                for c in [p.enu, q.enu] {
-                    bbox[0] = bbox[0].min(c[0]);
-                    bbox[1] = bbox[1].min(c[1]);
-                    bbox[2] = bbox[2].max(c[0]);
-                    bbox[3] = bbox[3].max(c[1]);
-                }
                 segments.push(Segment {
                     road: road_id,
                     section: sections.len() as u32,
@@ -271,6 +266,7 @@ pub(crate) fn build(
         });
     }
 
+    let bbox = bounding_box(&segments);
     Ok(RoadNetwork {
         frame,
         roads,
@@ -289,8 +285,24 @@ fn resolve(alias: &FxHashMap<u64, u64>, mut k: u64) -> u64 {
     k
 }
 
+/// Distance (m) between two ENU points (`geo`'s Euclidean distance; off the
+/// hot paths, so its `hypot` costs nothing that matters).
 pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
+    Euclidean.distance(coord(a), coord(b))
+}
+
+/// ENU bounding box of the segments' end points (min e, min n, max e, max n),
+/// from `geo`'s bounding rectangle; an empty list gives an inverted box.
+pub(crate) fn bounding_box(segments: &[Segment]) -> [f64; 4] {
+    let ends: MultiPoint<f64> = segments
+        .iter()
+        .flat_map(|s| [s.a, s.b])
+        .map(Point::from)
+        .collect();
+    match ends.bounding_rect() {
+        Some(r) => [r.min().x, r.min().y, r.max().x, r.max().y],
+        None => [f64::MAX, f64::MAX, f64::MIN, f64::MIN],
+    }
 }
 
 fn summary_of(report: &LoadReport) -> String {

@@ -9,10 +9,11 @@
 //! visited cells is reported only from the first visited cell that its bounding
 //! box overlaps (no hash set, no sort).
 
-use super::geometry::{point_segment_distance_sq, segment_intersects_box};
+use super::geometry::{closest_on_segment, coord, line, norm_sq, rect};
 use super::hilbert::xy_to_code;
 use super::model::{Segment, SegmentId};
 use crate::error::{Error, Result};
+use geo::{BoundingRect, Intersects, Line};
 
 /// Largest permitted N (4 M cells; the offset table is then 16 MiB).
 pub const MAX_GRID_N: u32 = 2048;
@@ -39,8 +40,7 @@ pub struct GridIndex {
 /// query scans a cell's entries without chasing ids.
 #[derive(Debug, Clone, Copy)]
 struct Entry {
-    a: [f64; 2],
-    b: [f64; 2],
+    line: Line<f64>,
     id: SegmentId,
     /// The first cell (lowest x, lowest y) of the segment's bounding box.
     cx0: u16,
@@ -85,7 +85,7 @@ impl GridIndex {
                 code_of[(x * n + y) as usize] = xy_to_code(n, x, y) as u32;
             }
         }
-        let ranges: Vec<[u32; 4]> = segments.iter().map(|s| grid.seg_cells(s.a, s.b)).collect();
+        let ranges: Vec<[u32; 4]> = segments.iter().map(|s| grid.seg_cells(&s.line())).collect();
         let mut counts = vec![0u32; cells + 1];
         for r in &ranges {
             for cx in r[0]..=r[2] {
@@ -99,8 +99,7 @@ impl GridIndex {
         }
         let mut fill = counts.clone();
         let blank = Entry {
-            a: [0.0; 2],
-            b: [0.0; 2],
+            line: line([0.0; 2], [0.0; 2]),
             id: 0,
             cx0: 0,
             cy0: 0,
@@ -111,8 +110,7 @@ impl GridIndex {
                 for cy in r[1]..=r[3] {
                     let code = code_of[(cx * n + cy) as usize] as usize;
                     items[fill[code] as usize] = Entry {
-                        a: s.a,
-                        b: s.b,
+                        line: s.line(),
                         id: id as SegmentId,
                         cx0: r[0] as u16,
                         cy0: r[1] as u16,
@@ -177,13 +175,15 @@ impl GridIndex {
         (self.cell_x(p[0]), self.cell_y(p[1]))
     }
 
+    /// The cells (x0, y0, x1, y1) a segment's bounding box spans.
     #[inline]
-    fn seg_cells(&self, a: [f64; 2], b: [f64; 2]) -> [u32; 4] {
+    fn seg_cells(&self, l: &Line<f64>) -> [u32; 4] {
+        let r = l.bounding_rect();
         [
-            self.cell_x(a[0].min(b[0])),
-            self.cell_y(a[1].min(b[1])),
-            self.cell_x(a[0].max(b[0])),
-            self.cell_y(a[1].max(b[1])),
+            self.cell_x(r.min().x),
+            self.cell_y(r.min().y),
+            self.cell_x(r.max().x),
+            self.cell_y(r.max().y),
         ]
     }
 
@@ -195,7 +195,7 @@ impl GridIndex {
         min: [f64; 2],
         max: [f64; 2],
         out: &mut Vec<SegmentId>,
-        keep: impl Fn([f64; 2], [f64; 2]) -> bool,
+        keep: impl Fn(&Line<f64>) -> bool,
     ) {
         if max[0] < self.min[0]
             || max[1] < self.min[1]
@@ -214,7 +214,7 @@ impl GridIndex {
                     if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
                         continue;
                     }
-                    if keep(e.a, e.b) {
+                    if keep(&e.line) {
                         out.push(e.id);
                     }
                 }
@@ -228,8 +228,15 @@ impl GridIndex {
         let min = [p[0] - radius, p[1] - radius];
         let max = [p[0] + radius, p[1] + radius];
         let r2 = radius * radius;
-        self.visit(min, max, out, |a, b| {
-            point_segment_distance_sq(p, a, b) <= r2
+        let pc = coord(p);
+        // The closest point is `geo`'s (`LineLocatePoint`); the squared norm
+        // is hand-written (see `geometry`). Against the former all-hand
+        // kernel: equal wall time on 2 M point–segment tests (17.4 vs
+        // 17.5 ms), 8 % more instructions for whole queries (callgrind).
+        // `geo`'s own point–segment distance (`hypot`) was 8–10× slower here.
+        self.visit(min, max, out, |l| {
+            let (_, q) = closest_on_segment(l, pc);
+            norm_sq(pc.x - q.x, pc.y - q.y) <= r2
         });
     }
 
@@ -242,7 +249,8 @@ impl GridIndex {
 
     /// Segments touching the box `min`–`max`, appended to `out`.
     pub fn in_box_into(&self, min: [f64; 2], max: [f64; 2], out: &mut Vec<SegmentId>) {
-        self.visit(min, max, out, |a, b| segment_intersects_box(a, b, min, max));
+        let r = rect(min, max);
+        self.visit(min, max, out, |l| r.intersects(l));
     }
 
     /// Segments touching the box `min`–`max`.

@@ -104,21 +104,20 @@ pub fn inspect(file: &str, net: &Network, defects: &DefectReport, defects_ms: f6
         *by_class.entry(r.attributes.highway.clone()).or_default() += r.length_m / 1e3;
     }
     let occupied = net.grid.occupied_cells();
-    let mut bbox_deg = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
-    for n in &net.nodes {
-        bbox_deg[0] = bbox_deg[0].min(n.lat_lon[0]);
-        bbox_deg[1] = bbox_deg[1].min(n.lat_lon[1]);
-        bbox_deg[2] = bbox_deg[2].max(n.lat_lon[0]);
-        bbox_deg[3] = bbox_deg[3].max(n.lat_lon[1]);
-    }
-    for s in &net.segments {
-        for p in [s.a_lat_lon, s.b_lat_lon] {
-            bbox_deg[0] = bbox_deg[0].min(p[0]);
-            bbox_deg[1] = bbox_deg[1].min(p[1]);
-            bbox_deg[2] = bbox_deg[2].max(p[0]);
-            bbox_deg[3] = bbox_deg[3].max(p[1]);
-        }
-    }
+    // WGS-84 bounding box of every node and segment end (geo's bounding
+    // rectangle, x = longitude, y = latitude), reported as latitude,
+    // longitude pairs.
+    let ends: geo::MultiPoint<f64> = net
+        .nodes
+        .iter()
+        .map(|n| n.lat_lon)
+        .chain(net.segments.iter().flat_map(|s| [s.a_lat_lon, s.b_lat_lon]))
+        .map(|[lat, lon]| geo::Point::new(lon, lat))
+        .collect();
+    let bbox_deg = match geo::BoundingRect::bounding_rect(&ends) {
+        Some(r) => [r.min().y, r.min().x, r.max().y, r.max().x],
+        None => [f64::MAX, f64::MAX, f64::MIN, f64::MIN],
+    };
     let t = &net.timings;
     let timings_ms = BTreeMap::from([
         ("read", t.read_ms),

@@ -6,7 +6,7 @@ mod attributes;
 mod build;
 mod defects;
 mod geojson_loader;
-mod geometry;
+pub(crate) mod geometry;
 mod grid;
 pub mod hilbert;
 mod inspect;

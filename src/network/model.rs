@@ -89,6 +89,14 @@ pub struct Segment {
     pub section_offset_m: f64,
 }
 
+impl Segment {
+    /// The segment in ENU (m) as a `geo` line, `a` to `b`.
+    #[inline]
+    pub fn line(&self) -> geo::Line<f64> {
+        super::geometry::line(self.a, self.b)
+    }
+}
+
 /// What a loader read and what it left out.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct LoadReport {
@@ -133,6 +141,13 @@ pub struct RoadNetwork {
 }
 
 impl RoadNetwork {
+    /// [`Self::bbox`] as a `geo` rectangle (east = x, north = y); `None` for
+    /// a network without segments.
+    pub fn bounding_rect(&self) -> Option<geo::Rect<f64>> {
+        let [e0, n0, e1, n1] = self.bbox;
+        (e0 <= e1 && n0 <= n1).then(|| geo::Rect::new([e0, n0], [e1, n1]))
+    }
+
     /// Total length of all sections (m).
     pub fn length_m(&self) -> f64 {
         self.sections.iter().map(|s| s.length_m).sum()

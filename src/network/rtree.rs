@@ -1,18 +1,25 @@
-//! An R-tree (crate `rstar`) over the network's segments, answering the same
-//! queries as the Hilbert grid with the same exact predicates, plus nearest
-//! segment look-ups.
+//! An R-tree (crate `rstar`) over the network's segments as `geo` lines
+//! (`geo-types` implements rstar's traits), answering the same queries as the
+//! Hilbert grid with the same exact predicates, plus nearest segment
+//! look-ups.
 
-use super::geometry::{point_segment_distance, point_segment_distance_sq, segment_intersects_box};
+use super::geometry::{closest_on_segment, coord, norm_sq, point_segment_distance, rect};
 use super::model::{Segment, SegmentId};
-use rstar::primitives::{GeomWithData, Line};
+use geo::{Intersects, Line, Point};
+use rstar::primitives::GeomWithData;
 use rstar::{RTree, AABB};
 
-type Entry = GeomWithData<Line<[f64; 2]>, SegmentId>;
+type Entry = GeomWithData<Line<f64>, SegmentId>;
 
 /// Bulk-loaded R-tree of segments.
 #[derive(Debug, Clone)]
 pub struct SegmentTree {
     tree: RTree<Entry>,
+}
+
+/// The envelope of the box `min`–`max`.
+fn envelope(min: [f64; 2], max: [f64; 2]) -> AABB<Point<f64>> {
+    AABB::from_corners(Point::from(min), Point::from(max))
 }
 
 impl SegmentTree {
@@ -21,7 +28,7 @@ impl SegmentTree {
         let entries = segments
             .iter()
             .enumerate()
-            .map(|(i, s)| GeomWithData::new(Line::new(s.a, s.b), i as SegmentId))
+            .map(|(i, s)| GeomWithData::new(s.line(), i as SegmentId))
             .collect();
         Self {
             tree: RTree::bulk_load(entries),
@@ -40,33 +47,38 @@ impl SegmentTree {
 
     /// Segments within `radius` metres of `p`.
     pub fn within_radius(&self, p: [f64; 2], radius: f64) -> Vec<SegmentId> {
-        let env = AABB::from_corners(
+        let env = envelope(
             [p[0] - radius, p[1] - radius],
             [p[0] + radius, p[1] + radius],
         );
+        let (pc, r2) = (coord(p), radius * radius);
         self.tree
             .locate_in_envelope_intersecting(&env)
-            .filter(|e| point_segment_distance_sq(p, e.geom().from, e.geom().to) <= radius * radius)
+            .filter(|e| {
+                let (_, q) = closest_on_segment(e.geom(), pc);
+                norm_sq(pc.x - q.x, pc.y - q.y) <= r2
+            })
             .map(|e| e.data)
             .collect()
     }
 
     /// Segments touching the box `min`–`max`.
     pub fn in_box(&self, min: [f64; 2], max: [f64; 2]) -> Vec<SegmentId> {
-        let env = AABB::from_corners(min, max);
+        let r = rect(min, max);
         self.tree
-            .locate_in_envelope_intersecting(&env)
-            .filter(|e| segment_intersects_box(e.geom().from, e.geom().to, min, max))
+            .locate_in_envelope_intersecting(&envelope(min, max))
+            .filter(|e| r.intersects(e.geom()))
             .map(|e| e.data)
             .collect()
     }
 
     /// The segment nearest to `p` and its distance (m); `None` on an empty tree.
     pub fn nearest(&self, p: [f64; 2]) -> Option<(SegmentId, f64)> {
-        self.tree.nearest_neighbor(&p).map(|e| {
+        self.tree.nearest_neighbor(&Point::from(p)).map(|e| {
+            let g = e.geom();
             (
                 e.data,
-                point_segment_distance(p, e.geom().from, e.geom().to),
+                point_segment_distance(p, g.start.into(), g.end.into()),
             )
         })
     }
@@ -74,7 +86,7 @@ impl SegmentTree {
     /// Segments in order of increasing distance from `p`.
     pub fn nearest_iter(&self, p: [f64; 2]) -> impl Iterator<Item = (SegmentId, f64)> + '_ {
         self.tree
-            .nearest_neighbor_iter_with_distance_2(&p)
+            .nearest_neighbor_iter_with_distance_2(&Point::from(p))
             .map(|(e, d2)| (e.data, d2.sqrt()))
     }
 }

@@ -39,10 +39,12 @@ pub fn error_colour(error: f64, scale: f64) -> String {
 
 /// Renders the map; `width_px` sets the displayed width (the height follows the area's shape).
 pub fn map_svg(net: &Network, overlay: &MapOverlay, width_px: u32) -> String {
-    let [e0, n0, e1, n1] = net.bbox;
-    let margin = 0.03 * (e1 - e0).max(n1 - n0).max(1.0);
-    let (x0, y0) = (e0 - margin, n0 - margin);
-    let (w, h) = (e1 - e0 + 2.0 * margin, n1 - n0 + 2.0 * margin);
+    let bb = net
+        .bounding_rect()
+        .unwrap_or_else(|| geo::Rect::new([0.0, 0.0], [0.0, 0.0]));
+    let margin = 0.03 * bb.width().max(bb.height()).max(1.0);
+    let (x0, y0) = (bb.min().x - margin, bb.min().y - margin);
+    let (w, h) = (bb.width() + 2.0 * margin, bb.height() + 2.0 * margin);
     let height_px = (f64::from(width_px) * h / w).round().max(50.0) as u32;
     let px = |p: [f64; 2]| (p[0] - x0, y0 + h - p[1]);
     let mut s = String::with_capacity(64 * net.segments.len() + 4096);
