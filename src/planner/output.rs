@@ -5,10 +5,10 @@
 use super::network::types::NetworkPlan;
 use super::plan::Plan;
 use crate::error::Result;
-use crate::export::{ExportMetadata, TagRecord};
 use crate::scenario::{RouteKind, Scenario};
 use crate::sim::tags::Mounting;
 use crate::tags::TagPayload;
+use crate::tags::{ExportMetadata, TagRecord};
 
 impl Plan {
     /// Export records (with payloads) and metadata.

@@ -31,7 +31,7 @@ pub fn write_inputs(dir: &Path, scenario: &Path, tags: Option<&Path>) -> Result<
         "scenario_path": abs(scenario).display().to_string(),
         "tags_path": tags.map(|t| abs(t).display().to_string()),
     });
-    crate::export::write_atomic(&dir.join("inputs.json"), v.to_string().as_bytes())
+    crate::fsio::write_atomic(&dir.join("inputs.json"), v.to_string().as_bytes())
 }
 
 /// One row of `errors.csv`.
@@ -375,7 +375,7 @@ pub struct ReportFiles {
 /// Writes `DIR/report.html` and PNG plots in `DIR/plots/` for an output
 /// folder of `simulate` and/or `plan`.
 pub fn write_report(dir: &Path) -> Result<ReportFiles> {
-    use crate::export::write_atomic;
+    use crate::fsio::write_atomic;
     let input = read_output_folder(dir)?;
     let html = render_html(&input)?;
     let report = dir.join("report.html");

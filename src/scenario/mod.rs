@@ -20,6 +20,7 @@
 //! Errors name the file and the field, e.g.
 //! `bad.toml: line 14: planner.coverage "everything" is not one of routes, network`.
 
+mod check;
 mod route;
 pub mod schema;
 mod sections;

@@ -1,9 +1,9 @@
 //! Validation of the first `[[route]]`: waypoints on a map or a start with
 //! motion commands, checked and converted to SI.
 
+use super::check::Check;
 use super::schema::{MotionKind, MotionSpec, ScenarioFile};
 use super::sections::RouteKind;
-use super::validate::Check;
 use crate::error::{Error, Result};
 use crate::trajectory::{Extent, Motion, Start};
 use std::path::Path;

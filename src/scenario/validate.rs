@@ -2,6 +2,7 @@
 //! is checked (finite, in range), every default applied and every unit
 //! converted to SI here, once; every error names the file and the field.
 
+use super::check::Check;
 use super::route::route;
 use super::schema::*;
 use super::sections::*;
@@ -13,51 +14,6 @@ use crate::sensors::{
 use crate::tags::{Mounting, RfidModel};
 use crate::units::{ARCMIN, ARCSEC, DPH, G0};
 use std::path::Path;
-
-/// Builds errors that name the scenario file.
-pub(super) struct Check<'a> {
-    pub(super) path: &'a Path,
-}
-
-impl Check<'_> {
-    pub(super) fn err(&self, msg: impl Into<String>) -> Error {
-        Error::scenario(self.path, msg)
-    }
-    pub(super) fn finite(&self, field: &str, x: f64) -> Result<f64> {
-        if x.is_finite() {
-            Ok(x)
-        } else {
-            Err(self.err(format!("{field} must be a finite number, got {x}")))
-        }
-    }
-    pub(super) fn finite_all(&self, field: &str, xs: &[f64]) -> Result<()> {
-        for (i, x) in xs.iter().enumerate() {
-            self.finite(&format!("{field}[{i}]"), *x)?;
-        }
-        Ok(())
-    }
-    pub(super) fn non_negative(&self, field: &str, x: f64) -> Result<f64> {
-        if x.is_finite() && x >= 0.0 {
-            Ok(x)
-        } else {
-            Err(self.err(format!("{field} must be zero or positive, got {x}")))
-        }
-    }
-    pub(super) fn positive(&self, field: &str, x: f64) -> Result<f64> {
-        if x.is_finite() && x > 0.0 {
-            Ok(x)
-        } else {
-            Err(self.err(format!("{field} must be positive, got {x}")))
-        }
-    }
-    pub(super) fn range(&self, field: &str, x: f64, lo: f64, hi: f64) -> Result<f64> {
-        if x.is_finite() && x >= lo && x <= hi {
-            Ok(x)
-        } else {
-            Err(self.err(format!("{field} must be between {lo} and {hi}, got {x}")))
-        }
-    }
-}
 
 /// One-line description of a TOML parse error with its line number and,
 /// where the error is about a value, the field holding it (e.g.

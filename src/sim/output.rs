@@ -6,7 +6,7 @@
 use super::monte_carlo::SimResult;
 use super::records::{ErrorRow, PassRecord};
 use crate::error::{Error, Result};
-use crate::export::write_atomic;
+use crate::fsio::write_atomic;
 use std::fmt::Write as _;
 use std::path::Path;
 
