@@ -280,7 +280,7 @@ impl<'a> Budget<'a> {
     pub fn apply_fix(&self, i: usize, f: &mut Filter, mounting: Mounting) {
         let a = &self.samples[i].avp;
         let speed = a.state.v[0].hypot(a.state.v[1]);
-        let fw = a.state.q.rotate([0.0, 1.0, 0.0]);
+        let fw = a.state.q.transform_vector(&[0.0, 1.0, 0.0].into());
         let (sa, sc) = self
             .scn
             .rfid

@@ -525,7 +525,7 @@ pub fn reach_class(
             // The fix, as the budget applies it.
             let a = &s.avp;
             let speed = a.state.v[0].hypot(a.state.v[1]);
-            let fw = a.state.q.rotate([0.0, 1.0, 0.0]);
+            let fw = a.state.q.transform_vector(&[0.0, 1.0, 0.0].into());
             let (sa, sc) = scn.rfid.fix_sigmas(mounting, speed);
             let cov = along_across_covariance(fw[0].atan2(fw[1]), sa, sc);
             f.update_position(

@@ -7,6 +7,7 @@ use super::run::{
 };
 use super::scenario::{Scenario, G0};
 use super::tags::{draw_reads, Mounting, Tag};
+use crate::attitude::QuatExt;
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
 use crate::nav::integrated::along_across_covariance;
@@ -266,9 +267,8 @@ pub fn run_integrated(
             sl * normal(&mut init),
             sh * normal(&mut init),
         ];
-        est0.q = crate::attitude::Quat::from_rotvec(phi)
-            .mul(&est0.q)
-            .normalized();
+        est0.q = crate::attitude::Quat::from_rotvec(phi.into()) * est0.q;
+        est0.q.renormalize();
         let sv = n.initial_velocity_sigma_mps;
         for k in 0..3 {
             est0.v[k] += sv * normal(&mut init);
@@ -401,7 +401,7 @@ pub fn run_integrated(
                     let tag = &prep.tags[r.tag];
                     let st = filter.state();
                     let speed = st.v[0].hypot(st.v[1]);
-                    let f = st.q.rotate([0.0, 1.0, 0.0]);
+                    let f = st.q.transform_vector(&[0.0, 1.0, 0.0].into());
                     let (sa, sc) = scn
                         .rfid
                         .with_lane_width(tag.lane_width_m)

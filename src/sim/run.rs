@@ -8,7 +8,7 @@
 use super::metrics::{summarize, Summary};
 use super::scenario::{NavMode, RouteKind, Scenario, VerticalChannel};
 use super::tags::{find_passes, Tag, TagPass};
-use crate::attitude::{scale, Quat, V3};
+use crate::attitude::{Quat, QuatExt, V3};
 use crate::error::Result;
 use crate::geodesy::radii;
 use crate::nav::{BaroDamping, Dr3d, NavState, OdometerDr, Strapdown};
@@ -321,7 +321,8 @@ pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavStat
             truth_body.v[0] + dv[0],
             truth_body.v[1] + dv[1],
             truth_body.v[2] + dv[2],
-        ],
+        ]
+        .into(),
         lat: truth_body.lat + pn / (rm + truth_body.h),
         lon: truth_body.lon + pe / ((rn + truth_body.h) * truth_body.lat.cos()),
         h: truth_body.h + pu,
@@ -330,7 +331,7 @@ pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavStat
 
 /// Estimate minus truth in local metres (east, north, up).
 #[inline]
-fn error_enu(lat: f64, lon: f64, h: f64, truth: &NavState) -> V3 {
+fn error_enu(lat: f64, lon: f64, h: f64, truth: &NavState) -> [f64; 3] {
     let (rm, rn) = radii(truth.lat);
     [
         (lon - truth.lon) * (rn + truth.h) * truth.lat.cos(),
@@ -499,7 +500,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
             let mut last_distance = first.avp.distance_m;
             let mut q_prev = est_body_q0;
             let mut failed = false;
-            let mut last_vel: V3 = [0.0; 3];
+            let mut last_vel = V3::zeros();
             for s in samples {
                 k += 1;
                 ins_step(&mut ins, &s);
@@ -510,7 +511,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
                     match odo.measure(s.avp.t, s.avp.distance_m, d_true, dt) {
                         Some(ds) => {
                             let d = dr.step(&q_prev, &q_now, ds);
-                            last_vel = scale(d, 1.0 / dt);
+                            last_vel = d * (1.0 / dt);
                         }
                         None => {
                             // Odometer failed: continue inertially from the dead-
