@@ -41,6 +41,9 @@ pub trait QuatExt: Sized {
     }
     /// The direction cosine matrix C_b^n.
     fn to_dcm(&self) -> M3;
+    /// Scaled back to unit norm (after products have let rounding build up):
+    /// one square root and one division, then four products.
+    fn normalized(&self) -> Self;
 }
 
 /// A unit quaternion from its components w, x, y, z (taken as unit).
@@ -101,6 +104,13 @@ impl QuatExt for Quat {
     #[inline(always)]
     fn to_dcm(&self) -> M3 {
         self.to_rotation_matrix().into_inner()
+    }
+
+    #[inline(always)]
+    fn normalized(&self) -> Quat {
+        let (w, x, y, z) = (self.w, self.i, self.j, self.k);
+        let n = 1.0 / (w * w + x * x + y * y + z * z).sqrt();
+        quat(w * n, x * n, y * n, z * n)
     }
 }
 

@@ -284,8 +284,7 @@ impl Filter {
     /// corrections (closed loop).
     fn feedback(&mut self, dx: &StateVec) {
         let s = &mut self.ins.state;
-        s.q = Quat::from_rotvec(dx.fixed_rows::<3>(PHI).into_owned()) * s.q;
-        s.q.renormalize();
+        s.q = (Quat::from_rotvec(dx.fixed_rows::<3>(PHI).into_owned()) * s.q).normalized();
         s.v -= dx.fixed_rows::<3>(DV);
         self.gyro_bias += dx.fixed_rows::<3>(EPS);
         self.accel_bias += dx.fixed_rows::<3>(NABLA);

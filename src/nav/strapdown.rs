@@ -164,8 +164,7 @@ impl Strapdown {
         s.v = v_new;
         // Attitude: body rotation φ, then the navigation frame's rotation ω_in dt.
         let phi = coning(self.prev.dtheta, inc.dtheta);
-        s.q = Quat::from_rotvec(-wdt) * (s.q * Quat::from_rotvec(phi));
-        s.q.renormalize();
+        s.q = (Quat::from_rotvec(-wdt) * (s.q * Quat::from_rotvec(phi))).normalized();
         self.eth = eth;
         self.prev = *inc;
     }

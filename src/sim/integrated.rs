@@ -267,8 +267,7 @@ pub fn run_integrated(
             sl * normal(&mut init),
             sh * normal(&mut init),
         ];
-        est0.q = crate::attitude::Quat::from_rotvec(phi.into()) * est0.q;
-        est0.q.renormalize();
+        est0.q = (crate::attitude::Quat::from_rotvec(phi.into()) * est0.q).normalized();
         let sv = n.initial_velocity_sigma_mps;
         for k in 0..3 {
             est0.v[k] += sv * normal(&mut init);
