@@ -283,8 +283,8 @@ impl Covariance {
     /// P ← Φ P Φ^T + Q T with Φ = I + F T (F from `m`), T the interval (s).
     ///
     /// Φ is sparse (about 80 off-identity entries of 441), so Φ P Φ^T is
-    /// formed from its entries rather than as two dense 21×21 products (three
-    /// times slower): with A = F T, D = P Φ^T = P + P A^T adds x × column k
+    /// formed from its entries rather than as two dense 21×21 products
+    /// (measured 2.4 times slower, about 7 µs against 3 µs a step): with A = F T, D = P Φ^T = P + P A^T adds x × column k
     /// of P to column i of D for every entry (i, k, x) of A; Φ P Φ^T = Φ D is
     /// symmetric, so it equals E Φ^T = E + E A^T with E = D^T, formed the
     /// same way. Every step is a column operation on the column-major
