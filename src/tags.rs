@@ -409,9 +409,13 @@ impl RfidModel {
     /// mounting `m` for a vehicle in navigation state `state` (its speed
     /// and heading set the along- and cross-track axes): the one fix model
     /// of the simulator and the covariance analysis.
-    pub fn fix_covariance(&self, m: Mounting, state: &crate::nav::NavState) -> [[f64; 2]; 2] {
+    pub fn fix_covariance(
+        &self,
+        m: Mounting,
+        state: &crate::nav::NavState,
+    ) -> nalgebra::Matrix2<f64> {
         let speed = state.v[0].hypot(state.v[1]);
-        let f = state.q.rotate([0.0, 1.0, 0.0]);
+        let f = state.q.transform_vector(&[0.0, 1.0, 0.0].into());
         let (sa, sc) = self.fix_sigmas(m, speed);
         crate::nav::integrated::along_across_covariance(f[0].atan2(f[1]), sa, sc)
     }

@@ -5,8 +5,9 @@
 
 #![allow(clippy::needless_range_loop)]
 
+use nalgebra::{Matrix1, Matrix2, Vector1};
 use std::path::Path;
-use waymark::attitude::{Quat, V3};
+use waymark::attitude::{Quat, QuatExt, M3, V3};
 use waymark::geodesy::{radii, EarthState};
 use waymark::nav::ekf::*;
 use waymark::nav::integrated::sage_husa_weight;
@@ -63,7 +64,7 @@ fn paper_13_states_are_a_strict_subset_and_odometer_rows_reduce_to_h_od() {
     // A moving, pitched and rolled vehicle.
     let q = Quat::from_heading_pitch_roll(0.7, 0.05, -0.03);
     let speed = 15.0;
-    let v = q.rotate([0.0, speed, 0.0]);
+    let v = q * V3::new(0.0, speed, 0.0);
     let state = NavState {
         q,
         v,
@@ -78,7 +79,7 @@ fn paper_13_states_are_a_strict_subset_and_odometer_rows_reduce_to_h_od() {
     let mut hn = [[0.0; N]; 3];
     for r in 0..3 {
         for j in 0..N {
-            hn[r][j] = (0..3).map(|k| c[r][k] * hb[k][j]).sum();
+            hn[r][j] = (0..3).map(|k| c[(r, k)] * hb[(k, j)]).sum();
         }
     }
     // The paper's H_OD (v_D^n = v): rows E and N.
@@ -112,19 +113,19 @@ fn paper_13_states_are_a_strict_subset_and_odometer_rows_reduce_to_h_od() {
     }
     // The rows are the linearisation of the measurement: perturb the truth
     // by a known error state and compare z with H x.
-    let phi: V3 = [2e-4, -1e-4, 3e-4];
-    let dv: V3 = [0.02, -0.03, 0.01];
+    let phi = V3::new(2e-4, -1e-4, 3e-4);
+    let dv = V3::new(0.02, -0.03, 0.01);
     let dk = 2e-3;
-    let q_est = Quat::from_rotvec([-phi[0], -phi[1], -phi[2]]).mul(&q);
-    let v_est = [v[0] + dv[0], v[1] + dv[1], v[2] + dv[2]];
-    let vb = q_est.rotate_inv(v_est);
+    let q_est = Quat::from_rotvec(-phi) * q;
+    let v_est = v + dv;
+    let vb = q_est.inverse_transform_vector(&v_est);
     let z = [vb[0], vb[1] - (1.0 + dk) * speed, vb[2]];
     let mut x = [0.0; N];
-    x[PHI..PHI + 3].copy_from_slice(&phi);
-    x[DV..DV + 3].copy_from_slice(&dv);
+    x[PHI..PHI + 3].copy_from_slice(phi.as_slice());
+    x[DV..DV + 3].copy_from_slice(dv.as_slice());
     x[KOD] = dk;
     for r in 0..3 {
-        let hx: f64 = (0..N).map(|j| hb[r][j] * x[j]).sum();
+        let hx: f64 = (0..N).map(|j| hb[(r, j)] * x[j]).sum();
         // Second-order terms: |φ| |dv| and |φ|² v, below 1e-5 m/s.
         assert!((z[r] - hx).abs() < 2e-5, "row {r}: z {} Hx {hx}", z[r]);
     }
@@ -133,11 +134,11 @@ fn paper_13_states_are_a_strict_subset_and_odometer_rows_reduce_to_h_od() {
 /// Position error (m, east north up) of a geodetic error state.
 fn pos_m(x: &[f64; N], lat: f64, h: f64) -> V3 {
     let (rm, rn) = radii(lat);
-    [
+    V3::new(
         x[DP + 1] * (rn + h) * lat.cos(),
         x[DP] * (rm + h),
         x[DP + 2],
-    ]
+    )
 }
 
 #[test]
@@ -186,38 +187,38 @@ fn error_model_propagation_matches_the_mechanization() {
     let mut samples = ideal_imu(plan.trajectory(), dt);
     let first = samples.next().unwrap();
     let t0 = first.avp.state;
-    let phi0: V3 = [1e-4, -8e-5, 5e-4];
-    let dv0: V3 = [0.05, -0.03, 0.0];
+    let phi0 = V3::new(1e-4, -8e-5, 5e-4);
+    let dv0 = V3::new(0.05, -0.03, 0.0);
     let dp0 = [
         3.0 / radii(t0.lat).0,
         -2.0 / (radii(t0.lat).1 * t0.lat.cos()),
         0.0,
     ];
-    let eps: V3 = [
+    let eps = V3::new(
         0.02f64.to_radians() / 3600.0,
         -0.01f64.to_radians() / 3600.0,
         0.03f64.to_radians() / 3600.0,
-    ];
-    let nab: V3 = [1e-3, -5e-4, 0.0];
+    );
+    let nab = V3::new(1e-3, -5e-4, 0.0);
     let est = NavState {
-        q: Quat::from_rotvec([-phi0[0], -phi0[1], -phi0[2]]).mul(&t0.q),
-        v: [t0.v[0] + dv0[0], t0.v[1] + dv0[1], t0.v[2] + dv0[2]],
+        q: Quat::from_rotvec(-phi0) * t0.q,
+        v: t0.v + dv0,
         lat: t0.lat + dp0[0],
         lon: t0.lon + dp0[1],
         h: t0.h,
     };
     let mut ins = Strapdown::new(est, dt);
     let mut x = [0.0; N];
-    x[PHI..PHI + 3].copy_from_slice(&phi0);
-    x[DV..DV + 3].copy_from_slice(&dv0);
+    x[PHI..PHI + 3].copy_from_slice(phi0.as_slice());
+    x[DV..DV + 3].copy_from_slice(dv0.as_slice());
     x[DP] = dp0[0];
     x[DP + 1] = dp0[1];
-    x[EPS..EPS + 3].copy_from_slice(&eps);
-    x[NABLA..NABLA + 3].copy_from_slice(&nab);
+    x[EPS..EPS + 3].copy_from_slice(eps.as_slice());
+    x[NABLA..NABLA + 3].copy_from_slice(nab.as_slice());
     let nm = noise();
-    let (mut acc_dv, mut acc_c, mut n) = ([0.0; 3], [[0.0; 3]; 3], 0);
+    let (mut acc_dv, mut acc_c, mut n) = (V3::zeros(), M3::zeros(), 0);
     let mut worst = 0.0f64;
-    let mut last = (0.0, [0.0; 3], [0.0; 3]);
+    let mut last = (0.0, [0.0; 3], V3::zeros());
     for (k, s) in samples.enumerate() {
         let mut inc = s.imu;
         for i in 0..3 {
@@ -226,13 +227,9 @@ fn error_model_propagation_matches_the_mechanization() {
         }
         // Truth specific force and attitude over the filter interval.
         let c = s.avp.state.q.to_dcm();
-        let f = s.avp.state.q.rotate(s.imu.dv);
-        for i in 0..3 {
-            acc_dv[i] += f[i];
-            for j in 0..3 {
-                acc_c[i][j] += c[i][j];
-            }
-        }
+        let f = s.avp.state.q * s.imu.dv;
+        acc_dv += f;
+        acc_c += c;
         n += 1;
         ins.step(&inc);
         ins.state.h = s.avp.state.h; // vertical channel held (both sides)
@@ -240,21 +237,21 @@ fn error_model_propagation_matches_the_mechanization() {
         if n == 10 {
             let tr = s.avp.state;
             let m = ErrorModelInput {
-                eth: EarthState::new(tr.lat, tr.h, tr.v),
+                eth: EarthState::new(tr.lat, tr.h, tr.v.into()),
                 v: tr.v,
-                f_n: [acc_dv[0] / 0.1, acc_dv[1] / 0.1, acc_dv[2] / 0.1],
-                c_bn: acc_c.map(|r| r.map(|v| v / 10.0)),
+                f_n: acc_dv / 0.1,
+                c_bn: acc_c / 10.0,
             };
             let f = system_matrix(&m, &nm);
             let mut xn = x;
             for i in 0..N {
-                xn[i] += (0..N).map(|j| f[i][j] * x[j]).sum::<f64>() * 0.1;
+                xn[i] += (0..N).map(|j| f[(i, j)] * x[j]).sum::<f64>() * 0.1;
             }
             x = xn;
             x[DV + 2] = 0.0;
             x[DP + 2] = 0.0;
-            acc_dv = [0.0; 3];
-            acc_c = [[0.0; 3]; 3];
+            acc_dv = V3::zeros();
+            acc_c = M3::zeros();
             n = 0;
             let actual = [
                 (ins.state.lon - tr.lon) * radii(tr.lat).1 * tr.lat.cos(),
@@ -293,9 +290,9 @@ fn covariance_propagation_follows_the_schuler_closed_form() {
     let g = -eth.g[2];
     let m = ErrorModelInput {
         eth,
-        v: [0.0; 3],
-        f_n: [0.0, 0.0, g],
-        c_bn: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        v: V3::zeros(),
+        f_n: V3::new(0.0, 0.0, g),
+        c_bn: M3::identity(),
     };
     let mut s0 = [0.0; N];
     let tilt = 1e-4;
@@ -310,7 +307,7 @@ fn covariance_propagation_follows_the_schuler_closed_form() {
             cov.propagate(&m, 0.1);
             t += 0.1;
         }
-        let sn = cov.p[DP][DP].sqrt() * rm;
+        let sn = cov.p[(DP, DP)].sqrt() * rm;
         let expect = r * tilt * (1.0 - (ws * t).cos());
         // Earth-rate couplings (Foucault) the closed form leaves out: 2 %.
         assert!(
@@ -342,15 +339,16 @@ fn gate_rejects_an_outlier_and_leaves_the_covariance_alone() {
     s0[DP] = 5.0 / 6.4e6;
     let mut cov = Covariance::new(&s0, noise());
     let p0 = cov.p;
-    let mut h = [0.0; N];
-    h[DP] = 6.4e6;
+    let mut h = Rows::<1>::zeros();
+    h[(0, DP)] = 6.4e6;
+    let r = Matrix1::new(1.0);
     // σ_pos = 5 m, R = 1 m²: S ≈ 26 m²; 50 m off gives NIS ≈ 96 > 10.8.
-    let (o, dx) = cov.update(&[50.0], &[h], &[[1.0]], GATE_999[0]);
+    let (o, dx) = cov.update(&Vector1::new(50.0), &h, &r, GATE_999[0]);
     assert!(!o.accepted && o.nis > 90.0 && dx.iter().all(|x| *x == 0.0));
     assert_eq!(cov.p, p0);
-    let (o, _) = cov.update(&[5.0], &[h], &[[1.0]], GATE_999[0]);
+    let (o, _) = cov.update(&Vector1::new(5.0), &h, &r, GATE_999[0]);
     assert!(o.accepted && o.nis < 2.0);
-    assert!(cov.p[DP][DP] < p0[DP][DP]);
+    assert!(cov.p[(DP, DP)] < p0[(DP, DP)]);
 }
 
 #[test]
@@ -526,13 +524,13 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
     // at a fast vehicle (300 m/s east, −200 m/s north) so that every term is
     // large enough to see.
     let (lat, h) = (0.7f64, 500.0);
-    let v: V3 = [300.0, -200.0, 5.0];
-    let eth = EarthState::new(lat, h, v);
+    let v = V3::new(300.0, -200.0, 5.0);
+    let eth = EarthState::new(lat, h, v.into());
     let m = ErrorModelInput {
         eth,
         v,
-        f_n: [0.0, 0.0, 9.8],
-        c_bn: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        f_n: V3::new(0.0, 0.0, 9.8),
+        c_bn: M3::identity(),
     };
     let f = system_matrix(&m, &noise());
     // State → (position rate, velocity rate without f, ω_in).
@@ -545,13 +543,13 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
         let (rm, rn) = (rm0 + h, rn0 + h);
         let wie = [0.0, w * lat.cos(), w * lat.sin()];
         let wen = [-v[1] / rm, v[0] / rn, v[0] * lat.tan() / rn];
-        let a = [
+        let a = V3::new(
             2.0 * wie[0] + wen[0],
             2.0 * wie[1] + wen[1],
             2.0 * wie[2] + wen[2],
-        ];
+        );
         let g = waymark::geodesy::normal_gravity(lat, h);
-        let cor = waymark::attitude::cross(a, v);
+        let cor = a.cross(&v);
         [
             v[1] / rm,
             v[0] / (rn * lat.cos()),
@@ -602,7 +600,7 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
         let (ea, eb) = (eval(a.0, a.1, a.2), eval(b.0, b.1, b.2));
         for (k, &row) in rows.iter().enumerate() {
             let num = (ea[k] - eb[k]) / (2.0 * step);
-            let ana = f[row][col];
+            let ana = f[(row, col)];
             // The φ rows hold +∂ω_in; the others +∂(rate).
             let scale = num.abs().max(ana.abs()).max(1e-12);
             let rel = (num - ana).abs() / scale;
@@ -618,7 +616,7 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
     }
     // Longitude appears nowhere in the equations: its column is zero.
     for &row in &rows {
-        assert_eq!(f[row][DP + 1], 0.0);
+        assert_eq!(f[(row, DP + 1)], 0.0);
     }
     eprintln!("worst relative difference {worst:e}");
 }
@@ -630,7 +628,7 @@ fn anisotropic_position_fix_tightens_across_the_road_only() {
     // along-road σ hardly move; a fix stamped 0.5 s in the past is compared
     // with the navigator's position then (no 10 m innovation from the lag).
     let q = Quat::from_heading_pitch_roll(0.0, 0.0, 0.0);
-    let v = [0.0, 20.0, 0.0];
+    let v = V3::new(0.0, 20.0, 0.0);
     let state = NavState {
         q,
         v,
@@ -659,17 +657,26 @@ fn anisotropic_position_fix_tightens_across_the_road_only() {
     let c =
         waymark::nav::integrated::along_across_covariance(std::f64::consts::FRAC_PI_2, 50.0, 0.5);
     assert!(
-        (c[0][0] - 2500.0).abs() < 1e-9 && (c[1][1] - 0.25).abs() < 1e-9 && c[0][1].abs() < 1e-9
+        (c[(0, 0)] - 2500.0).abs() < 1e-9
+            && (c[(1, 1)] - 0.25).abs() < 1e-9
+            && c[(0, 1)].abs() < 1e-9
     );
     let c =
         waymark::nav::integrated::along_across_covariance(std::f64::consts::FRAC_PI_4, 2.0, 1.0);
-    assert!((c[0][1] - 1.5).abs() < 1e-12 && (c[0][0] - 2.5).abs() < 1e-12);
+    assert!((c[(0, 1)] - 1.5).abs() < 1e-12 && (c[(0, 0)] - 2.5).abs() < 1e-12);
     let after = f.position_cov_enu();
     assert!((before[0][0].sqrt() - 10.0).abs() < 1e-6);
     assert!(after[0][0].sqrt() < 0.5, "east σ {}", after[0][0].sqrt());
     assert!(after[1][1].sqrt() > 9.0, "north σ {}", after[1][1].sqrt());
     // A tag fix with a height feeds the vertical channel.
-    let o = f.update_position(100.0, 0.8, 0.3, Some(1.0), [[0.25, 0.0], [0.0, 0.25]], 0.01);
+    let o = f.update_position(
+        100.0,
+        0.8,
+        0.3,
+        Some(1.0),
+        Matrix2::new(0.25, 0.0, 0.0, 0.25),
+        0.01,
+    );
     assert!(o.accepted && o.dof == 3);
     let c = f.position_cov_enu();
     assert!(c[2][2].sqrt() < 0.11 && c[1][1].sqrt() < 0.5, "{c:?}");
@@ -683,7 +690,7 @@ fn anisotropic_position_fix_tightens_across_the_road_only() {
             east: 103.0,
             north: 0.0,
         },
-        [[0.25, 0.0], [0.0, 2500.0]],
+        Matrix2::new(0.25, 0.0, 0.0, 2500.0),
     );
     assert!(o2.accepted);
     let e = (g.state().lon - 0.3) * rn * 0.8f64.cos();

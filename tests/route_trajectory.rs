@@ -2,7 +2,7 @@
 //! heading, drivable speeds and accelerations, agreement with the map path,
 //! and self-consistency with the strapdown mechanization.
 
-use waymark::attitude::{norm, wrap_pi};
+use waymark::attitude::{wrap_pi, QuatExt};
 use waymark::nav::Strapdown;
 use waymark::network::{LoadOptions, Network};
 use waymark::route::plan_route;
@@ -44,7 +44,7 @@ fn route_truth_is_smooth_drivable_on_the_map_and_replays() {
             max_dh = max_dh.max(wrap_pi(yaw - p).abs());
         }
         prev_heading = Some(yaw);
-        let v = norm(st.v);
+        let v = st.v.norm();
         max_speed = max_speed.max(v);
         if v == 0.0 && s.avp.t > 1.0 {
             stopped_samples += 1;
@@ -65,7 +65,7 @@ fn route_truth_is_smooth_drivable_on_the_map_and_replays() {
                 max_long = max_long.max((s.imu.dv[1] / dt).abs());
                 n.step(&s.imu);
                 let d = local_displacement(&st, &n.state);
-                max_replay = max_replay.max(norm(d));
+                max_replay = max_replay.max(d.norm());
             }
         }
         last = Some(s.avp);
@@ -86,7 +86,7 @@ fn route_truth_is_smooth_drivable_on_the_map_and_replays() {
     assert!(max_speed <= 50.0 / 3.6 + 1e-9);
     // The stop (10 s) plus the final standstill sample.
     assert!(stopped_samples >= 1000, "stopped {stopped_samples}");
-    assert!(norm(last.state.v) < 1e-9);
+    assert!(last.state.v.norm() < 1e-9);
     // Truth follows the map path (tangent-plane distortion only): 2 cm. Without
     // the meridian-convergence correction it drifts 0.10 m off on this route
     // (measured by disabling the correction).
@@ -113,9 +113,9 @@ fn speed_respects_a_lower_road_limit_and_curvature() {
     // Same path, the slower profile takes longer; no sample exceeds its speed.
     assert!((a.distance_m - b.distance_m).abs() < 1e-9);
     assert!(a.duration_s > b.duration_s);
-    assert!(a.trajectory().all(|s| norm(s.state.v) <= 5.0 + 1e-9));
+    assert!(a.trajectory().all(|s| s.state.v.norm() <= 5.0 + 1e-9));
     // maxspeed of the roads (Helsinki's are ≤ 50 km/h where tagged) caps the fast profile.
-    let vmax = b.trajectory().map(|s| norm(s.state.v)).fold(0.0, f64::max);
+    let vmax = b.trajectory().map(|s| s.state.v.norm()).fold(0.0, f64::max);
     assert!(vmax < 30.0, "vmax {vmax}");
 }
 
@@ -153,7 +153,7 @@ fn dead_end_turns_back_on_the_spot_without_heading_jumps() {
             None => nav = Some(Strapdown::new(s.avp.state, dt)),
             Some(n) => {
                 n.step(&s.imu);
-                max_replay = max_replay.max(norm(local_displacement(&s.avp.state, &n.state)));
+                max_replay = max_replay.max(local_displacement(&s.avp.state, &n.state).norm());
             }
         }
     }

@@ -3,7 +3,7 @@
 //! (the mean of the forward axis at the two ends of the step), and integrated
 //! geodetically.
 
-use crate::attitude::{add, scale, Quat};
+use crate::attitude::{Quat, V3};
 use crate::geodesy::radii;
 
 /// The dead-reckoned position.
@@ -26,11 +26,8 @@ impl OdometerDr {
     /// Advances by distance `ds` (m) travelled while the body attitude went from
     /// `q0` to `q1` (q_b^n); returns the ENU displacement (m).
     #[inline]
-    pub fn step(&mut self, q0: &Quat, q1: &Quat, ds: f64) -> [f64; 3] {
-        let f = scale(
-            add(q0.rotate([0.0, 1.0, 0.0]), q1.rotate([0.0, 1.0, 0.0])),
-            0.5 * ds,
-        );
+    pub fn step(&mut self, q0: &Quat, q1: &Quat, ds: f64) -> V3 {
+        let f = (q0 * V3::y() + q1 * V3::y()) * (0.5 * ds);
         let (rm, rn) = radii(self.lat);
         self.lat += f[1] / (rm + self.h);
         self.lon += f[0] / ((rn + self.h) * self.lat.cos());

@@ -2,8 +2,8 @@
 //! error model (Qin, "Inertial Navigation"; PSINS `etm`) as a continuous
 //! system matrix F, covariance propagation with a sparse first-order
 //! transition matrix Φ = I + F T, and a generic chi-square-gated measurement
-//! update for 1 to 3 rows. Everything is on fixed-size arrays: no heap
-//! allocation per step.
+//! update for 1 to 3 rows. Everything is on `nalgebra` static matrices
+//! ([`Mat`], [`StateVec`], [`Rows`]): no heap allocation per step.
 //!
 //! Error definitions (estimate minus truth unless said otherwise):
 //! - φ (0..3): navigation-frame misalignment, C̃_b^n = (I − [φ×]) C_b^n;
@@ -16,10 +16,9 @@
 //! - N_E, N_N (18, 19): random-walk error of an external position fix (m);
 //! - b_h (20): barometer bias (m).
 
-#![allow(clippy::needless_range_loop)] // index-heavy small-matrix algebra
-
 use crate::attitude::{M3, V3};
 use crate::geodesy::EarthState;
+use nalgebra::{Cholesky, SMatrix, SVector};
 
 /// Number of error states.
 pub const N: usize = 21;
@@ -44,8 +43,12 @@ pub const RW: usize = 18;
 /// Index of the barometer bias.
 pub const BARO: usize = 20;
 
-/// A square state matrix.
-pub type Mat = [[f64; N]; N];
+/// A square state matrix (covariance, system matrix).
+pub type Mat = SMatrix<f64, N, N>;
+/// An error-state vector.
+pub type StateVec = SVector<f64, N>;
+/// The M rows of a measurement matrix H.
+pub type Rows<const M: usize> = SMatrix<f64, M, N>;
 
 /// Chi-square 99.9 % quantiles for 1, 2 and 3 degrees of freedom: the gate.
 pub const GATE_999: [f64; 3] = [10.828, 13.816, 16.266];
@@ -104,28 +107,12 @@ pub struct NoiseModel {
     pub baro_bias: (f64, f64),
 }
 
-#[inline(always)]
-fn skew(v: V3) -> M3 {
-    [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]]
-}
-
-#[inline(always)]
-fn mm(a: &M3, b: &M3) -> M3 {
-    let mut c = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            c[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j];
-        }
-    }
-    c
-}
-
 /// The continuous system matrix F of the standard SINS error model with the
 /// Gauss–Markov and random-walk states, dense (for tests and for clarity);
 /// the filter uses [`system_sparse`], which yields the same entries.
 pub fn system_matrix(m: &ErrorModelInput, noise: &NoiseModel) -> Mat {
-    let mut f = [[0.0; N]; N];
-    system_sparse(m, noise, |i, j, x| f[i][j] += x);
+    let mut f = Mat::zeros();
+    system_sparse(m, noise, |i, j, x| f[(i, j)] += x);
     f
 }
 
@@ -137,45 +124,51 @@ pub fn system_sparse(
     mut put: impl FnMut(usize, usize, f64),
 ) {
     let e = &m.eth;
-    let [ve, vn, _vu] = m.v;
+    let (ve, vn) = (m.v[0], m.v[1]);
     let rm = e.rm_h;
     let rn = e.rn_h;
     let (sl, cl, tl) = (e.sin_lat, e.cos_lat, e.tan_lat);
     let secl = 1.0 / cl;
     let wie = crate::geodesy::EARTH_RATE;
     // Building blocks (PSINS etm / Qin).
-    let maa = skew([-e.w_in[0], -e.w_in[1], -e.w_in[2]]);
-    let mav: M3 = [
-        [0.0, -1.0 / rm, 0.0],
-        [1.0 / rn, 0.0, 0.0],
-        [tl / rn, 0.0, 0.0],
-    ];
-    let mp1: M3 = [[0.0, 0.0, 0.0], [-wie * sl, 0.0, 0.0], [wie * cl, 0.0, 0.0]];
-    let mp2: M3 = [
-        [0.0, 0.0, vn / (rm * rm)],
-        [0.0, 0.0, -ve / (rn * rn)],
-        [ve * secl * secl / rn, 0.0, -ve * tl / (rn * rn)],
-    ];
-    let vx = skew(m.v);
-    let wien = [
-        2.0 * e.w_ie[0] + e.w_en[0],
-        2.0 * e.w_ie[1] + e.w_en[1],
-        2.0 * e.w_ie[2] + e.w_en[2],
-    ];
-    let mvv_a = mm(&vx, &mav);
-    let wx = skew(wien);
-    let mut mp12 = mp2;
-    for i in 0..3 {
-        mp12[i][0] += 2.0 * mp1[i][0];
-    }
-    let mvp = mm(&vx, &mp12);
-    let mva = skew(m.f_n);
-    let mpv: M3 = [[0.0, 1.0 / rm, 0.0], [secl / rn, 0.0, 0.0], [0.0, 0.0, 1.0]];
-    let mpp: M3 = [
-        [0.0, 0.0, -vn / (rm * rm)],
-        [ve * secl * tl / rn, 0.0, -ve * secl / (rn * rn)],
-        [0.0, 0.0, 0.0],
-    ];
+    // (Matrix3::new takes its entries row by row.)
+    let maa = (-V3::from(e.w_in)).cross_matrix();
+    #[rustfmt::skip]
+    let mav = M3::new(
+        0.0, -1.0 / rm, 0.0,
+        1.0 / rn, 0.0, 0.0,
+        tl / rn, 0.0, 0.0,
+    );
+    #[rustfmt::skip]
+    let mp1 = M3::new(
+        0.0, 0.0, 0.0,
+        -wie * sl, 0.0, 0.0,
+        wie * cl, 0.0, 0.0,
+    );
+    #[rustfmt::skip]
+    let mp2 = M3::new(
+        0.0, 0.0, vn / (rm * rm),
+        0.0, 0.0, -ve / (rn * rn),
+        ve * secl * secl / rn, 0.0, -ve * tl / (rn * rn),
+    );
+    let vx = m.v.cross_matrix();
+    let wien = V3::from(e.w_ie) * 2.0 + V3::from(e.w_en);
+    let mvv_a = vx * mav;
+    let wx = wien.cross_matrix();
+    let mvp = vx * (mp2 + mp1 * 2.0);
+    let mva = m.f_n.cross_matrix();
+    #[rustfmt::skip]
+    let mpv = M3::new(
+        0.0, 1.0 / rm, 0.0,
+        secl / rn, 0.0, 0.0,
+        0.0, 0.0, 1.0,
+    );
+    #[rustfmt::skip]
+    let mpp = M3::new(
+        0.0, 0.0, -vn / (rm * rm),
+        ve * secl * tl / rn, 0.0, -ve * secl / (rn * rn),
+        0.0, 0.0, 0.0,
+    );
     // Gravity: g_U = −γ(L, h); ∂(−γ)/∂h (≈ +2γ/R) and ∂(−γ)/∂L by central
     // differences of the normal gravity formula.
     let lat = sl.atan2(cl);
@@ -189,28 +182,28 @@ pub fn system_sparse(
     for i in 0..3 {
         for j in 0..3 {
             let nz = |x: f64| x != 0.0;
-            let a = maa[i][j];
+            let a = maa[(i, j)];
             if nz(a) {
                 put(PHI + i, PHI + j, a);
             }
-            let a = mav[i][j];
+            let a = mav[(i, j)];
             if nz(a) {
                 put(PHI + i, DV + j, a);
             }
-            let a = mp1[i][j] + mp2[i][j];
+            let a = mp1[(i, j)] + mp2[(i, j)];
             if nz(a) {
                 put(PHI + i, DP + j, a);
             }
-            put(PHI + i, EPS + j, -m.c_bn[i][j]);
-            let a = mva[i][j];
+            put(PHI + i, EPS + j, -m.c_bn[(i, j)]);
+            let a = mva[(i, j)];
             if nz(a) {
                 put(DV + i, PHI + j, a);
             }
-            let a = mvv_a[i][j] - wx[i][j];
+            let a = mvv_a[(i, j)] - wx[(i, j)];
             if nz(a) {
                 put(DV + i, DV + j, a);
             }
-            let a = mvp[i][j]
+            let a = mvp[(i, j)]
                 + match (i, j) {
                     (2, 2) => g_grad,
                     (2, 0) => g_lat,
@@ -219,12 +212,12 @@ pub fn system_sparse(
             if nz(a) {
                 put(DV + i, DP + j, a);
             }
-            put(DV + i, NABLA + j, m.c_bn[i][j]);
-            let a = mpv[i][j];
+            put(DV + i, NABLA + j, m.c_bn[(i, j)]);
+            let a = mpv[(i, j)];
             if nz(a) {
                 put(DP + i, DV + j, a);
             }
-            let a = mpp[i][j];
+            let a = mpp[(i, j)];
             if nz(a) {
                 put(DP + i, DP + j, a);
             }
@@ -241,8 +234,8 @@ pub fn system_sparse(
 }
 
 /// Diagonal of the continuous process noise spectral density (per second).
-pub fn process_noise_diag(noise: &NoiseModel) -> [f64; N] {
-    let mut q = [0.0; N];
+pub fn process_noise_diag(noise: &NoiseModel) -> StateVec {
+    let mut q = StateVec::zeros();
     let gm = |(s, tau): (f64, f64)| 2.0 * s * s / tau;
     for k in 0..3 {
         // C_b^n q I C_n^b = q I: isotropic white noise keeps its form in n.
@@ -266,19 +259,16 @@ pub struct Covariance {
     /// P.
     pub p: Mat,
     nz: [(u8, u8, f64); 160],
-    q: [f64; N],
+    q: StateVec,
     noise: NoiseModel,
 }
 
 impl Covariance {
     /// Starts from the diagonal standard deviations `sigma0`.
     pub fn new(sigma0: &[f64; N], noise: NoiseModel) -> Self {
-        let mut p = [[0.0; N]; N];
-        for i in 0..N {
-            p[i][i] = sigma0[i] * sigma0[i];
-        }
+        let s = StateVec::from(*sigma0);
         Self {
-            p,
+            p: Mat::from_diagonal(&s.component_mul(&s)),
             nz: [(0, 0, 0.0); 160],
             q: process_noise_diag(&noise),
             noise,
@@ -291,6 +281,15 @@ impl Covariance {
     }
 
     /// P ← Φ P Φ^T + Q T with Φ = I + F T (F from `m`), T the interval (s).
+    ///
+    /// Φ is sparse (about 80 off-identity entries of 441), so Φ P Φ^T is
+    /// formed from its entries rather than as two dense 21×21 products
+    /// (measured 2.4 times slower: about 7 µs against 3 µs a step). With
+    /// A = F T, D = P Φ^T = P + P A^T adds x × column k of P to column i of D
+    /// for every entry (i, k, x) of A; Φ P Φ^T = Φ D is symmetric, so it
+    /// equals E Φ^T = E + E A^T with E = D^T, formed the same way. Every step
+    /// is a column operation on the column-major matrices, and the result is
+    /// bit for bit the row-and-column form it replaces.
     pub fn propagate(&mut self, m: &ErrorModelInput, t: f64) {
         let mut n = 0usize;
         let nz = &mut self.nz;
@@ -299,76 +298,64 @@ impl Covariance {
             n += 1;
         });
         let a = &self.nz[..n];
-        // B = Φ P = P + A P
-        let mut b = self.p;
+        // D = P Φ^T = P + P A^T.
+        let mut d = self.p;
         for &(i, k, x) in a {
-            let (i, k) = (i as usize, k as usize);
-            let pk = self.p[k];
-            let bi = &mut b[i];
-            for j in 0..N {
-                bi[j] += x * pk[j];
-            }
+            d.column_mut(i as usize)
+                .axpy(x, &self.p.column(k as usize), 1.0);
         }
-        // P = B Φ^T = B + B A^T: P[r][i] += x B[r][k] for every (i, k, x).
-        let mut c = b;
+        // Φ P Φ^T = Φ D = (D^T Φ^T)^T with D^T = Φ P (P symmetric); the
+        // result is symmetric, so E + E A^T with E = D^T.
+        let e = d.transpose();
+        let mut c = e;
         for &(i, k, x) in a {
-            let (i, k) = (i as usize, k as usize);
-            for r in 0..N {
-                c[r][i] += x * b[r][k];
-            }
+            c.column_mut(i as usize).axpy(x, &e.column(k as usize), 1.0);
         }
         for i in 0..N {
-            c[i][i] += self.q[i] * t;
+            c[(i, i)] += self.q[i] * t;
         }
         // Symmetrize.
-        for i in 0..N {
-            for j in 0..i {
-                let s = 0.5 * (c[i][j] + c[j][i]);
-                c[i][j] = s;
-                c[j][i] = s;
+        for j in 0..N {
+            for i in 0..j {
+                let s = 0.5 * (c[(i, j)] + c[(j, i)]);
+                c[(i, j)] = s;
+                c[(j, i)] = s;
             }
         }
         self.p = c;
     }
 
-    /// Innovation covariance S = H P H^T + R and P H^T for an M-row measurement.
+    /// P H^T (skipping H's zero entries) and the innovation covariance
+    /// S = H P H^T + R for an M-row measurement.
     fn innovation<const M: usize>(
         &self,
-        h: &[[f64; N]; M],
-        r: &[[f64; M]; M],
-    ) -> ([[f64; M]; N], [[f64; M]; M]) {
-        let mut pht = [[0.0; M]; N];
-        for i in 0..N {
-            for m in 0..M {
-                let mut s = 0.0;
-                for (k, hk) in h[m].iter().enumerate() {
-                    if *hk != 0.0 {
-                        s += self.p[i][k] * hk;
-                    }
+        h: &Rows<M>,
+        r: &SMatrix<f64, M, M>,
+    ) -> (SMatrix<f64, N, M>, SMatrix<f64, M, M>) {
+        // Column m of P H^T = Σ_k H[m, k] × column k of P (P symmetric).
+        let mut pht = SMatrix::<f64, N, M>::zeros();
+        for m in 0..M {
+            for k in 0..N {
+                let hk = h[(m, k)];
+                if hk != 0.0 {
+                    pht.column_mut(m).axpy(hk, &self.p.column(k), 1.0);
                 }
-                pht[i][m] = s;
             }
         }
-        let mut s = *r;
-        for a in 0..M {
-            for b in 0..M {
-                let mut x = 0.0;
-                for (k, hk) in h[a].iter().enumerate() {
-                    if *hk != 0.0 {
-                        x += hk * pht[k][b];
-                    }
-                }
-                s[a][b] += x;
-            }
-        }
+        let s = r + h * pht;
         (pht, s)
     }
 
     /// Normalised innovation squared of a measurement without updating.
-    pub fn nis<const M: usize>(&self, z: &[f64; M], h: &[[f64; N]; M], r: &[[f64; M]; M]) -> f64 {
+    pub fn nis<const M: usize>(
+        &self,
+        z: &SVector<f64, M>,
+        h: &Rows<M>,
+        r: &SMatrix<f64, M, M>,
+    ) -> f64 {
         let (_, s) = self.innovation(h, r);
-        match chol_inv(&s) {
-            Some(si) => quad(&si, z),
+        match Cholesky::new(s) {
+            Some(c) => quad(&c.inverse(), z),
             None => f64::INFINITY,
         }
     }
@@ -379,20 +366,21 @@ impl Covariance {
     /// (zero when rejected).
     pub fn update<const M: usize>(
         &mut self,
-        z: &[f64; M],
-        h: &[[f64; N]; M],
-        r: &[[f64; M]; M],
+        z: &SVector<f64, M>,
+        h: &Rows<M>,
+        r: &SMatrix<f64, M, M>,
         gate: f64,
-    ) -> (UpdateOutcome, [f64; N]) {
+    ) -> (UpdateOutcome, StateVec) {
         let (pht, s) = self.innovation(h, r);
-        let Some(si) = chol_inv(&s) else {
+        // S^{-1} by Cholesky; None if S is not positive definite.
+        let Some(si) = Cholesky::new(s).map(|c| c.inverse()) else {
             return (
                 UpdateOutcome {
                     accepted: false,
                     nis: f64::INFINITY,
                     dof: M,
                 },
-                [0.0; N],
+                StateVec::zeros(),
             );
         };
         let nis = quad(&si, z);
@@ -403,43 +391,21 @@ impl Covariance {
                     nis,
                     dof: M,
                 },
-                [0.0; N],
+                StateVec::zeros(),
             );
         }
         // K = P H^T S^{-1}
-        let mut k = [[0.0; M]; N];
-        for i in 0..N {
-            for a in 0..M {
-                let mut x = 0.0;
-                for b in 0..M {
-                    x += pht[i][b] * si[b][a];
-                }
-                k[i][a] = x;
-            }
+        let k = pht * si;
+        let dx = k * z;
+        // P ← P − K (P H^T)^T: symmetric, so on the lower triangle (one
+        // rank-1 update per row of H) and mirrored.
+        for a in 0..M {
+            self.p.syger(-1.0, &k.column(a), &pht.column(a), 1.0);
         }
-        let mut dx = [0.0; N];
+        self.p.fill_upper_triangle_with_lower_triangle();
         for i in 0..N {
-            let mut x = 0.0;
-            for a in 0..M {
-                x += k[i][a] * z[a];
-            }
-            dx[i] = x;
-        }
-        // P ← P − K (P H^T)^T
-        for i in 0..N {
-            for j in 0..=i {
-                let mut x = 0.0;
-                for a in 0..M {
-                    x += k[i][a] * pht[j][a];
-                }
-                let v = 0.5 * (self.p[i][j] + self.p[j][i]) - x;
-                self.p[i][j] = v;
-                self.p[j][i] = v;
-            }
-        }
-        for i in 0..N {
-            if self.p[i][i] < 1e-30 {
-                self.p[i][i] = 1e-30;
+            if self.p[(i, i)] < 1e-30 {
+                self.p[(i, i)] = 1e-30;
             }
         }
         (
@@ -454,58 +420,6 @@ impl Covariance {
 }
 
 /// x^T A x.
-fn quad<const M: usize>(a: &[[f64; M]; M], x: &[f64; M]) -> f64 {
-    let mut s = 0.0;
-    for i in 0..M {
-        for j in 0..M {
-            s += x[i] * a[i][j] * x[j];
-        }
-    }
-    s
-}
-
-/// Inverse of a small symmetric positive definite matrix by Cholesky; None if
-/// it is not positive definite.
-pub fn chol_inv<const M: usize>(a: &[[f64; M]; M]) -> Option<[[f64; M]; M]> {
-    let mut l = [[0.0; M]; M];
-    for i in 0..M {
-        for j in 0..=i {
-            let mut s = a[i][j];
-            for k in 0..j {
-                s -= l[i][k] * l[j][k];
-            }
-            if i == j {
-                if s.is_nan() || s <= 0.0 {
-                    return None;
-                }
-                l[i][i] = s.sqrt();
-            } else {
-                l[i][j] = s / l[j][j];
-            }
-        }
-    }
-    // Inverse of L (lower triangular).
-    let mut li = [[0.0; M]; M];
-    for i in 0..M {
-        li[i][i] = 1.0 / l[i][i];
-        for j in 0..i {
-            let mut s = 0.0;
-            for k in j..i {
-                s -= l[i][k] * li[k][j];
-            }
-            li[i][j] = s / l[i][i];
-        }
-    }
-    // A^{-1} = L^{-T} L^{-1}
-    let mut inv = [[0.0; M]; M];
-    for i in 0..M {
-        for j in 0..M {
-            let mut s = 0.0;
-            for k in i.max(j)..M {
-                s += li[k][i] * li[k][j];
-            }
-            inv[i][j] = s;
-        }
-    }
-    Some(inv)
+fn quad<const M: usize>(a: &SMatrix<f64, M, M>, x: &SVector<f64, M>) -> f64 {
+    x.dot(&(a * x))
 }

@@ -16,14 +16,13 @@
 //! 99.9 % by default): a rejected measurement changes nothing and is reported
 //! in the returned [`UpdateOutcome`].
 
-#![allow(clippy::needless_range_loop)] // small fixed-size matrices by index
-
 use super::ekf::{
-    Covariance, ErrorModelInput, NoiseModel, UpdateOutcome, APSI, ATHETA, BARO, DP, DV, EPS,
-    GATE_999, KOD, N, NABLA, PHI, RW,
+    Covariance, ErrorModelInput, Mat, NoiseModel, Rows, StateVec, UpdateOutcome, APSI, ATHETA,
+    BARO, DP, DV, EPS, GATE_999, KOD, N, NABLA, PHI, RW,
 };
 use super::strapdown::{ImuIncrement, NavState, Strapdown};
-use crate::attitude::{mat_vec, scale, sub, Quat, M3, V3};
+use crate::attitude::{Quat, QuatExt, M3, V3};
+use nalgebra::{Matrix1, Matrix2, Matrix3, Vector1, Vector2, Vector3};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -130,7 +129,7 @@ pub struct Filter {
     odo_scale: f64,
     odo_pitch: f64,
     odo_yaw: f64,
-    fix_rw: [f64; 2],
+    fix_rw: Vector2<f64>,
     baro_bias: f64,
     // Accumulators for the covariance propagation.
     acc_t: f64,
@@ -144,7 +143,7 @@ pub struct Filter {
     odo_rejects: u32,
     odo_passes: u32,
     sh_k: u32,
-    sh_r: Option<[[f64; 2]; 2]>,
+    sh_r: Option<Matrix2<f64>>,
     /// Update counts.
     pub counts: UpdateCounts,
 }
@@ -158,18 +157,18 @@ impl Filter {
             cov: Covariance::new(&cfg.sigma0, cfg.noise),
             cfg,
             t: t0,
-            gyro_bias: [0.0; 3],
-            accel_bias: [0.0; 3],
+            gyro_bias: V3::zeros(),
+            accel_bias: V3::zeros(),
             odo_scale: 0.0,
             odo_pitch: 0.0,
             odo_yaw: 0.0,
-            fix_rw: [0.0; 2],
+            fix_rw: Vector2::zeros(),
             baro_bias: 0.0,
             acc_t: 0.0,
             acc_n: 0,
-            acc_dvn: [0.0; 3],
-            acc_c: [[0.0; 3]; 3],
-            odo_vb: [0.0; 3],
+            acc_dvn: V3::zeros(),
+            acc_c: M3::zeros(),
+            odo_vb: V3::zeros(),
             odo_t: 0.0,
             odo_fault: false,
             odo_rejects: 0,
@@ -191,7 +190,7 @@ impl Filter {
     }
 
     /// The error covariance.
-    pub fn covariance(&self) -> &[[f64; N]; N] {
+    pub fn covariance(&self) -> &Mat {
         &self.cov.p
     }
 
@@ -211,7 +210,7 @@ impl Filter {
     }
 
     /// The current adaptive (Sage–Husa) external fix noise, if any.
-    pub fn adaptive_fix_noise(&self) -> Option<[[f64; 2]; 2]> {
+    pub fn adaptive_fix_noise(&self) -> Option<Matrix2<f64>> {
         self.sh_r
     }
 
@@ -221,17 +220,17 @@ impl Filter {
     }
 
     /// Position covariance in metres (east, north, up).
-    pub fn position_cov_enu(&self) -> [[f64; 3]; 3] {
+    pub fn position_cov_enu_matrix(&self) -> Matrix3<f64> {
         let (rm, clrn) = self.m_per_rad();
-        let s = [clrn, rm, 1.0];
+        let s = Vector3::new(clrn, rm, 1.0);
         let idx = [DP + 1, DP, DP + 2];
-        let mut c = [[0.0; 3]; 3];
-        for a in 0..3 {
-            for b in 0..3 {
-                c[a][b] = s[a] * s[b] * self.cov.p[idx[a]][idx[b]];
-            }
-        }
-        c
+        Matrix3::from_fn(|a, b| s[a] * s[b] * self.cov.p[(idx[a], idx[b])])
+    }
+
+    /// [`Filter::position_cov_enu_matrix`] as rows of an array (east, north,
+    /// up; m²), the form the planner and the simulator's records take.
+    pub fn position_cov_enu(&self) -> [[f64; 3]; 3] {
+        self.position_cov_enu_matrix().transpose().into()
     }
 
     /// One IMU sample: bias compensation, mechanization, and the covariance
@@ -240,29 +239,22 @@ impl Filter {
     pub fn step(&mut self, inc: &ImuIncrement) {
         let dt = self.ins.dt;
         let comp = ImuIncrement {
-            dtheta: sub(inc.dtheta, scale(self.gyro_bias, dt)),
-            dv: sub(inc.dv, scale(self.accel_bias, dt)),
+            dtheta: inc.dtheta - self.gyro_bias * dt,
+            dv: inc.dv - self.accel_bias * dt,
         };
         let q0 = self.ins.state.q;
-        let vb0 = q0.rotate_inv(self.ins.state.v);
+        let vb0 = q0.inverse_transform_vector(&self.ins.state.v);
         self.ins.step(&comp);
         self.t += dt;
         let c = q0.to_dcm();
-        let dvn = mat_vec(&c, comp.dv);
-        for i in 0..3 {
-            self.acc_dvn[i] += dvn[i];
-            for j in 0..3 {
-                self.acc_c[i][j] += c[i][j];
-            }
-        }
+        self.acc_dvn += c * comp.dv;
+        self.acc_c += c;
         self.acc_n += 1;
         self.acc_t += dt;
         // Mean body velocity over the step (trapezoid), to match the distance
         // the odometer counts over the same step.
-        let vb1 = self.ins.state.q.rotate_inv(self.ins.state.v);
-        for i in 0..3 {
-            self.odo_vb[i] += 0.5 * (vb0[i] + vb1[i]) * dt;
-        }
+        let vb1 = self.ins.state.q.inverse_transform_vector(&self.ins.state.v);
+        self.odo_vb += (vb0 + vb1) * 0.5 * dt;
         self.odo_t += dt;
         if self.acc_t >= self.cfg.interval_s - 0.5 * dt {
             self.flush();
@@ -275,70 +267,49 @@ impl Filter {
             return;
         }
         let n = self.acc_n as f64;
-        let mut c = self.acc_c;
-        for row in c.iter_mut() {
-            for x in row.iter_mut() {
-                *x /= n;
-            }
-        }
         let m = ErrorModelInput {
             eth: *self.ins.earth(),
             v: self.ins.state.v,
-            f_n: scale(self.acc_dvn, 1.0 / self.acc_t),
-            c_bn: c,
+            f_n: self.acc_dvn * (1.0 / self.acc_t),
+            c_bn: self.acc_c / n,
         };
         self.cov.propagate(&m, self.acc_t);
         self.acc_t = 0.0;
         self.acc_n = 0;
-        self.acc_dvn = [0.0; 3];
-        self.acc_c = [[0.0; 3]; 3];
+        self.acc_dvn = V3::zeros();
+        self.acc_c = M3::zeros();
     }
 
     /// Feeds an error-state estimate back into the navigator and the sensor
     /// corrections (closed loop).
-    fn feedback(&mut self, dx: &[f64; N]) {
+    fn feedback(&mut self, dx: &StateVec) {
         let s = &mut self.ins.state;
-        let phi = [dx[PHI], dx[PHI + 1], dx[PHI + 2]];
-        s.q = Quat::from_rotvec(phi).mul(&s.q).normalized();
-        for i in 0..3 {
-            s.v[i] -= dx[DV + i];
-            self.gyro_bias[i] += dx[EPS + i];
-            self.accel_bias[i] += dx[NABLA + i];
-        }
+        s.q = (Quat::from_rotvec(dx.fixed_rows::<3>(PHI).into_owned()) * s.q).normalized();
+        s.v -= dx.fixed_rows::<3>(DV);
+        self.gyro_bias += dx.fixed_rows::<3>(EPS);
+        self.accel_bias += dx.fixed_rows::<3>(NABLA);
         s.lat -= dx[DP];
         s.lon -= dx[DP + 1];
         s.h -= dx[DP + 2];
         self.odo_scale += dx[KOD];
         self.odo_pitch += dx[ATHETA];
         self.odo_yaw += dx[APSI];
-        self.fix_rw[0] += dx[RW];
-        self.fix_rw[1] += dx[RW + 1];
+        self.fix_rw += dx.fixed_rows::<2>(RW);
         self.baro_bias += dx[BARO];
     }
 
     /// Rows of the body-frame velocity measurement (odometer forward speed
     /// `v` along y, constraints along x and z): H for δv, φ and the odometer
     /// states. Row r of z = C̃_n^b ṽ^n − v [−α̂_ψ, 1, α̂_θ].
-    pub fn odometer_rows(&self, v: f64) -> [[f64; N]; 3] {
-        let cnb = self.ins.state.q.conj().to_dcm();
-        let vx = {
-            let w = self.ins.state.v;
-            [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]]
-        };
-        let mut h = [[0.0; N]; 3];
-        for r in 0..3 {
-            for j in 0..3 {
-                h[r][DV + j] = cnb[r][j];
-                let mut x = 0.0;
-                for k in 0..3 {
-                    x += cnb[r][k] * vx[k][j];
-                }
-                h[r][PHI + j] = -x;
-            }
-        }
-        h[0][APSI] = -v;
-        h[1][KOD] = -v;
-        h[2][ATHETA] = v;
+    pub fn odometer_rows(&self, v: f64) -> Rows<3> {
+        let cnb = self.ins.state.q.conjugate().to_dcm();
+        let mut h = Rows::<3>::zeros();
+        h.fixed_columns_mut::<3>(DV).copy_from(&cnb);
+        h.fixed_columns_mut::<3>(PHI)
+            .copy_from(&-(cnb * self.ins.state.v.cross_matrix()));
+        h[(0, APSI)] = -v;
+        h[(1, KOD)] = -v;
+        h[(2, ATHETA)] = v;
         h
     }
 
@@ -354,23 +325,19 @@ impl Filter {
         }
         self.flush();
         let t = self.odo_t;
-        let vb = scale(self.odo_vb, 1.0 / t);
-        self.odo_vb = [0.0; 3];
+        let vb = self.odo_vb * (1.0 / t);
+        self.odo_vb = V3::zeros();
         self.odo_t = 0.0;
         let v = distance_m / t / (1.0 + self.odo_scale);
-        let pred = [-self.odo_yaw * v, v, self.odo_pitch * v];
-        let z = sub(vb, pred);
+        let pred = V3::new(-self.odo_yaw * v, v, self.odo_pitch * v);
+        let z = vb - pred;
         // The rows take the navigator's forward speed, not the odometer's: a
         // noisy (e.g. pulse-quantized) speed in H correlates H with the noise
         // and biases the scale-factor estimate (errors in variables).
         let h = self.odometer_rows(vb[1]);
         let so = self.cfg.odo_noise_mps;
         let sn = self.cfg.nhc_noise_mps;
-        let r3 = [
-            [sn * sn, 0.0, 0.0],
-            [0.0, so * so, 0.0],
-            [0.0, 0.0, sn * sn],
-        ];
+        let r3 = Matrix3::from_diagonal(&Vector3::new(sn * sn, so * so, sn * sn));
         let mut out = UpdateOutcome::SKIPPED;
         if !self.odo_fault {
             let (o, dx) = self.cov.update(&z, &h, &r3, self.cfg.gate[2]);
@@ -390,7 +357,11 @@ impl Filter {
         } else {
             self.counts.odometer_disabled_epochs += 1;
             // Test the forward speed alone for recovery.
-            let nis = self.cov.nis(&[z[1]], &[h[1]], &[[so * so]]);
+            let nis = self.cov.nis(
+                &Vector1::new(z[1]),
+                &h.fixed_rows::<1>(1).into_owned(),
+                &Matrix1::new(so * so),
+            );
             if nis <= self.cfg.gate[0] {
                 self.odo_passes += 1;
                 if self.odo_passes >= self.cfg.odo_recover_passes {
@@ -403,15 +374,7 @@ impl Filter {
         }
         if self.cfg.use_nhc {
             // Constraints alone, with the navigator's forward speed.
-            let vi = vb[1];
-            let hn = self.odometer_rows(vi);
-            let zn = [vb[0] + self.odo_yaw * vi, vb[2] - self.odo_pitch * vi];
-            let (o, dx) = self.cov.update(
-                &zn,
-                &[hn[0], hn[2]],
-                &[[sn * sn, 0.0], [0.0, sn * sn]],
-                self.cfg.gate[1],
-            );
+            let (o, dx) = self.constraints(&vb);
             if o.accepted {
                 self.feedback(&dx);
             }
@@ -429,23 +392,33 @@ impl Filter {
             return UpdateOutcome::SKIPPED;
         }
         self.flush();
-        let vb = scale(self.odo_vb, 1.0 / self.odo_t);
-        self.odo_vb = [0.0; 3];
+        let vb = self.odo_vb * (1.0 / self.odo_t);
+        self.odo_vb = V3::zeros();
         self.odo_t = 0.0;
-        let sn = self.cfg.nhc_noise_mps;
-        let vi = vb[1];
-        let hn = self.odometer_rows(vi);
-        let zn = [vb[0] + self.odo_yaw * vi, vb[2] - self.odo_pitch * vi];
-        let (o, dx) = self.cov.update(
-            &zn,
-            &[hn[0], hn[2]],
-            &[[sn * sn, 0.0], [0.0, sn * sn]],
-            self.cfg.gate[1],
-        );
+        let (o, dx) = self.constraints(&vb);
         if o.accepted {
             self.feedback(&dx);
         }
         o
+    }
+
+    /// The non-holonomic constraints (lateral and vertical body velocity,
+    /// less the odometer misalignment's share) for the mean body velocity
+    /// `vb`, with the navigator's forward speed in H.
+    fn constraints(&mut self, vb: &V3) -> (UpdateOutcome, StateVec) {
+        let sn = self.cfg.nhc_noise_mps;
+        let vi = vb[1];
+        let hn = self.odometer_rows(vi);
+        let zn = Vector2::new(vb[0] + self.odo_yaw * vi, vb[2] - self.odo_pitch * vi);
+        let mut h = Rows::<2>::zeros();
+        h.set_row(0, &hn.row(0));
+        h.set_row(1, &hn.row(2));
+        self.cov.update(
+            &zn,
+            &h,
+            &Matrix2::from_diagonal_element(sn * sn),
+            self.cfg.gate[1],
+        )
     }
 
     /// The navigator's position at time `t` (≤ now): moved back by v (now − t).
@@ -469,7 +442,7 @@ impl Filter {
         lat: f64,
         lon: f64,
         h: Option<f64>,
-        cov_en: [[f64; 2]; 2],
+        cov_en: Matrix2<f64>,
         var_up: f64,
     ) -> UpdateOutcome {
         self.flush();
@@ -477,28 +450,25 @@ impl Filter {
         let (la, lo, hh) = self.position_at(t);
         let ze = (lo - lon) * clrn;
         let zn = (la - lat) * rm;
-        let mut he = [0.0; N];
-        he[DP + 1] = clrn;
-        let mut hn = [0.0; N];
-        hn[DP] = rm;
         let (o, dx) = match h {
             Some(ht) => {
-                let mut hu = [0.0; N];
-                hu[DP + 2] = 1.0;
-                self.cov.update(
-                    &[ze, zn, hh - ht],
-                    &[he, hn, hu],
-                    &[
-                        [cov_en[0][0], cov_en[0][1], 0.0],
-                        [cov_en[1][0], cov_en[1][1], 0.0],
-                        [0.0, 0.0, var_up],
-                    ],
-                    self.cfg.gate[2],
-                )
+                let mut rows = Rows::<3>::zeros();
+                rows[(0, DP + 1)] = clrn;
+                rows[(1, DP)] = rm;
+                rows[(2, DP + 2)] = 1.0;
+                let mut r = Matrix3::zeros();
+                r.fixed_view_mut::<2, 2>(0, 0).copy_from(&cov_en);
+                r[(2, 2)] = var_up;
+                self.cov
+                    .update(&Vector3::new(ze, zn, hh - ht), &rows, &r, self.cfg.gate[2])
             }
-            None => self
-                .cov
-                .update(&[ze, zn], &[he, hn], &cov_en, self.cfg.gate[1]),
+            None => {
+                let mut rows = Rows::<2>::zeros();
+                rows[(0, DP + 1)] = clrn;
+                rows[(1, DP)] = rm;
+                self.cov
+                    .update(&Vector2::new(ze, zn), &rows, &cov_en, self.cfg.gate[1])
+            }
         };
         if o.accepted {
             self.feedback(&dx);
@@ -515,7 +485,7 @@ impl Filter {
         &mut self,
         t: f64,
         position: FixPosition,
-        cov_en: [[f64; 2]; 2],
+        cov_en: Matrix2<f64>,
     ) -> UpdateOutcome {
         let (lat, lon) = match position {
             FixPosition::Geodetic { lat, lon } => (lat, lon),
@@ -540,13 +510,13 @@ impl Filter {
     pub fn update_height(&mut self, t: f64, h: f64, var: f64) -> UpdateOutcome {
         self.flush();
         let (_, _, hh) = self.position_at(t);
-        let mut row = [0.0; N];
-        row[DP + 2] = 1.0;
-        row[BARO] = -1.0;
+        let mut row = Rows::<1>::zeros();
+        row[(0, DP + 2)] = 1.0;
+        row[(0, BARO)] = -1.0;
         let (o, dx) = self.cov.update(
-            &[hh + self.baro_bias - h],
-            &[row],
-            &[[var]],
+            &Vector1::new(hh + self.baro_bias - h),
+            &row,
+            &Matrix1::new(var),
             self.cfg.gate[0],
         );
         if o.accepted {
@@ -573,43 +543,34 @@ impl Filter {
         self.flush();
         let (rm, clrn) = self.m_per_rad();
         let (la, lo, _) = self.position_at(t);
-        let z = [
+        let z = Vector2::new(
             (lo - lon) * clrn + self.fix_rw[0],
             (la - lat) * rm + self.fix_rw[1],
-        ];
-        let mut he = [0.0; N];
-        he[DP + 1] = clrn;
-        he[RW] = -1.0;
-        let mut hn = [0.0; N];
-        hn[DP] = rm;
-        hn[RW + 1] = -1.0;
-        let h = [he, hn];
-        let r0 = [[var_white, 0.0], [0.0, var_white]];
+        );
+        let mut h = Rows::<2>::zeros();
+        h[(0, DP + 1)] = clrn;
+        h[(0, RW)] = -1.0;
+        h[(1, DP)] = rm;
+        h[(1, RW + 1)] = -1.0;
+        let r0 = Matrix2::from_diagonal_element(var_white);
         let r = match self.cfg.sage_husa_b {
             None => r0,
             Some(b) => {
                 let prev = self.sh_r.unwrap_or(r0);
                 let d = sage_husa_weight(b, self.sh_k);
-                // H P H^T
-                let zero = [[0.0; 2]; 2];
-                let hph = self.hph(&h, &zero);
-                let mut rn = [[0.0; 2]; 2];
-                for a in 0..2 {
-                    for c in 0..2 {
-                        rn[a][c] = (1.0 - d) * prev[a][c] + d * (z[a] * z[c] - hph[a][c]);
-                    }
-                }
+                let hph = h * self.cov.p * h.transpose();
+                let mut rn = prev * (1.0 - d) + (z * z.transpose() - hph) * d;
                 // Keep it positive definite: floor the variances at 1 % of the
                 // nominal, drop the correlation if it is not.
                 let floor = 0.01 * var_white;
                 for a in 0..2 {
-                    if rn[a][a] < floor {
-                        rn[a][a] = floor;
+                    if rn[(a, a)] < floor {
+                        rn[(a, a)] = floor;
                     }
                 }
-                if rn[0][1] * rn[0][1] >= 0.99 * rn[0][0] * rn[1][1] {
-                    rn[0][1] = 0.0;
-                    rn[1][0] = 0.0;
+                if rn[(0, 1)] * rn[(0, 1)] >= 0.99 * rn[(0, 0)] * rn[(1, 1)] {
+                    rn[(0, 1)] = 0.0;
+                    rn[(1, 0)] = 0.0;
                 }
                 self.sh_k += 1;
                 self.sh_r = Some(rn);
@@ -625,25 +586,6 @@ impl Filter {
         }
         o
     }
-
-    fn hph(&self, h: &[[f64; N]; 2], r: &[[f64; 2]; 2]) -> [[f64; 2]; 2] {
-        let mut s = *r;
-        for a in 0..2 {
-            for b in 0..2 {
-                let mut x = 0.0;
-                for i in 0..N {
-                    if h[a][i] == 0.0 {
-                        continue;
-                    }
-                    for j in 0..N {
-                        x += h[a][i] * self.cov.p[i][j] * h[b][j];
-                    }
-                }
-                s[a][b] += x;
-            }
-        }
-        s
-    }
 }
 
 /// The east/north covariance (m²) of a fix that is `sigma_along` (m) along a
@@ -651,13 +593,16 @@ impl Filter {
 /// `sigma_across` (m) across it: R = σ_a² f fᵀ + σ_c² r rᵀ with f the forward
 /// and r the right unit vectors. For map-matching fixes (tight across the
 /// road, loose along it) and tag fixes.
-pub fn along_across_covariance(heading: f64, sigma_along: f64, sigma_across: f64) -> [[f64; 2]; 2] {
+pub fn along_across_covariance(heading: f64, sigma_along: f64, sigma_across: f64) -> Matrix2<f64> {
     let (fe, fnn) = heading.sin_cos();
     let (a2, c2) = (sigma_along * sigma_along, sigma_across * sigma_across);
-    [
-        [a2 * fe * fe + c2 * fnn * fnn, (a2 - c2) * fe * fnn],
-        [(a2 - c2) * fe * fnn, a2 * fnn * fnn + c2 * fe * fe],
-    ]
+    let cross = (a2 - c2) * fe * fnn;
+    Matrix2::new(
+        a2 * fe * fe + c2 * fnn * fnn,
+        cross,
+        cross,
+        a2 * fnn * fnn + c2 * fe * fe,
+    )
 }
 
 /// The Sage–Husa fading weight d_k = (1 − b)/(1 − b^(k+1)) of the k-th

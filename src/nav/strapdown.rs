@@ -6,10 +6,11 @@
 //! at the mid-point of each step, extrapolated from the previous step's
 //! acceleration (as PSINS `insupdate` does).
 //!
-//! The loop allocates nothing and works on fixed arrays; see
+//! The loop allocates nothing and works on `nalgebra` static vectors and unit
+//! quaternions; see
 //! `benches/nav.rs` for its throughput.
 
-use crate::attitude::{add, cross, scale, sub, Quat, V3};
+use crate::attitude::{Quat, QuatExt, V3};
 use crate::geodesy::EarthState;
 
 /// IMU output over one sampling interval: angle increment ∫ω dt (rad) and
@@ -41,19 +42,16 @@ pub struct NavState {
 /// increments: φ = Δθ_k + (1/12) Δθ_{k−1} × Δθ_k (two-sample coning).
 #[inline(always)]
 pub(crate) fn coning(prev: V3, cur: V3) -> V3 {
-    add(cur, scale(cross(prev, cur), 1.0 / 12.0))
+    cur + prev.cross(&cur) * (1.0 / 12.0)
 }
 
 /// The body-frame velocity increment with rotation and two-sample sculling
 /// corrections: Δv + ½ Δθ × Δv + (1/12)(Δθ_{k−1} × Δv + Δv_{k−1} × Δθ).
 #[inline(always)]
 pub(crate) fn sculling(prev: &ImuIncrement, cur: &ImuIncrement) -> V3 {
-    let rot = scale(cross(cur.dtheta, cur.dv), 0.5);
-    let scul = scale(
-        add(cross(prev.dtheta, cur.dv), cross(prev.dv, cur.dtheta)),
-        1.0 / 12.0,
-    );
-    add(add(cur.dv, rot), scul)
+    let rot = cur.dtheta.cross(&cur.dv) * 0.5;
+    let scul = (prev.dtheta.cross(&cur.dv) + prev.dv.cross(&cur.dtheta)) * (1.0 / 12.0);
+    cur.dv + rot + scul
 }
 
 /// The Earth state at the mid-point of the coming step, extrapolated from the
@@ -68,9 +66,9 @@ pub(crate) fn mid_step_earth(
     dt: f64,
 ) -> EarthState {
     let half = 0.5 * dt;
-    let v_mid = add(s.v, scale(acc_n, half));
-    let pr = prev_eth.position_rate(v_mid);
-    EarthState::new(s.lat + pr[0] * half, s.h + pr[2] * half, v_mid)
+    let v_mid = s.v + acc_n * half;
+    let pr = prev_eth.position_rate(v_mid.into());
+    EarthState::new(s.lat + pr[0] * half, s.h + pr[2] * half, v_mid.into())
 }
 
 /// Integrates geodetic position over one step from the velocities at its two
@@ -88,8 +86,8 @@ impl PositionIntegrator {
     /// Starts at state `s`.
     pub fn new(s: &NavState) -> Self {
         Self {
-            acc_n: [0.0; 3],
-            eth: EarthState::new(s.lat, s.h, s.v),
+            acc_n: V3::zeros(),
+            eth: EarthState::new(s.lat, s.h, s.v.into()),
         }
     }
 
@@ -97,8 +95,8 @@ impl PositionIntegrator {
     #[inline]
     pub fn advance(&mut self, s0: &NavState, v1: V3, dt: f64) -> (f64, f64, f64) {
         let eth = mid_step_earth(s0, self.acc_n, &self.eth, dt);
-        let pr = eth.position_rate(scale(add(s0.v, v1), 0.5));
-        self.acc_n = scale(sub(v1, s0.v), 1.0 / dt);
+        let pr = eth.position_rate(((s0.v + v1) * 0.5).into());
+        self.acc_n = (v1 - s0.v) * (1.0 / dt);
         self.eth = eth;
         (s0.lat + pr[0] * dt, s0.lon + pr[1] * dt, s0.h + pr[2] * dt)
     }
@@ -120,11 +118,11 @@ impl Strapdown {
     /// A navigator starting from `state`, with IMU sampling interval `dt` (s).
     pub fn new(state: NavState, dt: f64) -> Self {
         Self {
-            eth: EarthState::new(state.lat, state.h, state.v),
+            eth: EarthState::new(state.lat, state.h, state.v.into()),
             state,
             dt,
             prev: ImuIncrement::default(),
-            acc_n: [0.0; 3],
+            acc_n: V3::zeros(),
         }
     }
 
@@ -142,7 +140,7 @@ impl Strapdown {
     /// e.g. when another sensor resets it.
     pub fn reset_velocity(&mut self, v: V3) {
         self.state.v = v;
-        self.acc_n = [0.0; 3];
+        self.acc_n = V3::zeros();
     }
 
     /// One mechanization step with the increments of one IMU sample.
@@ -151,24 +149,22 @@ impl Strapdown {
         let dt = self.dt;
         let s = &mut self.state;
         let eth = mid_step_earth(s, self.acc_n, &self.eth, dt);
-        let wdt = scale(eth.w_in, dt);
+        let wdt = V3::from(eth.w_in) * dt;
         // Velocity: specific force rotated into n (at the start attitude, with the
         // half-step rotation of the n frame), plus gravity less Coriolis.
-        let dvn0 = s.q.rotate(sculling(&self.prev, inc));
-        let dvn = sub(dvn0, scale(cross(wdt, dvn0), 0.5));
-        let v_new = add(add(s.v, dvn), scale(eth.g_cc, dt));
-        self.acc_n = scale(sub(v_new, s.v), 1.0 / dt);
+        let dvn0 = s.q * sculling(&self.prev, inc);
+        let dvn = dvn0 - wdt.cross(&dvn0) * 0.5;
+        let v_new = s.v + dvn + V3::from(eth.g_cc) * dt;
+        self.acc_n = (v_new - s.v) * (1.0 / dt);
         // Position: trapezoid rule with the mid-step radii.
-        let pr = eth.position_rate(scale(add(s.v, v_new), 0.5));
+        let pr = eth.position_rate(((s.v + v_new) * 0.5).into());
         s.lat += pr[0] * dt;
         s.lon += pr[1] * dt;
         s.h += pr[2] * dt;
         s.v = v_new;
         // Attitude: body rotation φ, then the navigation frame's rotation ω_in dt.
         let phi = coning(self.prev.dtheta, inc.dtheta);
-        s.q = Quat::from_rotvec(scale(wdt, -1.0))
-            .mul(&s.q.mul(&Quat::from_rotvec(phi)))
-            .normalized();
+        s.q = (Quat::from_rotvec(-wdt) * (s.q * Quat::from_rotvec(phi))).normalized();
         self.eth = eth;
         self.prev = *inc;
     }
@@ -194,7 +190,7 @@ impl InverseStrapdown {
             dt,
             last: None,
             prev: ImuIncrement::default(),
-            acc_n: [0.0; 3],
+            acc_n: V3::zeros(),
             eth: EarthState::default(),
         }
     }
@@ -203,36 +199,36 @@ impl InverseStrapdown {
     /// ends at it (None for the first state).
     pub fn push(&mut self, s1: &NavState) -> Option<ImuIncrement> {
         let Some(s0) = self.last.replace(*s1) else {
-            self.eth = EarthState::new(s1.lat, s1.h, s1.v);
+            self.eth = EarthState::new(s1.lat, s1.h, s1.v.into());
             return None;
         };
         let dt = self.dt;
         let eth = mid_step_earth(&s0, self.acc_n, &self.eth, dt);
-        let wdt = scale(eth.w_in, dt);
+        let wdt = V3::from(eth.w_in) * dt;
         // Attitude: q1 = q(−ω_in dt) q0 q(φ)  ⇒  q(φ) = q0* q(ω_in dt) q1.
-        let qphi = s0.q.conj().mul(&Quat::from_rotvec(wdt)).mul(&s1.q);
+        let qphi = s0.q.conjugate() * Quat::from_rotvec(wdt) * s1.q;
         let phi = qphi.to_rotvec();
         // Solve Δθ + (1/12) Δθ_prev × Δθ = φ (contraction: |Δθ_prev|/12 ≪ 1).
         let mut dtheta = phi;
         for _ in 0..4 {
-            dtheta = sub(phi, scale(cross(self.prev.dtheta, dtheta), 1.0 / 12.0));
+            dtheta = phi - self.prev.dtheta.cross(&dtheta) * (1.0 / 12.0);
         }
         // Velocity: Δv^n = v1 − v0 − g_cc dt = (I − ½[ω_in dt ×]) C Δv_sf^b.
-        let dvn = sub(sub(s1.v, s0.v), scale(eth.g_cc, dt));
+        let dvn = s1.v - s0.v - V3::from(eth.g_cc) * dt;
         let mut dvn0 = dvn;
         for _ in 0..3 {
-            dvn0 = add(dvn, scale(cross(wdt, dvn0), 0.5));
+            dvn0 = dvn + wdt.cross(&dvn0) * 0.5;
         }
-        let dvb = s0.q.rotate_inv(dvn0);
+        let dvb = s0.q.inverse_transform_vector(&dvn0);
         // Solve Δv + ½Δθ×Δv + (1/12)(Δθ_prev×Δv + Δv_prev×Δθ) = Δv_sf^b.
-        let known = sub(dvb, scale(cross(self.prev.dv, dtheta), 1.0 / 12.0));
-        let a = add(scale(dtheta, 0.5), scale(self.prev.dtheta, 1.0 / 12.0));
+        let known = dvb - self.prev.dv.cross(&dtheta) * (1.0 / 12.0);
+        let a = dtheta * 0.5 + self.prev.dtheta * (1.0 / 12.0);
         let mut dv = known;
         for _ in 0..5 {
-            dv = sub(known, cross(a, dv));
+            dv = known - a.cross(&dv);
         }
         let inc = ImuIncrement { dtheta, dv };
-        self.acc_n = scale(sub(s1.v, s0.v), 1.0 / dt);
+        self.acc_n = (s1.v - s0.v) * (1.0 / dt);
         self.eth = eth;
         self.prev = inc;
         Some(inc)

@@ -3,17 +3,18 @@
 //! to ideal increments in the IMU frame.
 
 use super::rng::{normal, GaussMarkov};
-use crate::attitude::V3;
+use crate::attitude::{M3, V3};
 use crate::nav::ImuIncrement;
 use rand_chacha::ChaCha8Rng;
 
 /// The error parameters of a gyro and accelerometer triad, in SI units.
+/// Per-axis parameters are plain arrays (x, y, z), as a scenario states them.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ImuModel {
     /// Constant gyro bias per axis (rad/s).
-    pub gyro_bias: V3,
+    pub gyro_bias: [f64; 3],
     /// Constant accelerometer bias per axis (m/s²).
-    pub accel_bias: V3,
+    pub accel_bias: [f64; 3],
     /// Gyro bias instability: Gauss–Markov standard deviation (rad/s).
     pub gyro_bias_instability: f64,
     /// Gyro bias correlation time (s).
@@ -27,9 +28,9 @@ pub struct ImuModel {
     /// Velocity random walk (m/s/√s).
     pub accel_vrw: f64,
     /// Gyro scale-factor errors per axis (ratio).
-    pub gyro_scale_factor: V3,
+    pub gyro_scale_factor: [f64; 3],
     /// Accelerometer scale-factor errors per axis (ratio).
-    pub accel_scale_factor: V3,
+    pub accel_scale_factor: [f64; 3],
     /// Gyro misalignment, the off-diagonal terms xy, xz, yx, yz, zx, zy (rad).
     pub gyro_misalignment: [f64; 6],
     /// Accelerometer misalignment, as for the gyros (rad).
@@ -37,20 +38,22 @@ pub struct ImuModel {
 }
 
 /// Error matrix I + diag(s) + M with M from the six off-diagonal terms.
-fn error_matrix(s: V3, m: [f64; 6]) -> [[f64; 3]; 3] {
-    [
-        [1.0 + s[0], m[0], m[1]],
-        [m[2], 1.0 + s[1], m[3]],
-        [m[4], m[5], 1.0 + s[2]],
-    ]
+fn error_matrix(s: [f64; 3], m: [f64; 6]) -> M3 {
+    #[rustfmt::skip]
+    let e = M3::new(
+        1.0 + s[0], m[0], m[1],
+        m[2], 1.0 + s[1], m[3],
+        m[4], m[5], 1.0 + s[2],
+    );
+    e
 }
 
 /// A simulated IMU.
 #[derive(Debug, Clone)]
 pub struct Imu {
     dt: f64,
-    gyro_m: [[f64; 3]; 3],
-    accel_m: [[f64; 3]; 3],
+    gyro_m: M3,
+    accel_m: M3,
     gyro_bias_dt: V3,
     accel_bias_dt: V3,
     arw: f64,
@@ -80,8 +83,8 @@ impl Imu {
             dt,
             gyro_m: error_matrix(model.gyro_scale_factor, model.gyro_misalignment),
             accel_m: error_matrix(model.accel_scale_factor, model.accel_misalignment),
-            gyro_bias_dt: crate::attitude::scale(model.gyro_bias, dt),
-            accel_bias_dt: crate::attitude::scale(model.accel_bias, dt),
+            gyro_bias_dt: V3::from(model.gyro_bias) * dt,
+            accel_bias_dt: V3::from(model.accel_bias) * dt,
             arw: model.gyro_arw * dt.sqrt(),
             vrw: model.accel_vrw * dt.sqrt(),
             gyro_gm,
@@ -93,19 +96,19 @@ impl Imu {
     /// The measured increments for ideal increments `ideal`.
     #[inline]
     pub fn measure(&mut self, ideal: &ImuIncrement) -> ImuIncrement {
-        let mut dtheta = crate::attitude::mat_vec(&self.gyro_m, ideal.dtheta);
-        let mut dv = crate::attitude::mat_vec(&self.accel_m, ideal.dv);
+        let mut dtheta = self.gyro_m * ideal.dtheta;
+        let mut dv = self.accel_m * ideal.dv;
         for i in 0..3 {
             dtheta[i] += self.gyro_bias_dt[i] + self.gyro_gm[i].step(&mut self.rng) * self.dt;
             dv[i] += self.accel_bias_dt[i] + self.accel_gm[i].step(&mut self.rng) * self.dt;
         }
         if self.arw > 0.0 {
-            for d in &mut dtheta {
+            for d in dtheta.iter_mut() {
                 *d += self.arw * normal(&mut self.rng);
             }
         }
         if self.vrw > 0.0 {
-            for d in &mut dv {
+            for d in dv.iter_mut() {
                 *d += self.vrw * normal(&mut self.rng);
             }
         }
@@ -129,8 +132,8 @@ mod tests {
         };
         let mut imu = Imu::new(&model, 0.01, stream(1, 0, 1));
         let m = imu.measure(&ImuIncrement {
-            dtheta: [0.0, 0.0, 0.1],
-            dv: [0.0, 0.098, 0.0],
+            dtheta: V3::new(0.0, 0.0, 0.1),
+            dv: V3::new(0.0, 0.098, 0.0),
         });
         assert!((m.dtheta[0] - 1e-7).abs() < 1e-20);
         assert!((m.dtheta[2] - 0.1001).abs() < 1e-15);

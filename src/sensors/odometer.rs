@@ -4,7 +4,7 @@
 //! track width apart) for gyro-free 3-D dead reckoning (PAPERS.md §2).
 
 use super::rng::normal;
-use crate::attitude::{add, dot, norm, sub, V3};
+use crate::attitude::V3;
 use crate::nav::NavState;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -144,13 +144,19 @@ pub struct DiffOdometerModel {
 pub fn wheel_distances(s0: &NavState, s1: &NavState, track_width_m: f64) -> (f64, f64) {
     let d = crate::trajectory::local_displacement(s0, s1);
     let half = 0.5 * track_width_m;
-    let r0 = s0.q.rotate([half, 0.0, 0.0]);
-    let r1 = s1.q.rotate([half, 0.0, 0.0]);
-    let dr = sub(r1, r0);
-    let right: V3 = add(d, dr);
-    let left: V3 = sub(d, dr);
-    let fwd = s1.q.rotate([0.0, 1.0, 0.0]);
-    let sgn = |x: V3| if dot(x, fwd) < 0.0 { -norm(x) } else { norm(x) };
+    let r0 = s0.q * V3::new(half, 0.0, 0.0);
+    let r1 = s1.q * V3::new(half, 0.0, 0.0);
+    let dr = r1 - r0;
+    let right = d + dr;
+    let left = d - dr;
+    let fwd = s1.q * V3::y();
+    let sgn = |x: V3| {
+        if x.dot(&fwd) < 0.0 {
+            -x.norm()
+        } else {
+            x.norm()
+        }
+    };
     (sgn(left), sgn(right))
 }
 

@@ -3,7 +3,7 @@
 //! rotate in the navigation frame and average out over each revolution
 //! (PAPERS.md §3.1). The navigator knows the rotation angle (an encoder).
 
-use crate::attitude::Quat;
+use crate::attitude::{quat, Quat};
 
 /// A constant-rate rotation of the IMU about body z.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,18 +17,18 @@ impl RotationModulation {
     #[inline]
     pub fn body_from_imu(&self, t: f64) -> Quat {
         let (s, c) = (0.5 * self.rate * t).sin_cos();
-        Quat([c, 0.0, 0.0, s])
+        quat(c, 0.0, 0.0, s)
     }
 
     /// The IMU-frame attitude q_s^n = q_b^n q_s^b for body attitude `q_nb`.
     #[inline]
     pub fn imu_attitude(&self, q_nb: &Quat, t: f64) -> Quat {
-        q_nb.mul(&self.body_from_imu(t))
+        q_nb * self.body_from_imu(t)
     }
 
     /// The body attitude q_b^n = q_s^n (q_s^b)* from the IMU-frame attitude.
     #[inline]
     pub fn body_attitude(&self, q_ns: &Quat, t: f64) -> Quat {
-        q_ns.mul(&self.body_from_imu(t).conj())
+        q_ns * self.body_from_imu(t).conjugate()
     }
 }

@@ -4,7 +4,7 @@
 
 use super::records::RunResult;
 use super::truth::{body_q, initial_estimate, start_run, TruthSource};
-use crate::attitude::{scale, V3};
+use crate::attitude::{QuatExt, V3};
 use crate::nav::{BaroDamping, Dr3d, OdometerDr, Strapdown};
 use crate::scenario::{NavMode, Scenario, VerticalChannel};
 use crate::sensors::odometer::wheel_distances;
@@ -62,7 +62,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
             let mut last_distance = first.avp.distance_m;
             let mut q_prev = est_body_q0;
             let mut failed = false;
-            let mut last_vel: V3 = [0.0; 3];
+            let mut last_vel = V3::zeros();
             for s in samples {
                 k += 1;
                 ins_step(&mut ins, &s);
@@ -73,7 +73,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
                     match odo.measure(s.avp.t, s.avp.distance_m, d_true, dt) {
                         Some(ds) => {
                             let d = dr.step(&q_prev, &q_now, ds);
-                            last_vel = scale(d, 1.0 / dt);
+                            last_vel = d * (1.0 / dt);
                         }
                         None => {
                             // Odometer failed: continue inertially from the dead-

@@ -6,6 +6,7 @@ use super::passes::{draw_reads, find_passes, TagPass};
 use super::records::{PassRecord, RunResult, TagEvent};
 use super::tags::Tag;
 use super::truth::{initial_estimate, start_run, TruthSource};
+use crate::attitude::QuatExt;
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
 use crate::nav::{Filter, FilterConfig, MeasurementQueue};
@@ -240,9 +241,7 @@ pub fn run_integrated(
             sl * normal(&mut init),
             sh * normal(&mut init),
         ];
-        est0.q = crate::attitude::Quat::from_rotvec(phi)
-            .mul(&est0.q)
-            .normalized();
+        est0.q = (crate::attitude::Quat::from_rotvec(phi.into()) * est0.q).normalized();
         let sv = n.initial_velocity_sigma_mps;
         for k in 0..3 {
             est0.v[k] += sv * normal(&mut init);

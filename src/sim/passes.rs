@@ -83,7 +83,7 @@ pub fn find_passes(
     for avp in truth.samples().take_while(|a| a.t <= cap_s).step_by(10) {
         k += 1;
         let s = &avp.state;
-        let f = s.q.rotate([0.0, 1.0, 0.0]);
+        let f = s.q.transform_vector(&[0.0, 1.0, 0.0].into());
         let fh = f[0].hypot(f[1]);
         if fh < 1e-6 {
             t_prev = avp.t;

@@ -2,7 +2,6 @@
 //! interval, tag reads and passes, one run's result, and the recorder that
 //! keeps a row every output interval.
 
-use crate::attitude::V3;
 use crate::geodesy::radii;
 use crate::nav::NavState;
 use crate::trajectory::Avp;
@@ -86,7 +85,7 @@ pub struct RunResult {
 
 /// Estimate minus truth in local metres (east, north, up).
 #[inline]
-fn error_enu(lat: f64, lon: f64, h: f64, truth: &NavState) -> V3 {
+fn error_enu(lat: f64, lon: f64, h: f64, truth: &NavState) -> [f64; 3] {
     let (rm, rn) = radii(truth.lat);
     [
         (lon - truth.lon) * (rn + truth.h) * truth.lat.cos(),

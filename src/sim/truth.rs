@@ -4,7 +4,7 @@
 //! navigator's initial estimate.
 
 use super::records::Recorder;
-use crate::attitude::Quat;
+use crate::attitude::{Quat, QuatExt};
 use crate::error::Result;
 use crate::geodesy::radii;
 use crate::nav::NavState;
@@ -162,7 +162,8 @@ pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavStat
             truth_body.v[0] + dv[0],
             truth_body.v[1] + dv[1],
             truth_body.v[2] + dv[2],
-        ],
+        ]
+        .into(),
         lat: truth_body.lat + pn / (rm + truth_body.h),
         lon: truth_body.lon + pe / ((rn + truth_body.h) * truth_body.lat.cos()),
         h: truth_body.h + pu,

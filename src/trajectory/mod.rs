@@ -72,17 +72,17 @@ pub fn local_displacement(a: &NavState, b: &NavState) -> V3 {
     let lat = 0.5 * (a.lat + b.lat);
     let h = 0.5 * (a.h + b.h);
     let (rm, rn) = crate::geodesy::radii(lat);
-    [
+    V3::new(
         (b.lon - a.lon) * (rn + h) * lat.cos(),
         (b.lat - a.lat) * (rm + h),
         b.h - a.h,
-    ]
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::attitude::{norm, Quat};
+    use crate::attitude::{Quat, QuatExt};
     use crate::geodesy::{normal_gravity, EARTH_RATE};
     use crate::nav::Strapdown;
 
@@ -126,8 +126,12 @@ mod tests {
             MotionPlan::new(start(30.0, 0.0), &[Motion::Stay { duration_s: 10.0 }], dt).unwrap();
         let q = Quat::from_heading_pitch_roll(30f64.to_radians(), 0.0, 0.0);
         let lat = 30f64.to_radians();
-        let w = q.rotate_inv([0.0, EARTH_RATE * lat.cos(), EARTH_RATE * lat.sin()]);
-        let f = q.rotate_inv([0.0, 0.0, normal_gravity(lat, 50.0)]);
+        let w = q.inverse_transform_vector(&V3::new(
+            0.0,
+            EARTH_RATE * lat.cos(),
+            EARTH_RATE * lat.sin(),
+        ));
+        let f = q.inverse_transform_vector(&V3::new(0.0, 0.0, normal_gravity(lat, 50.0)));
         for s in ideal_imu(plan.trajectory(), dt).skip(1) {
             for i in 0..3 {
                 // 1e-15 rad per 10 ms sample is 1e-13 rad/s, 1e-9 of the Earth rate.
@@ -153,17 +157,13 @@ mod tests {
         )
         .unwrap();
         for s in ideal_imu(plan.trajectory(), dt).skip(2) {
-            let f = scale_v(s.imu.dv, 1.0 / dt);
-            let w = scale_v(s.imu.dtheta, 1.0 / dt);
+            let f = s.imu.dv / dt;
+            let w = s.imu.dtheta / dt;
             // Turning right: centripetal force to the right (+x).
             assert!((f[0] - 2.0).abs() < 2e-3, "lateral {f:?}");
             assert!(f[1].abs() < 2e-3, "longitudinal {f:?}");
             assert!((w[2] + 0.2).abs() < 1e-4, "yaw rate {w:?}");
         }
-    }
-
-    fn scale_v(a: [f64; 3], s: f64) -> [f64; 3] {
-        [a[0] * s, a[1] * s, a[2] * s]
     }
 
     #[test]
@@ -212,7 +212,7 @@ mod tests {
         eprintln!("moving replay: max horizontal {h:.3e} m, vertical {v:.3e} m");
         assert!(h < 0.5 && v < 0.5, "horizontal {h} m, vertical {v} m");
         let last = plan.trajectory().last().unwrap();
-        assert!(norm(last.state.v) > 9.99);
+        assert!(last.state.v.norm() > 9.99);
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! local north, so a constant heading is a rhumb line.
 
 use super::Avp;
-use crate::attitude::Quat;
+use crate::attitude::{Quat, QuatExt, V3};
 use crate::error::{Error, Result};
 use crate::nav::strapdown::{NavState, PositionIntegrator};
 
@@ -398,10 +398,10 @@ fn state_of(s: &Start, v: f64, heading: f64, pitch: f64) -> NavState {
 }
 
 #[inline]
-fn velocity(v: f64, heading: f64, pitch: f64) -> [f64; 3] {
+fn velocity(v: f64, heading: f64, pitch: f64) -> V3 {
     let (sh, ch) = heading.sin_cos();
     let (sp, cp) = pitch.sin_cos();
-    [v * cp * sh, v * cp * ch, v * sp]
+    V3::new(v * cp * sh, v * cp * ch, v * sp)
 }
 
 /// The truth samples of a [`MotionPlan`].
@@ -460,7 +460,7 @@ impl Iterator for MotionTrajectory {
         let v1 = velocity(v, heading, pitch);
         let s0 = self.state;
         let (lat, lon, h) = self.integ.advance(&s0, v1, self.dt);
-        let speed0 = crate::attitude::norm(s0.v);
+        let speed0 = s0.v.norm();
         self.distance += 0.5 * (speed0 + v) * self.dt;
         self.state = NavState {
             q: Quat::from_heading_pitch_roll(heading, pitch, self.roll),

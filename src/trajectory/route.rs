@@ -22,7 +22,7 @@
 //!    (relative 1e-6 of the distance from the map's origin).
 
 use super::Avp;
-use crate::attitude::{wrap_pi, Quat};
+use crate::attitude::{wrap_pi, Quat, QuatExt, V3};
 use crate::error::{Error, Result};
 use crate::geodesy::{radii, EnuFrame};
 use crate::nav::strapdown::{NavState, PositionIntegrator};
@@ -469,7 +469,7 @@ impl RoutePlan {
         let heading = psi + self.conv[0];
         let state = NavState {
             q: Quat::from_heading_pitch_roll(heading, 0.0, 0.0),
-            v: [0.0; 3],
+            v: V3::zeros(),
             lat: g.lat,
             lon: g.lon,
             h: self.height_m,
@@ -542,7 +542,7 @@ impl Iterator for RouteTrajectory<'_> {
         let f = ci - i0 as f64;
         let heading = psi + p.conv[i0] * (1.0 - f) + p.conv[i1] * f;
         let (sh, ch) = heading.sin_cos();
-        let v1 = [v * sh, v * ch, 0.0];
+        let v1 = V3::new(v * sh, v * ch, 0.0);
         let s0 = self.state;
         let (lat, lon, h) = self.integ.advance(&s0, v1, p.dt);
         self.distance += s - self.last_s;
