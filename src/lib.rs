@@ -23,6 +23,7 @@ pub mod sim;
 pub mod tags;
 pub mod trajectory;
 pub mod units;
+pub mod workflow;
 
 pub use error::{Error, Result};
 pub use network::{LoadOptions, Network};

@@ -1,11 +1,13 @@
 //! The `waymark` command line: a thin layer over the library.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
-use waymark::network::{LoadOptions, Network, DEFAULT_NODE_TOLERANCE_M};
+use waymark::network::{LoadOptions, DEFAULT_NODE_TOLERANCE_M};
+use waymark::workflow::{
+    self, MatchJob, PlanFiles, PlanJob, PlanOutcome, Progress, SimulateJob, SimulateOutcome,
+};
 
 /// Plans RFID tag infrastructure for vehicles navigating without satellite
 /// positioning, and evaluates their position accuracy along routes.
@@ -286,10 +288,16 @@ fn run(cli: Cli) -> Result<()> {
             seed,
             out: dir,
             json,
-        } => (
-            json,
-            simulate(&scenario, tags.as_deref(), runs, seed, &dir, out(json))?,
-        ),
+        } => {
+            let job = SimulateJob {
+                scenario: &scenario,
+                tags: tags.as_deref(),
+                runs,
+                seed,
+                out_dir: &dir,
+            };
+            (json, simulate(&job, out(json))?)
+        }
         Command::Report { dir, json } => (json, report(&dir, out(json))?),
         Command::Plan {
             scenario,
@@ -298,10 +306,16 @@ fn run(cli: Cli) -> Result<()> {
             seed,
             baseline,
             json,
-        } => (
-            json,
-            plan(&scenario, &dir, runs, seed, baseline, out(json))?,
-        ),
+        } => {
+            let job = PlanJob {
+                scenario: &scenario,
+                out_dir: &dir,
+                runs,
+                seed,
+                baseline,
+            };
+            (json, plan(&job, out(json))?)
+        }
         Command::Match {
             map,
             track,
@@ -309,10 +323,19 @@ fn run(cli: Cli) -> Result<()> {
             method,
             truth,
             json,
-        } => (
-            json,
-            match_track(&map, &track, &file, method, truth.as_deref(), out(json))?,
-        ),
+        } => {
+            let job = MatchJob {
+                map: &map,
+                track: &track,
+                out_file: &file,
+                method: match method {
+                    MatchMethod::Incremental => workflow::MatchMethod::Incremental,
+                    MatchMethod::Hmm => workflow::MatchMethod::Hmm,
+                },
+                truth: truth.as_deref(),
+            };
+            (json, match_track(&job, out(json))?)
+        }
         Command::Network(NetworkCommand::Inspect {
             map,
             json,
@@ -342,345 +365,198 @@ fn run(cli: Cli) -> Result<()> {
     Ok(())
 }
 
-fn plan(
-    scenario: &Path,
-    out_dir: &Path,
-    runs: Option<u64>,
-    seed: Option<u64>,
-    baseline: bool,
+/// The bar and notes of a job, on stderr (see [`Out`]).
+struct Shown {
     out: Out,
-) -> Result<serde_json::Value> {
-    use waymark::planner;
-    let t0 = Instant::now();
-    let scn = waymark::sim::Scenario::load(scenario)?;
-    let seed = seed.unwrap_or(scn.seed());
-    let mut settings = planner::PlannerSettings::from_scenario(&scn)?;
-    if let Some(r) = runs {
-        settings.validation_runs = r;
-    }
-    if settings.coverage == planner::Coverage::Network {
-        return write_network_plan(&scn, &settings, out_dir, seed, baseline, out);
-    }
-    let truth = waymark::sim::TruthSource::new(&scn)?;
-    note!(
-        out,
-        "waymark plan: {}: covariance analysis along the route, then placement",
-        scn.name()
-    );
-    let bar = out.bar(
-        0,
-        "{bar:40} {pos}/{len} candidate sites, {elapsed} (eta {eta})",
-    );
-    let tick = |done: usize, total: usize| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    };
-    let mut p = planner::plan_with_progress(&scn, &truth, &settings, seed, false, Some(&tick))?;
-    bar.finish_and_clear();
-    let t_plan = t0.elapsed().as_secs_f64();
-    if settings.validation_runs > 0 {
-        note!(
+    bar: std::sync::Mutex<Option<indicatif::ProgressBar>>,
+}
+
+impl Shown {
+    fn new(out: Out) -> Self {
+        Shown {
             out,
-            "waymark plan: validating {} tag(s) by {} Monte Carlo run(s)",
-            p.tag_count(),
-            settings.validation_runs
-        );
-        p.validation = Some(planner::validate_plan(
-            &scn,
-            &truth,
-            &p,
-            settings.validation_runs,
-            seed,
-        )?);
-    }
-    if baseline {
-        note!(out, "waymark plan: searching the uniform-spacing baseline");
-        p.uniform_baseline = planner::uniform_baseline(
-            &scn,
-            &truth,
-            &settings,
-            settings.validation_runs.max(1),
-            seed,
-            0.99,
-        )?;
-    }
-    let (recs, meta) = p.export(&scn)?;
-    std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
-    use waymark::export::{
-        plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml, write_atomic,
-    };
-    write_atomic(&out_dir.join("tags.csv"), tags_csv(&recs, &meta).as_bytes())?;
-    write_atomic(
-        &out_dir.join("tags.geojson"),
-        tags_geojson(&recs, &meta).as_bytes(),
-    )?;
-    write_atomic(&out_dir.join("tags.kml"), tags_kml(&recs, &meta).as_bytes())?;
-    write_atomic(&out_dir.join("tags.gpx"), tags_gpx(&recs, &meta).as_bytes())?;
-    write_atomic(
-        &out_dir.join("profile.csv"),
-        plan_profile_csv(&p.profile_with_tags, &p.profile_without_tags).as_bytes(),
-    )?;
-    let mut json = serde_json::to_value(&p)?;
-    json["tag_count"] = serde_json::json!(p.tag_count());
-    json["existing_tags_kept"] = serde_json::json!(p.existing_count());
-    json["tags_by_mounting"] = serde_json::json!(p.by_mounting());
-    json["waymark_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
-    json["plan_time_s"] = serde_json::json!(t_plan);
-    write_atomic(
-        &out_dir.join("plan.json"),
-        serde_json::to_string_pretty(&json)?.as_bytes(),
-    )?;
-    // What `waymark report` needs to draw the map later.
-    keep_inputs(scenario, out_dir, Some(&out_dir.join("tags.csv")))?;
-    let by: Vec<String> = p
-        .by_mounting()
-        .iter()
-        .map(|(k, v)| format!("{v} {k}"))
-        .collect();
-    text!(
-        out,
-        "{}: {} new tag(s) ({}){} over {:.1} km, total cost {:.1}, max gap {:.0} m; requirement {} m with {} missed read(s) tolerated; predicted max 95 % bound {:.2} m (all read); lower bound {} new tag(s){}; method: {}",
-        p.scenario,
-        p.tag_count(),
-        if by.is_empty() { "none".to_string() } else { by.join(", ") },
-        if p.existing_count() > 0 {
-            format!(" + {} installed", p.existing_count())
-        } else {
-            String::new()
-        },
-        p.route_length_m / 1000.0,
-        p.total_cost,
-        p.max_gap_m,
-        p.requirement_m,
-        p.tolerate_missed_reads,
-        p.predicted_max_bound95_m,
-        p.lower_bound,
-        if p.optimal { " (plan proven minimal)" } else { "" },
-        p.method
-    );
-    if let Some(v) = &p.validation {
-        text!(
-            out,
-            "validation: {} run(s), seed {}: {:.2} % of distance within {} m; max horizontal error {:.2} m (run {}, t = {:.0} s, {:.0} m along the route)",
-            v.runs,
-            v.seed,
-            100.0 * v.fraction_within_requirement,
-            p.requirement_m,
-            v.max_horizontal_error_m,
-            v.worst_run,
-            v.worst_t_s,
-            v.worst_distance_m
-        );
-    }
-    if baseline {
-        match &p.uniform_baseline {
-            Some(b) => text!(
-                out,
-                "uniform baseline (same standard: covariance check with {} missed read(s) tolerated, then Monte Carlo): {} tag(s) every {:.0} m keep {:.2} % of distance within {} m ({} run(s)); plan uses {}{}",
-                b.tolerate_missed_reads,
-                b.tag_count,
-                b.spacing_m,
-                100.0 * b.validation.fraction_within_requirement,
-                p.requirement_m,
-                b.validation.runs,
-                p.tag_count(),
-                if b.tag_count > 0 {
-                    format!(
-                        " ({:+.0} %)",
-                        100.0 * (p.tag_count() as f64 - b.tag_count as f64) / b.tag_count as f64
-                    )
-                } else {
-                    String::new()
-                }
-            ),
-            None => text!(
-                out,
-                "uniform baseline: none passes, even at the candidate spacing"
-            ),
+            bar: std::sync::Mutex::new(None),
         }
     }
-    let elapsed = t0.elapsed().as_secs_f64();
+}
+
+impl Progress for Shown {
+    fn note(&self, message: &str) {
+        self.out.note(format_args!("{message}"));
+    }
+    fn start(&self, unit: &str, total: u64) {
+        let b = self.out.bar(
+            total,
+            &format!("{{bar:40}} {{pos}}/{{len}} {unit}, {{elapsed}} (eta {{eta}})"),
+        );
+        *self.bar.lock().unwrap_or_else(|e| e.into_inner()) = Some(b);
+    }
+    fn set(&self, done: u64, total: u64) {
+        if let Some(b) = &*self.bar.lock().unwrap_or_else(|e| e.into_inner()) {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    }
+    fn finish(&self) {
+        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            b.finish_and_clear();
+        }
+    }
+}
+
+fn plan(job: &PlanJob, out: Out) -> Result<serde_json::Value> {
+    let o = workflow::plan_folder(job, &Shown::new(out))?;
+    print_plan(&o, job.baseline, out);
+    Ok(serde_json::to_value(&o)?)
+}
+
+fn print_plan(o: &PlanOutcome, baseline: bool, out: Out) {
+    let by = |m: &std::collections::BTreeMap<String, usize>| -> String {
+        let v: Vec<String> = m.iter().map(|(k, v)| format!("{v} {k}")).collect();
+        if v.is_empty() {
+            "none".to_string()
+        } else {
+            v.join(", ")
+        }
+    };
+    match &o.plan {
+        PlanFiles::Route(f) => {
+            let p = &f.plan;
+            text!(
+                out,
+                "{}: {} new tag(s) ({}){} over {:.1} km, total cost {:.1}, max gap {:.0} m; requirement {} m with {} missed read(s) tolerated; predicted max 95 % bound {:.2} m (all read); lower bound {} new tag(s){}; method: {}",
+                p.scenario,
+                f.tag_count,
+                by(&f.tags_by_mounting),
+                if f.existing_tags_kept > 0 {
+                    format!(" + {} installed", f.existing_tags_kept)
+                } else {
+                    String::new()
+                },
+                p.route_length_m / 1000.0,
+                p.total_cost,
+                p.max_gap_m,
+                p.requirement_m,
+                p.tolerate_missed_reads,
+                p.predicted_max_bound95_m,
+                p.lower_bound,
+                if p.optimal { " (plan proven minimal)" } else { "" },
+                p.method
+            );
+            if let Some(v) = &p.validation {
+                text!(
+                    out,
+                    "validation: {} run(s), seed {}: {:.2} % of distance within {} m; max horizontal error {:.2} m (run {}, t = {:.0} s, {:.0} m along the route)",
+                    v.runs,
+                    v.seed,
+                    100.0 * v.fraction_within_requirement,
+                    p.requirement_m,
+                    v.max_horizontal_error_m,
+                    v.worst_run,
+                    v.worst_t_s,
+                    v.worst_distance_m
+                );
+            }
+            if baseline {
+                match &p.uniform_baseline {
+                    Some(b) => text!(
+                        out,
+                        "uniform baseline (same standard: covariance check with {} missed read(s) tolerated, then Monte Carlo): {} tag(s) every {:.0} m keep {:.2} % of distance within {} m ({} run(s)); plan uses {}{}",
+                        b.tolerate_missed_reads,
+                        b.tag_count,
+                        b.spacing_m,
+                        100.0 * b.validation.fraction_within_requirement,
+                        p.requirement_m,
+                        b.validation.runs,
+                        f.tag_count,
+                        if b.tag_count > 0 {
+                            format!(
+                                " ({:+.0} %)",
+                                100.0 * (f.tag_count as f64 - b.tag_count as f64)
+                                    / b.tag_count as f64
+                            )
+                        } else {
+                            String::new()
+                        }
+                    ),
+                    None => text!(
+                        out,
+                        "uniform baseline: none passes, even at the candidate spacing"
+                    ),
+                }
+            }
+        }
+        PlanFiles::Network(f) => {
+            let p = &f.plan;
+            text!(
+                out,
+                "{}: network coverage: {} new tag(s) ({}){} on {} directed road sections ({:.1} km, {} candidates), total cost {:.1}; \
+                 requirement {} m with {} missed read(s) tolerated; reach R = {:.0}–{:.0} m by speed class (slowest: steady {:.0} m, start {:.0} m); \
+                 method: {}; lower bound {} tag(s); verified: {}",
+                p.scenario,
+                f.tag_count,
+                by(&f.tags_by_mounting),
+                if p.existing_kept > 0 { format!(" + {} installed", p.existing_kept) } else { String::new() },
+                p.directed_edges,
+                p.directed_length_km,
+                p.candidates,
+                p.total_cost,
+                p.requirement_m,
+                p.tolerate_missed_reads,
+                p.reach_m,
+                p.budget_reference_m,
+                p.steady_reach_m,
+                p.start_reach_m,
+                p.method,
+                p.lower_bound,
+                if p.verified { "no walk exceeds the error budget with ≤ k tags" } else { "NO" },
+            );
+            if let Some(v) = &p.validation {
+                text!(
+                    out,
+                    "validation: {} run(s) on {} sampled path(s) ({:.1} km), seed {}: {:.2} % of distance within {} m; \
+                     max horizontal error {:.2} m (path {}, run {}, {:.0} m along it, at {:.6}, {:.6}{})",
+                    v.runs,
+                    v.paths,
+                    v.paths_length_km,
+                    v.seed,
+                    100.0 * v.fraction_within_requirement,
+                    p.requirement_m,
+                    v.max_horizontal_error_m,
+                    v.worst_path,
+                    v.worst_run,
+                    v.worst_distance_m,
+                    v.worst_lat,
+                    v.worst_lon,
+                    v.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default()
+                );
+            }
+        }
+    }
     text!(
         out,
-        "wrote {}/tags.csv, tags.geojson, tags.kml, tags.gpx, plan.json, profile.csv in {:.1} s",
-        out_dir.display(),
-        elapsed
+        "wrote {}/{} in {:.1} s",
+        o.out.display(),
+        o.files[..o.files.len().min(6)].join(", "),
+        o.elapsed_s
     );
-    json["out"] = serde_json::json!(out_dir.display().to_string());
-    json["files"] = serde_json::json!([
-        "tags.csv",
-        "tags.geojson",
-        "tags.kml",
-        "tags.gpx",
-        "plan.json",
-        "profile.csv",
-        "scenario.toml",
-        "inputs.json"
-    ]);
-    json["elapsed_s"] = serde_json::json!(elapsed);
+}
+
+fn simulate(job: &SimulateJob, out: Out) -> Result<serde_json::Value> {
+    let o = workflow::simulate_folder(job, &Shown::new(out))?;
+    print_simulation(&o, out);
+    let mut json = serde_json::to_value(&o.result.summary)?;
+    if let Some(obj) = json.as_object_mut() {
+        obj.remove("profile"); // long; in summary.json
+        obj.insert("out".into(), serde_json::json!(o.out.display().to_string()));
+        obj.insert("files".into(), serde_json::json!(o.files));
+        obj.insert("elapsed_s".into(), serde_json::json!(o.elapsed_s));
+    }
     Ok(json)
 }
 
-/// Keeps a copy of the scenario (`scenario.toml`) and where it and the tag
-/// file were (`inputs.json`) in an output folder, for `waymark report`.
-fn keep_inputs(scenario: &Path, out_dir: &Path, tags: Option<&Path>) -> Result<()> {
-    let text =
-        std::fs::read(scenario).with_context(|| format!("{}: cannot read", scenario.display()))?;
-    waymark::export::write_atomic(&out_dir.join("scenario.toml"), &text)?;
-    waymark::report::write_inputs(out_dir, scenario, tags)?;
-    Ok(())
-}
-
-/// `waymark plan` for `coverage = "network"`: plan, validate, write the files.
-fn write_network_plan(
-    scn: &waymark::sim::Scenario,
-    settings: &waymark::planner::PlannerSettings,
-    out_dir: &Path,
-    seed: u64,
-    baseline: bool,
-    out: Out,
-) -> Result<serde_json::Value> {
-    use waymark::export::{tags_csv, tags_geojson, tags_gpx, tags_kml, write_atomic};
-    use waymark::planner::network;
-    if baseline {
-        anyhow::bail!("--baseline compares with uniform spacing along a route; it does not apply to coverage = \"network\"");
-    }
-    let t0 = Instant::now();
-    note!(
-        out,
-        "waymark plan: {}: network coverage (reach from the filter, then placement on every directed road)",
-        scn.name()
-    );
-    let (net, mut p) = network::plan_network_loaded(scn, settings)?;
-    let t_plan = t0.elapsed().as_secs_f64();
-    if settings.validation_runs > 0 {
-        note!(
-            out,
-            "waymark plan: validating {} tag(s) by {} Monte Carlo run(s) on sampled paths",
-            p.tag_count(),
-            settings.validation_runs
-        );
-        p.validation = Some(network::validate_network_plan(
-            scn,
-            &net,
-            &p,
-            settings.validation_runs,
-            seed,
-        )?);
-    }
-    let (recs, meta) = p.export(scn)?;
-    std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
-    write_atomic(&out_dir.join("tags.csv"), tags_csv(&recs, &meta).as_bytes())?;
-    write_atomic(
-        &out_dir.join("tags.geojson"),
-        tags_geojson(&recs, &meta).as_bytes(),
-    )?;
-    write_atomic(&out_dir.join("tags.kml"), tags_kml(&recs, &meta).as_bytes())?;
-    write_atomic(&out_dir.join("tags.gpx"), tags_gpx(&recs, &meta).as_bytes())?;
-    let mut json = serde_json::to_value(&p)?;
-    json["tag_count"] = serde_json::json!(p.tag_count());
-    json["tags_by_mounting"] = serde_json::json!(p.by_mounting());
-    json["waymark_version"] = serde_json::json!(env!("CARGO_PKG_VERSION"));
-    json["plan_time_s"] = serde_json::json!(t_plan);
-    write_atomic(
-        &out_dir.join("plan.json"),
-        serde_json::to_string_pretty(&json)?.as_bytes(),
-    )?;
-    let by: Vec<String> = p
-        .by_mounting()
-        .iter()
-        .map(|(k, v)| format!("{v} {k}"))
-        .collect();
-    text!(
-        out,
-        "{}: network coverage: {} new tag(s) ({}){} on {} directed road sections ({:.1} km, {} candidates), total cost {:.1}; \
-         requirement {} m with {} missed read(s) tolerated; reach R = {:.0}–{:.0} m by speed class (slowest: steady {:.0} m, start {:.0} m); \
-         method: {}; lower bound {} tag(s); verified: {}",
-        p.scenario,
-        p.tag_count(),
-        if by.is_empty() { "none".to_string() } else { by.join(", ") },
-        if p.existing_kept > 0 { format!(" + {} installed", p.existing_kept) } else { String::new() },
-        p.directed_edges,
-        p.directed_length_km,
-        p.candidates,
-        p.total_cost,
-        p.requirement_m,
-        p.tolerate_missed_reads,
-        p.reach_m,
-        p.budget_reference_m,
-        p.steady_reach_m,
-        p.start_reach_m,
-        p.method,
-        p.lower_bound,
-        if p.verified { "no walk exceeds the error budget with ≤ k tags" } else { "NO" },
-    );
-    if let Some(v) = &p.validation {
-        text!(
-        out,
-            "validation: {} run(s) on {} sampled path(s) ({:.1} km), seed {}: {:.2} % of distance within {} m; \
-             max horizontal error {:.2} m (path {}, run {}, {:.0} m along it, at {:.6}, {:.6}{})",
-            v.runs,
-            v.paths,
-            v.paths_length_km,
-            v.seed,
-            100.0 * v.fraction_within_requirement,
-            p.requirement_m,
-            v.max_horizontal_error_m,
-            v.worst_path,
-            v.worst_run,
-            v.worst_distance_m,
-            v.worst_lat,
-            v.worst_lon,
-            v.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default()
-        );
-    }
-    text!(
-        out,
-        "wrote {}/tags.csv, tags.geojson, tags.kml, tags.gpx, plan.json in {:.1} s",
-        out_dir.display(),
-        t0.elapsed().as_secs_f64()
-    );
-    json["out"] = serde_json::json!(out_dir.display().to_string());
-    json["files"] = serde_json::json!([
-        "tags.csv",
-        "tags.geojson",
-        "tags.kml",
-        "tags.gpx",
-        "plan.json"
-    ]);
-    json["elapsed_s"] = serde_json::json!(t0.elapsed().as_secs_f64());
-    Ok(json)
-}
-
-fn simulate(
-    scenario: &Path,
-    tags: Option<&Path>,
-    runs: u64,
-    seed: Option<u64>,
-    out_dir: &Path,
-    out: Out,
-) -> Result<serde_json::Value> {
-    if runs == 0 {
-        anyhow::bail!("--runs must be at least 1");
-    }
-    let t0 = Instant::now();
-    let scn = waymark::sim::Scenario::load(scenario)?;
-    let seed = seed.unwrap_or(scn.seed());
-    let truth = waymark::sim::TruthSource::new(&scn)?;
-    let extra = match tags {
-        Some(p) => waymark::sim::tags::load_tags_csv(p)?,
-        None => vec![],
-    };
-    let bar = if runs > 1 {
-        out.bar(runs, "{bar:40} {pos}/{len} runs, {elapsed} (eta {eta})")
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    let tick = || bar.inc(1);
-    let result = waymark::sim::simulate_with(&scn, &truth, &extra, runs, seed, Some(&tick))?;
-    bar.finish_and_clear();
-    waymark::sim::output::write(out_dir, &result)?;
-    keep_inputs(scenario, out_dir, tags)?;
+fn print_simulation(o: &SimulateOutcome, out: Out) {
+    let result = &o.result;
     let s = &result.summary;
     text!(
         out,
@@ -753,145 +629,87 @@ fn simulate(
             100.0 * s.fraction_within_requirement.unwrap_or(0.0)
         );
     }
-    let elapsed = t0.elapsed().as_secs_f64();
     text!(
         out,
         "wrote {} and {} in {:.2} s",
-        out_dir.join("errors.csv").display(),
-        out_dir.join("summary.json").display(),
-        elapsed
+        o.out.join("errors.csv").display(),
+        o.out.join("summary.json").display(),
+        o.elapsed_s
     );
-    let mut json = serde_json::to_value(s)?;
-    if let Some(o) = json.as_object_mut() {
-        o.remove("profile"); // long; in summary.json
-    }
-    let mut files = vec!["errors.csv", "summary.json", "scenario.toml", "inputs.json"];
-    if s.updates_run0.is_some() {
-        files.push("tag_passes.csv");
-    }
-    json["out"] = serde_json::json!(out_dir.display().to_string());
-    json["files"] = serde_json::json!(files);
-    json["elapsed_s"] = serde_json::json!(elapsed);
-    Ok(json)
 }
 
 fn report(dir: &Path, out: Out) -> Result<serde_json::Value> {
     let files = waymark::report::write_report(dir)?;
+    print_report(&files, dir, out);
+    Ok(serde_json::to_value(&files)?)
+}
+
+fn print_report(files: &waymark::report::ReportFiles, dir: &Path, out: Out) {
     text!(
         out,
         "wrote {} and {}",
         files.report.display(),
         dir.join("plots").display()
     );
-    Ok(serde_json::to_value(&files)?)
 }
 
-fn match_track(
-    map: &Path,
-    track: &Path,
-    out_file: &Path,
-    method: MatchMethod,
-    truth: Option<&Path>,
-    out: Out,
-) -> Result<serde_json::Value> {
-    use waymark::matching::{evaluate, track as tr};
-    let t0 = Instant::now();
-    let rows = tr::read_track(track)?;
-    let net = Network::load(map, &LoadOptions::default())?;
-    let truth = truth.map(|p| evaluate::read_truth(p, &net)).transpose()?;
-    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let t1 = Instant::now();
-    let (method, name) = match method {
-        MatchMethod::Incremental => (tr::Method::Incremental, "incremental"),
-        MatchMethod::Hmm => (tr::Method::Hmm, "hmm"),
-    };
-    let (points, outcomes) = tr::match_rows(&net, &rows, method);
-    let match_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let matched: usize = outcomes.iter().map(|o| o.matched).sum();
-    if matched == 0 {
-        anyhow::bail!(
-            "{}: no point lies within 50 m of a road of {} (is the track on this map?)",
-            track.display(),
-            map.display()
-        );
-    }
-    waymark::export::write_atomic(out_file, tr::matched_csv(&net, &rows, &points).as_bytes())?;
-    let breaks: usize = outcomes.iter().map(|o| o.breaks.len()).sum();
+fn match_track(job: &MatchJob, out: Out) -> Result<serde_json::Value> {
+    let o = workflow::match_file(job)?;
     note!(
         out,
-        "waymark match: {} points in {} track(s) with {name}: {matched} matched ({:.1} %), {breaks} break(s); \
-        load {load_ms:.0} ms, match {match_ms:.1} ms; wrote {}",
-        rows.len(),
-        outcomes.len(),
-        100.0 * matched as f64 / rows.len() as f64,
-        out_file.display()
+        "waymark match: {} points in {} track(s) with {}: {} matched ({:.1} %), {} break(s); \
+        load {:.0} ms, match {:.1} ms; wrote {}",
+        o.points,
+        o.tracks,
+        o.method,
+        o.matched,
+        100.0 * o.matched_share,
+        o.breaks.len(),
+        o.timings_ms.load,
+        o.timings_ms.r#match,
+        o.out
     );
-    let mut break_list = Vec::new();
-    let mut span_list = Vec::new();
-    for o in &outcomes {
-        let label = if o.track_id.is_empty() {
+    let label = |id: &str| {
+        if id.is_empty() {
             String::new()
         } else {
-            format!("track {}: ", o.track_id)
-        };
-        if o.matched == 0 {
-            note!(
-                out,
-                "  {label}no point matched: the whole track is off the map's roads"
-            );
-            continue;
+            format!("track {id}: ")
         }
-        for b in &o.breaks {
-            let before = b
-                .before
-                .map(|(_, t)| format!("{t} s"))
-                .unwrap_or_else(|| "the start".into());
-            let line = rows[o.rows[b.after.0 as usize]].line;
-            note!(
-                out,
-                "  {label}break ({}) between {before} and {} s (line {line})",
-                b.reason.as_str(),
-                b.after.1,
-            );
-            break_list.push(serde_json::json!({
-                "track_id": o.track_id,
-                "reason": b.reason.as_str(),
-                "before_t_s": b.before.map(|(_, t)| t),
-                "after_t_s": b.after.1,
-                "line": line,
-            }));
-        }
-        for sp in &o.unmatched {
-            let (l0, l1) = (
-                rows[o.rows[sp.first as usize]].line,
-                rows[o.rows[sp.last as usize]].line,
-            );
-            note!(
-                out,
-                "  {label}unmatched span: lines {l0}-{l1} (t {} s to {} s, {} points)",
-                sp.t_s[0],
-                sp.t_s[1],
-                sp.last - sp.first + 1
-            );
-            span_list.push(serde_json::json!({
-                "track_id": o.track_id,
-                "first_line": l0,
-                "last_line": l1,
-                "t_s": sp.t_s,
-                "points": sp.last - sp.first + 1,
-            }));
-        }
+    };
+    for id in &o.unmatched_tracks {
+        note!(
+            out,
+            "  {}no point matched: the whole track is off the map's roads",
+            label(id)
+        );
     }
-    let mut score_json = serde_json::Value::Null;
-    if let Some(truth) = truth {
-        let mut lengths = evaluate::RoadLengths::new();
-        for o in &outcomes {
-            let pts: Vec<_> = o.rows.iter().map(|&i| points[i]).collect();
-            for (k, v) in evaluate::matched_lengths(&net, &pts) {
-                *lengths.entry(k).or_default() += v;
-            }
-        }
-        let s = evaluate::score(&lengths, &truth);
+    for b in &o.breaks {
+        let before = b
+            .before_t_s
+            .map(|t| format!("{t} s"))
+            .unwrap_or_else(|| "the start".into());
+        note!(
+            out,
+            "  {}break ({}) between {before} and {} s (line {})",
+            label(&b.track_id),
+            b.reason,
+            b.after_t_s,
+            b.line
+        );
+    }
+    for sp in &o.unmatched_spans {
+        note!(
+            out,
+            "  {}unmatched span: lines {}-{} (t {} s to {} s, {} points)",
+            label(&sp.track_id),
+            sp.first_line,
+            sp.last_line,
+            sp.t_s[0],
+            sp.t_s[1],
+            sp.points
+        );
+    }
+    if let Some(s) = &o.score {
         text!(
             out,
             "precision_length {:.4} recall_length {:.4} precision_count {:.4} recall_count {:.4} \
@@ -906,61 +724,33 @@ fn match_track(
             s.truth_roads,
             s.correct_roads
         );
-        score_json = serde_json::json!({
-            "precision_length": s.precision_length,
-            "recall_length": s.recall_length,
-            "precision_count": s.precision_count,
-            "recall_count": s.recall_count,
-            "matched_length_m": s.matched_length_m,
-            "truth_length_m": s.truth_length_m,
-            "matched_roads": s.matched_roads,
-            "truth_roads": s.truth_roads,
-            "correct_roads": s.correct_roads,
-        });
     }
-    Ok(serde_json::json!({
-        "map": map.display().to_string(),
-        "track": track.display().to_string(),
-        "out": out_file.display().to_string(),
-        "method": name,
-        "points": rows.len(),
-        "tracks": outcomes.len(),
-        "matched": matched,
-        "matched_share": matched as f64 / rows.len() as f64,
-        "breaks": break_list,
-        "unmatched_spans": span_list,
-        "score": score_json,
-        "timings_ms": { "load": load_ms, "match": match_ms },
-    }))
+    Ok(serde_json::to_value(&o)?)
 }
 
 /// The main job on the bundled map: plan, validate, simulate with the
 /// planned tags, report.
 fn demo(out_dir: &Path, out: Out) -> Result<serde_json::Value> {
-    let t0 = Instant::now();
     let scenario = bundled("scenarios/demo.toml");
     text!(
         out,
         "waymark demo: planning RFID tags for {} (bundled Helsinki map, 20 m requirement)",
         scenario.display()
     );
-    let plan_json = plan(&scenario, out_dir, None, None, false, out)?;
-    text!(
-        out,
-        "waymark demo: simulating the route with the planned tags (20 runs) for the report"
-    );
-    let tags = out_dir.join("tags.csv");
-    let sim_json = simulate(&scenario, Some(&tags), 20, None, out_dir, out)?;
-    let files = report(out_dir, out)?;
-    let elapsed = t0.elapsed().as_secs_f64();
+    let o = workflow::demo_folder(&scenario, out_dir, &Shown::new(out))?;
+    print_plan(&o.plan, false, out);
+    print_simulation(&o.simulation, out);
+    print_report(&o.report, out_dir, out);
     text!(
         out,
         "waymark demo: done in {:.1} s. Open {} in a browser; installer files: {}/tags.csv, tags.geojson, tags.kml, tags.gpx; plan and validation: {}/plan.json",
-        elapsed,
+        o.elapsed_s,
         out_dir.join("report.html").display(),
         out_dir.display(),
         out_dir.display()
     );
+    let plan_json = serde_json::to_value(&o.plan)?;
+    let sim_json = serde_json::to_value(&o.simulation.result.summary)?;
     let pick = |v: &serde_json::Value, keys: &[&str]| -> serde_json::Value {
         keys.iter()
             .map(|k| (k.to_string(), v[*k].clone()))
@@ -969,12 +759,8 @@ fn demo(out_dir: &Path, out: Out) -> Result<serde_json::Value> {
     };
     Ok(serde_json::json!({
         "out": out_dir.display().to_string(),
-        "report": files["report"],
-        "files": [
-            "tags.csv", "tags.geojson", "tags.kml", "tags.gpx", "plan.json", "profile.csv",
-            "errors.csv", "summary.json", "tag_passes.csv", "scenario.toml", "inputs.json",
-            "report.html"
-        ],
+        "report": o.report.report,
+        "files": o.files,
         "plan": pick(&plan_json, &[
             "tag_count", "tags_by_mounting", "requirement_m", "total_cost", "max_gap_m",
             "predicted_max_bound95_m", "method", "validation"
@@ -984,7 +770,7 @@ fn demo(out_dir: &Path, out: Out) -> Result<serde_json::Value> {
             "p95_horizontal_error_m", "fraction_within_requirement",
             "time_to_exceed_requirement_s"
         ]),
-        "elapsed_s": elapsed,
+        "elapsed_s": o.elapsed_s,
     }))
 }
 
@@ -1006,18 +792,7 @@ fn inspect(
     defects_out: Option<&Path>,
     out: Out,
 ) -> Result<serde_json::Value> {
-    if !(tolerance.is_finite() && tolerance >= 0.0) {
-        anyhow::bail!("--tolerance must be a non-negative number of metres, got {tolerance}");
-    }
-    let net = Network::load(map, &options)?;
-    let t = Instant::now();
-    let defects = net.defects(tolerance);
-    let defects_ms = t.elapsed().as_secs_f64() * 1e3;
-    let report = waymark::network::inspect(&map.display().to_string(), &net, &defects, defects_ms);
-    if let Some(path) = defects_out {
-        waymark::export::write_atomic(path, waymark::export::defects_geojson(&defects).as_bytes())
-            .with_context(|| "writing the defect file")?;
-    }
+    let report = workflow::inspect_map(map, &options, tolerance, defects_out)?;
     if out.json {
         // Printed here, in the report's own field order, as before `--json`
         // became common to every command.

@@ -1,0 +1,30 @@
+//! Whole jobs, as the commands run them: each loads its inputs once, does its
+//! work and writes a complete output folder (every file atomically), then
+//! returns what it did as a typed, serializable outcome. The `waymark` binary
+//! only parses its arguments, calls one of these and prints the outcome.
+//!
+//! - [`plan_folder`]: `waymark plan` (route or network coverage);
+//! - [`simulate_folder`]: `waymark simulate`;
+//! - [`match_file`]: `waymark match`;
+//! - [`inspect_map`]: `waymark network inspect`;
+//! - [`demo_folder`]: `waymark demo` (plan, simulate with the planned tags,
+//!   report), composed of the jobs above on one loaded scenario and map.
+//!
+//! Progress reaches the caller through a [`Progress`] (notes between steps,
+//! counts within long ones); the library never prints.
+
+mod demo;
+mod inputs;
+mod inspect;
+mod matching;
+mod plan;
+mod progress;
+mod simulate;
+
+pub use demo::{demo_folder, DemoOutcome};
+pub use inputs::keep_inputs;
+pub use inspect::{inspect_map, InspectOutcome};
+pub use matching::{match_file, MatchBreak, MatchJob, MatchMethod, MatchOutcome, UnmatchedSpan};
+pub use plan::{plan_folder, NetworkPlanFile, PlanFiles, PlanJob, PlanOutcome, RoutePlanFile};
+pub use progress::{Progress, Silent};
+pub use simulate::{simulate_folder, SimulateJob, SimulateOutcome};

@@ -1,0 +1,288 @@
+//! `waymark plan`: plan, validate, write the plan folder.
+
+use super::inputs::keep_inputs;
+use super::progress::Progress;
+use crate::error::{Error, Result};
+use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml};
+use crate::fsio::write_atomic;
+use crate::planner::network::{plan_network_loaded, validate_network_plan, NetworkPlan};
+use crate::planner::{
+    plan_with_progress, uniform_baseline, validate_plan, Coverage, Plan, PlannerSettings,
+};
+use crate::scenario::Scenario;
+use crate::sim::TruthSource;
+use crate::tags::{ExportMetadata, TagRecord};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What to plan and where to write it.
+#[derive(Debug, Clone, Copy)]
+pub struct PlanJob<'a> {
+    /// The scenario file.
+    pub scenario: &'a Path,
+    /// The output folder (created if missing).
+    pub out_dir: &'a Path,
+    /// Validation runs (default: the scenario's `planner.validation_runs`; 0 skips).
+    pub runs: Option<u64>,
+    /// Base seed of the validation (default: the scenario's).
+    pub seed: Option<u64>,
+    /// Also search the uniform-spacing baseline (route coverage only).
+    pub baseline: bool,
+}
+
+/// `plan.json` of a route plan: the plan and the figures derived from it.
+#[derive(Debug, Clone, Serialize)]
+pub struct RoutePlanFile {
+    /// The plan.
+    #[serde(flatten)]
+    pub plan: Plan,
+    /// New tags.
+    pub tag_count: usize,
+    /// Installed tags kept.
+    pub existing_tags_kept: usize,
+    /// New tags by mounting.
+    pub tags_by_mounting: BTreeMap<String, usize>,
+    /// The Waymark version that planned.
+    pub waymark_version: &'static str,
+    /// Planning time before validation (s).
+    pub plan_time_s: f64,
+}
+
+/// `plan.json` of a network plan.
+#[derive(Debug, Clone, Serialize)]
+pub struct NetworkPlanFile {
+    /// The plan.
+    #[serde(flatten)]
+    pub plan: NetworkPlan,
+    /// New tags.
+    pub tag_count: usize,
+    /// New tags by mounting.
+    pub tags_by_mounting: BTreeMap<String, usize>,
+    /// The Waymark version that planned.
+    pub waymark_version: &'static str,
+    /// Planning time before validation (s).
+    pub plan_time_s: f64,
+}
+
+/// The plan written, by coverage.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum PlanFiles {
+    /// A route plan.
+    Route(Box<RoutePlanFile>),
+    /// A network plan.
+    Network(Box<NetworkPlanFile>),
+}
+
+/// What `plan_folder` did: `plan.json`'s content, the folder and its files.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanOutcome {
+    /// `plan.json`'s content.
+    #[serde(flatten)]
+    pub plan: PlanFiles,
+    /// The folder written.
+    pub out: PathBuf,
+    /// The files written in it.
+    pub files: Vec<&'static str>,
+    /// Whole job time (s).
+    pub elapsed_s: f64,
+}
+
+/// Route plan files.
+const ROUTE_FILES: [&str; 8] = [
+    "tags.csv",
+    "tags.geojson",
+    "tags.kml",
+    "tags.gpx",
+    "plan.json",
+    "profile.csv",
+    "scenario.toml",
+    "inputs.json",
+];
+/// Network plan files.
+const NETWORK_FILES: [&str; 5] = [
+    "tags.csv",
+    "tags.geojson",
+    "tags.kml",
+    "tags.gpx",
+    "plan.json",
+];
+
+/// Plans tags for the scenario `job.scenario`, validates the plan by Monte
+/// Carlo and writes the plan folder: the installer files (`tags.csv`,
+/// `.geojson`, `.kml`, `.gpx`), `plan.json` and, for route coverage,
+/// `profile.csv` and the inputs `waymark report` needs.
+pub fn plan_folder(job: &PlanJob, progress: &dyn Progress) -> Result<PlanOutcome> {
+    let t0 = Instant::now();
+    let scn = Scenario::load(job.scenario)?;
+    let mut settings = PlannerSettings::from_scenario(&scn)?;
+    if let Some(r) = job.runs {
+        settings.validation_runs = r;
+    }
+    let seed = job.seed.unwrap_or(scn.seed());
+    if settings.coverage == Coverage::Network {
+        return network_plan_folder(&scn, &settings, job, seed, progress, t0);
+    }
+    let truth = TruthSource::new(&scn)?;
+    let plan = route_plan(&scn, &truth, &settings, job.baseline, seed, progress)?;
+    write_route_plan(job.scenario, job.out_dir, &scn, plan, t0)
+}
+
+/// A route plan on a loaded scenario and truth: placement, validation and,
+/// with `baseline`, the uniform-spacing baseline. Returns the plan and its
+/// planning time (s).
+pub(super) fn route_plan(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    baseline: bool,
+    seed: u64,
+    progress: &dyn Progress,
+) -> Result<(Plan, f64)> {
+    let t0 = Instant::now();
+    progress.note(&format!(
+        "waymark plan: {}: covariance analysis along the route, then placement",
+        scn.name()
+    ));
+    progress.start("candidate sites", 0);
+    let tick = |done: usize, total: usize| progress.set(done as u64, total as u64);
+    let mut p = plan_with_progress(scn, truth, settings, seed, false, Some(&tick))?;
+    progress.finish();
+    let t_plan = t0.elapsed().as_secs_f64();
+    if settings.validation_runs > 0 {
+        progress.note(&format!(
+            "waymark plan: validating {} tag(s) by {} Monte Carlo run(s)",
+            p.tag_count(),
+            settings.validation_runs
+        ));
+        p.validation = Some(validate_plan(
+            scn,
+            truth,
+            &p,
+            settings.validation_runs,
+            seed,
+        )?);
+    }
+    if baseline {
+        progress.note("waymark plan: searching the uniform-spacing baseline");
+        p.uniform_baseline = uniform_baseline(
+            scn,
+            truth,
+            settings,
+            settings.validation_runs.max(1),
+            seed,
+            0.99,
+        )?;
+    }
+    Ok((p, t_plan))
+}
+
+/// Writes a route plan's folder.
+pub(super) fn write_route_plan(
+    scenario: &Path,
+    out_dir: &Path,
+    scn: &Scenario,
+    (plan, plan_time_s): (Plan, f64),
+    t0: Instant,
+) -> Result<PlanOutcome> {
+    let (recs, meta) = plan.export(scn)?;
+    write_tag_files(out_dir, &recs, &meta)?;
+    write_atomic(
+        &out_dir.join("profile.csv"),
+        plan_profile_csv(&plan.profile_with_tags, &plan.profile_without_tags).as_bytes(),
+    )?;
+    let file = RoutePlanFile {
+        tag_count: plan.tag_count(),
+        existing_tags_kept: plan.existing_count(),
+        tags_by_mounting: plan.by_mounting(),
+        waymark_version: env!("CARGO_PKG_VERSION"),
+        plan_time_s,
+        plan,
+    };
+    write_json(&out_dir.join("plan.json"), &file)?;
+    // What `waymark report` needs to draw the map later.
+    keep_inputs(scenario, out_dir, Some(&out_dir.join("tags.csv")))?;
+    Ok(PlanOutcome {
+        plan: PlanFiles::Route(Box::new(file)),
+        out: out_dir.to_path_buf(),
+        files: ROUTE_FILES.to_vec(),
+        elapsed_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// Network coverage: plan on the loaded map, validate on sampled paths of
+/// the same map, write the folder.
+fn network_plan_folder(
+    scn: &Scenario,
+    settings: &PlannerSettings,
+    job: &PlanJob,
+    seed: u64,
+    progress: &dyn Progress,
+    t0: Instant,
+) -> Result<PlanOutcome> {
+    if job.baseline {
+        return Err(Error::InvalidParameter(
+            "--baseline compares with uniform spacing along a route; it does not apply to \
+             coverage = \"network\""
+                .into(),
+        ));
+    }
+    progress.note(&format!(
+        "waymark plan: {}: network coverage (reach from the filter, then placement on every directed road)",
+        scn.name()
+    ));
+    let (net, mut plan) = plan_network_loaded(scn, settings)?;
+    let plan_time_s = t0.elapsed().as_secs_f64();
+    if settings.validation_runs > 0 {
+        progress.note(&format!(
+            "waymark plan: validating {} tag(s) by {} Monte Carlo run(s) on sampled paths",
+            plan.tag_count(),
+            settings.validation_runs
+        ));
+        plan.validation = Some(validate_network_plan(
+            scn,
+            &net,
+            &plan,
+            settings.validation_runs,
+            seed,
+        )?);
+    }
+    let (recs, meta) = plan.export(scn)?;
+    write_tag_files(job.out_dir, &recs, &meta)?;
+    let file = NetworkPlanFile {
+        tag_count: plan.tag_count(),
+        tags_by_mounting: plan.by_mounting(),
+        waymark_version: env!("CARGO_PKG_VERSION"),
+        plan_time_s,
+        plan,
+    };
+    write_json(&job.out_dir.join("plan.json"), &file)?;
+    Ok(PlanOutcome {
+        plan: PlanFiles::Network(Box::new(file)),
+        out: job.out_dir.to_path_buf(),
+        files: NETWORK_FILES.to_vec(),
+        elapsed_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// The installer files, in a folder created if missing.
+fn write_tag_files(out_dir: &Path, recs: &[TagRecord], meta: &ExportMetadata) -> Result<()> {
+    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
+    write_atomic(&out_dir.join("tags.csv"), tags_csv(recs, meta).as_bytes())?;
+    write_atomic(
+        &out_dir.join("tags.geojson"),
+        tags_geojson(recs, meta).as_bytes(),
+    )?;
+    write_atomic(&out_dir.join("tags.kml"), tags_kml(recs, meta).as_bytes())?;
+    write_atomic(&out_dir.join("tags.gpx"), tags_gpx(recs, meta).as_bytes())
+}
+
+/// Pretty JSON with its keys sorted (as every JSON file Waymark writes).
+pub(super) fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
+    let text = serde_json::to_value(value)
+        .and_then(|v| serde_json::to_string_pretty(&v))
+        .map_err(|e| Error::format(path, format!("cannot serialize: {e}")))?;
+    write_atomic(path, text.as_bytes())
+}

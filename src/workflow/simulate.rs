@@ -1,0 +1,92 @@
+//! `waymark simulate`: Monte Carlo runs of a scenario, written to a folder.
+
+use super::inputs::keep_inputs;
+use super::progress::Progress;
+use crate::error::{Error, Result};
+use crate::scenario::Scenario;
+use crate::sim::tags::{load_tags_csv, Tag};
+use crate::sim::{output, simulate_with, SimResult, TruthSource};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What to simulate and where to write it.
+#[derive(Debug, Clone, Copy)]
+pub struct SimulateJob<'a> {
+    /// The scenario file.
+    pub scenario: &'a Path,
+    /// Extra tags (a tags CSV), for the integrated navigator.
+    pub tags: Option<&'a Path>,
+    /// Monte Carlo runs (at least 1).
+    pub runs: u64,
+    /// Base seed (default: the scenario's).
+    pub seed: Option<u64>,
+    /// The output folder (created if missing).
+    pub out_dir: &'a Path,
+}
+
+/// What `simulate_folder` did.
+#[derive(Debug, Clone)]
+pub struct SimulateOutcome {
+    /// The runs and their summary.
+    pub result: SimResult,
+    /// The folder written.
+    pub out: PathBuf,
+    /// The files written in it.
+    pub files: Vec<&'static str>,
+    /// Whole job time (s).
+    pub elapsed_s: f64,
+}
+
+/// Simulates `job.runs` runs of the scenario and writes `errors.csv`,
+/// `summary.json`, `tag_passes.csv` (integrated navigator) and the inputs
+/// `waymark report` needs.
+pub fn simulate_folder(job: &SimulateJob, progress: &dyn Progress) -> Result<SimulateOutcome> {
+    let t0 = Instant::now();
+    if job.runs == 0 {
+        return Err(Error::InvalidParameter("--runs must be at least 1".into()));
+    }
+    let scn = Scenario::load(job.scenario)?;
+    let truth = TruthSource::new(&scn)?;
+    simulate_loaded(job, &scn, &truth, progress, t0)
+}
+
+/// [`simulate_folder`] on a loaded scenario and truth.
+pub(super) fn simulate_loaded(
+    job: &SimulateJob,
+    scn: &Scenario,
+    truth: &TruthSource,
+    progress: &dyn Progress,
+    t0: Instant,
+) -> Result<SimulateOutcome> {
+    let seed = job.seed.unwrap_or(scn.seed());
+    let extra: Vec<Tag> = match job.tags {
+        Some(p) => load_tags_csv(p)?,
+        None => vec![],
+    };
+    if job.runs > 1 {
+        progress.start("runs", job.runs);
+    }
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let tick = || {
+        let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if job.runs > 1 {
+            progress.set(n, job.runs);
+        }
+    };
+    let result = simulate_with(scn, truth, &extra, job.runs, seed, Some(&tick))?;
+    if job.runs > 1 {
+        progress.finish();
+    }
+    output::write(job.out_dir, &result)?;
+    keep_inputs(job.scenario, job.out_dir, job.tags)?;
+    let mut files = vec!["errors.csv", "summary.json", "scenario.toml", "inputs.json"];
+    if result.summary.updates_run0.is_some() {
+        files.push("tag_passes.csv");
+    }
+    Ok(SimulateOutcome {
+        result,
+        out: job.out_dir.to_path_buf(),
+        files,
+        elapsed_s: t0.elapsed().as_secs_f64(),
+    })
+}
