@@ -102,18 +102,29 @@ pub fn read_errors_csv(path: &Path) -> Result<Vec<ErrorRow>> {
 /// metres: the horizontal error, or a predicted bound; matched by distance
 /// driven ≈ chainage; uncoloured where empty) and the tags (scenario
 /// `[[tag]]` entries with a position or an `at_m` chainage, plus
-/// `extra_tags`). `None` for scenarios driven by motion commands, which have
-/// no map.
+/// `extra_tags`), drawn as SVG. `None` for scenarios driven by motion
+/// commands, which have no map. `loaded` is the scenario's map and route when
+/// the caller has them already (e.g. a simulation's truth); else they are
+/// loaded from the scenario.
 pub fn scenario_map(
     scn: &crate::sim::Scenario,
     colour_by: &[(f64, f64)],
     extra_tags: &[crate::sim::tags::Tag],
-) -> Result<Option<(crate::network::Network, MapOverlay)>> {
+    loaded: Option<(&crate::network::Network, &crate::route::Route)>,
+) -> Result<Option<String>> {
     let crate::scenario::RouteKind::Map { map, waypoints, .. } = &scn.route else {
         return Ok(None);
     };
-    let net = crate::network::Network::load(map, &crate::network::LoadOptions::default())?;
-    let route = crate::route::plan_route(&net, waypoints)?;
+    let owned;
+    let (net, route) = match loaded {
+        Some(l) => l,
+        None => {
+            let net = crate::network::Network::load(map, &crate::network::LoadOptions::default())?;
+            let route = crate::route::plan_route(&net, waypoints)?;
+            owned = (net, route);
+            (&owned.0, &owned.1)
+        }
+    };
     tracing::info!(
         sections = net.sections.len(),
         "report: drawing the map of {}",
@@ -157,7 +168,7 @@ pub fn scenario_map(
             .tags
             .push(([t.lat.to_degrees(), t.lon.to_degrees()], t.mounting));
     }
-    Ok(Some((net, overlay)))
+    Ok(Some(render_map(net, &overlay, 960)))
 }
 
 /// One row of `tag_passes.csv`, as the report needs it.
@@ -285,8 +296,12 @@ fn read_json(path: &Path) -> Result<serde_json::Value> {
 /// Reads an output folder of `simulate` (`summary.json`, `errors.csv`,
 /// `tag_passes.csv`), of `plan` (`plan.json`, `profile.csv`, `tags.csv`) or
 /// both, and, when present, `scenario.toml` and `inputs.json` (the
-/// scenario's and the tag file's original paths, for the map).
-pub fn read_output_folder(dir: &Path) -> Result<ReportInput> {
+/// scenario's and the tag file's original paths, for the map). `loaded`: the
+/// scenario's map and route when the caller has them (see [`scenario_map`]).
+pub fn read_output_folder(
+    dir: &Path,
+    loaded: Option<(&crate::network::Network, &crate::route::Route)>,
+) -> Result<ReportInput> {
     let summary_path = dir.join("summary.json");
     let plan_path = dir.join("plan.json");
     if !summary_path.exists() && !plan_path.exists() {
@@ -341,8 +356,7 @@ pub fn read_output_folder(dir: &Path) -> Result<ReportInput> {
                     .map(|r| (r.distance_m, r.horizontal_m))
                     .collect()
             };
-            scenario_map(&scn, &colour_by, &extra)?
-                .map(|(net, overlay)| render_map(&net, &overlay, 960))
+            scenario_map(&scn, &colour_by, &extra, loaded)?
         }
         _ => None,
     };
@@ -375,8 +389,17 @@ pub struct ReportFiles {
 /// Writes `DIR/report.html` and PNG plots in `DIR/plots/` for an output
 /// folder of `simulate` and/or `plan`.
 pub fn write_report(dir: &Path) -> Result<ReportFiles> {
+    write_report_on(dir, None)
+}
+
+/// [`write_report`] with the scenario's map and route already loaded (the
+/// caller's, e.g. `waymark demo`'s, which planned and simulated on them).
+pub fn write_report_on(
+    dir: &Path,
+    loaded: Option<(&crate::network::Network, &crate::route::Route)>,
+) -> Result<ReportFiles> {
     use crate::fsio::write_atomic;
-    let input = read_output_folder(dir)?;
+    let input = read_output_folder(dir, loaded)?;
     let html = render_html(&input)?;
     let report = dir.join("report.html");
     write_atomic(&report, html.as_bytes())?;

@@ -5,7 +5,7 @@ use super::progress::Progress;
 use super::simulate::{simulate_loaded, SimulateJob, SimulateOutcome};
 use crate::error::Result;
 use crate::planner::PlannerSettings;
-use crate::report::{write_report, ReportFiles};
+use crate::report::{write_report_on, ReportFiles};
 use crate::scenario::Scenario;
 use crate::sim::TruthSource;
 use std::path::{Path, PathBuf};
@@ -34,8 +34,8 @@ pub struct DemoOutcome {
 /// The main job on `scenario` (the bundled `scenarios/demo.toml`): plans
 /// tags for its route and validates them, simulates the route with the
 /// planned tags as written to `tags.csv` (what installers get), and writes
-/// the HTML report, all into `out_dir`. The scenario and its map are loaded
-/// once for the plan and the simulation.
+/// the HTML report, all into `out_dir`. The scenario, its map and route are
+/// loaded once, for the plan, the simulation and the report's map.
 pub fn demo_folder(
     scenario: &Path,
     out_dir: &Path,
@@ -60,7 +60,11 @@ pub fn demo_folder(
         out_dir,
     };
     let simulation = simulate_loaded(&job, &scn, &truth, progress, Instant::now())?;
-    let report = write_report(out_dir)?;
+    let loaded = truth
+        .network()
+        .zip(truth.route())
+        .map(|(net, route)| (&**net, route));
+    let report = write_report_on(out_dir, loaded)?;
     Ok(DemoOutcome {
         plan,
         simulation,
