@@ -679,7 +679,7 @@ fn simulate(
     let tick = || bar.inc(1);
     let result = waymark::sim::simulate_with(&scn, &truth, &extra, runs, seed, Some(&tick))?;
     bar.finish_and_clear();
-    waymark::sim::output::write(out_dir, &result)?;
+    waymark::sim::write_output(out_dir, &result)?;
     keep_inputs(scenario, out_dir, tags)?;
     let s = &result.summary;
     text!(

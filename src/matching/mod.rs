@@ -11,17 +11,18 @@
 //!   splitting at gaps and off-road stretches.
 //!
 //! Input/output files ([`track`]), scoring against ground truth
-//! ([`evaluate`]) and seeded synthetic tracks along routes ([`synthetic`])
+//! ([`evaluate`]) and seeded synthetic tracks along routes (`synthetic`)
 //! complete the module.
 
 pub mod evaluate;
 mod hmm;
 mod incremental;
 mod paths;
-pub mod synthetic;
+pub(crate) mod synthetic;
 pub mod track;
 
 pub use hmm::{HmmMatcher, HmmParams};
+pub use synthetic::{along_route, route_truth, SyntheticTrack, TrackModel};
 pub use incremental::{IncrementalMatcher, IncrementalParams};
 pub use paths::{NetworkDistances, OnSection};
 

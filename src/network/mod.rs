@@ -8,7 +8,7 @@ mod defects;
 mod geojson_loader;
 pub(crate) mod geometry;
 mod grid;
-pub mod hilbert;
+pub(crate) mod hilbert;
 mod inspect;
 mod model;
 mod osm_common;

@@ -96,11 +96,6 @@ impl<'a> PerfectData<'a> {
         self
     }
 
-    /// The filter settings.
-    pub fn config(&self) -> &FilterConfig {
-        &self.cfg
-    }
-
     /// A filter on the truth `avp` with the scenario's prior.
     pub fn filter_at(&self, avp: &Avp) -> Filter {
         Filter::new(avp.state, avp.t, self.dt, self.cfg)
