@@ -22,9 +22,9 @@ pub(crate) mod synthetic;
 pub mod track;
 
 pub use hmm::{HmmMatcher, HmmParams};
-pub use synthetic::{along_route, route_truth, SyntheticTrack, TrackModel};
 pub use incremental::{IncrementalMatcher, IncrementalParams};
 pub use paths::{NetworkDistances, OnSection};
+pub use synthetic::{along_route, route_truth, SyntheticTrack, TrackModel};
 
 use crate::network::geometry::{closest_on_segment, coord, norm};
 use crate::network::{Network, Oneway, RoadId, SegmentId};

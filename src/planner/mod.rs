@@ -22,8 +22,8 @@ pub(crate) mod route;
 pub(crate) mod settings;
 pub(crate) mod validation;
 
-pub use budget::Budget;
 pub use baseline::{uniform_baseline, uniform_tags};
+pub use budget::Budget;
 pub use plan::{Plan, PlannedTag, UniformBaseline, Validation};
 pub use route::{plan, plan_with, plan_with_progress};
 pub use settings::{
