@@ -12,7 +12,9 @@
 //!
 //! Input/output files ([`track`]), scoring against ground truth
 //! ([`evaluate`]) and seeded synthetic tracks along routes (`synthetic`)
-//! complete the module.
+//! complete the module; the first two stay public modules (the binary's
+//! `match` command reads and writes through them), the synthetic tracks' names
+//! are re-exported here.
 
 pub mod evaluate;
 mod hmm;

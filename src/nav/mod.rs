@@ -1,5 +1,10 @@
 //! Navigation: strapdown inertial mechanization, vertical-channel damping and
 //! dead reckoning (odometer with IMU attitude, and gyro-free 3-D).
+//!
+//! The navigators' types are re-exported here; [`ekf`] (the filter's state
+//! indices and Kalman step) and [`integrated`] (the 21-state filter and its
+//! helpers) stay public so that the filter's internals can be checked from
+//! outside the crate.
 
 pub(crate) mod dead_reckoning;
 pub(crate) mod dr3d;

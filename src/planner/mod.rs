@@ -23,7 +23,7 @@ pub(crate) mod settings;
 pub(crate) mod validation;
 
 pub use baseline::{uniform_baseline, uniform_tags};
-pub use budget::Budget;
+pub use budget::{Budget, BudgetPoint, Site};
 pub use plan::{Plan, PlannedTag, UniformBaseline, Validation};
 pub use route::{plan, plan_with, plan_with_progress};
 pub use settings::{

@@ -2,7 +2,7 @@
 //!
 //! Two layers, like a command line's raw flags and its validated options:
 //!
-//! - `schema`: the file as serde reads it ([`ScenarioFile`] and its
+//! - [`schema`]: the file as serde reads it ([`ScenarioFile`] and its
 //!   sections). Field names carry their units (`_m`, `_s`, `_deg`, `_dph`,
 //!   `_ug`, `_kmh`, ...); unknown fields are errors; every closed set of
 //!   options ([`NavMode`], [`VerticalChannel`], [`MotionKind`], [`Adaptive`],
@@ -22,7 +22,7 @@
 
 mod check;
 mod route;
-pub(crate) mod schema;
+pub mod schema;
 mod sections;
 mod validate;
 

@@ -1,5 +1,7 @@
 //! Sensor error models. Every random draw comes from a seeded generator
-//! ([`rng::stream`]): the same seed gives the same output.
+//! ([`rng::stream`]): the same seed gives the same output. The models are
+//! re-exported here; [`rng`] stays public so that callers draw from the
+//! same seeded streams.
 
 pub(crate) mod baro;
 pub(crate) mod imu;

@@ -68,7 +68,8 @@
 //!
 //! Files: `reach` (the reach per speed class, by the covariance engine),
 //! `instance` (the directed graph, candidate sites and installed tags),
-//! [`cover`] (the walk DP check and the greedy), `ilp` (the exact
+//! [`cover`] (the walk DP check and the greedy; public, so that a plan can be
+//! verified from outside the crate), `ilp` (the exact
 //! integer programme), `plan` (the planning entry points), `validation`
 //! (Monte Carlo over sampled paths), `types` (the plan's types),
 //! `settings` (the network-specific settings).
