@@ -10,7 +10,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-use waymark::matching::synthetic::{along_route, TrackModel};
+use waymark::matching::{along_route, TrackModel};
 use waymark::matching::{
     match_track, Fix, HmmMatcher, HmmParams, IncrementalMatcher, IncrementalParams,
 };

@@ -230,6 +230,21 @@ impl TagPayload {
     }
 
     /// Encodes as 24 upper-case hexadecimal digits (the EPC as installers write it).
+    ///
+    /// ```
+    /// use waymark::tags::{Mounting, TagPayload};
+    /// let tag = TagPayload { lat_deg: 60.1699, lon_deg: 24.9384, height_m: 12.5, mounting: Mounting::Roadside };
+    /// let hex = tag.to_hex()?;
+    /// assert_eq!(hex.len(), 24);
+    /// // Decoding gives the reference point back within the encoding's resolution.
+    /// let back = TagPayload::from_hex(&hex)?;
+    /// assert_eq!(back.mounting, Mounting::Roadside);
+    /// assert!((back.lat_deg - 60.1699).abs() < 1e-6 && (back.height_m - 12.5).abs() < 0.1);
+    /// // A corrupted digit fails the payload's check.
+    /// let bad = format!("{}{}", &hex[..20], if &hex[20..21] == "0" { "1" } else { "0" }) + &hex[21..];
+    /// assert!(TagPayload::from_hex(&bad).is_err());
+    /// # Ok::<(), waymark::Error>(())
+    /// ```
     pub fn to_hex(&self) -> Result<String> {
         Ok(format!("{:024X}", self.encode()?))
     }

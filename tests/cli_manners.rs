@@ -272,7 +272,7 @@ fn plan_and_report_json() {
 
 #[test]
 fn match_json() {
-    use waymark::matching::synthetic::{along_route, TrackModel};
+    use waymark::matching::{along_route, TrackModel};
     use waymark::network::{LoadOptions, Network};
     let dir = tempfile::tempdir().unwrap();
     let map = repo("maps/helsinki.osm.pbf");

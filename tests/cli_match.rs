@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use waymark::matching::synthetic::{along_route, TrackModel};
+use waymark::matching::{along_route, TrackModel};
 use waymark::network::{LoadOptions, Network};
 use waymark::route::plan_route;
 

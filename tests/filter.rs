@@ -699,7 +699,7 @@ fn anisotropic_position_fix_tightens_across_the_road_only() {
 
 #[test]
 fn tags_are_read_only_within_their_mounting_geometry() {
-    use waymark::sim::passes::find_passes;
+    use waymark::sim::find_passes;
     use waymark::sim::tags::{Mounting, RfidModel, Tag};
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/nees-consistency.toml");
     let scn = Scenario::load(&path).unwrap();
@@ -785,8 +785,8 @@ fn tag_fix_errors_follow_the_mounting_models() {
     // dr = 1.340 m (the paper: 0.375, 1.285, 1.338). Road surface ≤ 0.5 m,
     // ceiling ≤ 0.3 m. The error of a read is the reported point minus where
     // the vehicle is at the read time.
-    use waymark::sim::passes::{draw_reads, TagPass};
     use waymark::sim::tags::{Mounting, RfidModel, Tag};
+    use waymark::sim::{draw_reads, TagPass};
     let rfid = RfidModel {
         lane_width_m: 3.75,
         vehicle_width_m: 3.0,

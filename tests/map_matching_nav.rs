@@ -106,7 +106,7 @@ map_matching = {map_matching}
 /// Figures of run 0: (final horizontal, rms horizontal, rms along, rms across,
 /// final along, final across, max horizontal, distance km, max |east|,
 /// max |north|).
-fn figures(path: &Path) -> ([f64; 10], Option<waymark::sim::map_feed::FeedCounts>) {
+fn figures(path: &Path) -> ([f64; 10], Option<waymark::sim::FeedCounts>) {
     let scn = Scenario::load(path).unwrap();
     let truth = TruthSource::new(&scn).unwrap();
     let res = simulate(&scn, &truth, 1, 7).unwrap();

@@ -13,7 +13,7 @@
 //! without failing on one junction's short link roads.
 
 use waymark::matching::evaluate::{matched_lengths, score, Score};
-use waymark::matching::synthetic::{along_route, TrackModel};
+use waymark::matching::{along_route, TrackModel};
 use waymark::matching::{
     match_track, HmmMatcher, HmmParams, IncrementalMatcher, IncrementalParams,
 };

@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use std::collections::BTreeSet;
-use waymark::matching::synthetic::{along_route, TrackModel};
+use waymark::matching::{along_route, TrackModel};
 use waymark::matching::{
     match_track, unmatched_spans, BreakReason, Fix, HmmMatcher, HmmParams, IncrementalMatcher,
     IncrementalParams, MatchState, Matcher,

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use waymark::planner::budget::Budget;
+use waymark::planner::Budget;
 use waymark::planner::{plan_with, PlannerSettings};
 use waymark::sim::{Scenario, TruthSource};
 use waymark::tags::TagPayload;

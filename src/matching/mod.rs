@@ -11,19 +11,22 @@
 //!   splitting at gaps and off-road stretches.
 //!
 //! Input/output files ([`track`]), scoring against ground truth
-//! ([`evaluate`]) and seeded synthetic tracks along routes ([`synthetic`])
-//! complete the module.
+//! ([`evaluate`]) and seeded synthetic tracks along routes (`synthetic`)
+//! complete the module; the first two stay public modules (the binary's
+//! `match` command reads and writes through them), the synthetic tracks' names
+//! are re-exported here.
 
 pub mod evaluate;
 mod hmm;
 mod incremental;
 mod paths;
-pub mod synthetic;
+pub(crate) mod synthetic;
 pub mod track;
 
 pub use hmm::{HmmMatcher, HmmParams};
 pub use incremental::{IncrementalMatcher, IncrementalParams};
 pub use paths::{NetworkDistances, OnSection};
+pub use synthetic::{along_route, route_truth, SyntheticTrack, TrackModel};
 
 use crate::network::geometry::{closest_on_segment, coord, norm};
 use crate::network::{Network, Oneway, RoadId, SegmentId};

@@ -21,7 +21,8 @@ pub fn xy_to_code(n: u32, mut x: u32, mut y: u32) -> u64 {
 }
 
 /// The cell (`x`, `y`) with Hilbert code `d` in an `n`×`n` grid (inverse of
-/// [`xy_to_code`]); `d` must be below `n*n`.
+/// [`xy_to_code`]); `d` must be below `n*n`. Only the tests need it.
+#[cfg(test)]
 pub fn code_to_xy(n: u32, d: u64) -> (u32, u32) {
     debug_assert!(n.is_power_of_two() && d < u64::from(n) * u64::from(n));
     let (mut x, mut y) = (0u32, 0u32);

@@ -8,7 +8,7 @@ mod defects;
 mod geojson_loader;
 pub(crate) mod geometry;
 mod grid;
-pub mod hilbert;
+pub(crate) mod hilbert;
 mod inspect;
 mod model;
 mod osm_common;
@@ -19,13 +19,13 @@ mod shapefile_loader;
 mod topology;
 
 pub use attributes::{
-    parse_lanes, parse_length_m, parse_oneway, parse_speed_kmh, DrivableFilter, Oneway,
+    parse_lanes, parse_length_m, parse_oneway, parse_speed_kmh, DrivableFilter, Oneway, Rejection,
     RoadAttributes, TagSet,
 };
 pub use defects::{check as check_defects, Defect, DefectReport, DEFAULT_NODE_TOLERANCE_M};
 pub use geometry::{point_segment_distance, segment_intersects_box};
 pub use grid::{auto_grid_n, GridIndex, AUTO_CELL_M, MAX_GRID_N};
-pub use inspect::{inspect, Inspection};
+pub use inspect::{inspect, Components, CountLength, GridFigures, Inspection};
 pub use model::{
     LoadReport, Node, NodeId, Road, RoadId, RoadNetwork, Section, SectionId, Segment, SegmentId,
 };

@@ -6,13 +6,13 @@ use crate::geodesy::EnuFrame;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// Index of a road in [`Network::roads`].
+/// Index of a road in [`RoadNetwork::roads`].
 pub type RoadId = u32;
-/// Index of a topology node in [`Network::nodes`].
+/// Index of a topology node in [`RoadNetwork::nodes`].
 pub type NodeId = u32;
-/// Index of a section in [`Network::sections`].
+/// Index of a section in [`RoadNetwork::sections`].
 pub type SectionId = u32;
-/// Index of a segment in [`Network::segments`].
+/// Index of a segment in [`RoadNetwork::segments`].
 pub type SegmentId = u32;
 
 /// One input road: an OSM way or a GeoJSON (Multi)LineString feature.

@@ -21,7 +21,7 @@ use crate::sim::TruthSource;
 use crate::trajectory::{ideal_imu, TruthSample};
 use rayon::prelude::*;
 
-pub use crate::sim::covariance::{bound95, CHI2_2_95};
+pub use crate::sim::covariance::bound95;
 
 /// One point of a budget profile.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,28 +1,29 @@
 //! The tag planner: candidate sites along a scenario's route → error budget
-//! by covariance analysis of the navigation filter ([`budget`]) → the fewest
+//! by covariance analysis of the navigation filter (`budget`) → the fewest
 //! tags that hold the requirement with `k` missed reads tolerated
-//! ([`placement`], exact on one route) → validation by Monte Carlo
+//! (`placement`, exact on one route) → validation by Monte Carlo
 //! simulation with the planned tags → export records.
 //!
-//! One role per file: [`settings`] (the `[planner]` section checked once),
-//! [`mod@plan`] (plan types), [`route`] (placement along a route), [`budget`]
-//! (the route's covariance analysis on [`crate::sim::covariance`]),
-//! [`placement`] and [`forward`] (placement algorithms), [`validation`]
-//! (Monte Carlo and the missed-tags check), [`baseline`] (uniform spacing),
-//! [`output`] (export records), [`network`] (`coverage = "network"`).
+//! One role per file: `settings` (the `[planner]` section checked once),
+//! `plan` (plan types), `route` (placement along a route), `budget`
+//! (the route's covariance analysis on `crate::sim::covariance`),
+//! `placement` and `forward` (placement algorithms), `validation`
+//! (Monte Carlo and the missed-tags check), `baseline` (uniform spacing),
+//! `output` (export records), [`network`] (`coverage = "network"`).
 
-pub mod baseline;
-pub mod budget;
-pub mod forward;
+pub(crate) mod baseline;
+pub(crate) mod budget;
+pub(crate) mod forward;
 pub mod network;
-pub mod output;
-pub mod placement;
-pub mod plan;
-pub mod route;
-pub mod settings;
-pub mod validation;
+pub(crate) mod output;
+pub(crate) mod placement;
+pub(crate) mod plan;
+pub(crate) mod route;
+pub(crate) mod settings;
+pub(crate) mod validation;
 
 pub use baseline::{uniform_baseline, uniform_tags};
+pub use budget::{Budget, BudgetPoint, Site};
 pub use plan::{Plan, PlannedTag, UniformBaseline, Validation};
 pub use route::{plan, plan_with, plan_with_progress};
 pub use settings::{

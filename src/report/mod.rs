@@ -48,7 +48,7 @@ pub struct ErrorRow {
 }
 
 /// The filter's horizontal 95 % bound from `errors.csv`'s east and north 1σ:
-/// the one definition, [`crate::sim::covariance::bound95`] (the circle
+/// the one definition, [`crate::sim::bound95`] (the circle
 /// containing the 95 % ellipse), of the diagonal covariance the file gives
 /// (it does not write the east-north correlation).
 pub use crate::sim::covariance::bound95_of_sigmas as bound95;

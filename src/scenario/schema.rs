@@ -2,7 +2,7 @@
 //! units (`_m`, `_s`, `_deg`, `_dph`, `_ug`, `_kmh`, ...), optional values are
 //! `Option`s, and every closed set of options is a serde enum. Unknown fields
 //! and unknown option values are errors at parse time. Nothing here is
-//! checked for range or converted: see [`super::validate`].
+//! checked for range or converted: see [`Scenario::parse`](super::Scenario::parse), which validates.
 
 use crate::tags::Mounting;
 use serde::Deserialize;

@@ -1,11 +1,13 @@
 //! Sensor error models. Every random draw comes from a seeded generator
-//! ([`rng::stream`]): the same seed gives the same output.
+//! ([`rng::stream`]): the same seed gives the same output. The models are
+//! re-exported here; [`rng`] stays public so that callers draw from the
+//! same seeded streams.
 
-pub mod baro;
-pub mod imu;
-pub mod odometer;
+pub(crate) mod baro;
+pub(crate) mod imu;
+pub(crate) mod odometer;
 pub mod rng;
-pub mod rotation;
+pub(crate) mod rotation;
 
 pub use baro::{Barometer, BarometerModel};
 pub use imu::{Imu, ImuModel};

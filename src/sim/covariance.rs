@@ -34,6 +34,17 @@ pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
 /// holding 95 % of the 2-D Gaussian equals this bound for a circular
 /// covariance and shrinks to `1.96·sqrt(λmax)` for a one-axis covariance:
 /// it lies between 0.80 times this bound and this bound.
+///
+/// ```
+/// use waymark::sim::{bound95, CHI2_2_95};
+/// // A circular covariance of σ = 2 m per axis: the radius √(5.991)·2 m.
+/// let c = [[4.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, 0.0, 9.0]];
+/// assert!((bound95(&c) - 2.0 * CHI2_2_95.sqrt()).abs() < 1e-12);
+/// // An ellipse with a correlation: the largest eigenvalue of
+/// // [[5, 2], [2, 2]] is 6, whatever the vertical variance.
+/// let c = [[5.0, 2.0, 0.0], [2.0, 2.0, 0.0], [0.0, 0.0, 100.0]];
+/// assert!((bound95(&c) - (CHI2_2_95 * 6.0).sqrt()).abs() < 1e-12);
+/// ```
 pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
     let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
     let tr = 0.5 * (a + d);
@@ -45,6 +56,12 @@ pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
 /// uncorrelated east and north (e.g. a filter's `sigma_east_m` and
 /// `sigma_north_m` as `errors.csv` gives them), or a fix's along- and
 /// cross-track σ. Its largest eigenvalue is the larger variance.
+///
+/// ```
+/// use waymark::sim::{bound95, bound95_of_sigmas};
+/// let c = [[9.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]];
+/// assert_eq!(bound95_of_sigmas([3.0, 1.0]), bound95(&c));
+/// ```
 pub fn bound95_of_sigmas(sigma: [f64; 2]) -> f64 {
     (CHI2_2_95 * sigma[0].max(sigma[1]).powi(2)).sqrt()
 }
@@ -94,11 +111,6 @@ impl<'a> PerfectData<'a> {
     pub fn without_faults(mut self) -> Self {
         self.failure = None;
         self
-    }
-
-    /// The filter settings.
-    pub fn config(&self) -> &FilterConfig {
-        &self.cfg
     }
 
     /// A filter on the truth `avp` with the scenario's prior.

@@ -3,33 +3,37 @@
 //! builds on.
 //!
 //! One role per file, each importing only the files above it (no circle):
-//! - [`tags`]: tags and the RFID model; [`map_feed`]: the map-matching feed;
-//! - [`records`]: the rows and records a run produces, and their recorder;
-//! - [`truth`]: the truth source (with its loaded map and route) and the
+//! - [`tags`]: tags and the RFID model; `map_feed`: the map-matching feed;
+//! - `records`: the rows and records a run produces, and their recorder;
+//! - `truth`: the truth source (with its loaded map and route) and the
 //!   start of a run;
-//! - [`passes`]: passes by tags (from the truth) and per-run reads;
-//! - [`dead_reckoning`]: the stand-alone navigators' runner;
-//! - [`integrated`]: the integrated navigator's runner and its filter settings;
-//! - [`covariance`]: the perfect-data covariance engine and the 95 % bound;
-//! - [`metrics`]: the summary of the runs;
-//! - [`monte_carlo`]: Monte Carlo dispatch;
-//! - [`output`]: the files of `waymark simulate`.
+//! - `passes`: passes by tags (from the truth) and per-run reads;
+//! - `dead_reckoning`: the stand-alone navigators' runner;
+//! - `integrated`: the integrated navigator's runner and its filter settings;
+//! - `covariance`: the perfect-data covariance engine and the 95 % bound;
+//! - `metrics`: the summary of the runs;
+//! - `monte_carlo`: Monte Carlo dispatch;
+//! - `output`: the files of `waymark simulate`.
 
-pub mod covariance;
-pub mod dead_reckoning;
-pub mod integrated;
-pub mod map_feed;
-pub mod metrics;
-pub mod monte_carlo;
-pub mod output;
-pub mod passes;
-pub mod records;
+pub(crate) mod covariance;
+pub(crate) mod dead_reckoning;
+pub(crate) mod integrated;
+pub(crate) mod map_feed;
+pub(crate) mod metrics;
+pub(crate) mod monte_carlo;
+pub(crate) mod output;
+pub(crate) mod passes;
+pub(crate) mod records;
 pub mod tags;
-pub mod truth;
+pub(crate) mod truth;
 
 pub use crate::scenario::{NavMode, Scenario};
+pub use covariance::{bound95, bound95_of_sigmas, CHI2_2_95};
 pub use integrated::Prepared;
-pub use metrics::Summary;
+pub use map_feed::FeedCounts;
+pub use metrics::{FaultInterval, NeesSummary, ProfilePoint, RunSummary, Summary, TagSummary};
 pub use monte_carlo::{simulate, simulate_with, SimResult};
+pub use output::write as write_output;
+pub use passes::{draw_reads, find_passes, TagPass, TagRead};
 pub use records::{ErrorRow, PassRecord, RunResult, TagEvent};
 pub use truth::{RouteTruth, TruthSource};

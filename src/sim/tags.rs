@@ -1,7 +1,7 @@
 //! RFID tags in a simulation: the tag list (from the scenario's `[[tag]]`
 //! entries or a `tags.csv`) and the RFID model: read geometry, read
 //! probability and fix error of each mounting (PAPERS.md §1.1). When the
-//! vehicle passes each tag and which passes are read: [`super::passes`].
+//! vehicle passes each tag and which passes are read: `super::passes`.
 //!
 //! Fix error models:
 //! - road surface (reader under the vehicle): the read happens while the

@@ -1,10 +1,10 @@
 //! Truth trajectories at the IMU rate: a reference sequence of attitude,
 //! velocity and position samples ([`Avp`], PSINS style), from motion commands
-//! ([`motion`]) or from a road route, and the ideal IMU increments that
+//! (`motion`) or from a road route, and the ideal IMU increments that
 //! reproduce it ([`ideal_imu`], by inverse strapdown).
 
-pub mod motion;
-pub mod route;
+pub(crate) mod motion;
+pub(crate) mod route;
 
 pub use motion::{Extent, Motion, MotionPlan, MotionTrajectory, Start};
 pub use route::{RoutePlan, RouteTrajectory, SpeedProfile};

@@ -24,7 +24,9 @@ mod simulate;
 pub use demo::{demo_folder, DemoOutcome};
 pub use inputs::keep_inputs;
 pub use inspect::{inspect_map, InspectOutcome};
-pub use matching::{match_file, MatchBreak, MatchJob, MatchMethod, MatchOutcome, UnmatchedSpan};
+pub use matching::{
+    match_file, MatchBreak, MatchJob, MatchMethod, MatchOutcome, Timings, UnmatchedSpan,
+};
 pub use plan::{plan_folder, NetworkPlanFile, PlanFiles, PlanJob, PlanOutcome, RoutePlanFile};
 pub use progress::{Progress, Silent};
 pub use simulate::{simulate_folder, SimulateJob, SimulateOutcome};

@@ -30,7 +30,7 @@
 //!   selected sites. `forbidden_m` (stretches of *route* distance) and
 //!   `min_spacing_m` do not apply to networks and are rejected.
 //! * **Error budget.** The reach `R` comes from the navigation [`Filter`](crate::nav::Filter)
-//!   itself by covariance analysis (perfect data, as in [`crate::planner::budget`], through [`crate::sim::covariance`]),
+//!   itself by covariance analysis (perfect data, as in `crate::planner::budget`, through `crate::sim::covariance`),
 //!   on the worst case the network allows: a straight, turn-free drive (no
 //!   help from turns; map matching ignored, so no along- or cross-track help)
 //!   at the speed `min(route speed_kmh, road maxspeed)` of each speed class
@@ -55,7 +55,7 @@
 //!   `k + 1` tags (with multiplicity). Checked exactly by dynamic programming
 //!   ([`cover::check`]).
 //! * **Optimisation**: minimum total cost. Exact by integer programming with
-//!   lazy walk constraints ([`ilp`]) when the instance is small
+//!   lazy walk constraints (`ilp`) when the instance is small
 //!   (≤ [`ILP_MAX_CANDIDATES`] candidates) and the solver finishes within its
 //!   node budget; otherwise greedy set multicover with exact reverse deletion
 //!   ([`cover::greedy`]). The plan reports the method and a lower
@@ -66,21 +66,22 @@
 //!   the planned tags of the directions it drives, read with the scenario's
 //!   read probability.
 //!
-//! Files: [`reach`] (the reach per speed class, by the covariance engine),
-//! [`instance`] (the directed graph, candidate sites and installed tags),
-//! [`cover`] (the walk DP check and the greedy), [`ilp`] (the exact
-//! integer programme), [`plan`] (the planning entry points), [`validation`]
-//! (Monte Carlo over sampled paths), [`types`] (the plan's types),
-//! [`settings`] (the network-specific settings).
+//! Files: `reach` (the reach per speed class, by the covariance engine),
+//! `instance` (the directed graph, candidate sites and installed tags),
+//! [`cover`] (the walk DP check and the greedy; public, so that a plan can be
+//! verified from outside the crate), `ilp` (the exact
+//! integer programme), `plan` (the planning entry points), `validation`
+//! (Monte Carlo over sampled paths), `types` (the plan's types),
+//! `settings` (the network-specific settings).
 
 pub mod cover;
-pub mod ilp;
-pub mod instance;
-pub mod plan;
-pub mod reach;
-pub mod settings;
-pub mod types;
-pub mod validation;
+pub(crate) mod ilp;
+pub(crate) mod instance;
+pub(crate) mod plan;
+pub(crate) mod reach;
+pub(crate) mod settings;
+pub(crate) mod types;
+pub(crate) mod validation;
 
 pub use plan::{plan_network, plan_network_loaded, plan_network_on};
 pub use reach::{reach_class, ReachClass};

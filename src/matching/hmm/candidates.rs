@@ -1,0 +1,111 @@
+//! Candidates of a fix: the nearest point of each section within the search
+//! radius, one state per permitted direction, ranked by emission.
+
+use super::drift::{emission, Drift, Line};
+use super::geometry::directed_cos;
+use super::matcher::HmmMatcher;
+use super::state::{Cand, Step};
+use crate::matching::paths::OnSection;
+use crate::matching::{project, Fix};
+
+impl HmmMatcher<'_> {
+    /// Candidates of a fix into `cands`, placed and ranked with the drift `d`.
+    pub(super) fn candidates(
+        &mut self,
+        fix: &Fix,
+        heading: Option<(f64, f64)>,
+        d: &Drift,
+        cands: &mut Vec<Cand>,
+    ) {
+        let net = self.net;
+        cands.clear();
+        self.seg_buf.clear();
+        net.grid
+            .within_radius_into(fix.enu, self.params.search_radius_m, &mut self.seg_buf);
+        let r2 = self.params.sigma_m * self.params.sigma_m;
+        let corrected = [fix.enu[0] - d.mean[0], fix.enu[1] - d.mean[1]];
+        // The nearest segment of each section to the fix less the drift.
+        let mut nearest = std::mem::take(&mut self.near_buf);
+        nearest.clear();
+        for &seg in &self.seg_buf {
+            let (t, _, dist) = project(net, seg, corrected);
+            let section = net.segments[seg as usize].section;
+            match nearest.iter_mut().find(|n| n.0 == section) {
+                Some(n) => {
+                    if dist < n.2 {
+                        *n = (section, seg, dist, t);
+                    }
+                }
+                None => nearest.push((section, seg, dist, t)),
+            }
+        }
+        for &(section, seg, _, t) in &nearest {
+            let s = &net.segments[seg as usize];
+            let line = Line::of(net, seg);
+            let base = emission(&line, fix.enu, d, r2).log_p;
+            let offset_m = s.section_offset_m + t * s.length_m;
+            let oneway = net.sections[section as usize].oneway;
+            // One state per permitted direction of the section.
+            for forward in [true, false] {
+                if !(if forward {
+                    oneway.allows_forward()
+                } else {
+                    oneway.allows_backward()
+                }) {
+                    continue;
+                }
+                let h = match heading {
+                    Some((h, kappa)) => kappa * (directed_cos(net, seg, h, forward) - 1.0),
+                    None => 0.0,
+                };
+                let sign = if forward { 1.0 } else { -1.0 };
+                cands.push(Cand {
+                    seg,
+                    line,
+                    at: OnSection {
+                        section,
+                        offset_m,
+                        forward: Some(forward),
+                    },
+                    emission: base + h,
+                    heading: h,
+                    dir: [sign * line.u[0], sign * line.u[1]],
+                    anchor_dir: [0.0; 2],
+                    anchor_m: 0.0,
+                    road: s.road,
+                    anchor_road: s.road,
+                    drift: *d,
+                });
+            }
+        }
+        self.near_buf = nearest;
+        cands.sort_unstable_by(|a, b| b.emission.total_cmp(&a.emission));
+        cands.truncate(self.params.max_candidates);
+    }
+
+    pub(super) fn new_step(&mut self, index: u64, fix: Fix) -> Step {
+        match self.spare.pop() {
+            Some(mut s) => {
+                s.index = index;
+                s.fix = fix;
+                s.cands.clear();
+                s.score.clear();
+                s.back.clear();
+                s.alpha.clear();
+                s.pair.clear();
+                s.pending.clear();
+                s
+            }
+            None => Step {
+                index,
+                fix,
+                cands: Vec::with_capacity(self.params.max_candidates),
+                score: Vec::with_capacity(self.params.max_candidates),
+                back: Vec::with_capacity(self.params.max_candidates),
+                alpha: Vec::with_capacity(self.params.max_candidates),
+                pair: Vec::with_capacity(self.params.max_candidates * self.params.max_candidates),
+                pending: Vec::new(),
+            },
+        }
+    }
+}

@@ -1,0 +1,184 @@
+//! The drift model: a first-order Gauss–Markov offset per hypothesis, its
+//! Kalman update from a road, and the emission of a fix under it.
+
+use crate::network::geometry::norm;
+use crate::network::{Network, SegmentId};
+
+/// The drift (the slowly varying offset of a fix from the true position):
+/// mean and covariance, east and north (m, m²).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Drift {
+    pub(super) mean: [f64; 2],
+    /// Covariance: east², east·north, north².
+    pub(super) cov: [f64; 3],
+}
+
+impl Drift {
+    /// Zero mean, σ per axis.
+    pub(super) fn prior(sigma_m: f64) -> Self {
+        let v = sigma_m * sigma_m;
+        Drift {
+            mean: [0.0; 2],
+            cov: [v, 0.0, v],
+        }
+    }
+
+    /// Prediction over `ds_m` metres travelled by the first-order
+    /// Gauss–Markov model b' = φ b + w, φ = exp(−ds/L), var w = σ²(1 − φ²):
+    /// the covariance never exceeds the prior's and the mean relaxes to
+    /// zero where nothing is observed, so no estimate can run away.
+    pub(super) fn predict(&self, ds_m: f64, corr_m: f64, sigma_m: f64) -> Self {
+        let phi = (-ds_m.max(0.0) / corr_m).exp();
+        let (f2, q) = (phi * phi, sigma_m * sigma_m * (1.0 - phi * phi));
+        Drift {
+            mean: [phi * self.mean[0], phi * self.mean[1]],
+            cov: [f2 * self.cov[0] + q, f2 * self.cov[1], f2 * self.cov[2] + q],
+        }
+    }
+
+    /// Variance along the unit vector `u`.
+    #[inline]
+    pub(super) fn var(&self, u: [f64; 2]) -> f64 {
+        u[0] * u[0] * self.cov[0] + 2.0 * u[0] * u[1] * self.cov[1] + u[1] * u[1] * self.cov[2]
+    }
+
+    /// Kalman update with a scalar measurement of the drift along the unit
+    /// vector `n`: innovation `nu`, innovation variance `s`.
+    #[inline]
+    pub(super) fn update(&mut self, n: [f64; 2], nu: f64, s: f64) {
+        let pn = [
+            self.cov[0] * n[0] + self.cov[1] * n[1],
+            self.cov[1] * n[0] + self.cov[2] * n[1],
+        ];
+        self.mean[0] += pn[0] * nu / s;
+        self.mean[1] += pn[1] * nu / s;
+        self.cov[0] = (self.cov[0] - pn[0] * pn[0] / s).max(0.0);
+        self.cov[1] -= pn[0] * pn[1] / s;
+        self.cov[2] = (self.cov[2] - pn[1] * pn[1] / s).max(0.0);
+    }
+}
+
+/// The emission of a fix on a segment under a predicted drift: the
+/// log-likelihood, and the across-road innovation (unit normal, innovation,
+/// its variance) for the drift update.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Emission {
+    pub(super) log_p: f64,
+    pub(super) normal: [f64; 2],
+    pub(super) nu: f64,
+    pub(super) s: f64,
+}
+
+/// Emission of the fix `raw` on segment `seg` given the predicted drift `d`
+/// and the white-noise variance `r2` (m²). The fix less the drift's mean is
+/// compared with the segment: across the road the innovation has variance
+/// nᵀPn + r²; beyond the segment's ends the overshoot along it is charged
+/// with the drift's variance along the road, uᵀPu + r². The log-likelihood
+/// keeps the −½ ln(S/r²) term, so a candidate across which the drift is
+/// uncertain does not gain from that uncertainty.
+#[inline]
+pub(super) fn emission(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Emission {
+    let u = line.u;
+    let n = [-u[1], u[0]];
+    let rel = [
+        raw[0] - d.mean[0] - line.a[0],
+        raw[1] - d.mean[1] - line.a[1],
+    ];
+    let along = rel[0] * u[0] + rel[1] * u[1];
+    let across = rel[0] * n[0] + rel[1] * n[1];
+    let over = if along < 0.0 {
+        along
+    } else if along > line.len {
+        along - line.len
+    } else {
+        0.0
+    };
+    let s_n = d.var(n) + r2;
+    let log_p = if over == 0.0 {
+        -0.5 * across * across / s_n
+    } else {
+        -0.5 * (across * across / s_n + over * over / (d.var(u) + r2))
+    } - 0.5 * (s_n / r2).ln();
+    Emission {
+        log_p,
+        normal: n,
+        nu: across,
+        s: s_n,
+    }
+}
+
+/// A segment as a start point, unit direction and length (ENU, m): the form
+/// the emission kernel needs (the fix split into along- and across-road
+/// parts against a drift covariance), which `geo` has no algorithm for; the
+/// unit direction is computed once per candidate, not per transition.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Line {
+    pub(super) a: [f64; 2],
+    pub(super) u: [f64; 2],
+    pub(super) len: f64,
+}
+
+impl Line {
+    pub(super) fn of(net: &Network, seg: SegmentId) -> Self {
+        let sg = &net.segments[seg as usize];
+        let (dx, dy) = (sg.b[0] - sg.a[0], sg.b[1] - sg.a[1]);
+        let len = norm(dx, dy);
+        let u = if len > 1e-9 {
+            [dx / len, dy / len]
+        } else {
+            [1.0, 0.0]
+        };
+        Line { a: sg.a, u, len }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A road observes the drift across it only: the update pulls the mean
+    /// and shrinks the variance across (north, for an east-west road) and
+    /// leaves the drift along it (east) as uncertain as before.
+    #[test]
+    fn a_road_observes_the_drift_across_it_only() {
+        let mut d = Drift::prior(20.0);
+        let line = Line {
+            a: [0.0, 0.0],
+            u: [1.0, 0.0],
+            len: 100.0,
+        };
+        // A fix 12 m north of the road, 3 m east of its start.
+        let e = emission(&line, [3.0, 12.0], &d, 25.0);
+        assert!((e.nu - 12.0).abs() < 1e-9 && (e.s - 425.0).abs() < 1e-9);
+        d.update(e.normal, e.nu, e.s);
+        // Kalman gain 400/425 on the north component.
+        assert!((d.mean[1] - 12.0 * 400.0 / 425.0).abs() < 1e-9);
+        assert_eq!(d.mean[0], 0.0);
+        assert!((d.cov[2] - 400.0 * 25.0 / 425.0).abs() < 1e-9);
+        assert_eq!(d.cov[0], 400.0);
+        // With the drift removed, the same fix fits the road far better.
+        let after = emission(&line, [3.0, 12.0], &d, 25.0);
+        assert!(after.nu.abs() < 1.0 && after.log_p > e.log_p);
+    }
+
+    /// The Gauss–Markov prediction keeps every estimate within the prior:
+    /// the mean relaxes towards zero and the variance towards σ², never
+    /// beyond, however far the vehicle drives unobserved.
+    #[test]
+    fn prediction_stays_within_the_prior() {
+        let d = Drift {
+            mean: [30.0, -10.0],
+            cov: [4.0, 1.0, 9.0],
+        };
+        let mut last = d;
+        for ds in [10.0, 100.0, 1000.0, 1e6] {
+            let p = d.predict(ds, 400.0, 19.4);
+            assert!(p.mean[0].abs() < last.mean[0].abs());
+            assert!(p.cov[0] <= 19.4 * 19.4 + 1e-9 && p.cov[2] <= 19.4 * 19.4 + 1e-9);
+            assert!(p.cov[0] >= d.cov[0] && p.cov[1].abs() <= d.cov[1].abs());
+            last = p;
+        }
+        let far = d.predict(1e6, 400.0, 19.4);
+        assert!(far.mean[0].abs() < 1e-9 && (far.cov[0] - 19.4 * 19.4).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,52 @@
+//! The Viterbi state: a candidate (one section and direction of travel)
+//! and a step of the lag window.
+
+use super::drift::{Drift, Line};
+use crate::matching::paths::OnSection;
+use crate::matching::Fix;
+use crate::network::{RoadId, SegmentId};
+
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Cand {
+    pub(super) seg: SegmentId,
+    pub(super) line: Line,
+    pub(super) at: OnSection,
+    /// Emission under the common drift (candidate ranking, chain starts).
+    pub(super) emission: f64,
+    /// The heading part of the emission.
+    pub(super) heading: f64,
+    /// Unit direction of travel (east, north).
+    pub(super) dir: [f64; 2],
+    /// Direction of travel at least [`ANCHOR_M`] back along the best path
+    /// into this state, and the distance from there (m).
+    pub(super) anchor_dir: [f64; 2],
+    pub(super) anchor_m: f64,
+    /// The road of this state and of the state at the anchor.
+    pub(super) road: RoadId,
+    pub(super) anchor_road: RoadId,
+    /// The drift estimated along the best path into this state, this
+    /// step's fix included.
+    pub(super) drift: Drift,
+}
+
+/// Distance back along the path at which the earlier direction of travel is
+/// compared with the current one to recognise U-turns (m).
+pub(super) const ANCHOR_M: f64 = 40.0;
+
+#[derive(Debug)]
+pub(super) struct Step {
+    pub(super) index: u64,
+    /// The fix as given.
+    pub(super) fix: Fix,
+    pub(super) cands: Vec<Cand>,
+    pub(super) score: Vec<f64>,
+    pub(super) back: Vec<u32>,
+    /// Forward (filtered) probability of each candidate, normalised.
+    pub(super) alpha: Vec<f64>,
+    /// Transition × emission weights from the previous step's candidates
+    /// (rows) into this step's (columns), scaled to a largest weight of 1;
+    /// empty at a chain's first step.
+    pub(super) pair: Vec<f64>,
+    /// Fixes after this step, before the next (index, fix).
+    pub(super) pending: Vec<(u64, Fix)>,
+}

@@ -1,0 +1,156 @@
+//! Transitions: the Viterbi recursion with per-survivor drift estimates,
+//! and the forward–backward smoothing over the lag window.
+
+use super::drift::{emission, Emission};
+use super::geometry::dist;
+use super::matcher::HmmMatcher;
+use super::probability::{normalise, softmax_into};
+use super::state::{Step, ANCHOR_M};
+
+impl HmmMatcher<'_> {
+    /// Viterbi recursion from the window's last step into `step`; false when
+    /// no candidate can be reached from any previous one. Each candidate's
+    /// emission is evaluated under the drift carried by each predecessor
+    /// (predicted over the distance between the fixes), and the candidate
+    /// takes over the winning predecessor's drift, updated with its own
+    /// across-road innovation (per-survivor estimation).
+    pub(super) fn transition(&mut self, step: &mut Step) -> bool {
+        let prev = self.window.back().expect("a previous step");
+        let gc = dist(step.fix.enu, prev.fix.enu);
+        let bound = gc + 2.0 * self.params.search_radius_m + 100.0;
+        let backtrack = self.params.backtrack_m;
+        let inv_beta = 1.0 / self.params.beta_m;
+        let r2 = self.params.sigma_m * self.params.sigma_m;
+        for c in &prev.cands {
+            for (n, _) in self.paths.exits(c.at).into_iter().flatten() {
+                self.paths.ensure(n, bound);
+            }
+        }
+        let mut preds = std::mem::take(&mut self.pred_buf);
+        preds.clear();
+        let prev = self.window.back().expect("a previous step");
+        preds.extend(prev.cands.iter().map(|p| self.predict(&p.drift, gc)));
+        let track = self.params.track_drift;
+        let mut any = false;
+        step.score.clear();
+        step.back.clear();
+        let nc = step.cands.len();
+        step.pair.clear();
+        step.pair.resize(prev.cands.len() * nc, f64::NEG_INFINITY);
+        for (k, c) in step.cands.iter_mut().enumerate() {
+            let mut best = f64::NEG_INFINITY;
+            let mut arg = 0u32;
+            let mut anchor = (c.dir, 0.0, c.road);
+            let mut innovation: Option<Emission> = None;
+            for (i, p) in prev.cands.iter().enumerate() {
+                if prev.score[i] == f64::NEG_INFINITY {
+                    continue;
+                }
+                let Some(d) = self.paths.point_distance_cached(p.at, c.at, backtrack) else {
+                    continue;
+                };
+                if d > bound {
+                    continue;
+                }
+                // Facing the other way after a short drive: a U-turn (at a
+                // node or round a small loop, in one transition or over a few).
+                let dot = |u: [f64; 2]| u[0] * c.dir[0] + u[1] * c.dir[1];
+                let turned = (dot(p.dir) < -0.5 && d < self.params.uturn_penalty_m)
+                    || (dot(p.anchor_dir) < -0.5
+                        && p.anchor_m + d < 2.0 * ANCHOR_M
+                        && p.anchor_road == c.road);
+                let charged = if turned {
+                    d + self.params.uturn_penalty_m
+                } else {
+                    d
+                };
+                let e = emission(&c.line, step.fix.enu, &preds[i], r2);
+                let psi = e.log_p + c.heading - (charged - gc).abs() * inv_beta;
+                step.pair[i * nc + k] = psi;
+                let s = prev.score[i] + psi;
+                if s > best {
+                    best = s;
+                    arg = i as u32;
+                    innovation = Some(e);
+                    anchor = if p.anchor_m + d > ANCHOR_M {
+                        (p.dir, d, p.road)
+                    } else {
+                        (p.anchor_dir, p.anchor_m + d, p.anchor_road)
+                    };
+                }
+            }
+            if let Some(e) = innovation {
+                any = true;
+                c.drift = preds[arg as usize];
+                if track {
+                    c.drift.update(e.normal, e.nu, e.s);
+                }
+            }
+            c.anchor_dir = anchor.0;
+            c.anchor_m = anchor.1;
+            c.anchor_road = anchor.2;
+            step.score.push(best);
+            step.back.push(arg);
+        }
+        self.pred_buf = preds;
+        if any {
+            // Renormalise so scores stay near zero on long tracks.
+            let m = step.score.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            for s in &mut step.score {
+                *s -= m;
+            }
+            // Forward (sum-product) recursion on the same weights.
+            let m = step.pair.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            for w in &mut step.pair {
+                *w = (*w - m).exp();
+            }
+            step.alpha.clear();
+            step.alpha.resize(nc, 0.0);
+            for (i, a) in prev.alpha.iter().enumerate() {
+                if *a > 0.0 {
+                    for (x, w) in step.alpha.iter_mut().zip(&step.pair[i * nc..(i + 1) * nc]) {
+                        *x += a * w;
+                    }
+                }
+            }
+            if !normalise(&mut step.alpha) {
+                softmax_into(&step.score, &mut step.alpha);
+            }
+        }
+        any
+    }
+
+    /// The smoothed posterior of the window's oldest step given every fix in
+    /// the window (forward–backward over the lag window) into `out`.
+    pub(super) fn front_posterior(&self, out: &mut Vec<f64>) {
+        let len = self.window.len();
+        let mut beta = vec![1.0; self.window[len - 1].cands.len()];
+        let mut next = Vec::with_capacity(self.params.max_candidates);
+        for t in (1..len).rev() {
+            let (st, np) = (&self.window[t], self.window[t - 1].cands.len());
+            let nc = st.cands.len();
+            next.clear();
+            if st.pair.len() != np * nc {
+                next.resize(np, 1.0);
+            } else {
+                next.extend((0..np).map(|i| {
+                    st.pair[i * nc..(i + 1) * nc]
+                        .iter()
+                        .zip(&beta)
+                        .map(|(w, b)| w * b)
+                        .sum::<f64>()
+                }));
+                if !normalise(&mut next) {
+                    next.iter_mut().for_each(|x| *x = 1.0);
+                }
+            }
+            std::mem::swap(&mut beta, &mut next);
+        }
+        let front = &self.window[0];
+        out.clear();
+        out.extend(front.alpha.iter().zip(&beta).map(|(a, b)| a * b));
+        if !normalise(out) {
+            softmax_into(&front.score, out);
+        }
+    }
+}
