@@ -18,6 +18,7 @@
 pub mod covariance;
 pub mod dead_reckoning;
 pub mod integrated;
+pub mod map_error;
 pub mod map_feed;
 pub mod metrics;
 pub mod monte_carlo;
