@@ -336,6 +336,18 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
     }
     if input.summary.is_some() {
         let _ = write!(html, "<p>{}</p>", sim_verdict(s));
+        let mm = &s["map_matching"];
+        if mm.is_object() {
+            let _ = write!(
+                html,
+                "<p>Map matching: {} fixes fed, {} accepted, {} rejected; {:.1} % on the wrong road; largest across-road error of an accepted fix {:.1} m.</p>",
+                mm["fed"].as_u64().unwrap_or(0),
+                mm["accepted"].as_u64().unwrap_or(0),
+                mm["rejected"].as_u64().unwrap_or(0),
+                100.0 * num(&mm["wrong_road_share"]).unwrap_or(0.0),
+                num(&mm["max_across_error_m"]).unwrap_or(0.0),
+            );
+        }
     }
     html.push_str("</section>");
 

@@ -177,6 +177,17 @@ pub struct ExternalFixSection {
 pub struct MapSection {
     /// Map file, relative to the scenario file.
     pub path: PathBuf,
+    /// Geometry error of the map the navigator has against the world the
+    /// vehicle drives in: 1σ per horizontal axis (m, ≥ 0; default
+    /// 4.8 m, from Haklay 2010's
+    /// ~6 m mean offset of OpenStreetMap roads from Ordnance Survey; 0: a
+    /// perfect map).
+    #[serde(default)]
+    pub geometry_error_m: Option<f64>,
+    /// Correlation length of that error (m, > 0; default 200): the length
+    /// scale L of its Gaussian covariance σ² exp(−d²/2L²).
+    #[serde(default)]
+    pub geometry_error_correlation_m: Option<f64>,
 }
 
 /// `[[route]]`: waypoints on the map, or a start and motion commands.

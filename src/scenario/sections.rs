@@ -224,6 +224,35 @@ pub struct PlannerOptions {
     pub u_turns: UTurns,
 }
 
+/// Default `[map] geometry_error_m` (m, 1σ per axis): Haklay (2010, *How
+/// good is volunteered geographical information?*, Environment and Planning
+/// B 37(4)) found OpenStreetMap roads in London on average about 6 m from
+/// Ordnance Survey's; a mean radial offset of 6 m is a per-axis σ of
+/// 6 / √(π/2) = 4.8 m.
+pub const DEFAULT_MAP_GEOMETRY_ERROR_M: f64 = 4.8;
+/// Default `[map] geometry_error_correlation_m` (m).
+pub const DEFAULT_MAP_ERROR_CORRELATION_M: f64 = 200.0;
+
+/// `[map]` geometry error, validated: the map the navigator matches against
+/// is the world displaced by a smooth random field with this σ and
+/// correlation length (see `sim::map_error`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapErrorModel {
+    /// 1σ per horizontal axis (m; 0: a perfect map).
+    pub sigma_m: f64,
+    /// Correlation length L (m) of the Gaussian covariance σ² exp(−d²/2L²).
+    pub correlation_m: f64,
+}
+
+impl Default for MapErrorModel {
+    fn default() -> Self {
+        Self {
+            sigma_m: DEFAULT_MAP_GEOMETRY_ERROR_M,
+            correlation_m: DEFAULT_MAP_ERROR_CORRELATION_M,
+        }
+    }
+}
+
 /// A loaded, validated scenario in SI units.
 #[derive(Debug, Clone)]
 pub struct Scenario {
@@ -249,6 +278,8 @@ pub struct Scenario {
     pub output_interval_s: f64,
     /// RFID reader model.
     pub rfid: RfidModel,
+    /// Geometry error of the navigator's map (`[map]`; default without one).
+    pub map_error: MapErrorModel,
     pub(super) name: String,
     pub(super) requirement_m: Option<f64>,
     pub(super) duration_cap_s: f64,

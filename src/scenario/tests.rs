@@ -196,3 +196,46 @@ fn unknown_fields_name_their_table() {
     let e = parse_err("[external_fix]\ninterval_s = [1, 2]\n");
     assert_eq!(e, "bad.toml: line 5: external_fix: missing field `white_m`");
 }
+
+/// `[map] geometry_error_m` / `geometry_error_correlation_m`: defaults, set
+/// values, and one error naming the file and the field for each bad value.
+#[test]
+fn map_geometry_error_is_validated() {
+    let scn = |extra: &str| {
+        format!(
+            "name = \"x\"\n[map]\npath = \"m.osm\"\n{extra}\n[[route]]\nwaypoints = [[60.17, 24.94], [60.175, 24.95]]\n[imu]\nrate_hz = 100\n"
+        )
+    };
+    let p = Path::new("/x/scn.toml");
+    let d = Scenario::parse(p, &scn("")).unwrap();
+    assert_eq!(d.map_error.sigma_m, sections::DEFAULT_MAP_GEOMETRY_ERROR_M);
+    assert_eq!(d.map_error.correlation_m, 200.0);
+    let s = Scenario::parse(
+        p,
+        &scn("geometry_error_m = 0\ngeometry_error_correlation_m = 50"),
+    )
+    .unwrap();
+    assert_eq!(s.map_error.sigma_m, 0.0);
+    assert_eq!(s.map_error.correlation_m, 50.0);
+    for (extra, field) in [
+        ("geometry_error_m = -1", "map.geometry_error_m"),
+        ("geometry_error_m = nan", "map.geometry_error_m"),
+        ("geometry_error_m = inf", "map.geometry_error_m"),
+        (
+            "geometry_error_correlation_m = 0",
+            "map.geometry_error_correlation_m",
+        ),
+        (
+            "geometry_error_correlation_m = -5",
+            "map.geometry_error_correlation_m",
+        ),
+        (
+            "geometry_error_correlation_m = inf",
+            "map.geometry_error_correlation_m",
+        ),
+    ] {
+        let e = Scenario::parse(p, &scn(extra)).unwrap_err().to_string();
+        assert!(e.contains("scn.toml") && e.contains(field), "{extra}: {e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}

@@ -504,6 +504,7 @@ impl Scenario {
             None => None,
         };
         let route = route(&c, path, &file)?;
+        let map_error = map_error(&c, file.map.as_ref())?;
         let planner = planner(&c, path, file.planner.clone().unwrap_or_default())?;
         let filter = filter(&file, &odometer, dt);
         let a = file.aiding;
@@ -520,6 +521,7 @@ impl Scenario {
             initial_attitude_error: n.initial_attitude_error_arcmin.map(|x| x * ARCMIN),
             output_interval_s,
             rfid,
+            map_error,
             name: file.name.clone(),
             requirement_m: file.requirement_m,
             duration_cap_s: file.duration_s.unwrap_or(f64::INFINITY),
@@ -551,6 +553,20 @@ impl Scenario {
             accel_bias_random: file.imu.accel_bias_random_ug * 1e-6 * G0,
         })
     }
+}
+
+/// `[map] geometry_error_m` and `geometry_error_correlation_m`, checked, with
+/// their defaults.
+fn map_error(c: &Check, m: Option<&MapSection>) -> Result<MapErrorModel> {
+    let d = MapErrorModel::default();
+    let sigma = m.and_then(|m| m.geometry_error_m).unwrap_or(d.sigma_m);
+    let corr = m
+        .and_then(|m| m.geometry_error_correlation_m)
+        .unwrap_or(d.correlation_m);
+    Ok(MapErrorModel {
+        sigma_m: c.non_negative("map.geometry_error_m", sigma)?,
+        correlation_m: c.positive("map.geometry_error_correlation_m", corr)?,
+    })
 }
 
 /// The `[[tag]]` entries, checked, with their defaults.

@@ -299,7 +299,12 @@ pub fn run_integrated(
         .network
         .as_deref()
         .filter(|_| aid.map_matching)
-        .map(|net| super::map_feed::MapFeed::new(net, first.avp.t));
+        .map(|net| {
+            let me = scn.map_error;
+            let field =
+                super::map_error::MapErrorField::draw(seed, run, me.sigma_m, me.correlation_m);
+            super::map_feed::MapFeed::on_map(net, first.avp.t, field, me.sigma_m, me.correlation_m)
+        });
     let mut k = 0u64;
     for s in samples {
         k += 1;
@@ -399,7 +404,7 @@ pub fn run_integrated(
             }
         }
         if let Some(feed) = map_feed.as_mut() {
-            feed.step(t, &mut filter);
+            feed.step_with_truth(t, &mut filter, Some(&s.avp.state));
         }
         let st = filter.state();
         if rec.due(k) {

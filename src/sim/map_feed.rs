@@ -13,10 +13,26 @@
 //! roads bound both components (and, through the filter, the odometer scale
 //! factor). Fixes are fed every [`INTERVAL_S`] while the navigator moves
 //! faster than [`MIN_SPEED_MPS`]; the filter's χ² gate screens wrong matches.
+//!
+//! **Map errors (issue 12).** The navigator matches against its own map, the
+//! world displaced by a [`MapErrorField`]. A position p on that map is matched
+//! by pulling it back to the world (q with q + offset(q) = p), matching q on
+//! the world's geometry and pushing the matched point and the road's ends
+//! forward again (m + offset(m)). Where the field is a local translation this
+//! is exactly matching p on the displaced map; the field's gradient (~σ/L, a
+//! few per cent) distorts distances and headings by that much. Because the
+//! map error is correlated over L (`geometry_error_correlation_m`), fixes a
+//! few metres apart share it and are not independent: the across-road
+//! variance is inflated by the integrated autocorrelation of the error along
+//! the path, τ = Σₖ exp(−(k·d)²/2L²) ≈ √(2π)·L/d with d = speed × interval,
+//! the factor by which the variance of a mean of correlated samples exceeds
+//! that of independent ones: σ² = [`ACROSS_SIGMA_M`]² + τ·σ_map².
 
+use super::map_error::MapErrorField;
 use crate::geodesy::Geodetic;
 use crate::matching::{Fix, IncrementalMatcher, IncrementalParams, MatchedPoint, Matcher};
 use crate::nav::integrated::along_across_covariance;
+use crate::nav::NavState;
 use crate::nav::{Filter, FixPosition};
 use crate::network::Network;
 
@@ -29,8 +45,13 @@ pub const INTERVAL_S: f64 = 1.0;
 /// Below this speed no fix is fed (m/s).
 pub const MIN_SPEED_MPS: f64 = 1.0;
 
+/// A match is on the wrong road when the matched road's true centre line is
+/// farther than this from the truth (m): beyond a lane or two of the road,
+/// short of the 15–40 m between parallel roads.
+pub const WRONG_ROAD_M: f64 = 10.0;
+
 /// What the feed did in one run.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FeedCounts {
     /// Fixes offered to the filter.
     pub fed: u64,
@@ -40,6 +61,11 @@ pub struct FeedCounts {
     pub road_end: u64,
     /// Positions the matcher could not match.
     pub unmatched: u64,
+    /// Fed fixes on the wrong road (see [`WRONG_ROAD_M`]; counted when the
+    /// truth is known).
+    pub wrong_road: u64,
+    /// Largest across-road error of an accepted fix against the truth (m).
+    pub max_across_error_m: f64,
 }
 
 /// The online map-matching feed of one run.
@@ -48,6 +74,11 @@ pub struct MapFeed<'a> {
     net: &'a Network,
     matcher: IncrementalMatcher<'a>,
     out: Vec<MatchedPoint>,
+    /// The navigator's map minus the world (`None`: a perfect map).
+    field: Option<MapErrorField>,
+    /// Map error variance per axis (m²) and correlation length (m).
+    map_var: f64,
+    map_corr_m: f64,
     next_t: f64,
     /// Counts.
     pub counts: FeedCounts,
@@ -55,19 +86,47 @@ pub struct MapFeed<'a> {
 
 impl<'a> MapFeed<'a> {
     /// A feed on `net`, first fix at `t0 + INTERVAL_S`.
+    /// A perfect map.
     pub fn new(net: &'a Network, t0: f64) -> Self {
         Self {
             net,
             matcher: IncrementalMatcher::new(net, IncrementalParams::default()),
             out: Vec::with_capacity(1),
+            field: None,
+            map_var: 0.0,
+            map_corr_m: 1.0,
             next_t: t0 + INTERVAL_S,
             counts: FeedCounts::default(),
         }
     }
 
+    /// A feed whose map is `net` (the world) displaced by `field`, drawn with
+    /// 1σ `sigma_m` per axis and correlation length `correlation_m`.
+    pub fn on_map(
+        net: &'a Network,
+        t0: f64,
+        field: Option<MapErrorField>,
+        sigma_m: f64,
+        correlation_m: f64,
+    ) -> Self {
+        let mut f = Self::new(net, t0);
+        if field.is_some() {
+            f.map_var = sigma_m * sigma_m;
+            f.map_corr_m = correlation_m;
+        }
+        f.field = field;
+        f
+    }
+
     /// Called after the filter's updates at time `t`: matches the navigator's
     /// position when a fix is due and feeds the result back.
     pub fn step(&mut self, t: f64, filter: &mut Filter) {
+        self.step_with_truth(t, filter, None);
+    }
+
+    /// [`Self::step`], also scoring the fix against the truth's state (wrong
+    /// road, across-road error) when given.
+    pub fn step_with_truth(&mut self, t: f64, filter: &mut Filter, truth: Option<&NavState>) {
         if t + 1e-9 < self.next_t {
             return;
         }
@@ -83,11 +142,16 @@ impl<'a> MapFeed<'a> {
             lon: st.lon,
             height: 0.0,
         });
+        // The navigator's map position, pulled back to the world's geometry.
+        let q = match &self.field {
+            Some(f) => f.to_world([e[0], e[1]]),
+            None => [e[0], e[1]],
+        };
         self.out.clear();
         self.matcher.push(
             &Fix {
                 t_s: t,
-                enu: [e[0], e[1]],
+                enu: q,
                 heading_rad: Some(st.v[0].atan2(st.v[1])),
             },
             &mut self.out,
@@ -98,17 +162,31 @@ impl<'a> MapFeed<'a> {
             return;
         };
         let seg = &net.segments[seg_id as usize];
+        // The matched point and the road on the navigator's map.
+        let (point, a, b) = match &self.field {
+            Some(f) => (f.to_map(m.point), f.to_map(seg.a), f.to_map(seg.b)),
+            None => (m.point, seg.a, seg.b),
+        };
         // Direction of the road (clockwise from north); the sign does not
         // matter for the covariance.
-        let road_heading = (seg.b[0] - seg.a[0]).atan2(seg.b[1] - seg.a[1]);
+        let road_heading = (b[0] - a[0]).atan2(b[1] - a[1]);
+        // Across-road σ: matching and lane position, plus the map error
+        // inflated by its correlation along the path (module doc).
+        let tau = if self.map_var > 0.0 {
+            let d = speed * INTERVAL_S;
+            ((2.0 * std::f64::consts::PI).sqrt() * self.map_corr_m / d).max(1.0)
+        } else {
+            0.0
+        };
+        let across = (ACROSS_SIGMA_M * ACROSS_SIGMA_M + tau * self.map_var).sqrt();
         let along = if at_road_end(net, seg_id, m.point) {
             self.counts.road_end += 1;
-            ACROSS_SIGMA_M
+            across
         } else {
             ALONG_SIGMA_M
         };
-        let cov = along_across_covariance(road_heading, along, ACROSS_SIGMA_M);
-        let g = net.frame.to_geodetic([m.point[0], m.point[1], 0.0]);
+        let cov = along_across_covariance(road_heading, along, across);
+        let g = net.frame.to_geodetic([point[0], point[1], 0.0]);
         let o = filter.update_position_fix(
             t,
             FixPosition::Geodetic {
@@ -121,7 +199,44 @@ impl<'a> MapFeed<'a> {
         if o.accepted {
             self.counts.accepted += 1;
         }
+        if let Some(tr) = truth {
+            let w = net.frame.to_enu(&Geodetic {
+                lat: tr.lat,
+                lon: tr.lon,
+                height: 0.0,
+            });
+            let w = [w[0], w[1]];
+            if section_distance(net, seg.section, w) > WRONG_ROAD_M {
+                self.counts.wrong_road += 1;
+            }
+            if o.accepted {
+                let (sn, cs) = road_heading.sin_cos();
+                // Across-road unit vector (east, north): the road's direction turned right.
+                let across_err = (point[0] - w[0]) * cs - (point[1] - w[1]) * sn;
+                let c = &mut self.counts.max_across_error_m;
+                *c = c.max(across_err.abs());
+            }
+        }
     }
+}
+
+/// Distance (m) from world point `p` to a section's centre line.
+fn section_distance(net: &Network, section: u32, p: [f64; 2]) -> f64 {
+    let sec = &net.sections[section as usize];
+    let first = sec.first_segment as usize;
+    net.segments[first..first + sec.segment_count as usize]
+        .iter()
+        .map(|s| {
+            let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
+            let l2 = d[0] * d[0] + d[1] * d[1];
+            let u = if l2 > 0.0 {
+                (((p[0] - s.a[0]) * d[0] + (p[1] - s.a[1]) * d[1]) / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (p[0] - s.a[0] - u * d[0]).hypot(p[1] - s.a[1] - u * d[1])
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Is the matched point clamped to a road end (a node met by one section end only)?

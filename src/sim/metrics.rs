@@ -61,6 +61,9 @@ pub struct Summary {
     pub nees: Option<NeesSummary>,
     /// Tag reads (integrated mode).
     pub tags: Option<TagSummary>,
+    /// The map-matching feed over all runs (integrated mode with
+    /// `aiding.map_matching`).
+    pub map_matching: Option<MapMatchingSummary>,
     /// Update counts of run 0 (integrated mode).
     pub updates_run0: Option<crate::nav::integrated::UpdateCounts>,
     /// Odometer faults injected by the scenario (`[odometer] failure`) while
@@ -155,6 +158,45 @@ pub struct NeesSummary {
     pub fraction_within_band: f64,
     /// Share above the band (the filter over-confident).
     pub fraction_above_band: f64,
+}
+
+/// The map-matching feed over all runs.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct MapMatchingSummary {
+    /// Fixes offered to the filter.
+    pub fed: u64,
+    /// Accepted by its gate.
+    pub accepted: u64,
+    /// Rejected by its gate.
+    pub rejected: u64,
+    /// Share of fed fixes on the wrong road (the matched road's true centre
+    /// line more than `map_feed::WRONG_ROAD_M` from the truth).
+    pub wrong_road_share: f64,
+    /// Largest across-road error of an accepted fix against the truth (m).
+    pub max_across_error_m: f64,
+}
+
+impl MapMatchingSummary {
+    /// Sums the feeds of `runs`; `None` when no run had one.
+    pub fn of(runs: &[RunResult]) -> Option<Self> {
+        let feeds: Vec<_> = runs.iter().filter_map(|r| r.map_feed).collect();
+        if feeds.is_empty() {
+            return None;
+        }
+        let fed: u64 = feeds.iter().map(|c| c.fed).sum();
+        let accepted: u64 = feeds.iter().map(|c| c.accepted).sum();
+        let wrong: u64 = feeds.iter().map(|c| c.wrong_road).sum();
+        Some(Self {
+            fed,
+            accepted,
+            rejected: fed - accepted,
+            wrong_road_share: wrong as f64 / fed.max(1) as f64,
+            max_across_error_m: feeds
+                .iter()
+                .map(|c| c.max_across_error_m)
+                .fold(0.0, f64::max),
+        })
+    }
 }
 
 /// Tag reads over all runs, and run 0's rejected reads.
@@ -328,6 +370,7 @@ pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
         profile,
         nees,
         tags,
+        map_matching: MapMatchingSummary::of(runs),
         updates_run0: runs.first().and_then(|r| r.counts),
         odometer_faults: runs
             .first()

@@ -10,6 +10,7 @@
 //! - `passes`: passes by tags (from the truth) and per-run reads;
 //! - `dead_reckoning`: the stand-alone navigators' runner;
 //! - `integrated`: the integrated navigator's runner and its filter settings;
+//! - `map_error`: the map's geometry error field, drawn per run;
 //! - `covariance`: the perfect-data covariance engine and the 95 % bound;
 //! - `metrics`: the summary of the runs;
 //! - `monte_carlo`: Monte Carlo dispatch;
@@ -18,6 +19,7 @@
 pub(crate) mod covariance;
 pub(crate) mod dead_reckoning;
 pub(crate) mod integrated;
+pub(crate) mod map_error;
 pub(crate) mod map_feed;
 pub(crate) mod metrics;
 pub(crate) mod monte_carlo;
@@ -31,7 +33,9 @@ pub use crate::scenario::{NavMode, Scenario};
 pub use covariance::{bound95, bound95_of_sigmas, CHI2_2_95};
 pub use integrated::Prepared;
 pub use map_feed::FeedCounts;
-pub use metrics::{FaultInterval, NeesSummary, ProfilePoint, RunSummary, Summary, TagSummary};
+pub use metrics::{
+    FaultInterval, MapMatchingSummary, NeesSummary, ProfilePoint, RunSummary, Summary, TagSummary,
+};
 pub use monte_carlo::{simulate, simulate_with, SimResult};
 pub use output::write as write_output;
 pub use passes::{draw_reads, find_passes, TagPass, TagRead};
