@@ -48,7 +48,13 @@ fn non_test(text: &str) -> String {
         None => text,
     };
     code.lines()
-        .map(|l| if l.trim_start().starts_with("//") { "" } else { l })
+        .map(|l| {
+            if l.trim_start().starts_with("//") {
+                ""
+            } else {
+                l
+            }
+        })
         .collect::<Vec<_>>()
         .join("\n")
 }
@@ -217,7 +223,11 @@ fn layers_import_downward_only_and_modules_form_no_circle() {
             }
         }
     }
-    assert!(violations.is_empty(), "layering:\n{}", violations.join("\n"));
+    assert!(
+        violations.is_empty(),
+        "layering:\n{}",
+        violations.join("\n")
+    );
     if let Some(c) = find_cycle(&module_graph) {
         panic!("import circle between modules: {}", c.join(" -> "));
     }
@@ -230,7 +240,10 @@ fn files_of_a_module_form_no_import_circle() {
     let tree = read_tree();
     let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     for (rel, m, text) in &tree.files {
-        if rel.file_name().is_some_and(|f| f == "mod.rs" || f == "lib.rs" || f == "main.rs") {
+        if rel
+            .file_name()
+            .is_some_and(|f| f == "mod.rs" || f == "lib.rs" || f == "main.rs")
+        {
             continue;
         }
         let me = m.join("::");
@@ -247,9 +260,10 @@ fn files_of_a_module_form_no_import_circle() {
         }
         for t in targets {
             // Only file modules other than ourselves and other than facades.
-            let is_file = tree.files.iter().any(|(r, mm, _)| {
-                mm == &t && !r.file_name().is_some_and(|f| f == "mod.rs")
-            });
+            let is_file = tree
+                .files
+                .iter()
+                .any(|(r, mm, _)| mm == &t && !r.file_name().is_some_and(|f| f == "mod.rs"));
             let name = t.join("::");
             if is_file && name != me {
                 graph.entry(me.clone()).or_default().insert(name);
@@ -282,9 +296,15 @@ fn no_source_file_is_longer_than_the_limit_before_its_tests() {
 #[test]
 fn the_checker_finds_paths_and_circles() {
     // The checker itself: a path parser and a circle finder that could fail.
-    let p = paths_after("use crate::sim::run::{a, b}; x = super::metrics::f();", "crate::");
+    let p = paths_after(
+        "use crate::sim::run::{a, b}; x = super::metrics::f();",
+        "crate::",
+    );
     assert_eq!(p, vec![vec!["sim", "run"]]);
-    let p = paths_after("let y = super::metrics::f(); let z = super::Foo;", "super::");
+    let p = paths_after(
+        "let y = super::metrics::f(); let z = super::Foo;",
+        "super::",
+    );
     assert_eq!(p, vec![vec!["metrics", "f"]]);
     let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     g.entry("a".into()).or_default().insert("b".into());

@@ -151,7 +151,15 @@ pub fn plan_with_progress(
     }
     site_list.sort_by(|a, b| a.0.total_cmp(&b.0));
     let sites_m: Vec<f64> = site_list.iter().map(|x| x.0).collect();
+    let phase = |name: &str| {
+        tracing::info!(
+            phase = name,
+            filter_passes = budget.passes(),
+            "planner cost so far"
+        );
+    };
     let (profile, sites) = budget.tag_free(settings.candidate_spacing_m, &sites_m);
+    phase("tag-free pass");
     let mut mountings = Vec::with_capacity(sites.len());
     let mut tunnels = Vec::with_capacity(sites.len());
     for (n, s) in sites.iter().enumerate() {
@@ -211,6 +219,7 @@ pub fn plan_with_progress(
         .collect();
     let reaches = budget.reaches_with_progress(&sites, &mountings, req, progress);
     let start_reach = budget.start_reach(req);
+    phase("tag-free reaches");
     let cands: Vec<Candidate> = sites
         .iter()
         .zip(&reaches)
@@ -320,6 +329,7 @@ pub fn plan_with_progress(
         }
         basis = c2;
     }
+    phase("refinement");
     let new_count = |c: &[usize]| c.iter().filter(|&&i| !is_existing[i]).count();
     // Forward placement with the plan's own filters (module `forward`):
     // kept when it needs fewer new tags and passes the covariance check
@@ -336,6 +346,7 @@ pub fn plan_with_progress(
         .collect();
     let mut forward_used = false;
     let fw = forward::forward_greedy(&budget, &fwd_sites, k, req, settings.min_spacing_m, k + 1);
+    phase("forward placement");
     if let Placement::Feasible(c3) = fw {
         if new_count(&c3) < new_count(&chosen) {
             let fixes3: Vec<(usize, Mounting)> = c3
@@ -346,6 +357,7 @@ pub fn plan_with_progress(
                 chosen = c3;
                 forward_used = true;
             }
+            phase("forward check");
         }
     }
     // Lower bound: the most optimistic reaches (each site's filter having
@@ -353,7 +365,15 @@ pub fn plan_with_progress(
     // the filter's covariance in the information it has had, no plan on
     // these sites reaches further from any site, so the exact placement on
     // these reaches needs no more tags than any feasible plan.
-    let lower_bound = {
+    // Without installed tags, a route the start does not cover needs at
+    // least k + 1 tags: the (k+1)-th must come within the start's reach,
+    // whatever is read. A plan with exactly that many is minimal, and the
+    // placement on the optimistic reaches (below) finds the same count, as
+    // it lies between this bound and any feasible plan's; so it is skipped.
+    let trivial = if start_reach >= length { 0 } else { k + 1 };
+    let lower_bound = if !is_existing.iter().any(|&e| e) && new_count(&chosen) == trivial {
+        trivial
+    } else {
         let all: Vec<(usize, Mounting)> = sites
             .iter()
             .zip(&mountings)
@@ -386,6 +406,7 @@ pub fn plan_with_progress(
             0
         }
     };
+    phase("lower bound");
     // Each chosen tag's bound after its fix and reach, from the plan's own
     // filter (every planned tag read).
     {
@@ -453,6 +474,7 @@ pub fn plan_with_progress(
         .map(|&i| (sites[i].sample, mountings[i]))
         .collect();
     let with = budget.with_fixes(&fixes, settings.candidate_spacing_m);
+    phase("plan's reaches and profile");
     let predicted = with.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
     let total_cost = tags
         .iter()

@@ -72,27 +72,21 @@ pub fn robust(
     every_m: f64,
 ) -> bool {
     use rayon::prelude::*;
-    let worst = |f: &[(usize, Mounting)]| {
-        budget
-            .with_fixes(f, every_m)
-            .iter()
-            .map(|p| p.bound95_m)
-            .fold(0.0, f64::max)
-    };
-    if worst(fixes) > requirement_m {
+    // One all-read pass: its worst bound and, for the missed-tag windows,
+    // the filter just before each tag.
+    let at: Vec<f64> = fixes
+        .iter()
+        .map(|&(i, _)| budget.samples()[i].avp.distance_m)
+        .collect();
+    let want = if k == 0 { &[][..] } else { &at[..] };
+    let (prof, snaps) = budget.with_fixes_and_snapshots(fixes, every_m, want);
+    if prof.iter().map(|p| p.bound95_m).fold(0.0, f64::max) > requirement_m {
         return false;
     }
     if k == 0 || fixes.is_empty() {
         return true;
     }
     let n = fixes.len();
-    // Each window of k missed tags starts from the all-read filter just
-    // before its first tag (snapshots from one all-read pass).
-    let at: Vec<f64> = fixes
-        .iter()
-        .map(|&(i, _)| budget.samples()[i].avp.distance_m)
-        .collect();
-    let (_, snaps) = budget.snapshots(fixes, every_m, &at);
     if snaps.len() != n {
         return false;
     }
