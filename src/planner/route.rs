@@ -84,6 +84,66 @@ pub fn plan_with_progress(
     validate: bool,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Plan> {
+    let staged = progress.map(|p| move |_: PlanStage, done: usize, total: usize| p(done, total));
+    plan_with_stages(
+        scn,
+        truth,
+        settings,
+        seed,
+        validate,
+        staged
+            .as_ref()
+            .map(|p| p as &(dyn Fn(PlanStage, usize, usize) + Sync)),
+    )
+}
+
+/// The long steps of a route plan, for progress reports: each is a loop
+/// over the candidate sites, computing their reaches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlanStage {
+    /// Reaches from the tag-free filter (the first placement).
+    TagFreeReaches,
+    /// Reaches recomputed from a plan's own filter (refinement passes).
+    RefinedReaches,
+    /// The most optimistic reaches (the lower bound).
+    OptimisticReaches,
+}
+
+impl PlanStage {
+    /// A short label for a progress bar.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::TagFreeReaches => "reaches (tag-free)",
+            Self::RefinedReaches => "reaches (refined)",
+            Self::OptimisticReaches => "reaches (lower bound)",
+        }
+    }
+}
+
+/// [`plan_with`], calling `progress(stage, done, total)` as each stage's
+/// candidate sites are done (from worker threads; `done` restarts at 1 for
+/// each stage, and a stage may come more than once), so that a caller can
+/// draw one bar per stage with an ETA.
+pub fn plan_with_stages(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    seed: u64,
+    validate: bool,
+    progress: Option<&(dyn Fn(PlanStage, usize, usize) + Sync)>,
+) -> Result<Plan> {
+    let stage = |st: PlanStage| {
+        move |done: usize, total: usize| {
+            if let Some(p) = progress {
+                p(st, done, total);
+            }
+        }
+    };
+    let (tag_free_tick, refined_tick, optimistic_tick) = (
+        stage(PlanStage::TagFreeReaches),
+        stage(PlanStage::RefinedReaches),
+        stage(PlanStage::OptimisticReaches),
+    );
     tracing::info!(scenario = %scn.name(), requirement_m = settings.requirement_m, "planning tags");
     if settings.coverage == Coverage::Network {
         return Err(Error::InvalidParameter(
@@ -217,7 +277,7 @@ pub fn plan_with_progress(
         .filter(|(_, k)| **k)
         .map(|(s, _)| s)
         .collect();
-    let reaches = budget.reaches_with_progress(&sites, &mountings, req, progress);
+    let reaches = budget.reaches_with_progress(&sites, &mountings, req, Some(&tag_free_tick));
     let start_reach = budget.start_reach(req);
     phase("tag-free reaches");
     let cands: Vec<Candidate> = sites
@@ -295,7 +355,7 @@ pub fn plan_with_progress(
         if sites2.len() != sites.len() {
             break;
         }
-        let reaches2 = budget.reaches_with_progress(&sites2, &mountings, req, progress);
+        let reaches2 = budget.reaches_with_progress(&sites2, &mountings, req, Some(&refined_tick));
         let cands2: Vec<Candidate> = sites2
             .iter()
             .zip(&reaches2)
@@ -382,7 +442,8 @@ pub fn plan_with_progress(
         let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
         let (_, opt_sites) = budget.snapshots(&all, settings.candidate_spacing_m, &at);
         if opt_sites.len() == sites.len() {
-            let r = budget.reaches_with_progress(&opt_sites, &mountings, req, progress);
+            let r =
+                budget.reaches_with_progress(&opt_sites, &mountings, req, Some(&optimistic_tick));
             let c: Vec<Candidate> = opt_sites
                 .iter()
                 .zip(&r)
