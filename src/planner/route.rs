@@ -9,7 +9,7 @@ use super::forward;
 use super::placement::{place_with, Candidate, Placement};
 use super::plan::{Plan, PlannedTag};
 use super::settings::{site_speed_mps, Coverage, PlannerSettings};
-use super::validation::{robust, validate_plan};
+use super::validation::{robust_with_progress, validate_plan};
 use crate::error::{Error, Result};
 use crate::network::{Network, RoadAttributes};
 use crate::scenario::{RouteKind, Scenario};
@@ -107,6 +107,9 @@ pub enum PlanStage {
     RefinedReaches,
     /// The most optimistic reaches (the lower bound).
     OptimisticReaches,
+    /// The covariance check of a candidate plan with any `k` consecutive
+    /// tags missed (one unit per window).
+    MissedTagCheck,
 }
 
 impl PlanStage {
@@ -116,6 +119,7 @@ impl PlanStage {
             Self::TagFreeReaches => "reaches (tag-free)",
             Self::RefinedReaches => "reaches (refined)",
             Self::OptimisticReaches => "reaches (lower bound)",
+            Self::MissedTagCheck => "missed-tag check",
         }
     }
 }
@@ -139,10 +143,11 @@ pub fn plan_with_stages(
             }
         }
     };
-    let (tag_free_tick, refined_tick, optimistic_tick) = (
+    let (tag_free_tick, refined_tick, optimistic_tick, check_tick) = (
         stage(PlanStage::TagFreeReaches),
         stage(PlanStage::RefinedReaches),
         stage(PlanStage::OptimisticReaches),
+        stage(PlanStage::MissedTagCheck),
     );
     tracing::info!(scenario = %scn.name(), requirement_m = settings.requirement_m, "planning tags");
     if settings.coverage == Coverage::Network {
@@ -381,7 +386,15 @@ pub fn plan_with_stages(
             .iter()
             .map(|&i| (sites[i].sample, mountings[i]))
             .collect();
-        if c2.len() < chosen.len() && robust(&budget, &fixes2, k, req, settings.candidate_spacing_m)
+        if c2.len() < chosen.len()
+            && robust_with_progress(
+                &budget,
+                &fixes2,
+                k,
+                req,
+                settings.candidate_spacing_m,
+                Some(&check_tick),
+            )
         {
             chosen = c2.clone();
             reaches = reaches2;
@@ -413,7 +426,14 @@ pub fn plan_with_stages(
                 .iter()
                 .map(|&i| (sites[i].sample, mountings[i]))
                 .collect();
-            if robust(&budget, &fixes3, k, req, settings.candidate_spacing_m) {
+            if robust_with_progress(
+                &budget,
+                &fixes3,
+                k,
+                req,
+                settings.candidate_spacing_m,
+                Some(&check_tick),
+            ) {
                 chosen = c3;
                 forward_used = true;
             }

@@ -71,6 +71,19 @@ pub fn robust(
     requirement_m: f64,
     every_m: f64,
 ) -> bool {
+    robust_with_progress(budget, fixes, k, requirement_m, every_m, None)
+}
+
+/// [`robust`], calling `progress(done, total)` as the windows of missed
+/// tags are checked (from worker threads).
+pub fn robust_with_progress(
+    budget: &Budget<'_>,
+    fixes: &[(usize, Mounting)],
+    k: usize,
+    requirement_m: f64,
+    every_m: f64,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+) -> bool {
     use rayon::prelude::*;
     // One all-read pass: its worst bound and, for the missed-tag windows,
     // the filter just before each tag.
@@ -91,7 +104,12 @@ pub fn robust(
         return false;
     }
     let drops: Vec<usize> = (0..n.saturating_sub(k - 1).max(1)).collect();
+    let done = std::sync::atomic::AtomicUsize::new(0);
     drops.par_iter().all(|&d| {
+        let n_done = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if let Some(p) = progress {
+            p(n_done, drops.len());
+        }
         let rest = &fixes[(d + k).min(n)..];
         budget.worst_bound_from(fixes[d].0, snaps[d].filter.clone(), rest, requirement_m)
             <= requirement_m
