@@ -3,15 +3,44 @@
 //! and the bundled Gothenburg GeoJSON: map load, reach analysis, instance,
 //! greedy/exact placement and the DP verification. Target: < 10 s each.
 //!
+//! Route planning (issue 14): one route plan (`--runs 0`) and one filter
+//! pass (the budget's profile with no tags) of the same route, so that
+//! their ratio, the plan's cost in filter passes, is measured in one run.
+//!
 //! Run: `cargo bench --bench planner` (10 samples each; Gothenburg takes a
-//! few minutes in all).
+//! few minutes in all); `cargo bench --bench planner -- route` for the route
+//! plans only.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::Path;
 use std::time::Duration;
 use waymark::planner::network::plan_network;
-use waymark::planner::PlannerSettings;
-use waymark::sim::Scenario;
+use waymark::planner::Budget;
+use waymark::planner::{plan_with, PlannerSettings};
+use waymark::sim::{Scenario, TruthSource};
+
+/// One route plan and one filter pass of the same route, for the small
+/// bundled planning scenarios (the Helsinki and Monaco 20 m routes and the
+/// paper's drive take minutes a plan: see BENCHMARKS.md for their ratios).
+fn route_plan(c: &mut Criterion) {
+    let mut g = c.benchmark_group("route");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for name in ["demo.toml", "helsinki-plan-tactical.toml"] {
+        let scn = Scenario::load(&root.join("scenarios").join(name)).expect("scenario");
+        let settings = PlannerSettings::from_scenario(&scn).expect("settings");
+        let truth = TruthSource::new(&scn).expect("truth");
+        g.bench_function(format!("plan/{name}"), |b| {
+            b.iter(|| plan_with(&scn, &truth, &settings, 1, false).expect("plan"))
+        });
+        let net = truth.network().map(|n| &**n);
+        let budget = Budget::new(&scn, &truth, net);
+        g.bench_function(format!("filter_pass/{name}"), |b| {
+            b.iter(|| budget.with_fixes(&[], settings.candidate_spacing_m))
+        });
+    }
+    g.finish();
+}
 
 fn network_coverage(c: &mut Criterion) {
     let mut g = c.benchmark_group("plan_network");
@@ -50,5 +79,5 @@ fn network_coverage(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, network_coverage);
+criterion_group!(benches, route_plan, network_coverage);
 criterion_main!(benches);

@@ -52,6 +52,9 @@ pub struct Budget<'a> {
     /// Lane width (m) at each sample, from the road under the route (empty
     /// without a map: `[rfid]`'s lane width everywhere).
     lane_width: Vec<f32>,
+    /// Filter steps taken so far (all threads): the planner's cost in
+    /// filter passes is `steps / samples`.
+    steps: std::sync::atomic::AtomicU64,
 }
 
 impl std::fmt::Debug for Budget<'_> {
@@ -92,7 +95,20 @@ impl<'a> Budget<'a> {
                 .with_map_feed(network.filter(|_| scn.aiding().map_matching)),
             samples,
             lane_width,
+            steps: std::sync::atomic::AtomicU64::new(0),
         }
+    }
+
+    /// Filter steps taken so far through [`Budget::run`] (and the calls
+    /// built on it), on every thread.
+    pub fn steps(&self) -> u64 {
+        self.steps.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// [`Budget::steps`] in filter passes over the whole route: the
+    /// planner's cost as a multiple of one pass, whatever the machine's load.
+    pub fn passes(&self) -> f64 {
+        self.steps() as f64 / self.samples.len().saturating_sub(1).max(1) as f64
     }
 
     /// The lane width (m) at sample `i`, when the route is on a map.
@@ -121,12 +137,16 @@ impl<'a> Budget<'a> {
         mut visit: impl FnMut(usize, &mut Filter) -> bool,
     ) {
         let mut p = self.data.start(filter, self.samples[from].avp.distance_m);
+        let mut n = 0u64;
         for (i, s) in self.samples.iter().enumerate().skip(from + 1) {
             p.step(i, s, filter);
+            n += 1;
             if !visit(i, filter) {
                 break;
             }
         }
+        self.steps
+            .fetch_add(n, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// A filter at the first truth sample with the scenario's prior.
@@ -305,9 +325,31 @@ impl<'a> Budget<'a> {
     /// The bound profile with fixes at the given sites (sample index,
     /// mounting; increasing), all read: the predicted error with a plan.
     pub fn with_fixes(&self, fixes: &[(usize, Mounting)], every_m: f64) -> Vec<BudgetPoint> {
+        self.with_fixes_and_snapshots(fixes, every_m, &[]).0
+    }
+
+    /// [`Budget::with_fixes`] and, in the same pass, filter snapshots at
+    /// distances `sites_m` (increasing; a snapshot at a fix's sample is
+    /// taken before the fix, as in [`Budget::snapshots`]).
+    pub fn with_fixes_and_snapshots(
+        &self,
+        fixes: &[(usize, Mounting)],
+        every_m: f64,
+        sites_m: &[f64],
+    ) -> (Vec<BudgetPoint>, Vec<Site>) {
         let Some(mut f) = self.initial_filter() else {
-            return vec![];
+            return (vec![], vec![]);
         };
+        let mut sites = Vec::with_capacity(sites_m.len());
+        let mut next_site = 0;
+        while next_site < sites_m.len() && sites_m[next_site] <= 0.0 {
+            sites.push(Site {
+                sample: 0,
+                distance_m: self.samples[0].avp.distance_m,
+                filter: f.clone(),
+            });
+            next_site += 1;
+        }
         let mut prof = vec![BudgetPoint {
             t_s: self.samples[0].avp.t,
             distance_m: self.samples[0].avp.distance_m,
@@ -334,12 +376,20 @@ impl<'a> Budget<'a> {
                     next_prof += every_m;
                 }
             }
+            while next_site < sites_m.len() && a.distance_m >= sites_m[next_site] {
+                sites.push(Site {
+                    sample: i,
+                    distance_m: a.distance_m,
+                    filter: f.clone(),
+                });
+                next_site += 1;
+            }
             while k < fixes.len() && fixes[k].0 <= i {
                 self.apply_fix(i, f, fixes[k].1);
                 k += 1;
             }
             true
         });
-        prof
+        (prof, sites)
     }
 }

@@ -25,7 +25,7 @@ pub(crate) mod validation;
 pub use baseline::{uniform_baseline, uniform_tags};
 pub use budget::{Budget, BudgetPoint, Site};
 pub use plan::{Plan, PlannedTag, UniformBaseline, Validation};
-pub use route::{plan, plan_with, plan_with_progress};
+pub use route::{plan, plan_with, plan_with_progress, plan_with_stages, PlanStage};
 pub use settings::{
     fix_bound95, lane_width_m, site_speed_mps, Coverage, MountingOption, PlannerSettings,
     DEFAULT_READ_PROBABILITY,

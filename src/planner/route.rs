@@ -9,7 +9,7 @@ use super::forward;
 use super::placement::{place_with, Candidate, Placement};
 use super::plan::{Plan, PlannedTag};
 use super::settings::{site_speed_mps, Coverage, PlannerSettings};
-use super::validation::{robust, validate_plan};
+use super::validation::{robust_with_progress, validate_plan};
 use crate::error::{Error, Result};
 use crate::network::{Network, RoadAttributes};
 use crate::scenario::{RouteKind, Scenario};
@@ -84,6 +84,71 @@ pub fn plan_with_progress(
     validate: bool,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Plan> {
+    let staged = progress.map(|p| move |_: PlanStage, done: usize, total: usize| p(done, total));
+    plan_with_stages(
+        scn,
+        truth,
+        settings,
+        seed,
+        validate,
+        staged
+            .as_ref()
+            .map(|p| p as &(dyn Fn(PlanStage, usize, usize) + Sync)),
+    )
+}
+
+/// The long steps of a route plan, for progress reports: each is a loop
+/// over the candidate sites, computing their reaches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlanStage {
+    /// Reaches from the tag-free filter (the first placement).
+    TagFreeReaches,
+    /// Reaches recomputed from a plan's own filter (refinement passes).
+    RefinedReaches,
+    /// The most optimistic reaches (the lower bound).
+    OptimisticReaches,
+    /// The covariance check of a candidate plan with any `k` consecutive
+    /// tags missed (one unit per window).
+    MissedTagCheck,
+}
+
+impl PlanStage {
+    /// A short label for a progress bar.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::TagFreeReaches => "reaches (tag-free)",
+            Self::RefinedReaches => "reaches (refined)",
+            Self::OptimisticReaches => "reaches (lower bound)",
+            Self::MissedTagCheck => "missed-tag check",
+        }
+    }
+}
+
+/// [`plan_with`], calling `progress(stage, done, total)` as each stage's
+/// candidate sites are done (from worker threads; `done` restarts at 1 for
+/// each stage, and a stage may come more than once), so that a caller can
+/// draw one bar per stage with an ETA.
+pub fn plan_with_stages(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    seed: u64,
+    validate: bool,
+    progress: Option<&(dyn Fn(PlanStage, usize, usize) + Sync)>,
+) -> Result<Plan> {
+    let stage = |st: PlanStage| {
+        move |done: usize, total: usize| {
+            if let Some(p) = progress {
+                p(st, done, total);
+            }
+        }
+    };
+    let (tag_free_tick, refined_tick, optimistic_tick, check_tick) = (
+        stage(PlanStage::TagFreeReaches),
+        stage(PlanStage::RefinedReaches),
+        stage(PlanStage::OptimisticReaches),
+        stage(PlanStage::MissedTagCheck),
+    );
     tracing::info!(scenario = %scn.name(), requirement_m = settings.requirement_m, "planning tags");
     if settings.coverage == Coverage::Network {
         return Err(Error::InvalidParameter(
@@ -151,7 +216,15 @@ pub fn plan_with_progress(
     }
     site_list.sort_by(|a, b| a.0.total_cmp(&b.0));
     let sites_m: Vec<f64> = site_list.iter().map(|x| x.0).collect();
+    let phase = |name: &str| {
+        tracing::info!(
+            phase = name,
+            filter_passes = budget.passes(),
+            "planner cost so far"
+        );
+    };
     let (profile, sites) = budget.tag_free(settings.candidate_spacing_m, &sites_m);
+    phase("tag-free pass");
     let mut mountings = Vec::with_capacity(sites.len());
     let mut tunnels = Vec::with_capacity(sites.len());
     for (n, s) in sites.iter().enumerate() {
@@ -209,8 +282,9 @@ pub fn plan_with_progress(
         .filter(|(_, k)| **k)
         .map(|(s, _)| s)
         .collect();
-    let reaches = budget.reaches_with_progress(&sites, &mountings, req, progress);
+    let reaches = budget.reaches_with_progress(&sites, &mountings, req, Some(&tag_free_tick));
     let start_reach = budget.start_reach(req);
+    phase("tag-free reaches");
     let cands: Vec<Candidate> = sites
         .iter()
         .zip(&reaches)
@@ -286,7 +360,7 @@ pub fn plan_with_progress(
         if sites2.len() != sites.len() {
             break;
         }
-        let reaches2 = budget.reaches_with_progress(&sites2, &mountings, req, progress);
+        let reaches2 = budget.reaches_with_progress(&sites2, &mountings, req, Some(&refined_tick));
         let cands2: Vec<Candidate> = sites2
             .iter()
             .zip(&reaches2)
@@ -312,7 +386,15 @@ pub fn plan_with_progress(
             .iter()
             .map(|&i| (sites[i].sample, mountings[i]))
             .collect();
-        if c2.len() < chosen.len() && robust(&budget, &fixes2, k, req, settings.candidate_spacing_m)
+        if c2.len() < chosen.len()
+            && robust_with_progress(
+                &budget,
+                &fixes2,
+                k,
+                req,
+                settings.candidate_spacing_m,
+                Some(&check_tick),
+            )
         {
             chosen = c2.clone();
             reaches = reaches2;
@@ -320,6 +402,7 @@ pub fn plan_with_progress(
         }
         basis = c2;
     }
+    phase("refinement");
     let new_count = |c: &[usize]| c.iter().filter(|&&i| !is_existing[i]).count();
     // Forward placement with the plan's own filters (module `forward`):
     // kept when it needs fewer new tags and passes the covariance check
@@ -336,16 +419,25 @@ pub fn plan_with_progress(
         .collect();
     let mut forward_used = false;
     let fw = forward::forward_greedy(&budget, &fwd_sites, k, req, settings.min_spacing_m, k + 1);
+    phase("forward placement");
     if let Placement::Feasible(c3) = fw {
         if new_count(&c3) < new_count(&chosen) {
             let fixes3: Vec<(usize, Mounting)> = c3
                 .iter()
                 .map(|&i| (sites[i].sample, mountings[i]))
                 .collect();
-            if robust(&budget, &fixes3, k, req, settings.candidate_spacing_m) {
+            if robust_with_progress(
+                &budget,
+                &fixes3,
+                k,
+                req,
+                settings.candidate_spacing_m,
+                Some(&check_tick),
+            ) {
                 chosen = c3;
                 forward_used = true;
             }
+            phase("forward check");
         }
     }
     // Lower bound: the most optimistic reaches (each site's filter having
@@ -353,7 +445,15 @@ pub fn plan_with_progress(
     // the filter's covariance in the information it has had, no plan on
     // these sites reaches further from any site, so the exact placement on
     // these reaches needs no more tags than any feasible plan.
-    let lower_bound = {
+    // Without installed tags, a route the start does not cover needs at
+    // least k + 1 tags: the (k+1)-th must come within the start's reach,
+    // whatever is read. A plan with exactly that many is minimal, and the
+    // placement on the optimistic reaches (below) finds the same count, as
+    // it lies between this bound and any feasible plan's; so it is skipped.
+    let trivial = if start_reach >= length { 0 } else { k + 1 };
+    let lower_bound = if !is_existing.iter().any(|&e| e) && new_count(&chosen) == trivial {
+        trivial
+    } else {
         let all: Vec<(usize, Mounting)> = sites
             .iter()
             .zip(&mountings)
@@ -362,7 +462,8 @@ pub fn plan_with_progress(
         let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
         let (_, opt_sites) = budget.snapshots(&all, settings.candidate_spacing_m, &at);
         if opt_sites.len() == sites.len() {
-            let r = budget.reaches_with_progress(&opt_sites, &mountings, req, progress);
+            let r =
+                budget.reaches_with_progress(&opt_sites, &mountings, req, Some(&optimistic_tick));
             let c: Vec<Candidate> = opt_sites
                 .iter()
                 .zip(&r)
@@ -386,6 +487,7 @@ pub fn plan_with_progress(
             0
         }
     };
+    phase("lower bound");
     // Each chosen tag's bound after its fix and reach, from the plan's own
     // filter (every planned tag read).
     {
@@ -453,6 +555,7 @@ pub fn plan_with_progress(
         .map(|&i| (sites[i].sample, mountings[i]))
         .collect();
     let with = budget.with_fixes(&fixes, settings.candidate_spacing_m);
+    phase("plan's reaches and profile");
     let predicted = with.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
     let total_cost = tags
         .iter()

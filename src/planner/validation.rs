@@ -71,33 +71,45 @@ pub fn robust(
     requirement_m: f64,
     every_m: f64,
 ) -> bool {
+    robust_with_progress(budget, fixes, k, requirement_m, every_m, None)
+}
+
+/// [`robust`], calling `progress(done, total)` as the windows of missed
+/// tags are checked (from worker threads).
+pub fn robust_with_progress(
+    budget: &Budget<'_>,
+    fixes: &[(usize, Mounting)],
+    k: usize,
+    requirement_m: f64,
+    every_m: f64,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+) -> bool {
     use rayon::prelude::*;
-    let worst = |f: &[(usize, Mounting)]| {
-        budget
-            .with_fixes(f, every_m)
-            .iter()
-            .map(|p| p.bound95_m)
-            .fold(0.0, f64::max)
-    };
-    if worst(fixes) > requirement_m {
+    // One all-read pass: its worst bound and, for the missed-tag windows,
+    // the filter just before each tag.
+    let at: Vec<f64> = fixes
+        .iter()
+        .map(|&(i, _)| budget.samples()[i].avp.distance_m)
+        .collect();
+    let want = if k == 0 { &[][..] } else { &at[..] };
+    let (prof, snaps) = budget.with_fixes_and_snapshots(fixes, every_m, want);
+    if prof.iter().map(|p| p.bound95_m).fold(0.0, f64::max) > requirement_m {
         return false;
     }
     if k == 0 || fixes.is_empty() {
         return true;
     }
     let n = fixes.len();
-    // Each window of k missed tags starts from the all-read filter just
-    // before its first tag (snapshots from one all-read pass).
-    let at: Vec<f64> = fixes
-        .iter()
-        .map(|&(i, _)| budget.samples()[i].avp.distance_m)
-        .collect();
-    let (_, snaps) = budget.snapshots(fixes, every_m, &at);
     if snaps.len() != n {
         return false;
     }
     let drops: Vec<usize> = (0..n.saturating_sub(k - 1).max(1)).collect();
+    let done = std::sync::atomic::AtomicUsize::new(0);
     drops.par_iter().all(|&d| {
+        let n_done = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if let Some(p) = progress {
+            p(n_done, drops.len());
+        }
         let rest = &fixes[(d + k).min(n)..];
         budget.worst_bound_from(fixes[d].0, snaps[d].filter.clone(), rest, requirement_m)
             <= requirement_m
