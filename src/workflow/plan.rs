@@ -7,7 +7,7 @@ use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml
 use crate::fsio::write_atomic;
 use crate::planner::network::{plan_network_loaded, validate_network_plan, NetworkPlan};
 use crate::planner::{
-    plan_with_progress, uniform_baseline, validate_plan, Coverage, Plan, PlannerSettings,
+    plan_with_stages, uniform_baseline, validate_plan, Coverage, Plan, PlanStage, PlannerSettings,
 };
 use crate::scenario::Scenario;
 use crate::sim::TruthSource;
@@ -146,10 +146,25 @@ pub(super) fn route_plan(
         "waymark plan: {}: covariance analysis along the route, then placement",
         scn.name()
     ));
-    progress.start("candidate sites", 0);
-    let tick = |done: usize, total: usize| progress.set(done as u64, total as u64);
-    let mut p = plan_with_progress(scn, truth, settings, seed, false, Some(&tick))?;
-    progress.finish();
+    // A bar per planning stage (tag-free reaches, missed-tag check, ...): a
+    // new one whenever the stage or its size changes, so its ETA is its own.
+    let current: std::sync::Mutex<Option<(PlanStage, usize)>> = std::sync::Mutex::new(None);
+    let tick = |stage: PlanStage, done: usize, total: usize| {
+        let mut cur = current.lock().unwrap_or_else(|e| e.into_inner());
+        if *cur != Some((stage, total)) {
+            if cur.is_some() {
+                progress.finish();
+            }
+            progress.start(stage.label(), total as u64);
+            *cur = Some((stage, total));
+        }
+        progress.set(done as u64, total as u64);
+    };
+    let planned = plan_with_stages(scn, truth, settings, seed, false, Some(&tick));
+    if current.lock().unwrap_or_else(|e| e.into_inner()).is_some() {
+        progress.finish();
+    }
+    let mut p = planned?;
     let t_plan = t0.elapsed().as_secs_f64();
     if settings.validation_runs > 0 {
         progress.note(&format!(
