@@ -16,9 +16,9 @@ use crate::sensors::{Barometer, Imu, Odometer};
 use rand::Rng;
 
 /// Random stream of the RFID reads.
-const RFID_STREAM: u64 = 7;
+const RFID_STREAM: u64 = ids::RFID;
 /// Random stream of the external fix.
-const FIX_STREAM: u64 = 8;
+const FIX_STREAM: u64 = ids::FIX;
 
 /// Tags and their passes, found once for all runs; the road network when
 /// map matching aids the navigator.

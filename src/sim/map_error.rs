@@ -17,7 +17,7 @@ use rand::Rng;
 /// Features per axis.
 pub const FEATURES: usize = 64;
 /// Random stream of the map error (after the RFID and external-fix streams).
-pub const MAP_ERROR_STREAM: u64 = 9;
+pub const MAP_ERROR_STREAM: u64 = crate::sensors::rng::ids::MAP_ERROR;
 
 /// One realisation of the offset field (map minus world, east and north, m).
 #[derive(Debug, Clone)]
