@@ -61,7 +61,7 @@ pub struct FeedCounts {
     pub road_end: u64,
     /// Positions the matcher could not match.
     pub unmatched: u64,
-    /// Fed fixes on the wrong road (see [`WRONG_ROAD_M`]; counted when the
+    /// Fed fixes on the wrong road (more than 10 m, `WRONG_ROAD_M`; counted when the
     /// truth is known).
     pub wrong_road: u64,
     /// Largest across-road error of an accepted fix against the truth (m).
