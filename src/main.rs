@@ -107,7 +107,7 @@ enum Command {
         #[arg(long, value_name = "TAGS.csv")]
         tags: Option<PathBuf>,
         /// Monte Carlo runs.
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
         runs: u64,
         /// Base seed (default: the scenario's `seed`, else 1).
         #[arg(long)]

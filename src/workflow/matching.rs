@@ -1,5 +1,6 @@
 //! `waymark match`: a track file matched to a map, written as a CSV.
 
+use super::inputs::prepare_out_dir;
 use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
 use crate::matching::evaluate::{self, RoadLengths, Score};
@@ -110,6 +111,16 @@ fn method_name(m: Method) -> &'static str {
 /// truth file, scores the matched roads by length and count.
 pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
     let t0 = Instant::now();
+    // The output's folder is made (or found wrong) before any work.
+    if let Some(parent) = job.out_file.parent().filter(|p| !p.as_os_str().is_empty()) {
+        prepare_out_dir(parent)?;
+    }
+    if job.out_file.is_dir() {
+        return Err(Error::format(
+            job.out_file,
+            "the output file is an existing folder",
+        ));
+    }
     let rows = tr::read_track(job.track)?;
     let net = Network::load(job.map, &LoadOptions::default())?;
     let truth = job
