@@ -1,6 +1,6 @@
 //! `waymark demo`: the main job on the bundled map and scenario.
 
-use super::inputs::prepare_out_dir;
+use super::inputs::check_out_dir;
 use super::plan::{route_plan, write_route_plan, PlanOutcome};
 use super::progress::Progress;
 use super::simulate::{simulate_loaded, SimulateJob, SimulateOutcome};
@@ -44,7 +44,7 @@ pub fn demo_folder(
 ) -> Result<DemoOutcome> {
     let t0 = Instant::now();
     let scn = Scenario::load(scenario)?;
-    prepare_out_dir(out_dir)?;
+    check_out_dir(out_dir)?;
     let truth = TruthSource::new(&scn)?;
     let settings = PlannerSettings::from_scenario(&scn)?;
     let seed = scn.seed();

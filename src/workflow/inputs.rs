@@ -4,17 +4,26 @@ use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
 use std::path::Path;
 
-/// Makes sure `dir` can hold a command's output files before any work
-/// starts: creates it (and its parents) when missing; an existing path that
-/// is not a folder is an error naming it.
-pub fn prepare_out_dir(dir: &Path) -> Result<()> {
-    if dir.exists() && !dir.is_dir() {
-        return Err(Error::format(
-            dir,
-            "the output folder is an existing file, not a folder",
-        ));
+/// Checks, before any work starts, that `dir` can become a command's output
+/// folder: it is a folder or does not exist yet, and its nearest existing
+/// ancestor is a folder. Nothing is created here: a command that fails on
+/// its input leaves no folder behind; the folder is made when the files are
+/// written.
+pub fn check_out_dir(dir: &Path) -> Result<()> {
+    let not_folder =
+        |p: &Path| Error::format(p, "the output folder is an existing file, not a folder");
+    let mut p = Some(dir);
+    while let Some(q) = p.filter(|q| !q.as_os_str().is_empty()) {
+        if q.exists() {
+            return if q.is_dir() {
+                Ok(())
+            } else {
+                Err(not_folder(q))
+            };
+        }
+        p = q.parent();
     }
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+    Ok(())
 }
 
 /// Keeps a copy of the scenario (`scenario.toml`) and where it and the tag

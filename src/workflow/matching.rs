@@ -1,6 +1,6 @@
 //! `waymark match`: a track file matched to a map, written as a CSV.
 
-use super::inputs::prepare_out_dir;
+use super::inputs::check_out_dir;
 use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
 use crate::matching::evaluate::{self, RoadLengths, Score};
@@ -111,9 +111,9 @@ fn method_name(m: Method) -> &'static str {
 /// truth file, scores the matched roads by length and count.
 pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
     let t0 = Instant::now();
-    // The output's folder is made (or found wrong) before any work.
+    // The output's folder is checked before any work, made when writing.
     if let Some(parent) = job.out_file.parent().filter(|p| !p.as_os_str().is_empty()) {
-        prepare_out_dir(parent)?;
+        check_out_dir(parent)?;
     }
     if job.out_file.is_dir() {
         return Err(Error::format(
@@ -140,6 +140,9 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
                 job.map.display()
             ),
         ));
+    }
+    if let Some(parent) = job.out_file.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
     }
     write_atomic(
         job.out_file,

@@ -22,7 +22,7 @@ mod progress;
 mod simulate;
 
 pub use demo::{demo_folder, DemoOutcome};
-pub use inputs::{keep_inputs, prepare_out_dir};
+pub use inputs::{check_out_dir, keep_inputs};
 pub use inspect::{inspect_map, InspectOutcome};
 pub use matching::{
     match_file, MatchBreak, MatchJob, MatchMethod, MatchOutcome, Timings, UnmatchedSpan,

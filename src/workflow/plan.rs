@@ -1,6 +1,6 @@
 //! `waymark plan`: plan, validate, write the plan folder.
 
-use super::inputs::{keep_inputs, prepare_out_dir};
+use super::inputs::{check_out_dir, keep_inputs};
 use super::progress::Progress;
 use crate::error::{Error, Result};
 use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml};
@@ -117,7 +117,7 @@ const NETWORK_FILES: [&str; 5] = [
 pub fn plan_folder(job: &PlanJob, progress: &dyn Progress) -> Result<PlanOutcome> {
     let t0 = Instant::now();
     let scn = Scenario::load(job.scenario)?;
-    prepare_out_dir(job.out_dir)?;
+    check_out_dir(job.out_dir)?;
     let mut settings = PlannerSettings::from_scenario(&scn)?;
     if let Some(r) = job.runs {
         settings.validation_runs = r;

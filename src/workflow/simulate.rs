@@ -1,6 +1,6 @@
 //! `waymark simulate`: Monte Carlo runs of a scenario, written to a folder.
 
-use super::inputs::{keep_inputs, prepare_out_dir};
+use super::inputs::{check_out_dir, keep_inputs};
 use super::progress::Progress;
 use crate::error::{Error, Result};
 use crate::scenario::Scenario;
@@ -46,7 +46,7 @@ pub fn simulate_folder(job: &SimulateJob, progress: &dyn Progress) -> Result<Sim
         return Err(Error::InvalidParameter("--runs must be at least 1".into()));
     }
     let scn = Scenario::load(job.scenario)?;
-    prepare_out_dir(job.out_dir)?;
+    check_out_dir(job.out_dir)?;
     let truth = TruthSource::new(&scn)?;
     simulate_loaded(job, &scn, &truth, progress, t0)
 }
