@@ -182,14 +182,14 @@ impl<'a> Budget<'a> {
         let mut next_prof = every_m;
         let mut sites = Vec::with_capacity(sites_m.len());
         let mut next_site = 0;
-        while next_site < sites_m.len() && sites_m[next_site] <= 0.0 {
-            sites.push(Site {
-                sample: 0,
-                distance_m: self.samples[0].avp.distance_m,
-                filter: f.clone(),
-            });
-            next_site += 1;
-        }
+        take_sites(
+            &mut sites,
+            &mut next_site,
+            sites_m,
+            0.0,
+            (0, self.samples[0].avp.distance_m),
+            &f,
+        );
         self.run(0, &mut f, |i, f| {
             let a = &self.samples[i].avp;
             if a.distance_m >= next_prof {
@@ -200,14 +200,14 @@ impl<'a> Budget<'a> {
                 });
                 next_prof += every_m;
             }
-            while next_site < sites_m.len() && a.distance_m >= sites_m[next_site] {
-                sites.push(Site {
-                    sample: i,
-                    distance_m: a.distance_m,
-                    filter: f.clone(),
-                });
-                next_site += 1;
-            }
+            take_sites(
+                &mut sites,
+                &mut next_site,
+                sites_m,
+                a.distance_m,
+                (i, a.distance_m),
+                f,
+            );
             while k < fixes.len() && fixes[k].0 <= i {
                 self.apply_fix(i, f, fixes[k].1);
                 k += 1;
@@ -342,14 +342,14 @@ impl<'a> Budget<'a> {
         };
         let mut sites = Vec::with_capacity(sites_m.len());
         let mut next_site = 0;
-        while next_site < sites_m.len() && sites_m[next_site] <= 0.0 {
-            sites.push(Site {
-                sample: 0,
-                distance_m: self.samples[0].avp.distance_m,
-                filter: f.clone(),
-            });
-            next_site += 1;
-        }
+        take_sites(
+            &mut sites,
+            &mut next_site,
+            sites_m,
+            0.0,
+            (0, self.samples[0].avp.distance_m),
+            &f,
+        );
         let mut prof = vec![BudgetPoint {
             t_s: self.samples[0].avp.t,
             distance_m: self.samples[0].avp.distance_m,
@@ -376,14 +376,14 @@ impl<'a> Budget<'a> {
                     next_prof += every_m;
                 }
             }
-            while next_site < sites_m.len() && a.distance_m >= sites_m[next_site] {
-                sites.push(Site {
-                    sample: i,
-                    distance_m: a.distance_m,
-                    filter: f.clone(),
-                });
-                next_site += 1;
-            }
+            take_sites(
+                &mut sites,
+                &mut next_site,
+                sites_m,
+                a.distance_m,
+                (i, a.distance_m),
+                f,
+            );
             while k < fixes.len() && fixes[k].0 <= i {
                 self.apply_fix(i, f, fixes[k].1);
                 k += 1;
@@ -391,5 +391,25 @@ impl<'a> Budget<'a> {
             true
         });
         (prof, sites)
+    }
+}
+
+/// Snapshots `f` as a [`Site`] at `(sample, distance_m)` for every site
+/// distance in `sites_m` (from `*next`) at or before `reached_m`.
+fn take_sites(
+    sites: &mut Vec<Site>,
+    next: &mut usize,
+    sites_m: &[f64],
+    reached_m: f64,
+    (sample, distance_m): (usize, f64),
+    f: &Filter,
+) {
+    while *next < sites_m.len() && sites_m[*next] <= reached_m {
+        sites.push(Site {
+            sample,
+            distance_m,
+            filter: f.clone(),
+        });
+        *next += 1;
     }
 }
