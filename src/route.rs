@@ -170,7 +170,7 @@ impl PartialOrd for HeapItem {
 }
 
 /// One leg's result: directed pieces (section, from offset, to offset).
-type Pieces = Vec<(DirectedSection, f64, f64)>;
+pub type Pieces = Vec<(DirectedSection, f64, f64)>;
 
 /// Shortest permitted path from `from` to `to`. `start_dir` restricts the
 /// direction in which `from`'s section may be left (`Some(true)`: forward).
@@ -364,6 +364,57 @@ pub fn plan_route_with(net: &Network, waypoints: &[[f64; 2]], tolerance_m: f64) 
     Ok(assemble(net, &all, snapped))
 }
 
+/// A route through points already on the network, leg by leg as
+/// [`plan_route`] does (continuing in the arrival direction at each
+/// intermediate point when it can).
+pub fn plan_route_points(net: &Network, points: &[SectionPoint]) -> Result<Route> {
+    if points.len() < 2 {
+        return Err(Error::InvalidParameter(format!(
+            "a route needs at least two points, got {}",
+            points.len()
+        )));
+    }
+    let mut snapped = Vec::with_capacity(points.len());
+    for p in points {
+        let sec = net.sections.get(p.section as usize).ok_or_else(|| {
+            Error::InvalidParameter(format!("section {} is not in the network", p.section))
+        })?;
+        let off = p.offset_m.clamp(0.0, sec.length_m);
+        let enu = *section_points(net, p.section, off, off)
+            .first()
+            .unwrap_or(&[0.0, 0.0]);
+        let g = net.frame.to_geodetic([enu[0], enu[1], 0.0]);
+        snapped.push(SnappedWaypoint {
+            input_lat_lon: [g.lat_deg(), g.lon_deg()],
+            point: SectionPoint {
+                section: p.section,
+                offset_m: off,
+            },
+            enu,
+            distance_m: 0.0,
+            chainage_m: 0.0,
+        });
+    }
+    let mut all: Pieces = Vec::new();
+    let mut arrive_dir: Option<bool> = None;
+    for i in 0..snapped.len() - 1 {
+        let (a, b) = (snapped[i].point, snapped[i + 1].point);
+        let leg = shortest_path(net, a, b, arrive_dir)
+            .or_else(|| arrive_dir.and_then(|_| shortest_path(net, a, b, None)))
+            .ok_or_else(|| {
+                Error::InvalidParameter(format!(
+                    "no route from point {} to point {} honouring one-way roads",
+                    i + 1,
+                    i + 2
+                ))
+            })?;
+        arrive_dir = leg.0.last().map(|p| p.0.forward);
+        snapped[i + 1].chainage_m = snapped[i].chainage_m + leg.1;
+        all.extend(leg.0);
+    }
+    Ok(assemble(net, &all, snapped))
+}
+
 fn strip(e: &Error) -> String {
     match e {
         Error::InvalidParameter(m) => m.clone(),
@@ -424,7 +475,9 @@ fn chainage_push(net: &Network, v: &mut Vec<RouteVertex>, enu: [f64; 2], chainag
 }
 
 /// Points of a section between two offsets, in travel order (from → to).
-fn section_points(net: &Network, section: SectionId, from: f64, to: f64) -> Vec<[f64; 2]> {
+/// The ENU polyline of a section between offsets `from` and `to`, in the
+/// order driven (`from > to`: against the digitised direction).
+pub fn section_points(net: &Network, section: SectionId, from: f64, to: f64) -> Vec<[f64; 2]> {
     let segs = net.model.section_segments(section);
     let at = |off: f64| -> [f64; 2] {
         let i = segs

@@ -26,7 +26,9 @@ pub mod schema;
 mod sections;
 mod validate;
 
-pub use schema::{Adaptive, Coverage, MotionKind, NavMode, ScenarioFile, UTurns, VerticalChannel};
+pub use schema::{
+    Adaptive, Coverage, MotionKind, NavMode, ScenarioFile, Traffic, UTurns, VerticalChannel,
+};
 pub use sections::{
     default_mounting_cost, Aiding, ExternalFix, FilterSettings, MapErrorModel, MountingChoice,
     Navigator, PlannerOptions, RouteKind, Scenario, ScenarioTag, TagPlace,

@@ -2,16 +2,39 @@
 //! motion commands, checked and converted to SI.
 
 use super::check::Check;
-use super::schema::{MotionKind, MotionSpec, ScenarioFile};
+use super::schema::{Coverage, MotionKind, MotionSpec, ScenarioFile};
 use super::sections::RouteKind;
 use crate::error::{Error, Result};
 use crate::trajectory::{Extent, Motion, Start};
 use std::path::Path;
 
 /// The first route of `file`, validated.
-pub(super) fn route(c: &Check, path: &Path, file: &ScenarioFile) -> Result<RouteKind> {
+pub(super) fn route(
+    c: &Check,
+    path: &Path,
+    file: &ScenarioFile,
+    coverage: Coverage,
+) -> Result<RouteKind> {
     let Some(r) = file.route.first() else {
-        return Err(c.err("no [[route]]: give waypoints (with [map]) or start and motion"));
+        // A network plan needs the map alone: a route without waypoints,
+        // at the vehicles' speed.
+        if let (Coverage::Network, Some(map)) = (coverage, &file.map) {
+            let base = path.parent().unwrap_or(Path::new("."));
+            return Ok(RouteKind::Map {
+                map: base.join(&map.path),
+                waypoints: Vec::new(),
+                profile: crate::trajectory::route::SpeedProfile {
+                    speed_mps: file.vehicle.speed_kmh.unwrap_or(50.0) / 3.6,
+                    ..Default::default()
+                },
+                stops: Vec::new(),
+                height_m: 0.0,
+            });
+        }
+        return Err(c.err(
+            "no [[route]]: give waypoints (with [map]) or start and motion (a network plan, \
+             planner.coverage = \"network\", needs only [map])",
+        ));
     };
     match (&r.waypoints, &r.start) {
         (Some(_), Some(_)) => Err(c.err(

@@ -300,6 +300,10 @@ pub struct VehicleSection {
     /// Distance between the odometer wheels (m).
     #[serde(default = "d_track")]
     pub track_width_m: f64,
+    /// Cruise speed of the vehicles on a network plan (km/h, default 50),
+    /// capped on each road by its `maxspeed` or its class's typical speed.
+    #[serde(default)]
+    pub speed_kmh: Option<f64>,
 }
 fn d_width() -> f64 {
     2.5
@@ -312,6 +316,7 @@ impl Default for VehicleSection {
         Self {
             width_m: d_width(),
             track_width_m: d_track(),
+            speed_kmh: None,
         }
     }
 }
@@ -671,6 +676,58 @@ pub struct PlannerSection {
     /// junction, the default) or "dead_ends".
     #[serde(default)]
     pub u_turns: Option<UTurns>,
+    /// Network coverage: the traffic the plan serves, "trips" (the
+    /// default) or "any_walk".
+    #[serde(default)]
+    pub traffic: Option<Traffic>,
+    /// `traffic = "trips"`: destinations CSV (`lat,lon[,weight]`, relative
+    /// to the scenario's folder); default: points on the network weighted
+    /// by road length.
+    #[serde(default)]
+    pub destinations: Option<PathBuf>,
+    /// `traffic = "trips"`: hours of driving per chain of trips (default 8).
+    #[serde(default)]
+    pub shift_hours: Option<f64>,
+    /// `traffic = "trips"`: ε, the probability a fresh chain may violate
+    /// the requirement (default 0.01).
+    #[serde(default)]
+    pub violation_probability: Option<f64>,
+    /// `traffic = "trips"`: 1 − β, the confidence of the ε statement
+    /// (default 0.99).
+    #[serde(default)]
+    pub confidence: Option<f64>,
+    /// The probability with which the horizontal error must lie within the
+    /// requirement (default 0.95).
+    #[serde(default)]
+    pub requirement_confidence: Option<f64>,
+    /// `traffic = "trips"`: chains in the planning sample (default 64).
+    #[serde(default)]
+    pub planning_chains: Option<u32>,
+    /// Chains the network validation drives (default 20).
+    #[serde(default)]
+    pub validation_chains: Option<u32>,
+}
+
+/// The traffic a network plan serves (`planner.traffic`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Traffic {
+    /// Continuous chains of shortest-path trips between destinations
+    /// (`"trips"`, the default).
+    #[default]
+    Trips,
+    /// Every walk the network allows (`"any_walk"`): the exact walk DP.
+    AnyWalk,
+}
+
+impl Traffic {
+    /// The name used in files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Traffic::Trips => "trips",
+            Traffic::AnyWalk => "any_walk",
+        }
+    }
 }
 
 /// One motion command's kind (`[[route]].motion[].kind`).

@@ -3,7 +3,7 @@
 //! [`Scenario::parse`](super::Scenario::parse). Readers never see the raw
 //! file.
 
-use super::schema::{Adaptive, Coverage, NavMode, UTurns, VerticalChannel};
+use super::schema::{Adaptive, Coverage, NavMode, Traffic, UTurns, VerticalChannel};
 use crate::sensors::{
     BarometerModel, DiffOdometerModel, ImuModel, OdometerModel, RotationModulation,
 };
@@ -222,6 +222,27 @@ pub struct PlannerOptions {
     pub existing_tags: Option<PathBuf>,
     /// Where network walks may turn back (default anywhere).
     pub u_turns: UTurns,
+    /// The traffic a network plan serves (default trips).
+    pub traffic: Traffic,
+    /// Destinations CSV of `trips` traffic, resolved against the
+    /// scenario's folder (default: points weighted by road length).
+    pub destinations: Option<PathBuf>,
+    /// Driving per chain of trips (s, > 0; default 8 h).
+    pub shift_s: f64,
+    /// ε: the probability a fresh chain may violate (0 < ε < 1; default 0.01).
+    pub violation_probability: f64,
+    /// 1 − β: the confidence of the ε statement (0 < · < 1; default 0.99).
+    pub confidence: f64,
+    /// Probability with which the horizontal error must lie within the
+    /// requirement (0.5 ≤ · < 1; default 0.95).
+    pub requirement_confidence: f64,
+    /// Chains in the planning sample of `trips` (default 64).
+    pub planning_chains: usize,
+    /// Chains the network validation drives (default 20).
+    pub validation_chains: usize,
+    /// The vehicles' cruise speed on a network plan (`[vehicle] speed_kmh`,
+    /// m/s; default 50 km/h).
+    pub vehicle_speed_mps: f64,
 }
 
 /// Default `[map] geometry_error_m` (m, 1σ per axis): Haklay (2010, *How
@@ -296,6 +317,19 @@ pub struct Scenario {
 }
 
 impl Scenario {
+    /// The scenario placed at `lat_lon` (degrees) when its map route has no
+    /// waypoints (a network plan from the map alone): the filter's prior,
+    /// given in metres, is converted to angles at that latitude.
+    pub fn located_at(&self, lat_lon: [f64; 2]) -> Scenario {
+        let mut s = self.clone();
+        if let RouteKind::Map { waypoints, .. } = &mut s.route {
+            if waypoints.is_empty() {
+                *waypoints = vec![lat_lon, lat_lon];
+            }
+        }
+        s
+    }
+
     /// The scenario file's path.
     pub fn path(&self) -> &Path {
         &self.path

@@ -503,9 +503,14 @@ impl Scenario {
             }
             None => None,
         };
-        let route = route(&c, path, &file)?;
+        let planner = planner(
+            &c,
+            path,
+            file.planner.clone().unwrap_or_default(),
+            &file.vehicle,
+        )?;
+        let route = route(&c, path, &file, planner.coverage)?;
         let map_error = map_error(&c, file.map.as_ref())?;
-        let planner = planner(&c, path, file.planner.clone().unwrap_or_default())?;
         let filter = filter(&file, &odometer, dt);
         let a = file.aiding;
         let n = &file.navigator;
@@ -711,8 +716,71 @@ fn filter(file: &ScenarioFile, odometer: &OdometerModel, dt: f64) -> FilterSetti
 }
 
 /// `[planner]` (or its absence), checked, with every default applied.
-fn planner(c: &Check, path: &Path, p: PlannerSection) -> Result<PlannerOptions> {
+fn planner(
+    c: &Check,
+    path: &Path,
+    p: PlannerSection,
+    vehicle: &VehicleSection,
+) -> Result<PlannerOptions> {
     let coverage = p.coverage.unwrap_or_default();
+    let vehicle_speed_kmh = c.range(
+        "vehicle.speed_kmh",
+        vehicle.speed_kmh.unwrap_or(50.0),
+        1.0,
+        300.0,
+    )?;
+    let shift_hours = p.shift_hours.unwrap_or(8.0);
+    if !(shift_hours.is_finite() && shift_hours > 0.0 && shift_hours <= 168.0) {
+        return Err(c.err(format!(
+            "planner.shift_hours = {shift_hours} must be > 0 and at most 168 (a week)"
+        )));
+    }
+    let open_unit = |name: &str, x: f64| -> Result<f64> {
+        if x.is_finite() && x > 0.0 && x < 1.0 {
+            Ok(x)
+        } else {
+            Err(c.err(format!(
+                "planner.{name} = {x} must lie strictly between 0 and 1"
+            )))
+        }
+    };
+    let violation_probability = open_unit(
+        "violation_probability",
+        p.violation_probability.unwrap_or(0.01),
+    )?;
+    let confidence = open_unit("confidence", p.confidence.unwrap_or(0.99))?;
+    let requirement_confidence = open_unit(
+        "requirement_confidence",
+        p.requirement_confidence.unwrap_or(0.95),
+    )?;
+    if requirement_confidence < 0.5 {
+        return Err(c.err(format!(
+            "planner.requirement_confidence = {requirement_confidence} must be at least 0.5"
+        )));
+    }
+    let planning_chains = p.planning_chains.unwrap_or(64) as usize;
+    if !(1..=100_000).contains(&planning_chains) {
+        return Err(c.err(format!(
+            "planner.planning_chains = {planning_chains} must be between 1 and 100000"
+        )));
+    }
+    let validation_chains = p.validation_chains.unwrap_or(20) as usize;
+    if !(1..=10_000).contains(&validation_chains) {
+        return Err(c.err(format!(
+            "planner.validation_chains = {validation_chains} must be between 1 and 10000"
+        )));
+    }
+    let traffic = p.traffic.unwrap_or_default();
+    if coverage != Coverage::Network
+        && (p.traffic.is_some() || p.destinations.is_some() || p.shift_hours.is_some())
+    {
+        return Err(c.err(
+            "planner.traffic, destinations and shift_hours apply to coverage = \"network\" only",
+        ));
+    }
+    if traffic != Traffic::Trips && p.destinations.is_some() {
+        return Err(c.err("planner.destinations applies to traffic = \"trips\" only"));
+    }
     let names = p.mountings.unwrap_or_else(|| Mounting::ALL.to_vec());
     if names.is_empty() {
         return Err(c.err("planner.mountings is empty"));
@@ -763,5 +831,14 @@ fn planner(c: &Check, path: &Path, p: PlannerSection) -> Result<PlannerOptions> 
         refine_iterations: p.refine_iterations.unwrap_or(0) as usize,
         existing_tags: p.existing_tags.map(|f| base.join(f)),
         u_turns: p.u_turns.unwrap_or_default(),
+        traffic,
+        destinations: p.destinations.map(|f| base.join(f)),
+        shift_s: shift_hours * 3600.0,
+        violation_probability,
+        confidence,
+        requirement_confidence,
+        planning_chains,
+        validation_chains,
+        vehicle_speed_mps: vehicle_speed_kmh / 3.6,
     })
 }

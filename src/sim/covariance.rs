@@ -52,6 +52,26 @@ pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
     (CHI2_2_95 * (tr + disc).max(0.0)).sqrt()
 }
 
+/// The horizontal bound (m) at probability `p` of an east-north covariance
+/// (the upper left 2×2 block of `c`): `σ_max · sqrt(−2 ln(1 − p))`, the
+/// radius of the circle that contains the error ellipse of probability `p`
+/// (χ²₂'s quantile is `−2 ln(1 − p)` in closed form). Conservative in the
+/// same way as [`bound95`], which it equals at `p = 0.95`.
+///
+/// ```
+/// use waymark::sim::{bound95, bound_at};
+/// let c = [[5.0, 2.0, 0.0], [2.0, 2.0, 0.0], [0.0, 0.0, 1.0]];
+/// assert!((bound_at(&c, 0.95) - bound95(&c)).abs() < 1e-9);
+/// // 99 %: σ_max · 3.035.
+/// assert!((bound_at(&c, 0.99) - 6f64.sqrt() * (-2.0 * 0.01f64.ln()).sqrt()).abs() < 1e-12);
+/// ```
+pub fn bound_at(c: &[[f64; 3]; 3], p: f64) -> f64 {
+    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
+    let tr = 0.5 * (a + d);
+    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    (-2.0 * (1.0 - p).ln() * (tr + disc).max(0.0)).sqrt()
+}
+
 /// [`bound95`] of a diagonal covariance given by its two 1σ (m): an
 /// uncorrelated east and north (e.g. a filter's `sigma_east_m` and
 /// `sigma_north_m` as `errors.csv` gives them), or a fix's along- and
@@ -79,6 +99,7 @@ pub struct PerfectData<'a> {
     failure: Option<OdometerFailure>,
     network: Option<&'a Network>,
     rfid: RfidModel,
+    map_error: crate::scenario::MapErrorModel,
 }
 
 impl<'a> PerfectData<'a> {
@@ -97,6 +118,7 @@ impl<'a> PerfectData<'a> {
             failure: scn.odometer.failure,
             network: None,
             rfid: scn.rfid,
+            map_error: scn.map_error,
         }
     }
 
@@ -123,7 +145,17 @@ impl<'a> PerfectData<'a> {
     pub fn start(&self, filter: &Filter, distance_m: f64) -> Propagation<'_, 'a> {
         Propagation {
             data: self,
-            feed: self.network.map(|n| MapFeed::new(n, filter.time())),
+            // The truth drives on the map's geometry; the fixes carry the
+            // scenario's map-error noise model (issue 12), so the predicted
+            // covariance is the navigator's on an erroneous map.
+            feed: self.network.map(|n| {
+                MapFeed::with_noise_model(
+                    n,
+                    filter.time(),
+                    self.map_error.sigma_m,
+                    self.map_error.correlation_m,
+                )
+            }),
             odo_acc: 0.0,
             last_d: distance_m,
         }

@@ -100,6 +100,18 @@ impl<'a> MapFeed<'a> {
         }
     }
 
+    /// A feed on `net` itself (the navigator's map is the world's geometry)
+    /// whose fixes carry the noise model of a map with 1σ error `sigma_m`
+    /// per axis correlated over `correlation_m`: what the planner's
+    /// perfect-data engine predicts with, the map error's variance counted
+    /// but not drawn.
+    pub fn with_noise_model(net: &'a Network, t0: f64, sigma_m: f64, correlation_m: f64) -> Self {
+        let mut f = Self::new(net, t0);
+        f.map_var = sigma_m * sigma_m;
+        f.map_corr_m = correlation_m.max(1e-3);
+        f
+    }
+
     /// A feed whose map is `net` (the world) displaced by `field`, drawn with
     /// 1σ `sigma_m` per axis and correlation length `correlation_m`.
     pub fn on_map(

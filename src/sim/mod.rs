@@ -30,7 +30,7 @@ pub mod tags;
 pub(crate) mod truth;
 
 pub use crate::scenario::{NavMode, Scenario};
-pub use covariance::{bound95, bound95_of_sigmas, CHI2_2_95};
+pub use covariance::{bound95, bound95_of_sigmas, bound_at, CHI2_2_95};
 pub use integrated::Prepared;
 pub use map_feed::FeedCounts;
 pub use metrics::{

@@ -43,6 +43,13 @@ impl TruthSource {
     /// once).
     pub fn new(scn: &Scenario) -> Result<TruthSource> {
         match &scn.route {
+            RouteKind::Map { waypoints, .. } if waypoints.is_empty() => {
+                Err(crate::error::Error::scenario(
+                    &scn.path,
+                    "no [[route]]: this scenario plans a network (planner.coverage = \"network\"); \
+                     simulating needs a [[route]] with waypoints",
+                ))
+            }
             RouteKind::Map { map, .. } => {
                 let net = Arc::new(Network::load(map, &Default::default())?);
                 Self::on_network(scn, net)
@@ -72,6 +79,13 @@ impl TruthSource {
                 height_m,
                 ..
             } => {
+                if waypoints.is_empty() {
+                    return Err(crate::error::Error::scenario(
+                        &scn.path,
+                        "no [[route]]: this scenario plans a network (planner.coverage = \"network\"); \
+                         simulating needs a [[route]] with waypoints",
+                    ));
+                }
                 let route = crate::route::plan_route(&network, waypoints).map_err(|e| {
                     crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
                 })?;

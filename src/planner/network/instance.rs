@@ -32,6 +32,29 @@ pub(super) struct Built {
     pub(super) edge_scale: Vec<f64>,
 }
 
+/// Typical speed of a road class where the map gives no `maxspeed` (km/h):
+/// urban figures, the slower end of common national defaults (slower is
+/// the worse case for the error budget).
+pub fn class_speed_kmh(highway: &str) -> Option<f64> {
+    Some(match highway {
+        "motorway" => 100.0,
+        "trunk" => 80.0,
+        "primary" => 60.0,
+        "secondary" | "motorway_link" => 50.0,
+        "tertiary" | "unclassified" | "trunk_link" | "primary_link" | "road" => 40.0,
+        "secondary_link" | "tertiary_link" | "residential" => 30.0,
+        "service" | "track" => 20.0,
+        "living_street" => 10.0,
+        _ => return None,
+    })
+}
+
+/// The planning speed of a road (m/s): the vehicles' speed capped by the
+/// road's `maxspeed`, else by its class's typical speed, in 5 km/h classes.
+pub(super) fn road_speed(scn_speed: f64, maxspeed_kmh: Option<f64>, highway: &str) -> f64 {
+    edge_speed(scn_speed, maxspeed_kmh.or_else(|| class_speed_kmh(highway)))
+}
+
 pub(super) fn edge_speed(scn_speed: f64, maxspeed_kmh: Option<f64>) -> f64 {
     let v = maxspeed_kmh.map_or(scn_speed, |m| (m / 3.6).min(scn_speed));
     // 5 km/h classes, rounded down (slower is the worse case); a speed
@@ -84,7 +107,7 @@ pub(super) fn build(
             });
             dir_index.insert((si as SectionId, fwd), e);
             edge_dir.push((si as SectionId, fwd));
-            edge_speed_v.push(edge_speed(scn_speed, a.maxspeed_kmh));
+            edge_speed_v.push(road_speed(scn_speed, a.maxspeed_kmh, &a.highway));
             directed_length_m += s.length_m;
             if let Some(o) = settings.mountings.iter().find(|o| o.allowed_on(a.tunnel)) {
                 let n = (s.length_m / spacing).ceil().max(1.0) as usize;

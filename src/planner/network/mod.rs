@@ -75,19 +75,27 @@
 //! `settings` (the network-specific settings).
 
 pub mod cover;
+pub(crate) mod coverage;
 pub(crate) mod ilp;
 pub(crate) mod instance;
+pub(crate) mod mm_reach;
 pub(crate) mod plan;
+pub(crate) mod plan_trips;
 pub(crate) mod reach;
 pub(crate) mod settings;
+pub(crate) mod traffic;
+pub(crate) mod trips;
 pub(crate) mod types;
 pub(crate) mod validation;
 
+pub use coverage::EdgeCoverage;
+pub use mm_reach::{matched_reach, MatchedReach, TURN_DEG};
 pub use plan::{plan_network, plan_network_loaded, plan_network_on};
 pub use reach::{reach_class, ReachClass};
 pub use settings::{
     scenario_network, UTurns, DEFAULT_NETWORK_SPACING_M, EXISTING_SNAP_M, ILP_MAX_CANDIDATES,
 };
+pub use trips::{chains_needed, clopper_pearson_lower, clopper_pearson_upper, TripsGuarantee};
 pub use types::{NetworkPlan, NetworkTag, NetworkValidation};
 pub use validation::validate_network_plan;
 

@@ -62,7 +62,12 @@ pub fn plan_network_on(
     settings: &PlannerSettings,
     net: &Network,
 ) -> Result<NetworkPlan> {
-    let (_, profile, height_m) = map_route(scn)?;
+    let o = net.frame.origin();
+    let scn_had_no_route = !super::settings::has_waypoints(scn);
+    let located = scn.located_at([o.lat.to_degrees(), o.lon.to_degrees()]);
+    let scn = &located;
+    let (_, _, height_m) = map_route(scn)?;
+    let speed_mps = scn.planner().vehicle_speed_mps;
     let (spacing, u_turns) = check_settings(scn, settings)?;
     let req = settings.requirement_m;
     let k = settings.tolerate_missed_reads;
@@ -70,8 +75,20 @@ pub fn plan_network_on(
     let mut timings = BTreeMap::new();
     // Instance with a placeholder reach, to learn the speed classes and mountings.
     let t = Instant::now();
-    let mut built = build(net, settings, profile.speed_mps, spacing, 1.0, u_turns)?;
+    let mut built = build(net, settings, speed_mps, spacing, 1.0, u_turns)?;
     timings.insert("build".into(), t.elapsed().as_secs_f64() * 1e3);
+    if scn.planner().traffic == crate::scenario::Traffic::Trips {
+        return super::plan_trips::plan_network_trips(
+            scn,
+            settings,
+            net,
+            built,
+            spacing,
+            height_m,
+            timings,
+            !scn_had_no_route,
+        );
+    }
     // Reach per (speed, mounting) class in use.
     let t = Instant::now();
     let speeds: BTreeSet<u64> = built
@@ -223,7 +240,68 @@ pub fn plan_network_on(
     } else {
         lb_pack
     };
-    // Tags.
+    let (tags, total_cost) = tags_of(scn, settings, net, &built, &sel, height_m, |_| {
+        "any walk through the network consuming more than the error budget passes k + 1 tags"
+            .to_string()
+    });
+    let existing_kept = tags.iter().filter(|t| t.existing).count();
+    Ok(NetworkPlan {
+        scenario: scn.name().to_string(),
+        coverage: "network".into(),
+        requirement_m: req,
+        tolerate_missed_reads: k,
+        method,
+        lower_bound: lb_count,
+        lower_bound_cost: lb_cost,
+        reach_m,
+        steady_reach_m: steady,
+        start_reach_m: start,
+        reach_classes,
+        directed_edges: built.physical_edges,
+        u_turns: u_turns.as_str().into(),
+        directed_length_km: built.directed_length_m / 1000.0,
+        candidates: p.sites.len(),
+        candidate_spacing_m: spacing,
+        existing_kept,
+        existing_off_network: built.existing_off,
+        tags,
+        total_cost,
+        verified: res.feasible(),
+        longest_walk_budget: res.longest_m / r_ref,
+        budget_reference_m: r_ref,
+        timings_ms: timings,
+        validation: None,
+        traffic: "any_walk".into(),
+        map_matching: false,
+        vehicle_speed_kmh: scn.planner().vehicle_speed_mps * 3.6,
+        requirement_confidence: 0.95,
+        rule: format!(
+            "the predicted 95 % horizontal bound (conservative circle of the 2-D covariance) within \
+             {req} m on every walk through the network, with {k} consecutive missed read(s) tolerated"
+        ),
+        route_ignored: super::settings::has_waypoints(scn) && !scn_had_no_route,
+        matched_reach: Vec::new(),
+        guarantee: None,
+        windows: 0,
+        planning_km: 0.0,
+        edge_coverage: Vec::new(),
+        selected: sel,
+        problem: Some(built.problem),
+    })
+}
+
+/// The selected sites as tags (installed ones keep their id and position),
+/// each with its reason; and the cost of the new ones.
+pub(super) fn tags_of(
+    scn: &Scenario,
+    settings: &PlannerSettings,
+    net: &Network,
+    built: &super::instance::Built,
+    sel: &[bool],
+    height_m: f64,
+    reason: impl Fn(usize) -> String,
+) -> (Vec<NetworkTag>, f64) {
+    let p = &built.problem;
     let mut tags = Vec::new();
     let mut n_new = 0;
     let mut total_cost = 0.0;
@@ -272,36 +350,8 @@ pub fn plan_network_on(
             lane_offset_m: lane,
             edge: site.edge,
             section: sec,
+            reason: reason(i),
         });
     }
-    let existing_kept = tags.iter().filter(|t| t.existing).count();
-    Ok(NetworkPlan {
-        scenario: scn.name().to_string(),
-        coverage: "network".into(),
-        requirement_m: req,
-        tolerate_missed_reads: k,
-        method,
-        lower_bound: lb_count,
-        lower_bound_cost: lb_cost,
-        reach_m,
-        steady_reach_m: steady,
-        start_reach_m: start,
-        reach_classes,
-        directed_edges: built.physical_edges,
-        u_turns: u_turns.as_str().into(),
-        directed_length_km: built.directed_length_m / 1000.0,
-        candidates: p.sites.len(),
-        candidate_spacing_m: spacing,
-        existing_kept,
-        existing_off_network: built.existing_off,
-        tags,
-        total_cost,
-        verified: res.feasible(),
-        longest_walk_budget: res.longest_m / r_ref,
-        budget_reference_m: r_ref,
-        timings_ms: timings,
-        validation: None,
-        selected: sel,
-        problem: Some(built.problem),
-    })
+    (tags, total_cost)
 }

@@ -25,10 +25,16 @@ pub(crate) fn map_route(scn: &Scenario) -> Result<(&std::path::Path, &SpeedProfi
         } => Ok((map.as_path(), profile, *height_m)),
         RouteKind::Motion { .. } => Err(Error::scenario(
             &scn.path,
-            "planner.coverage = \"network\" needs a road map: give [map] and a [[route]] with \
-             waypoints (its speed_kmh is the vehicles' speed); a motion-command route has no network",
+            "planner.coverage = \"network\" needs a road map: give [map] (and no motion-command \
+             route; the vehicles' speed is [vehicle] speed_kmh)",
         )),
     }
+}
+
+/// The scenario has a `[[route]]` with waypoints (ignored by network
+/// coverage).
+pub(crate) fn has_waypoints(scn: &Scenario) -> bool {
+    matches!(&scn.route, RouteKind::Map { waypoints, .. } if !waypoints.is_empty())
 }
 
 /// Loads the road network of a network-coverage scenario.

@@ -46,6 +46,8 @@ pub struct NetworkTag {
     pub cost: f64,
     /// Lateral offset of the lane centre right of the road centreline (m).
     pub lane_offset_m: f64,
+    /// Why the plan needs a tag here.
+    pub reason: String,
     /// Directed edge index (internal).
     #[serde(skip)]
     pub edge: u32,
@@ -144,6 +146,32 @@ pub struct NetworkPlan {
     pub timings_ms: BTreeMap<String, f64>,
     /// Monte Carlo validation, when run.
     pub validation: Option<NetworkValidation>,
+    /// The traffic served: "trips" or "any_walk".
+    pub traffic: String,
+    /// Map matching credited by the error model.
+    pub map_matching: bool,
+    /// The vehicles' speed (km/h), capped per road by maxspeed or class.
+    pub vehicle_speed_kmh: f64,
+    /// Probability with which the error must lie within the requirement
+    /// (the bound's confidence).
+    pub requirement_confidence: f64,
+    /// What "within the requirement" means for this plan, in words.
+    pub rule: String,
+    /// The scenario's `[[route]]` was ignored (network coverage needs the
+    /// map alone).
+    pub route_ignored: bool,
+    /// The map-matching reach per speed class and mounting (map matching
+    /// on).
+    pub matched_reach: Vec<super::mm_reach::MatchedReach>,
+    /// `trips`: the stated guarantee.
+    pub guarantee: Option<super::trips::TripsGuarantee>,
+    /// `trips`: budget windows in the planning set.
+    pub windows: usize,
+    /// `trips`: km of driving in the planning sample.
+    pub planning_km: f64,
+    /// Per directed edge: what the plan predicts (for `coverage.geojson`).
+    #[serde(skip)]
+    pub edge_coverage: Vec<super::coverage::EdgeCoverage>,
     /// The instance (for checks; not serialised).
     #[serde(skip)]
     pub problem: Option<CoverProblem>,

@@ -1,0 +1,94 @@
+//! What a network plan predicts on each directed road piece: the largest
+//! error budget consumed there by the sampled chains, with the plan's tags
+//! all read and without any tag, as a predicted bound (the map-matching
+//! reach's profile after a reset, or the straight drive's from the prior
+//! without map matching), and why tags are needed there. Written as
+//! `coverage.geojson` by the plan command.
+
+use super::traffic::ChainBudget;
+use serde::Serialize;
+
+/// One directed edge's prediction.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EdgeCoverage {
+    /// Directed edge index.
+    pub edge: u32,
+    /// Chain passes sampled over it.
+    pub passes: u64,
+    /// Largest budget consumed since the last reset or read, tags all read
+    /// (≤ 1: within the requirement under the model).
+    pub budget_with_tags: f64,
+    /// Largest budget consumed since the last reset, without tags.
+    pub budget_without_tags: f64,
+    /// Predicted bound there with the tags (m; `None` where no chain passed).
+    pub bound_with_tags_m: Option<f64>,
+    /// Predicted bound without tags (m; held at the profile's end beyond it).
+    pub bound_without_tags_m: Option<f64>,
+    /// Planning speed (km/h).
+    pub speed_kmh: f64,
+    /// Why tags are (or are not) needed here.
+    pub reason: String,
+}
+
+/// The worst budget since the last event before `x`, for events sorted.
+fn since(events: &[f64], x: f64) -> f64 {
+    let i = events.partition_point(|&e| e < x);
+    if i == 0 {
+        0.0
+    } else {
+        x - events[i - 1]
+    }
+}
+
+/// Accumulates, per directed edge, the largest budget consumed since the
+/// last reset (and read, for `selected`).
+pub(crate) fn edge_budgets(
+    chains: &[ChainBudget],
+    selected: &[bool],
+    n_edges: usize,
+) -> Vec<EdgeCoverage> {
+    let mut out: Vec<EdgeCoverage> = (0..n_edges)
+        .map(|e| EdgeCoverage {
+            edge: e as u32,
+            passes: 0,
+            budget_with_tags: 0.0,
+            budget_without_tags: 0.0,
+            bound_with_tags_m: None,
+            bound_without_tags_m: None,
+            speed_kmh: 0.0,
+            reason: String::new(),
+        })
+        .collect();
+    for cb in chains {
+        let resets: Vec<f64> = cb.resets.iter().map(|r| r.0).collect();
+        let mut with: Vec<f64> = cb
+            .sites
+            .iter()
+            .filter(|s| selected[s.1 as usize])
+            .map(|s| s.0)
+            .chain(resets.iter().copied())
+            .collect();
+        with.sort_by(f64::total_cmp);
+        for &(e, b0, b1) in &cb.pieces {
+            let o = &mut out[e as usize];
+            o.passes += 1;
+            // The largest value inside [b0, b1] is at b1 or just before an
+            // event inside the piece.
+            let mut w = since(&with, b1);
+            let lo = with.partition_point(|&x| x <= b0);
+            let hi = with.partition_point(|&x| x <= b1);
+            for &x in &with[lo..hi] {
+                w = w.max(since(&with, x));
+            }
+            let mut wo = since(&resets, b1);
+            let lo = resets.partition_point(|&x| x <= b0);
+            let hi = resets.partition_point(|&x| x <= b1);
+            for &x in &resets[lo..hi] {
+                wo = wo.max(since(&resets, x));
+            }
+            o.budget_with_tags = o.budget_with_tags.max(w);
+            o.budget_without_tags = o.budget_without_tags.max(wo);
+        }
+    }
+    out
+}

@@ -1,0 +1,435 @@
+//! The reach of a navigator **with map matching**, per speed class and
+//! mounting: the integrated filter and its online map feed, propagated on
+//! perfect data (the covariance engine, [`crate::sim::covariance`]) along
+//! short synthetic roads built for the purpose, with the scenario's map-error
+//! noise model.
+//!
+//! What map matching observes (docs/DESIGN.md, area planner): on a matched
+//! road the position across the road, to the map's accuracy; along the road
+//! nothing, until the road turns. After a turn of angle θ the old along-road
+//! error is seen through the new road's across-road direction with
+//! sensitivity sin θ, so the along-road error is *reset* (to the map's
+//! level) at turns. The planner's model therefore cuts a drive into
+//! **stretches** between turns of at least [`TURN_DEG`] (and at most
+//! 180° − [`TURN_DEG`]: a U-turn observes nothing) and budgets each stretch
+//! like a turn-free road. Three drives measure it, each the real filter
+//! with the real map feed:
+//!
+//! * **start**: from the scenario's prior, a straight road until the bound
+//!   reaches the requirement (`start_reach_m`);
+//! * **turn**: the same road for `min(start reach, 3 km)`, a turn of exactly
+//!   [`TURN_DEG`] (the weakest turn that counts), then straight: the distance
+//!   after the turn until the bound reaches the requirement
+//!   (`turn_reach_m`) and the bound's profile after the turn (for the
+//!   predicted bound of a road piece);
+//! * **tag**: the turn drive fixed by a tag of the mounting each time the
+//!   bound reaches the requirement, until the distances between fixes
+//!   settle (`tag_reach_m`, their minimum).
+//!
+//! The class's reach is the smallest of the three: a vehicle whose history
+//! is a single weak turn after its start is the least-informed the model
+//! allows; real chains turn more often and fare better. Checked by the
+//! Monte Carlo validation on sampled chains.
+
+use crate::error::{Error, Result};
+use crate::network::{model_from_polylines, Network, Oneway, RoadAttributes};
+use crate::route::plan_route;
+use crate::scenario::Scenario;
+use crate::sim::covariance::{bound_at, PerfectData};
+use crate::sim::tags::Mounting;
+use crate::sim::TruthSource;
+use crate::trajectory::{ideal_imu, RoutePlan, SpeedProfile};
+use serde::Serialize;
+use std::sync::Arc;
+
+/// The weakest turn that resets the along-road error (degrees): sin 45° =
+/// 0.71 of the along-road error is observed.
+pub const TURN_DEG: f64 = 45.0;
+/// Longest drive of the analysis (m), and its time cap (s).
+const DRIVE_MAX_M: f64 = 30_000.0;
+const DRIVE_MAX_S: f64 = 5_400.0;
+/// First leg of the turn drive at most (m).
+const FIRST_LEG_MAX_M: f64 = 3_000.0;
+/// Warm-up of the turn drive: legs with right-angle turns between them.
+pub const WARM_UP_LEGS: usize = 6;
+/// Length of each warm-up leg (m).
+pub const WARM_UP_LEG_M: f64 = 500.0;
+/// The bound profile after a turn is kept to this multiple of the
+/// requirement (m/m).
+const PROFILE_TO: f64 = 4.0;
+
+/// The map-matching reach of one speed class and mounting.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MatchedReach {
+    /// Speed (km/h).
+    pub speed_kmh: f64,
+    /// Mounting of the fixes.
+    pub mounting: String,
+    /// From the prior on a straight matched road until the bound reaches
+    /// the requirement (m).
+    pub start_reach_m: f64,
+    /// After a turn of [`TURN_DEG`] until the bound reaches the requirement (m).
+    pub turn_reach_m: f64,
+    /// Smallest distance between successive tag fixes on a straight
+    /// matched road, each placed where the bound reaches the requirement (m).
+    pub tag_reach_m: f64,
+    /// The class's reach: the smallest of the three (m).
+    pub reach_m: f64,
+    /// Smallest bound within 300 m after the turn (m): the level a turn
+    /// resets the error to.
+    pub bound_after_turn_m: f64,
+    /// Bound right after a tag fix in steady state (m).
+    pub bound_after_fix_m: f64,
+    /// Whether a turn resets the error (the bound after the turn falls
+    /// below the requirement). Without, only tags do.
+    pub turns_reset: bool,
+    /// A drive ended before the bound reached the requirement (the reach
+    /// is at least the figure given).
+    pub capped: bool,
+    /// The bound after the turn: (distance after the turn m, bound m), every
+    /// ~10 m, to [`PROFILE_TO`] × the requirement or the drive's end.
+    #[serde(skip)]
+    pub profile: Vec<(f64, f64)>,
+}
+
+impl MatchedReach {
+    /// The predicted bound (m) after `d` metres without a reset: the turn
+    /// drive's profile, held at its last value beyond it.
+    pub fn bound_after(&self, d: f64) -> f64 {
+        profile_bound(&self.profile, d)
+    }
+}
+
+/// A road of straight legs (heading clockwise from north in degrees,
+/// length m) as a network with one two-way road; returns its truth at
+/// `speed_mps` and the chainage of the last corner (0 for a single leg).
+fn synthetic_drive(
+    scn: &Scenario,
+    lat_deg: f64,
+    lon_deg: f64,
+    height_m: f64,
+    speed_mps: f64,
+    legs: &[(f64, f64)],
+) -> Result<(TruthSource, f64)> {
+    let m_per_deg_lat = 111_320.0;
+    let m_per_deg_lon = 111_320.0 * lat_deg.to_radians().cos();
+    let mut pts = vec![[lat_deg, lon_deg]];
+    for &(h, len) in legs {
+        let p = pts[pts.len() - 1];
+        let h = h.to_radians();
+        pts.push([
+            p[0] + len * h.cos() / m_per_deg_lat,
+            p[1] + len * h.sin() / m_per_deg_lon,
+        ]);
+    }
+    let attrs = RoadAttributes {
+        id: "calibration".into(),
+        name: None,
+        highway: "primary".into(),
+        oneway: Oneway::Both,
+        lanes: None,
+        width_m: None,
+        maxspeed_kmh: None,
+        tunnel: false,
+        bridge: false,
+        layer: 0,
+    };
+    let ends = [pts[0], pts[pts.len() - 1]];
+    let corners = pts.len() - 2;
+    let net = Network::from_model(model_from_polylines(vec![(attrs, vec![pts])])?, None)?;
+    let route = plan_route(&net, &ends)?;
+    let turn_at = if corners > 0 && route.vertices.len() > corners {
+        route.vertices[corners].chainage_m
+    } else {
+        0.0
+    };
+    let profile = SpeedProfile {
+        speed_mps,
+        // Corners taken at speed: the analysis is about distance and time.
+        max_lateral_accel_mps2: 8.0,
+        ..Default::default()
+    };
+    let plan = RoutePlan::new(&net, &route, &profile, &[], height_m, scn.dt)?;
+    Ok((TruthSource::from_route(Arc::new(net), route, plan), turn_at))
+}
+
+/// The warm-up before the weak turn: [`WARM_UP_LEGS`] legs of
+/// [`WARM_UP_LEG_M`] alternating north and east (right-angle turns), the
+/// first no longer than the start reach allows.
+fn warm_up(first: f64) -> Vec<(f64, f64)> {
+    (0..WARM_UP_LEGS)
+        .map(|i| {
+            (
+                if i % 2 == 0 { 0.0 } else { 90.0 },
+                if i == 0 {
+                    first.min(WARM_UP_LEG_M)
+                } else {
+                    WARM_UP_LEG_M
+                },
+            )
+        })
+        .collect()
+}
+
+/// What one drive measured.
+struct Drive {
+    /// Distance where the bound first exceeded the requirement after
+    /// `from_m` (absolute, m), if it did.
+    first_exceed_m: Option<f64>,
+    /// Periods between fixes (m).
+    periods: Vec<f64>,
+    bound_after_fix: f64,
+    min_after_turn: f64,
+    profile: Vec<(f64, f64)>,
+    end_m: f64,
+}
+
+/// Runs the filter with its map feed along `truth`; after `from_m` it
+/// records the bound's profile, and with `fix` it applies a tag fix each
+/// time the bound exceeds `req`.
+#[allow(clippy::too_many_arguments)]
+fn run(
+    scn: &Scenario,
+    truth: &TruthSource,
+    from_m: f64,
+    req: f64,
+    p: f64,
+    fix: Option<Mounting>,
+    profile: bool,
+    map: bool,
+) -> Result<Drive> {
+    let net = truth
+        .network()
+        .ok_or_else(|| Error::InvalidParameter("calibration drive without a network".into()))?;
+    let data = PerfectData::new(scn)
+        .without_faults()
+        .with_map_feed(if map { Some(&**net) } else { None });
+    let mut samples = ideal_imu(truth.samples(), scn.dt);
+    let Some(first) = samples.next() else {
+        return Err(Error::InvalidParameter("empty calibration drive".into()));
+    };
+    let mut f = data.filter_at(&first.avp);
+    let b0 = bound_at(&f.position_cov_enu(), p);
+    if b0 > req {
+        return Err(Error::Infeasible(format!(
+            "the navigator's initial position uncertainty (bound {b0:.2} m at the requirement's \
+             confidence, from navigator.initial_position_sigma_m / filter.position_sigma_m) already \
+             exceeds the {req} m requirement where a vehicle starts"
+        )));
+    }
+    let mut prop = data.start(&f, 0.0);
+    let mut d = Drive {
+        first_exceed_m: None,
+        periods: Vec::new(),
+        bound_after_fix: f64::NAN,
+        min_after_turn: f64::INFINITY,
+        profile: Vec::new(),
+        end_m: 0.0,
+    };
+    let mut last_fix = from_m;
+    let mut prev_d = 0.0;
+    let mut next_profile = from_m;
+    let mut fixes = 0usize;
+    for (n, s) in samples.enumerate() {
+        prop.step(n + 1, &s, &mut f);
+        let dist = s.avp.distance_m;
+        d.end_m = dist;
+        if dist < from_m {
+            prev_d = dist;
+            continue;
+        }
+        let b = bound_at(&f.position_cov_enu(), p);
+        if dist - from_m <= 300.0 {
+            d.min_after_turn = d.min_after_turn.min(b);
+        }
+        if profile && dist >= next_profile {
+            d.profile.push((dist - from_m, b));
+            next_profile += 10.0;
+            if b > PROFILE_TO * req && d.first_exceed_m.is_some() {
+                break;
+            }
+        }
+        if b > req {
+            if d.first_exceed_m.is_none() {
+                d.first_exceed_m = Some(prev_d);
+                if fix.is_none() && !profile {
+                    break;
+                }
+            }
+            let Some(m) = fix else {
+                prev_d = dist;
+                continue;
+            };
+            if fixes > 0 {
+                d.periods.push(prev_d - last_fix);
+            }
+            fixes += 1;
+            data.apply_fix(&s.avp, &mut f, m, None);
+            d.bound_after_fix = bound_at(&f.position_cov_enu(), p);
+            if d.bound_after_fix > req {
+                return Err(Error::Infeasible(format!(
+                    "requirement_m = {req} m is below what a {} fix leaves on a matched road \
+                     (bound {:.2} m right after the fix at {:.0} km/h)",
+                    m.as_str(),
+                    d.bound_after_fix,
+                    s.avp.state.v[0].hypot(s.avp.state.v[1]) * 3.6
+                )));
+            }
+            last_fix = dist;
+            let settled = d.periods.len() >= 3 && {
+                let t = &d.periods[d.periods.len() - 3..];
+                let (lo, hi) = t
+                    .iter()
+                    .fold((f64::INFINITY, 0.0f64), |(l, h), &x| (l.min(x), h.max(x)));
+                hi - lo <= (0.002 * hi).max(0.5)
+            };
+            if settled || d.periods.len() >= 12 {
+                break;
+            }
+        }
+        prev_d = dist;
+    }
+    Ok(d)
+}
+
+/// The map-matching reach of speed class `speed_mps` and `mounting`
+/// (module doc), at the network's latitude; `p` is the requirement's
+/// confidence.
+#[allow(clippy::too_many_arguments)]
+pub fn matched_reach(
+    scn: &Scenario,
+    lat_deg: f64,
+    lon_deg: f64,
+    height_m: f64,
+    speed_mps: f64,
+    mounting: Mounting,
+    req: f64,
+    p: f64,
+) -> Result<MatchedReach> {
+    let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
+    // Start: straight from the prior.
+    let (truth, _) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &[(0.0, total)])?;
+    let start = run(scn, &truth, 0.0, req, p, None, false, true)?;
+    let mut capped = start.first_exceed_m.is_none();
+    let start_reach = start.first_exceed_m.unwrap_or(start.end_m);
+    // Turn: a first leg, a weak turn, straight on.
+    let first = start_reach.clamp(200.0, FIRST_LEG_MAX_M);
+    let mut legs = warm_up(first);
+    let last = legs.last().map_or(0.0, |l| l.0);
+    legs.push((last + TURN_DEG, total));
+    let (truth, turn_at) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &legs)?;
+    let turn = run(scn, &truth, turn_at, req, p, None, true, true)?;
+    let turns_reset = turn.min_after_turn < req;
+    let turn_reach = match turn.first_exceed_m {
+        Some(x) => (x - turn_at).max(0.0),
+        None => {
+            capped = true;
+            turn.end_m - turn_at
+        }
+    };
+    // Tag fixes on the matched straight after the turn.
+    let tag = run(scn, &truth, turn_at, req, p, Some(mounting), false, true)?;
+    let tag_reach = if tag.periods.is_empty() {
+        capped = true;
+        tag.end_m - turn_at
+    } else {
+        tag.periods.iter().copied().fold(f64::INFINITY, f64::min)
+    };
+    let reach = if turns_reset {
+        start_reach.min(turn_reach).min(tag_reach)
+    } else {
+        start_reach.min(tag_reach)
+    };
+    Ok(MatchedReach {
+        speed_kmh: speed_mps * 3.6,
+        mounting: mounting.as_str().into(),
+        start_reach_m: start_reach,
+        turn_reach_m: turn_reach,
+        tag_reach_m: tag_reach,
+        reach_m: reach,
+        bound_after_turn_m: turn.min_after_turn,
+        bound_after_fix_m: tag.bound_after_fix,
+        turns_reset,
+        capped,
+        profile: turn.profile,
+    })
+}
+
+/// The bound's profile from the scenario's prior on a straight road
+/// *without* map matching: (distance m, bound m) every ~10 m, to
+/// [`PROFILE_TO`] × the requirement or the drive's end.
+pub fn straight_profile(
+    scn: &Scenario,
+    lat_deg: f64,
+    lon_deg: f64,
+    height_m: f64,
+    speed_mps: f64,
+    req: f64,
+    p: f64,
+) -> Result<Vec<(f64, f64)>> {
+    let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
+    let (truth, _) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &[(0.0, total)])?;
+    Ok(run(scn, &truth, 0.0, req, p, None, true, false)?.profile)
+}
+
+/// [`MatchedReach::bound_after`] on a bare profile.
+pub fn profile_bound(p: &[(f64, f64)], d: f64) -> f64 {
+    if p.is_empty() {
+        return f64::NAN;
+    }
+    let i = p.partition_point(|x| x.0 < d);
+    if i == 0 {
+        return p[0].1;
+    }
+    if i >= p.len() {
+        return p[p.len() - 1].1;
+    }
+    let (a, b) = (p[i - 1], p[i]);
+    let t = if b.0 > a.0 {
+        (d - a.0) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    a.1 + t * (b.1 - a.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scenario() -> Scenario {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenarios/helsinki-network-trips.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        Scenario::parse(&path, &text)
+            .unwrap()
+            .located_at([60.17, 24.94])
+    }
+
+    #[test]
+    fn debug_drives() {
+        let scn = scenario();
+        let mut legs = warm_up(500.0);
+        legs.push((90.0 + 45.0, 5000.0));
+        let (truth, turn_at) = synthetic_drive(&scn, 60.17, 24.94, 0.0, 50.0 / 3.6, &legs).unwrap();
+        let d = run(&scn, &truth, turn_at, 20.0, 0.95, None, true, true).unwrap();
+        eprintln!(
+            "turn_at {turn_at} first_exceed {:?} min_after {} end {}",
+            d.first_exceed_m, d.min_after_turn, d.end_m
+        );
+        for x in d.profile.iter().step_by(20) {
+            eprintln!("{x:?}");
+        }
+        let d = run(
+            &scn,
+            &truth,
+            turn_at,
+            20.0,
+            0.95,
+            Some(Mounting::Roadside),
+            false,
+            true,
+        );
+        eprintln!("{:?}", d.map(|d| (d.periods, d.bound_after_fix)));
+    }
+}

@@ -1,0 +1,423 @@
+//! A network plan for `traffic = "trips"`: the reach per speed class (with
+//! map-matching credit when the navigator matches), the edges' budget
+//! rates and geometry, the sampled chains, the multicover and its
+//! guarantee, the tags with their reasons and the per-edge coverage.
+
+use super::coverage::edge_budgets;
+use super::instance::Built;
+use super::mm_reach::{matched_reach, profile_bound, straight_profile, MatchedReach, TURN_DEG};
+use super::plan::tags_of;
+use super::reach::{reach_class, ReachClass};
+use super::traffic::{Destinations, EdgeModel, WindowInfo};
+use super::trips::plan_trips;
+use super::types::NetworkPlan;
+use crate::error::{Error, Result};
+use crate::network::Network;
+use crate::planner::settings::PlannerSettings;
+use crate::route::{snap, SectionPoint};
+use crate::scenario::{NavMode, Scenario};
+use crate::sim::tags::Mounting;
+use rayon::prelude::*;
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Instant;
+
+/// Snap distance of listed destinations (m).
+const DESTINATION_SNAP_M: f64 = 100.0;
+
+/// Reads `planner.destinations`: `lat,lon[,weight]` per line, an optional
+/// header, each point snapped to the nearest road.
+fn read_destinations(
+    path: &std::path::Path,
+    net: &Network,
+) -> Result<(Vec<SectionPoint>, Vec<f64>)> {
+    let err = |m: String| Error::InvalidParameter(format!("{}: {m}", path.display()));
+    let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let mut pts = Vec::new();
+    let mut w = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = l.split(',').map(str::trim).collect();
+        let nums: Vec<Option<f64>> = f.iter().map(|x| x.parse::<f64>().ok()).collect();
+        if i == 0 && nums.iter().take(2).any(Option::is_none) {
+            continue; // header
+        }
+        if !(2..=3).contains(&f.len()) {
+            return Err(err(format!(
+                "line {}: expected lat,lon[,weight], got {} fields",
+                i + 1,
+                f.len()
+            )));
+        }
+        let (Some(lat), Some(lon)) = (nums[0], nums[1]) else {
+            return Err(err(format!("line {}: lat and lon must be numbers", i + 1)));
+        };
+        let weight = match f.get(2) {
+            Some(_) => {
+                nums[2].ok_or_else(|| err(format!("line {}: weight must be a number", i + 1)))?
+            }
+            None => 1.0,
+        };
+        if !(weight.is_finite() && weight >= 0.0) {
+            return Err(err(format!("line {}: weight {weight} must be ≥ 0", i + 1)));
+        }
+        let (p, _, _) = snap(net, [lat, lon], DESTINATION_SNAP_M).map_err(|e| {
+            err(format!(
+                "line {}: destination ({lat}, {lon}) is off the map: {}",
+                i + 1,
+                match e {
+                    Error::InvalidParameter(m) => m,
+                    o => o.to_string(),
+                }
+            ))
+        })?;
+        pts.push(p);
+        w.push(weight);
+        if pts.len() > 1_000_000 {
+            return Err(err("more than 1,000,000 destinations".into()));
+        }
+    }
+    Ok((pts, w))
+}
+
+/// The class key of a speed (cm/s).
+fn key(v: f64) -> u64 {
+    (v * 3.6 * 100.0).round() as u64
+}
+
+/// Plans `trips` traffic on a built instance (module doc).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn plan_network_trips(
+    scn: &Scenario,
+    settings: &PlannerSettings,
+    net: &Network,
+    built: Built,
+    spacing: f64,
+    height_m: f64,
+    mut timings: BTreeMap<String, f64>,
+    route_ignored: bool,
+) -> Result<NetworkPlan> {
+    let p = scn.planner();
+    let req = settings.requirement_m;
+    let k = settings.tolerate_missed_reads;
+    let conf = p.requirement_confidence;
+    let mm = scn.aiding().map_matching && scn.navigator().mode == NavMode::Integrated;
+    let physical = built.physical_edges;
+    // Reach per (speed class, mounting in use).
+    let t = Instant::now();
+    let speeds: BTreeSet<u64> = built.edge_speed[..physical]
+        .iter()
+        .map(|&v| key(v))
+        .collect();
+    let mountings: BTreeSet<&'static str> =
+        built.site_mounting.iter().map(|m| m.as_str()).collect();
+    let classes: Vec<(f64, Mounting)> = speeds
+        .iter()
+        .flat_map(|&s| {
+            mountings
+                .iter()
+                .filter_map(move |m| Mounting::parse(m).map(|m| (s as f64 / 360.0, m)))
+        })
+        .collect();
+    if classes.is_empty() {
+        return Err(Error::InvalidParameter(
+            "no candidate site: none of planner.mountings is allowed on any road (ceiling only in tunnels)"
+                .into(),
+        ));
+    }
+    let origin = net.frame.origin();
+    let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
+
+    let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
+    let mut profiles: BTreeMap<u64, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut matched: Vec<MatchedReach> = Vec::new();
+    let mut reach_classes: Vec<ReachClass> = Vec::new();
+    if mm {
+        matched = classes
+            .par_iter()
+            .map(|&(v, m)| matched_reach(scn, lat0, lon0, height_m, v, m, req, conf))
+            .collect::<Result<Vec<_>>>()?;
+        for (c, &(v, _)) in matched.iter().zip(&classes) {
+            let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
+            *r = r.min(c.reach_m);
+            profiles.entry(key(v)).or_insert_with(|| c.profile.clone());
+        }
+    } else {
+        reach_classes = classes
+            .par_iter()
+            .map(|&(v, m)| reach_class(scn, origin.lat, origin.lon, height_m, v, m, req))
+            .collect::<Result<Vec<_>>>()?;
+        for (c, &(v, _)) in reach_classes.iter().zip(&classes) {
+            let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
+            *r = r.min(c.steady_reach_m.min(c.start_reach_m));
+        }
+        let sp: Vec<(u64, Vec<(f64, f64)>)> = speeds
+            .par_iter()
+            .map(|&s| {
+                straight_profile(scn, lat0, lon0, height_m, s as f64 / 360.0, req, conf)
+                    .map(|p| (s, p))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        profiles.extend(sp);
+    }
+    timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
+    let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);
+    let r_ref = class_reach.values().copied().fold(0.0, f64::max);
+    if !(reach_m > 0.0 && r_ref.is_finite()) {
+        return Err(Error::Infeasible(format!(
+            "the {req} m requirement leaves no distance between fixes (reach 0 m)"
+        )));
+    }
+    // The edges as the chains see them.
+    let t = Instant::now();
+    let prob = &built.problem;
+    let mut sites: Vec<Vec<(f64, u32)>> = vec![Vec::new(); physical];
+    for (i, s) in prob.sites.iter().enumerate() {
+        if (s.edge as usize) < physical {
+            sites[s.edge as usize].push((s.at_m, i as u32));
+        }
+    }
+    for v in &mut sites {
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    let rate: Vec<f64> = built.edge_speed[..physical]
+        .iter()
+        .map(|&v| 1.0 / class_reach.get(&key(v)).copied().unwrap_or(reach_m))
+        .collect();
+    let model = EdgeModel::new(
+        net,
+        built.edge_dir[..physical].to_vec(),
+        built.edge_speed[..physical].to_vec(),
+        rate,
+        sites,
+    );
+    let main = super::traffic::main_component(net, &model);
+    let dest = match &p.destinations {
+        Some(path) => {
+            let (pts, w) = read_destinations(path, net)?;
+            if let Some(i) = pts.iter().position(|q| !main[q.section as usize]) {
+                return Err(Error::InvalidParameter(format!(
+                    "{}: destination {} lies on a road outside the network's main connected part \
+                     (trips from or to it cannot be routed both ways)",
+                    path.display(),
+                    i + 1
+                )));
+            }
+            Destinations::listed(pts, &w).map_err(|e| {
+                Error::InvalidParameter(format!(
+                    "{}: {}",
+                    path.display(),
+                    match e {
+                        Error::InvalidParameter(m) => m,
+                        o => o.to_string(),
+                    }
+                ))
+            })?
+        }
+        None => Destinations::by_length(net, &model, &main)?,
+    };
+    let cost: Vec<f64> = prob.sites.iter().map(|s| s.cost).collect();
+    let pre: Vec<bool> = prob.sites.iter().map(|s| s.existing).collect();
+    timings.insert("edges".into(), t.elapsed().as_secs_f64() * 1e3);
+    let t = Instant::now();
+    let road_of = |site: u32| -> String {
+        let e = prob.sites[site as usize].edge as usize;
+        let (sec, _) = built.edge_dir[e];
+        let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
+        a.name.clone().unwrap_or_else(|| format!("road {}", a.id))
+    };
+    let infeasible = |w: &WindowInfo, ids: &[u32]| -> Error {
+        let roads: BTreeSet<String> = ids.iter().map(|&s| road_of(s)).collect();
+        Error::Infeasible(format!(
+            "the {req} m requirement cannot be held with {k} missed read(s) tolerated on a stretch of \
+             {:.0} m{}{}: a window of the error budget (reach {:.0}–{:.0} m by speed class) holds only {} \
+             candidate site(s), fewer than the {} reads needed (lower planner.candidate_spacing_m = \
+             {spacing} m, or allow more mountings)",
+            w.stretch_m,
+            if w.at_start { " from a chain's start" } else { " without a turn" },
+            if roads.is_empty() {
+                String::new()
+            } else {
+                format!(" on {}", roads.into_iter().collect::<Vec<_>>().join(", "))
+            },
+            reach_m,
+            r_ref,
+            ids.len(),
+            k + 1
+        ))
+    };
+    let tp = plan_trips(
+        net,
+        &model,
+        &dest,
+        prob.sites.len(),
+        &cost,
+        &pre,
+        k,
+        mm,
+        p.shift_s,
+        p.planning_chains,
+        p.violation_probability,
+        1.0 - p.confidence,
+        scn.seed(),
+        infeasible,
+    )?;
+    timings.insert("solve".into(), t.elapsed().as_secs_f64() * 1e3);
+    let sel = tp.selected.clone();
+    // Tags with their reasons.
+    let reason = |i: usize| -> String {
+        let site = &prob.sites[i];
+        let (sec, _) = built.edge_dir[site.edge as usize];
+        let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
+        let tunnel = if a.tunnel { "tunnel; " } else { "" };
+        let v = built.edge_speed[site.edge as usize] * 3.6;
+        match &tp.site_reason[i] {
+            _ if site.existing => "installed already".to_string(),
+            Some(w) if mm && w.at_start => format!(
+                "{tunnel}{:.1} km from a chain's start without a turn of ≥ {TURN_DEG:.0}° (reach with map matching {:.0} m at {v:.0} km/h)",
+                w.stretch_m / 1000.0,
+                class_reach.get(&key(v / 3.6)).copied().unwrap_or(reach_m)
+            ),
+            Some(w) if mm => format!(
+                "{tunnel}{:.1} km without a turn of ≥ {TURN_DEG:.0}° (reach with map matching {:.0} m at {v:.0} km/h)",
+                w.stretch_m / 1000.0,
+                class_reach.get(&key(v / 3.6)).copied().unwrap_or(reach_m)
+            ),
+            Some(_) => format!(
+                "{tunnel}no map matching: every {:.0} m of driving at {v:.0} km/h needs {} read(s)",
+                class_reach.get(&key(v / 3.6)).copied().unwrap_or(reach_m),
+                k + 1
+            ),
+            None => "kept by the multicover".to_string(),
+        }
+    };
+    let (tags, total_cost) = tags_of(scn, settings, net, &built, &sel, height_m, reason);
+    // Coverage per directed edge.
+    let mut coverage = edge_budgets(&tp.chains, &sel, physical);
+    for c in &mut coverage {
+        let e = c.edge as usize;
+        let v = built.edge_speed[e];
+        let r = class_reach.get(&key(v)).copied().unwrap_or(reach_m);
+        let prof = profiles.get(&key(v)).map(Vec::as_slice).unwrap_or(&[]);
+        c.speed_kmh = v * 3.6;
+        if c.passes > 0 {
+            c.bound_with_tags_m =
+                Some(profile_bound(prof, c.budget_with_tags * r)).filter(|x| x.is_finite());
+            c.bound_without_tags_m =
+                Some(profile_bound(prof, c.budget_without_tags * r)).filter(|x| x.is_finite());
+        }
+        let (sec, _) = built.edge_dir[e];
+        let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
+        let tunnel = if a.tunnel { "tunnel; " } else { "" };
+        c.reason = if c.passes == 0 {
+            "no sampled chain drives here".into()
+        } else if c.budget_without_tags <= 1.0 {
+            if mm {
+                "turns and map matching hold the requirement without tags".into()
+            } else {
+                "short enough from any start without tags".into()
+            }
+        } else if mm {
+            format!(
+                "{tunnel}up to {:.0} m driven without a turn of ≥ {TURN_DEG:.0}° (reach {r:.0} m at {:.0} km/h)",
+                c.budget_without_tags * r,
+                v * 3.6
+            )
+        } else {
+            format!(
+                "{tunnel}up to {:.0} m driven without a read (reach {r:.0} m at {:.0} km/h, no map matching)",
+                c.budget_without_tags * r,
+                v * 3.6
+            )
+        };
+    }
+    let max_cost = settings
+        .mountings
+        .iter()
+        .map(|o| o.cost)
+        .fold(0.0, f64::max);
+    let min_cost = settings
+        .mountings
+        .iter()
+        .map(|o| o.cost)
+        .fold(f64::INFINITY, f64::min);
+    let existing_kept = tags.iter().filter(|t| t.existing).count();
+    let g = tp.guarantee.clone();
+    let (steady, start) = if mm {
+        (
+            matched
+                .iter()
+                .map(|c| c.tag_reach_m)
+                .fold(f64::INFINITY, f64::min),
+            matched
+                .iter()
+                .map(|c| c.start_reach_m)
+                .fold(f64::INFINITY, f64::min),
+        )
+    } else {
+        (
+            reach_classes
+                .iter()
+                .map(|c| c.steady_reach_m)
+                .fold(f64::INFINITY, f64::min),
+            reach_classes
+                .iter()
+                .map(|c| c.start_reach_m)
+                .fold(f64::INFINITY, f64::min),
+        )
+    };
+    let _ = max_cost;
+    Ok(NetworkPlan {
+        scenario: scn.name().to_string(),
+        coverage: "network".into(),
+        requirement_m: req,
+        tolerate_missed_reads: k,
+        method: format!(
+            "greedy set multicover over the budget windows of {} sampled chains ({} windows), reverse \
+             deletion; certified on fresh chains ({} round(s))",
+            p.planning_chains + g.added_chains,
+            tp.windows,
+            g.rounds
+        ),
+        lower_bound: tp.lower_bound,
+        lower_bound_cost: tp.lower_bound as f64 * if min_cost.is_finite() { min_cost } else { 0.0 },
+        reach_m,
+        steady_reach_m: steady,
+        start_reach_m: start,
+        reach_classes,
+        directed_edges: physical,
+        u_turns: "trip_ends".into(),
+        directed_length_km: built.directed_length_m / 1000.0,
+        candidates: prob.sites.len(),
+        candidate_spacing_m: spacing,
+        existing_kept,
+        existing_off_network: built.existing_off,
+        tags,
+        total_cost,
+        verified: g.holds,
+        longest_walk_budget: g.worst_chain_budget,
+        budget_reference_m: r_ref,
+        timings_ms: timings,
+        validation: None,
+        traffic: "trips".into(),
+        map_matching: mm,
+        vehicle_speed_kmh: p.vehicle_speed_mps * 3.6,
+        requirement_confidence: conf,
+        rule: format!(
+            "the horizontal error within {req} m with probability {conf} (the bound is the circle \
+             holding the 2-D covariance's {conf} ellipse), on every sampled chain of trips, with {k} \
+             consecutive missed read(s) tolerated; {}",
+            g.statement
+        ),
+        route_ignored,
+        matched_reach: matched,
+        guarantee: Some(g),
+        windows: tp.windows,
+        planning_km: tp.planning_km,
+        edge_coverage: coverage,
+        selected: sel,
+        problem: Some(built.problem),
+    })
+}

@@ -1,0 +1,524 @@
+//! `traffic = "trips"`: the traffic a network plan serves, as continuous
+//! chains of trips between destinations (the flow view of the
+//! refuelling-station location models, Kuby & Lim 2005, Capar & Kuby 2012,
+//! with an error budget in place of fuel), and what a chain asks of the
+//! tags.
+//!
+//! * **Destinations**: points on the drivable network, uniform in road
+//!   length (each section drawn with probability ∝ its length, the point
+//!   uniform along it), or the listed points of `planner.destinations`
+//!   (snapped to the nearest road within 100 m) with their weights.
+//! * **A chain**: from a destination, trips to fresh destinations, each the
+//!   shortest permitted path (one-way roads honoured; at a trip end the
+//!   vehicle continues in its direction when it can and turns back
+//!   otherwise, exactly as `crate::route` plans a route through waypoints),
+//!   at each road's planning speed, until the shift's driving time is used.
+//! * **Resets** (map matching on): a turn of at least [`TURN_DEG`] and at
+//!   most 180° − [`TURN_DEG`] — at a junction between two roads (the
+//!   chords over the last and first [`CHORD_M`] of each) or a bend inside a
+//!   road — observes the along-road error, which starts a new stretch. A
+//!   U-turn observes nothing. Without map matching only the chain's start
+//!   is a reset.
+//! * **Budget**: a metre of road of speed class c consumes `1/R_c` of the
+//!   error budget; the bound stays within the requirement on a stretch
+//!   while the budget consumed since the stretch's start or the last tag
+//!   read is at most 1. With `k` missed reads tolerated, every window of
+//!   budget 1 that starts at the stretch's start or at a tag must hold
+//!   `k + 1` tags before the stretch ends.
+
+use super::mm_reach::TURN_DEG;
+use crate::error::{Error, Result};
+use crate::network::{Network, SectionId};
+use crate::route::{section_points, shortest_path, SectionPoint};
+use rand::Rng;
+use std::collections::HashMap;
+
+/// Length of the chords whose headings define a turn (m).
+pub const CHORD_M: f64 = 15.0;
+/// Bends closer than this count as one (m).
+const BEND_MERGE_M: f64 = 30.0;
+/// Most trips in one chain (a guard against a shift far longer than the
+/// network's trips).
+pub const MAX_TRIPS_PER_CHAIN: usize = 200_000;
+
+/// What the chain analysis needs of the directed edges.
+#[derive(Debug, Clone)]
+pub(crate) struct EdgeModel {
+    /// (section, forward) → directed edge.
+    pub index: HashMap<(SectionId, bool), u32>,
+    /// Per directed edge: (section, forward).
+    pub dir: Vec<(SectionId, bool)>,
+    /// Planning speed (m/s).
+    pub speed: Vec<f64>,
+    /// Budget consumed per metre (1/R of the edge's class).
+    pub rate: Vec<f64>,
+    /// Candidate sites: (position along the directed edge m, site id),
+    /// sorted.
+    pub sites: Vec<Vec<(f64, u32)>>,
+    /// Heading of the first and last chord (rad, clockwise from north).
+    pub start_heading: Vec<f64>,
+    /// Heading of the last chord.
+    pub end_heading: Vec<f64>,
+    /// Positions along the edge of bends that reset (m).
+    pub bends: Vec<Vec<f64>>,
+    /// Edge length (m).
+    pub length: Vec<f64>,
+}
+
+fn heading(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (b[0] - a[0]).atan2(b[1] - a[1])
+}
+
+/// Absolute heading change between two headings (degrees, 0–180).
+pub fn turn_deg(h0: f64, h1: f64) -> f64 {
+    let mut d = (h1 - h0).to_degrees() % 360.0;
+    if d < 0.0 {
+        d += 360.0;
+    }
+    if d > 180.0 {
+        360.0 - d
+    } else {
+        d
+    }
+}
+
+/// A turn observes the along-road error.
+pub fn resets(turn: f64) -> bool {
+    (TURN_DEG..=180.0 - TURN_DEG).contains(&turn)
+}
+
+/// A point at distance `c` along a polyline with cumulative distances.
+fn at(pts: &[[f64; 2]], cum: &[f64], c: f64) -> [f64; 2] {
+    let i = cum.partition_point(|&x| x < c).clamp(1, pts.len() - 1);
+    let (a, b) = (pts[i - 1], pts[i]);
+    let span = cum[i] - cum[i - 1];
+    let t = if span > 0.0 {
+        ((c - cum[i - 1]) / span).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+}
+
+impl EdgeModel {
+    /// The geometry of every directed edge: chord headings at its ends and
+    /// its resetting bends.
+    pub fn new(
+        net: &Network,
+        dir: Vec<(SectionId, bool)>,
+        speed: Vec<f64>,
+        rate: Vec<f64>,
+        sites: Vec<Vec<(f64, u32)>>,
+    ) -> Self {
+        let n = dir.len();
+        let mut index = HashMap::with_capacity(n);
+        let (mut sh, mut eh, mut bends, mut length) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
+        for (e, &(sec, fwd)) in dir.iter().enumerate() {
+            index.insert((sec, fwd), e as u32);
+            let len = net.sections[sec as usize].length_m;
+            let (from, to) = if fwd { (0.0, len) } else { (len, 0.0) };
+            let pts = section_points(net, sec, from, to);
+            let mut cum = vec![0.0];
+            for w in pts.windows(2) {
+                let l = cum[cum.len() - 1] + (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+                cum.push(l);
+            }
+            let total = cum[cum.len() - 1];
+            let ch = CHORD_M.min(total);
+            sh.push(heading(pts[0], at(&pts, &cum, ch)));
+            eh.push(heading(at(&pts, &cum, total - ch), pts[pts.len() - 1]));
+            let mut b: Vec<f64> = Vec::new();
+            for (i, &c) in cum.iter().enumerate().take(pts.len() - 1).skip(1) {
+                if c < CHORD_M || c > total - CHORD_M {
+                    continue;
+                }
+                let h0 = heading(at(&pts, &cum, c - CHORD_M), pts[i]);
+                let h1 = heading(pts[i], at(&pts, &cum, c + CHORD_M));
+                if resets(turn_deg(h0, h1)) && b.last().is_none_or(|&l| c - l > BEND_MERGE_M) {
+                    b.push(c * len / total.max(1e-9));
+                }
+            }
+            bends.push(b);
+            length.push(len);
+        }
+        Self {
+            index,
+            dir,
+            speed,
+            rate,
+            sites,
+            start_heading: sh,
+            end_heading: eh,
+            bends,
+            length,
+        }
+    }
+}
+
+/// Where trips go.
+#[derive(Debug, Clone)]
+pub(crate) struct Destinations {
+    /// Listed points (empty: points uniform in road length).
+    points: Vec<SectionPoint>,
+    /// Cumulative weights (of the points, or of the sections' lengths).
+    cum: Vec<f64>,
+}
+
+/// Per section: both its ends lie in the largest strongly connected part of
+/// the directed road graph (every point there can reach every other by
+/// permitted roads). Map extracts cut roads at their edge and leave one-way
+/// traps; trips run in the main part only.
+pub(crate) fn main_component(net: &Network, model: &EdgeModel) -> Vec<bool> {
+    use petgraph::graph::{DiGraph, NodeIndex};
+    let mut g: DiGraph<(), ()> = DiGraph::with_capacity(net.nodes.len(), model.dir.len());
+    for _ in 0..net.nodes.len() {
+        g.add_node(());
+    }
+    for &(sec, fwd) in &model.dir {
+        let s = &net.sections[sec as usize];
+        let (a, b) = if fwd {
+            (s.start, s.end)
+        } else {
+            (s.end, s.start)
+        };
+        g.add_edge(NodeIndex::new(a as usize), NodeIndex::new(b as usize), ());
+    }
+    let sccs = petgraph::algo::tarjan_scc(&g);
+    let mut comp = vec![usize::MAX; net.nodes.len()];
+    let mut best = (0usize, 0.0f64);
+    for (ci, c) in sccs.iter().enumerate() {
+        for n in c {
+            comp[n.index()] = ci;
+        }
+    }
+    let mut len = vec![0.0; sccs.len()];
+    for s in &net.sections {
+        if comp[s.start as usize] == comp[s.end as usize] && comp[s.start as usize] != usize::MAX {
+            len[comp[s.start as usize]] += s.length_m;
+        }
+    }
+    for (ci, &l) in len.iter().enumerate() {
+        if l > best.1 {
+            best = (ci, l);
+        }
+    }
+    net.sections
+        .iter()
+        .map(|s| comp[s.start as usize] == best.0 && comp[s.end as usize] == best.0)
+        .collect()
+}
+
+impl Destinations {
+    /// Points uniform in road length over the sections of the main
+    /// strongly connected part (`main`).
+    pub fn by_length(net: &Network, model: &EdgeModel, main: &[bool]) -> Result<Self> {
+        let mut cum = Vec::with_capacity(net.sections.len());
+        let mut t = 0.0;
+        for (si, s) in net.sections.iter().enumerate() {
+            let used = main[si]
+                && (model.index.contains_key(&(si as SectionId, true))
+                    || model.index.contains_key(&(si as SectionId, false)));
+            if used && s.length_m.is_finite() && s.length_m > 0.0 {
+                t += s.length_m;
+            }
+            cum.push(t);
+        }
+        if t <= 0.0 {
+            return Err(Error::InvalidParameter(
+                "the map has no drivable road to place destinations on".into(),
+            ));
+        }
+        Ok(Self {
+            points: Vec::new(),
+            cum,
+        })
+    }
+
+    /// Listed points with weights (> 0 in all).
+    pub fn listed(points: Vec<SectionPoint>, weights: &[f64]) -> Result<Self> {
+        let mut cum = Vec::with_capacity(weights.len());
+        let mut t = 0.0;
+        for &w in weights {
+            t += w;
+            cum.push(t);
+        }
+        if points.len() < 2 || t <= 0.0 {
+            return Err(Error::InvalidParameter(
+                "trips need at least two destinations with a positive weight".into(),
+            ));
+        }
+        Ok(Self { points, cum })
+    }
+
+    fn draw<R: Rng>(&self, net: &Network, rng: &mut R) -> SectionPoint {
+        let total = self.cum[self.cum.len() - 1];
+        let u = rng.random::<f64>() * total;
+        let i = self
+            .cum
+            .partition_point(|&c| c <= u)
+            .min(self.cum.len() - 1);
+        if self.points.is_empty() {
+            let len = net.sections[i].length_m;
+            SectionPoint {
+                section: i as SectionId,
+                offset_m: rng.random::<f64>() * len,
+            }
+        } else {
+            self.points[i]
+        }
+    }
+}
+
+/// One piece of a chain: a directed edge from `a0` to `a1` along it (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Piece {
+    pub edge: u32,
+    pub a0: f64,
+    pub a1: f64,
+}
+
+/// A chain of trips.
+#[derive(Debug, Clone)]
+pub(crate) struct Chain {
+    /// The trip ends, in order (the first is the start).
+    pub points: Vec<SectionPoint>,
+    /// The pieces driven.
+    pub pieces: Vec<Piece>,
+    /// Length (m).
+    pub length_m: f64,
+    /// Driving time at the planning speeds (s).
+    pub duration_s: f64,
+}
+
+/// Samples one chain of `shift_s` of driving.
+pub(crate) fn sample_chain<R: Rng>(
+    net: &Network,
+    model: &EdgeModel,
+    dest: &Destinations,
+    shift_s: f64,
+    rng: &mut R,
+) -> Result<Chain> {
+    let mut cur = dest.draw(net, rng);
+    let mut chain = Chain {
+        points: vec![cur],
+        pieces: Vec::new(),
+        length_m: 0.0,
+        duration_s: 0.0,
+    };
+    let mut arrive: Option<bool> = None;
+    let mut failures = 0usize;
+    let mut trips = 0usize;
+    while chain.duration_s < shift_s {
+        if trips >= MAX_TRIPS_PER_CHAIN {
+            break;
+        }
+        let next = dest.draw(net, rng);
+        if next == cur {
+            failures += 1;
+        } else if let Some((pieces, _)) = shortest_path(net, cur, next, arrive)
+            .or_else(|| arrive.and_then(|_| shortest_path(net, cur, next, None)))
+        {
+            trips += 1;
+            for (ds, from, to) in pieces {
+                let Some(&e) = model.index.get(&(ds.section, ds.forward)) else {
+                    continue;
+                };
+                let len_e = model.length[e as usize];
+                let (a0, a1) = if ds.forward {
+                    (from, to)
+                } else {
+                    (len_e - from, len_e - to)
+                };
+                let (a0, a1) = (a0.clamp(0.0, len_e), a1.clamp(0.0, len_e));
+                let len = a1 - a0;
+                if len <= 0.0 {
+                    continue;
+                }
+                let dt = len / model.speed[e as usize];
+                let left = shift_s - chain.duration_s;
+                if dt >= left {
+                    let cut = a0 + left * model.speed[e as usize];
+                    chain.pieces.push(Piece {
+                        edge: e,
+                        a0,
+                        a1: cut,
+                    });
+                    chain.length_m += cut - a0;
+                    chain.duration_s = shift_s;
+                    break;
+                }
+                chain.pieces.push(Piece { edge: e, a0, a1 });
+                chain.length_m += len;
+                chain.duration_s += dt;
+            }
+            arrive = chain.pieces.last().map(|p| model.dir[p.edge as usize].1);
+            chain.points.push(next);
+            cur = next;
+            failures = 0;
+        } else {
+            failures += 1;
+        }
+        if failures > 200 {
+            return Err(Error::InvalidParameter(format!(
+                "no trip could be routed from a destination on section {} in 200 tries: the \
+                 destinations are not connected by permitted roads (one-way roads, disconnected parts of the map)",
+                cur.section
+            )));
+        }
+    }
+    Ok(chain)
+}
+
+/// A chain as the budget sees it.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ChainBudget {
+    /// Resets: (budget position, chainage m), the chain's start first and
+    /// its end last.
+    pub resets: Vec<(f64, f64)>,
+    /// Candidate sites passed: (budget position, site id), in order.
+    pub sites: Vec<(f64, u32)>,
+    /// Pieces: (directed edge, budget at its start, at its end).
+    pub pieces: Vec<(u32, f64, f64)>,
+}
+
+/// The budget view of a chain (resets at turns when `map_matching`).
+pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool) -> ChainBudget {
+    let mut out = ChainBudget::default();
+    let (mut b, mut c) = (0.0, 0.0);
+    out.resets.push((0.0, 0.0));
+    let mut prev: Option<Piece> = None;
+    for p in &chain.pieces {
+        let e = p.edge as usize;
+        let rate = model.rate[e];
+        if map_matching {
+            if let Some(q) = prev {
+                // A junction turn: the previous piece ended at its edge's end
+                // and this one starts at its edge's start.
+                let qe = q.edge as usize;
+                let h0 = if (q.a1 - model.length[qe]).abs() < 1e-6 {
+                    model.end_heading[qe]
+                } else {
+                    f64::NAN
+                };
+                let h1 = if p.a0.abs() < 1e-6 {
+                    model.start_heading[e]
+                } else {
+                    f64::NAN
+                };
+                if h0.is_finite() && h1.is_finite() && resets(turn_deg(h0, h1)) {
+                    out.resets.push((b, c));
+                }
+            }
+        }
+        for &(at, site) in &model.sites[e] {
+            if at >= p.a0 && at < p.a1 {
+                out.sites.push((b + (at - p.a0) * rate, site));
+            }
+        }
+        if map_matching {
+            for &x in &model.bends[e] {
+                if x > p.a0 && x < p.a1 {
+                    out.resets.push((b + (x - p.a0) * rate, c + x - p.a0));
+                }
+            }
+        }
+        // Sites and bends of one piece are each in order; merge by position.
+        out.pieces.push((p.edge, b, b + (p.a1 - p.a0) * rate));
+        b += (p.a1 - p.a0) * rate;
+        c += p.a1 - p.a0;
+        prev = Some(*p);
+    }
+    out.resets.push((b, c));
+    out.resets.sort_by(|x, y| x.0.total_cmp(&y.0));
+    out.sites.sort_by(|x, y| x.0.total_cmp(&y.0));
+    out
+}
+
+/// A window of budget 1 that must hold `k + 1` tags.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct WindowInfo {
+    /// Length of the stretch it lies in (m).
+    pub stretch_m: f64,
+    /// The stretch starts at a chain's start (the prior).
+    pub at_start: bool,
+}
+
+/// Adds the windows of a chain to `out` (keyed by their sorted site ids;
+/// the longest stretch kept).
+pub(crate) fn add_windows(cb: &ChainBudget, out: &mut HashMap<Vec<u32>, WindowInfo>) {
+    let mut j = 0usize;
+    for (ri, w) in cb.resets.windows(2).enumerate() {
+        let ((b0, c0), (b1, c1)) = (w[0], w[1]);
+        while j < cb.sites.len() && cb.sites[j].0 < b0 {
+            j += 1;
+        }
+        if b1 - b0 <= 1.0 {
+            continue;
+        }
+        let mut k = j;
+        while k < cb.sites.len() && cb.sites[k].0 < b1 {
+            k += 1;
+        }
+        let sites = &cb.sites[j..k];
+        let info = WindowInfo {
+            stretch_m: c1 - c0,
+            at_start: ri == 0,
+        };
+        // Left edges: the stretch's start, then every site up to b1 − 1.
+        let mut lefts: Vec<(f64, bool)> = vec![(b0, true)];
+        lefts.extend(
+            sites
+                .iter()
+                .filter(|s| s.0 <= b1 - 1.0)
+                .map(|s| (s.0, false)),
+        );
+        for (a, inclusive) in lefts {
+            let ids: Vec<u32> = sites
+                .iter()
+                .filter(|s| (if inclusive { s.0 >= a } else { s.0 > a }) && s.0 <= a + 1.0)
+                .map(|s| s.1)
+                .collect();
+            let mut ids = ids;
+            ids.sort_unstable();
+            ids.dedup();
+            let e = out.entry(ids).or_default();
+            if info.stretch_m > e.stretch_m {
+                *e = info.clone();
+            }
+        }
+    }
+}
+
+/// The largest budget consumed between resets and reads on a chain with the
+/// worst `k` consecutive reads missed (≤ 1: the chain holds the requirement
+/// under the model).
+pub(crate) fn chain_use(cb: &ChainBudget, selected: &[bool], k: usize) -> f64 {
+    let mut worst = 0.0f64;
+    let mut j = 0usize;
+    for w in cb.resets.windows(2) {
+        let (b0, b1) = (w[0].0, w[1].0);
+        let mut pos: Vec<f64> = vec![b0];
+        while j < cb.sites.len() && cb.sites[j].0 < b0 {
+            j += 1;
+        }
+        let mut i = j;
+        while i < cb.sites.len() && cb.sites[i].0 < b1 {
+            if selected[cb.sites[i].1 as usize] {
+                pos.push(cb.sites[i].0);
+            }
+            i += 1;
+        }
+        pos.push(b1);
+        let n = pos.len();
+        for a in 0..n - 1 {
+            let to = (a + k + 1).min(n - 1);
+            worst = worst.max(pos[to] - pos[a]);
+        }
+    }
+    worst
+}

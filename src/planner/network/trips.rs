@@ -1,0 +1,437 @@
+//! Planning for `traffic = "trips"`: tags so that sampled chains of trips
+//! hold the error budget (set multicover over the chains' budget windows,
+//! the path-cover view of the flow-refuelling models), and the guarantee
+//! stated for a fresh chain by an a-posteriori test on chains the plan never
+//! saw.
+//!
+//! # The guarantee
+//!
+//! After planning on `planning_chains` sampled chains, `M` fresh chains are
+//! drawn independently and checked under the same model. If all hold, then
+//! with confidence `1 − β` a fresh chain violates with probability at most
+//! `ε`, because a plan whose violation probability exceeded ε would pass
+//! `M` independent chains with probability below `(1 − ε)^M ≤ β` (the
+//! scenario approach's a-posteriori assessment, Campi & Garatti 2008/2018,
+//! with no support constraints; it holds whatever chose the tags). If some
+//! fail, their windows join the planning set, the plan is extended and a
+//! *new* fresh sample is drawn; round `r` uses `β_r = β / 2^r`, so the
+//! stopping rule keeps the total error probability within `Σ β_r ≤ β`.
+//! After [`MAX_ROUNDS`] rounds the plan reports the failures and the
+//! Clopper–Pearson upper bound on the violation probability instead.
+
+use super::traffic::{add_windows, chain_budget, chain_use, sample_chain, Chain, ChainBudget};
+use super::traffic::{Destinations, EdgeModel, WindowInfo};
+use crate::error::{Error, Result};
+use crate::network::Network;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, HashMap};
+
+/// Most certification rounds.
+pub const MAX_ROUNDS: usize = 4;
+
+/// What the a-posteriori test established.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TripsGuarantee {
+    /// The statement, in words.
+    pub statement: String,
+    /// ε: the violation probability bounded.
+    pub epsilon: f64,
+    /// β: 1 − the confidence.
+    pub beta: f64,
+    /// Chains in the planning sample (the first round's).
+    pub planning_chains: usize,
+    /// Chains added to the planning set from failed certification rounds.
+    pub added_chains: usize,
+    /// Fresh chains checked in the final round (`N`).
+    pub certification_chains: usize,
+    /// Of which violating the budget.
+    pub violations: usize,
+    /// Certification rounds run.
+    pub rounds: usize,
+    /// The statement holds (the final round had no violation).
+    pub holds: bool,
+    /// One-sided upper confidence bound (1 − β) on the violation
+    /// probability from the final round (Clopper–Pearson).
+    pub violation_upper_bound: f64,
+    /// Hours of driving per chain.
+    pub shift_hours: f64,
+    /// The worst chain of the final round: its budget use with the
+    /// tolerated reads missed (≤ 1 holds), length and index.
+    pub worst_chain_budget: f64,
+    /// Length of the worst chain (km).
+    pub worst_chain_km: f64,
+    /// Index of the worst chain in the final round.
+    pub worst_chain: usize,
+}
+
+/// Chains needed so that `(1 − ε)^N ≤ β`.
+pub fn chains_needed(epsilon: f64, beta: f64) -> usize {
+    (beta.ln() / (1.0 - epsilon).ln()).ceil().max(1.0) as usize
+}
+
+/// The one-sided upper confidence bound at level `1 − beta` on a
+/// probability after `failures` in `n` Bernoulli trials (Clopper–Pearson):
+/// the `p` with `P(X ≤ failures | p) = beta`, found by bisection on the
+/// binomial tail (computed in log space; one function, so no statistics
+/// crate for it).
+///
+/// ```
+/// use waymark::planner::clopper_pearson_upper;
+/// // No failure in 459 trials: (1 − p)^459 = 0.01 at p ≈ 0.01.
+/// let p = clopper_pearson_upper(0, 459, 0.01);
+/// assert!((p - (1.0 - 0.01f64.powf(1.0 / 459.0))).abs() < 1e-9);
+/// ```
+pub fn clopper_pearson_upper(failures: usize, n: usize, beta: f64) -> f64 {
+    if n == 0 || failures >= n {
+        return 1.0;
+    }
+    let cdf = |p: f64| -> f64 {
+        // P(X ≤ failures), X ~ Bin(n, p).
+        let (lp, lq) = (p.ln(), (1.0 - p).ln());
+        let mut log_c = 0.0f64; // ln C(n, 0)
+        let mut sum = 0.0;
+        for i in 0..=failures {
+            if i > 0 {
+                log_c += ((n - i + 1) as f64).ln() - (i as f64).ln();
+            }
+            sum += (log_c + i as f64 * lp + (n - i) as f64 * lq).exp();
+        }
+        sum
+    };
+    let (mut lo, mut hi) = (failures as f64 / n as f64, 1.0);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if cdf(mid) > beta {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+/// One-sided lower confidence bound at level `1 − alpha` on a proportion
+/// after `successes` in `n` (Clopper–Pearson).
+pub fn clopper_pearson_lower(successes: usize, n: usize, alpha: f64) -> f64 {
+    if n == 0 {
+        return 0.0;
+    }
+    1.0 - clopper_pearson_upper(n - successes, n, alpha)
+}
+
+/// Samples `n` chains with streams `stream`, in parallel, deterministic.
+pub(crate) fn sample_chains(
+    net: &Network,
+    model: &EdgeModel,
+    dest: &Destinations,
+    shift_s: f64,
+    seed: u64,
+    stream: u64,
+    n: usize,
+) -> Result<Vec<Chain>> {
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(stream);
+            rng.set_word_pos(i as u128 * (1u128 << 40));
+            sample_chain(net, model, dest, shift_s, &mut rng)
+        })
+        .collect()
+}
+
+/// Greedy set multicover: every window holds `demand` selected sites at the
+/// least total cost (lazy greedy by windows served per cost, then reverse
+/// deletion). `Err(w)`: window `w` has fewer than `demand` candidates.
+pub(crate) fn multicover(
+    n_sites: usize,
+    windows: &[Vec<u32>],
+    demand: usize,
+    cost: &[f64],
+    preselected: &[bool],
+) -> std::result::Result<Vec<bool>, usize> {
+    let mut site_w: Vec<Vec<u32>> = vec![Vec::new(); n_sites];
+    for (w, ids) in windows.iter().enumerate() {
+        if ids.len() < demand {
+            return Err(w);
+        }
+        for &s in ids {
+            site_w[s as usize].push(w as u32);
+        }
+    }
+    let mut sel = preselected.to_vec();
+    let mut count: Vec<usize> = windows
+        .iter()
+        .map(|ids| ids.iter().filter(|&&s| sel[s as usize]).count())
+        .collect();
+    let gain = |s: usize, count: &[usize]| -> usize {
+        site_w[s]
+            .iter()
+            .filter(|&&w| count[w as usize] < demand)
+            .count()
+    };
+    #[derive(PartialEq)]
+    struct Item(f64, usize, usize);
+    impl Eq for Item {}
+    impl Ord for Item {
+        fn cmp(&self, o: &Self) -> Ordering {
+            self.0.total_cmp(&o.0).then_with(|| o.1.cmp(&self.1))
+        }
+    }
+    impl PartialOrd for Item {
+        fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+            Some(self.cmp(o))
+        }
+    }
+    let score = |g: usize, s: usize| g as f64 / cost[s].max(1e-9);
+    let mut heap = BinaryHeap::new();
+    for (s, &taken) in sel.iter().enumerate() {
+        if !taken {
+            let g = gain(s, &count);
+            if g > 0 {
+                heap.push(Item(score(g, s), s, g));
+            }
+        }
+    }
+    while let Some(Item(_, s, g)) = heap.pop() {
+        let g_now = gain(s, &count);
+        if g_now == 0 {
+            continue;
+        }
+        if g_now != g {
+            heap.push(Item(score(g_now, s), s, g_now));
+            continue;
+        }
+        sel[s] = true;
+        for &w in &site_w[s] {
+            count[w as usize] += 1;
+        }
+    }
+    // Reverse deletion: the dearest first, then the least used.
+    let mut order: Vec<usize> = (0..n_sites)
+        .filter(|&s| sel[s] && !preselected[s])
+        .collect();
+    order.sort_by(|&a, &b| {
+        cost[b]
+            .total_cmp(&cost[a])
+            .then(site_w[a].len().cmp(&site_w[b].len()))
+            .then(a.cmp(&b))
+    });
+    for s in order {
+        if site_w[s].iter().all(|&w| count[w as usize] > demand) {
+            sel[s] = false;
+            for &w in &site_w[s] {
+                count[w as usize] -= 1;
+            }
+        }
+    }
+    Ok(sel)
+}
+
+/// A lower bound on the number of new tags: windows sharing no candidate
+/// site each need their own (`demand` minus installed ones).
+pub(crate) fn packing_bound(
+    windows: &[Vec<u32>],
+    demand: usize,
+    preselected: &[bool],
+    n_sites: usize,
+) -> usize {
+    let mut order: Vec<usize> = (0..windows.len()).collect();
+    order.sort_by(|&a, &b| windows[a].len().cmp(&windows[b].len()).then(a.cmp(&b)));
+    let mut used = vec![false; n_sites];
+    let mut lb = 0;
+    for w in order {
+        let ids = &windows[w];
+        if ids.iter().any(|&s| used[s as usize]) {
+            continue;
+        }
+        let have = ids.iter().filter(|&&s| preselected[s as usize]).count();
+        lb += demand.saturating_sub(have);
+        for &s in ids {
+            used[s as usize] = true;
+        }
+    }
+    lb
+}
+
+/// A selection with the windows (sorted) and their stretches.
+type Solved = (Vec<bool>, Vec<Vec<u32>>, Vec<WindowInfo>);
+
+/// The outcome of planning on trips.
+pub(crate) struct TripsPlan {
+    pub selected: Vec<bool>,
+    pub lower_bound: usize,
+    pub guarantee: TripsGuarantee,
+    /// Per site: the longest stretch of a window it serves (m) and whether
+    /// that stretch starts a chain.
+    pub site_reason: Vec<Option<WindowInfo>>,
+    /// Windows in the final planning set.
+    pub windows: usize,
+    /// The chains of the planning set and of the final certification round
+    /// (for the coverage map).
+    pub chains: Vec<ChainBudget>,
+    /// Trips' ends and lengths of the first planning chains (for the
+    /// validation's independence, only counts are kept).
+    pub planning_km: f64,
+}
+
+/// Plans tags for trips (module doc).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn plan_trips(
+    net: &Network,
+    model: &EdgeModel,
+    dest: &Destinations,
+    n_sites: usize,
+    cost: &[f64],
+    preselected: &[bool],
+    k: usize,
+    map_matching: bool,
+    shift_s: f64,
+    planning_chains: usize,
+    epsilon: f64,
+    beta: f64,
+    seed: u64,
+    mut infeasible: impl FnMut(&WindowInfo, &[u32]) -> Error,
+) -> Result<TripsPlan> {
+    let demand = k + 1;
+    let plan_chains = sample_chains(
+        net,
+        model,
+        dest,
+        shift_s,
+        seed,
+        0x7472_6970_7331,
+        planning_chains,
+    )?;
+    let planning_km = plan_chains.iter().map(|c| c.length_m).sum::<f64>() / 1000.0;
+    let mut budgets: Vec<ChainBudget> = plan_chains
+        .par_iter()
+        .map(|c| chain_budget(model, c, map_matching))
+        .collect();
+    drop(plan_chains);
+    let mut wmap: HashMap<Vec<u32>, WindowInfo> = HashMap::new();
+    for cb in &budgets {
+        add_windows(cb, &mut wmap);
+    }
+    let solve = |wmap: &HashMap<Vec<u32>, WindowInfo>,
+                 infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error|
+     -> Result<Solved> {
+        let mut keys: Vec<(&Vec<u32>, &WindowInfo)> = wmap.iter().collect();
+        keys.sort_by(|a, b| a.0.cmp(b.0));
+        let windows: Vec<Vec<u32>> = keys.iter().map(|x| x.0.clone()).collect();
+        let infos: Vec<WindowInfo> = keys.iter().map(|x| x.1.clone()).collect();
+        match multicover(n_sites, &windows, demand, cost, preselected) {
+            Ok(sel) => Ok((sel, windows, infos)),
+            Err(w) => Err(infeasible(&infos[w], &windows[w])),
+        }
+    };
+    let (mut sel, mut windows, mut infos) = solve(&wmap, &mut infeasible)?;
+    let mut added = 0usize;
+    let mut last = (0usize, 0usize, 0.0f64, 0usize, 0.0f64, 0.0f64);
+    let mut rounds = 0;
+    let mut holds = false;
+    let mut final_budgets: Vec<ChainBudget> = Vec::new();
+    for r in 1..=MAX_ROUNDS {
+        rounds = r;
+        let beta_r = beta / 2f64.powi(r as i32);
+        let m = chains_needed(epsilon, beta_r);
+        let fresh = sample_chains(
+            net,
+            model,
+            dest,
+            shift_s,
+            seed,
+            0x6365_7274_0000 + r as u64,
+            m,
+        )?;
+        let cbs: Vec<ChainBudget> = fresh
+            .par_iter()
+            .map(|c| chain_budget(model, c, map_matching))
+            .collect();
+        let uses: Vec<f64> = cbs.par_iter().map(|cb| chain_use(cb, &sel, k)).collect();
+        let bad: Vec<usize> = (0..m).filter(|&i| uses[i] > 1.0 + 1e-9).collect();
+        let (wi, wu) =
+            uses.iter().enumerate().fold(
+                (0usize, 0.0f64),
+                |a, (i, &u)| if u > a.1 { (i, u) } else { a },
+            );
+        last = (m, bad.len(), beta_r, wi, wu, fresh[wi].length_m / 1000.0);
+        if bad.is_empty() {
+            holds = true;
+            final_budgets = cbs;
+            break;
+        }
+        if r == MAX_ROUNDS {
+            final_budgets = cbs;
+            break;
+        }
+        for &i in &bad {
+            add_windows(&cbs[i], &mut wmap);
+        }
+        added += bad.len();
+        budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
+        let (s2, w2, i2) = solve(&wmap, &mut infeasible)?;
+        sel = s2;
+        windows = w2;
+        infos = i2;
+    }
+    let (m, nbad, beta_r, wi, wu, wkm) = last;
+    let upper = clopper_pearson_upper(nbad, m, beta_r);
+    let statement = if holds {
+        format!(
+            "with confidence {:.4} (1 − β), a fresh chain of {:.1} h of trips violates the requirement \
+             with probability at most ε = {epsilon} under the planning model: all {m} fresh chains of \
+             certification round {rounds} hold it ((1 − ε)^{m} ≤ β/2^{rounds})",
+            1.0 - beta,
+            shift_s / 3600.0
+        )
+    } else {
+        format!(
+            "NOT established: {nbad} of {m} fresh chains of round {rounds} violate the model's \
+             budget; with confidence 1 − β/2^{rounds} the violation probability is at most {upper:.4} \
+             (Clopper–Pearson), above ε = {epsilon}"
+        )
+    };
+    let lower_bound = packing_bound(&windows, demand, preselected, n_sites);
+    // Reasons: the longest stretch of a window each selected site serves.
+    let mut site_reason: Vec<Option<WindowInfo>> = vec![None; n_sites];
+    for (w, ids) in windows.iter().enumerate() {
+        for &s in ids {
+            if sel[s as usize] {
+                let r = &mut site_reason[s as usize];
+                if r.as_ref().is_none_or(|x| infos[w].stretch_m > x.stretch_m) {
+                    *r = Some(infos[w].clone());
+                }
+            }
+        }
+    }
+    budgets.extend(final_budgets);
+    Ok(TripsPlan {
+        selected: sel,
+        lower_bound,
+        guarantee: TripsGuarantee {
+            statement,
+            epsilon,
+            beta,
+            planning_chains,
+            added_chains: added,
+            certification_chains: m,
+            violations: nbad,
+            rounds,
+            holds,
+            violation_upper_bound: upper,
+            shift_hours: shift_s / 3600.0,
+            worst_chain_budget: wu,
+            worst_chain_km: wkm,
+            worst_chain: wi,
+        },
+        site_reason,
+        windows: windows.len(),
+        chains: budgets,
+        planning_km,
+    })
+}
