@@ -509,19 +509,42 @@ fn print_plan(o: &PlanOutcome, baseline: bool, out: Out) {
                 p.start_reach_m,
                 p.method,
                 p.lower_bound,
-                if p.verified { "no walk exceeds the error budget with ≤ k tags" } else { "NO" },
+                match (&p.guarantee, p.verified) {
+                    (Some(_), true) => "every sampled chain holds the error budget with ≤ k tags missed",
+                    (None, true) => "no walk exceeds the error budget with ≤ k tags",
+                    _ => "NO",
+                },
             );
+            text!(
+                out,
+                "traffic: {}{}; rule: {}",
+                p.traffic,
+                if p.map_matching {
+                    " (map matching credited)"
+                } else {
+                    ""
+                },
+                p.rule
+            );
+            if p.route_ignored {
+                text!(out, "note: the scenario's [[route]] is ignored by network coverage (the map alone is planned; vehicles at [vehicle] speed_kmh = {:.0} km/h)", p.vehicle_speed_kmh);
+            }
             if let Some(v) = &p.validation {
                 text!(
                     out,
-                    "validation: {} run(s) on {} sampled path(s) ({:.1} km), seed {}: {:.2} % of distance within {} m; \
-                     max horizontal error {:.2} m (path {}, run {}, {:.0} m along it, at {:.6}, {:.6}{})",
+                    "validation: {} run(s) on {} fresh chain(s) of trips ({:.1} km, {:.1} h), seed {}: {:.2} % of time within {} m; {}; \
+                     {} run(s) with a maximum above it (median run maximum {:.2} m); \
+                     max horizontal error {:.2} m (chain {}, run {}, {:.0} m along it, at {:.6}, {:.6}{})",
                     v.runs,
                     v.paths,
                     v.paths_length_km,
+                    v.chain_hours,
                     v.seed,
                     100.0 * v.fraction_within_requirement,
                     p.requirement_m,
+                    v.rule,
+                    v.runs_exceeding,
+                    v.median_run_max_m,
                     v.max_horizontal_error_m,
                     v.worst_path,
                     v.worst_run,

@@ -253,7 +253,7 @@ fn network_plan_folder(
     let plan_time_s = t0.elapsed().as_secs_f64();
     if settings.validation_runs > 0 {
         progress.note(&format!(
-            "waymark plan: validating {} tag(s) by {} Monte Carlo run(s) on sampled paths",
+            "waymark plan: validating {} tag(s) by {} Monte Carlo run(s) on fresh chains of trips",
             plan.tag_count(),
             settings.validation_runs
         ));
@@ -267,6 +267,14 @@ fn network_plan_folder(
     }
     let (recs, meta) = plan.export(scn)?;
     write_tag_files(job.out_dir, &recs, &meta)?;
+    let mut files = NETWORK_FILES.to_vec();
+    if !plan.edge_coverage.is_empty() {
+        write_atomic(
+            &job.out_dir.join("coverage.geojson"),
+            crate::planner::network::coverage_geojson(&plan.edge_coverage, &net).as_bytes(),
+        )?;
+        files.push("coverage.geojson");
+    }
     let file = NetworkPlanFile {
         tag_count: plan.tag_count(),
         tags_by_mounting: plan.by_mounting(),
@@ -278,7 +286,7 @@ fn network_plan_folder(
     Ok(PlanOutcome {
         plan: PlanFiles::Network(Box::new(file)),
         out: job.out_dir.to_path_buf(),
-        files: NETWORK_FILES.to_vec(),
+        files,
         elapsed_s: t0.elapsed().as_secs_f64(),
     })
 }

@@ -13,6 +13,10 @@ use serde::Serialize;
 pub struct EdgeCoverage {
     /// Directed edge index.
     pub edge: u32,
+    /// Its road section and direction (digitised forward or not).
+    pub section: u32,
+    /// Driven in the section's digitised direction.
+    pub forward: bool,
     /// Chain passes sampled over it.
     pub passes: u64,
     /// Largest budget consumed since the last reset or read, tags all read
@@ -50,6 +54,8 @@ pub(crate) fn edge_budgets(
     let mut out: Vec<EdgeCoverage> = (0..n_edges)
         .map(|e| EdgeCoverage {
             edge: e as u32,
+            section: 0,
+            forward: true,
             passes: 0,
             budget_with_tags: 0.0,
             budget_without_tags: 0.0,
@@ -91,4 +97,57 @@ pub(crate) fn edge_budgets(
         }
     }
     out
+}
+
+/// Rounds to `d` decimals for the file (GIS tools need no more).
+fn round(x: f64, d: i32) -> f64 {
+    let f = 10f64.powi(d);
+    (x * f).round() / f
+}
+
+/// `coverage.geojson`: a LineString per directed road piece, in driving
+/// order, with its predicted bound with and without the plan's tags, its
+/// speed class, the sampled passes and why tags are (or are not) needed.
+pub fn coverage_geojson(cov: &[EdgeCoverage], net: &crate::network::Network) -> String {
+    let mut features = Vec::with_capacity(cov.len());
+    for c in cov {
+        let Some(sec) = net.sections.get(c.section as usize) else {
+            continue;
+        };
+        let a = &net.roads[sec.road as usize].attributes;
+        let (from, to) = if c.forward {
+            (0.0, sec.length_m)
+        } else {
+            (sec.length_m, 0.0)
+        };
+        let coords: Vec<[f64; 2]> = crate::route::section_points(net, c.section, from, to)
+            .iter()
+            .map(|p| {
+                let g = net.frame.to_geodetic([p[0], p[1], 0.0]);
+                [round(g.lon_deg(), 7), round(g.lat_deg(), 7)]
+            })
+            .collect();
+        let opt = |x: Option<f64>| x.map(|v| round(v, 2));
+        features.push(serde_json::json!({
+            "type": "Feature",
+            "geometry": { "type": "LineString", "coordinates": coords },
+            "properties": {
+                "road_id": a.id,
+                "road_name": a.name,
+                "highway": a.highway,
+                "direction": if c.forward { "forward" } else { "backward" },
+                "tunnel": a.tunnel,
+                "length_m": round(sec.length_m, 1),
+                "speed_kmh": round(c.speed_kmh, 1),
+                "passes": c.passes,
+                "budget_with_tags": round(c.budget_with_tags, 3),
+                "budget_without_tags": round(c.budget_without_tags, 3),
+                "bound_m": opt(c.bound_with_tags_m),
+                "bound_without_tags_m": opt(c.bound_without_tags_m),
+                "reason": c.reason,
+            }
+        }));
+    }
+    let fc = serde_json::json!({ "type": "FeatureCollection", "features": features });
+    serde_json::to_string(&fc).unwrap_or_default()
 }

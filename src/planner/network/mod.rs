@@ -88,7 +88,7 @@ pub(crate) mod trips;
 pub(crate) mod types;
 pub(crate) mod validation;
 
-pub use coverage::EdgeCoverage;
+pub use coverage::{coverage_geojson, EdgeCoverage};
 pub use mm_reach::{matched_reach, MatchedReach, TURN_DEG};
 pub use plan::{plan_network, plan_network_loaded, plan_network_on};
 pub use reach::{reach_class, ReachClass};

@@ -245,6 +245,20 @@ pub fn plan_network_on(
             .to_string()
     });
     let existing_kept = tags.iter().filter(|t| t.existing).count();
+    // The traffic the validation samples (chains of trips over every
+    // permitted road): edges at their planning speeds.
+    let physical = built.physical_edges;
+    let model = super::traffic::EdgeModel::new(
+        net,
+        built.edge_dir[..physical].to_vec(),
+        built.edge_speed[..physical].to_vec(),
+        vec![0.0; physical],
+        vec![Vec::new(); physical],
+        vec![false; physical],
+    );
+    let main = super::traffic::main_component(net, &model);
+    let dest = super::traffic::Destinations::by_length(net, &model, &main)?;
+    let chain_model = super::traffic::ChainModel { model, dest };
     Ok(NetworkPlan {
         scenario: scn.name().to_string(),
         coverage: "network".into(),
@@ -285,6 +299,7 @@ pub fn plan_network_on(
         windows: 0,
         planning_km: 0.0,
         edge_coverage: Vec::new(),
+        chain_model: Some(std::sync::Arc::new(chain_model)),
         selected: sel,
         problem: Some(built.problem),
     })

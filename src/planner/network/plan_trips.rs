@@ -133,6 +133,7 @@ pub(super) fn plan_network_trips(
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
     let mut profiles: BTreeMap<u64, Vec<(f64, f64)>> = BTreeMap::new();
     let mut matched: Vec<MatchedReach> = Vec::new();
+    let mut class_turns: BTreeMap<u64, bool> = BTreeMap::new();
     let mut reach_classes: Vec<ReachClass> = Vec::new();
     if mm {
         matched = classes
@@ -143,6 +144,8 @@ pub(super) fn plan_network_trips(
             let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
             *r = r.min(c.reach_m);
             profiles.entry(key(v)).or_insert_with(|| c.profile.clone());
+            let t = class_turns.entry(key(v)).or_insert(true);
+            *t = *t && c.turns_reset;
         }
     } else {
         reach_classes = classes
@@ -186,12 +189,17 @@ pub(super) fn plan_network_trips(
         .iter()
         .map(|&v| 1.0 / class_reach.get(&key(v)).copied().unwrap_or(reach_m))
         .collect();
+    let turn_resets: Vec<bool> = built.edge_speed[..physical]
+        .iter()
+        .map(|&v| mm && class_turns.get(&key(v)).copied().unwrap_or(false))
+        .collect();
     let model = EdgeModel::new(
         net,
         built.edge_dir[..physical].to_vec(),
         built.edge_speed[..physical].to_vec(),
         rate,
         sites,
+        turn_resets,
     );
     let main = super::traffic::main_component(net, &model);
     let dest = match &p.destinations {
@@ -308,7 +316,9 @@ pub(super) fn plan_network_trips(
             c.bound_without_tags_m =
                 Some(profile_bound(prof, c.budget_without_tags * r)).filter(|x| x.is_finite());
         }
-        let (sec, _) = built.edge_dir[e];
+        let (sec, fwd) = built.edge_dir[e];
+        c.section = sec;
+        c.forward = fwd;
         let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
         let tunnel = if a.tunnel { "tunnel; " } else { "" };
         c.reason = if c.passes == 0 {
@@ -417,6 +427,7 @@ pub(super) fn plan_network_trips(
         windows: tp.windows,
         planning_km: tp.planning_km,
         edge_coverage: coverage,
+        chain_model: Some(std::sync::Arc::new(super::traffic::ChainModel { model, dest })),
         selected: sel,
         problem: Some(built.problem),
     })

@@ -63,6 +63,10 @@ pub(crate) struct EdgeModel {
     pub bends: Vec<Vec<f64>>,
     /// Edge length (m).
     pub length: Vec<f64>,
+    /// Turns onto (and bends along) the edge reset the along-road error:
+    /// map matching on, and its speed class's turn drive brought the bound
+    /// back within the requirement.
+    pub turn_resets: Vec<bool>,
 }
 
 fn heading(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -109,6 +113,7 @@ impl EdgeModel {
         speed: Vec<f64>,
         rate: Vec<f64>,
         sites: Vec<Vec<(f64, u32)>>,
+        turn_resets: Vec<bool>,
     ) -> Self {
         let n = dir.len();
         let mut index = HashMap::with_capacity(n);
@@ -156,6 +161,7 @@ impl EdgeModel {
             end_heading: eh,
             bends,
             length,
+            turn_resets,
         }
     }
 }
@@ -272,6 +278,13 @@ impl Destinations {
             self.points[i]
         }
     }
+}
+
+/// The edges and destinations chains are drawn from.
+#[derive(Debug, Clone)]
+pub(crate) struct ChainModel {
+    pub model: EdgeModel,
+    pub dest: Destinations,
 }
 
 /// One piece of a chain: a directed edge from `a0` to `a1` along it (m).
@@ -410,7 +423,11 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
                 } else {
                     f64::NAN
                 };
-                if h0.is_finite() && h1.is_finite() && resets(turn_deg(h0, h1)) {
+                if model.turn_resets[e]
+                    && h0.is_finite()
+                    && h1.is_finite()
+                    && resets(turn_deg(h0, h1))
+                {
                     out.resets.push((b, c));
                 }
             }
@@ -420,7 +437,7 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
                 out.sites.push((b + (at - p.a0) * rate, site));
             }
         }
-        if map_matching {
+        if map_matching && model.turn_resets[e] {
             for &x in &model.bends[e] {
                 if x > p.a0 && x < p.a1 {
                     out.resets.push((b + (x - p.a0) * rate, c + x - p.a0));

@@ -61,11 +61,11 @@ pub struct NetworkTag {
 pub struct NetworkValidation {
     /// Runs in all.
     pub runs: u64,
-    /// Sampled paths.
+    /// Sampled chains of trips.
     pub paths: usize,
-    /// Runs per path.
+    /// Runs per chain.
     pub runs_per_path: u64,
-    /// Total length of the paths (km).
+    /// Total length of the chains (km).
     pub paths_length_km: f64,
     /// Base seed.
     pub seed: u64,
@@ -75,6 +75,28 @@ pub struct NetworkValidation {
     pub max_horizontal_error_m: f64,
     /// Where: path index, run, time (s), distance along the path (m).
     pub worst_path: usize,
+    /// Hours driven per run over all chains.
+    pub chain_hours: f64,
+    /// Error samples thinned for the interval (one per 30 s per run).
+    pub thinned_samples: usize,
+    /// Of which within the requirement.
+    pub thinned_within: usize,
+    /// One-sided 95 % Clopper–Pearson lower bound of the share within.
+    pub share_lower_95: f64,
+    /// The share required (`requirement_confidence`).
+    pub requirement_confidence: f64,
+    /// The rule holds.
+    pub passed: bool,
+    /// The rule in words, with the figures.
+    pub rule: String,
+    /// Runs whose maximum error exceeds the requirement.
+    pub runs_exceeding: usize,
+    /// Median over runs of each run's maximum error (m).
+    pub median_run_max_m: f64,
+    /// Map-matching fixes fed (all runs).
+    pub map_matching_fed: u64,
+    /// Share of them on the wrong road.
+    pub map_matching_wrong_road_share: f64,
     /// Run of the worst point.
     pub worst_run: u64,
     /// Time of the worst point (s).
@@ -169,6 +191,10 @@ pub struct NetworkPlan {
     pub windows: usize,
     /// `trips`: km of driving in the planning sample.
     pub planning_km: f64,
+    /// The traffic model (edges and destinations) the validation samples
+    /// its chains from.
+    #[serde(skip)]
+    pub(crate) chain_model: Option<std::sync::Arc<super::traffic::ChainModel>>,
     /// Per directed edge: what the plan predicts (for `coverage.geojson`).
     #[serde(skip)]
     pub edge_coverage: Vec<super::coverage::EdgeCoverage>,
