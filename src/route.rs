@@ -209,11 +209,33 @@ pub fn shortest_path(
         }
     }
 
-    // Dijkstra over nodes from the ends of `from`'s section.
+    // A* over nodes from the ends of `from`'s section: the heap holds
+    // g + h with h the straight-line distance to the nearer entry of the
+    // target section plus the rest from there (consistent: a section is
+    // never shorter than its chord), so the search stops as soon as no
+    // queued node can improve on the best arrival, with Dijkstra's result.
     let nn = net.nodes.len();
     let mut dist = vec![f64::INFINITY; nn];
     let mut pred: Vec<Option<DirectedSection>> = vec![None; nn];
     let mut heap = BinaryHeap::new();
+    // Entry nodes of the target section and the remaining cost from each.
+    let mut targets: Vec<(NodeId, bool, f64)> = Vec::with_capacity(2);
+    if st.oneway.allows_forward() || to.offset_m <= 0.0 {
+        targets.push((st.start, true, to.offset_m.max(0.0)));
+    }
+    if st.oneway.allows_backward() || to.offset_m >= st.length_m {
+        targets.push((st.end, false, (st.length_m - to.offset_m).max(0.0)));
+    }
+    let h = |node: NodeId| -> f64 {
+        let p = net.nodes[node as usize].enu;
+        targets
+            .iter()
+            .map(|&(tn, _, rest)| {
+                let q = net.nodes[tn as usize].enu;
+                (p[0] - q[0]).hypot(p[1] - q[1]) + rest
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
     // A point exactly at a node may leave by any departure there.
     let at_start = from.offset_m <= 0.0;
     let at_end = from.offset_m >= sf.length_m;
@@ -222,7 +244,7 @@ pub fn shortest_path(
         if c < dist[sf.end as usize] {
             dist[sf.end as usize] = c;
             heap.push(HeapItem {
-                cost: c,
+                cost: c + h(sf.end),
                 node: sf.end,
             });
         }
@@ -232,27 +254,22 @@ pub fn shortest_path(
         if c < dist[sf.start as usize] {
             dist[sf.start as usize] = c;
             heap.push(HeapItem {
-                cost: c,
+                cost: c + h(sf.start),
                 node: sf.start,
             });
         }
     }
-    // Entry nodes of the target section and the remaining cost from each.
-    let mut targets: Vec<(NodeId, bool, f64)> = Vec::with_capacity(2);
-    if st.oneway.allows_forward() || to.offset_m <= 0.0 {
-        targets.push((st.start, true, to.offset_m.max(0.0)));
-    }
-    if st.oneway.allows_backward() || to.offset_m >= st.length_m {
-        targets.push((st.end, false, (st.length_m - to.offset_m).max(0.0)));
-    }
     let bound = |best: &Option<(Pieces, f64)>| best.as_ref().map_or(f64::INFINITY, |b| b.1);
     let mut best_target: Option<(NodeId, bool, f64)> = None;
-    while let Some(HeapItem { cost, node }) = heap.pop() {
-        if cost > dist[node as usize] {
+    let mut closed = vec![false; nn];
+    while let Some(HeapItem { cost: f, node }) = heap.pop() {
+        if closed[node as usize] {
             continue;
         }
+        closed[node as usize] = true;
+        let cost = dist[node as usize];
         let current_best = best_target.map_or(bound(&best), |t| t.2);
-        if cost >= current_best {
+        if f >= current_best {
             break;
         }
         for &(tn, fwd, rest) in &targets {
@@ -268,7 +285,7 @@ pub fn shortest_path(
                 dist[next as usize] = c;
                 pred[next as usize] = Some(d);
                 heap.push(HeapItem {
-                    cost: c,
+                    cost: c + h(next),
                     node: next,
                 });
             }

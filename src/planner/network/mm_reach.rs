@@ -292,9 +292,10 @@ fn run(
     Ok(d)
 }
 
-/// The map-matching reach of speed class `speed_mps` and `mounting`
-/// (module doc), at the network's latitude; `p` is the requirement's
-/// confidence.
+/// The map-matching reach of speed class `speed_mps` for each of
+/// `mountings` (module doc), at the network's latitude; `p` is the
+/// requirement's confidence. The start and turn drives do not depend on the
+/// mounting and run once.
 #[allow(clippy::too_many_arguments)]
 pub fn matched_reach(
     scn: &Scenario,
@@ -302,17 +303,17 @@ pub fn matched_reach(
     lon_deg: f64,
     height_m: f64,
     speed_mps: f64,
-    mounting: Mounting,
+    mountings: &[Mounting],
     req: f64,
     p: f64,
-) -> Result<MatchedReach> {
+) -> Result<Vec<MatchedReach>> {
     let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
     // Start: straight from the prior.
     let (truth, _) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &[(0.0, total)])?;
     let start = run(scn, &truth, 0.0, req, p, None, false, true)?;
-    let mut capped = start.first_exceed_m.is_none();
+    let start_capped = start.first_exceed_m.is_none();
     let start_reach = start.first_exceed_m.unwrap_or(start.end_m);
-    // Turn: a first leg, a weak turn, straight on.
+    // Turn: a warm-up, a weak turn, straight on.
     let first = start_reach.clamp(200.0, FIRST_LEG_MAX_M);
     let mut legs = warm_up(first);
     let last = legs.last().map_or(0.0, |l| l.0);
@@ -320,39 +321,42 @@ pub fn matched_reach(
     let (truth, turn_at) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &legs)?;
     let turn = run(scn, &truth, turn_at, req, p, None, true, true)?;
     let turns_reset = turn.min_after_turn < req;
-    let turn_reach = match turn.first_exceed_m {
-        Some(x) => (x - turn_at).max(0.0),
-        None => {
-            capped = true;
-            turn.end_m - turn_at
-        }
+    let (turn_reach, turn_capped) = match turn.first_exceed_m {
+        Some(x) => ((x - turn_at).max(0.0), false),
+        None => (turn.end_m - turn_at, true),
     };
-    // Tag fixes on the matched straight after the turn.
-    let tag = run(scn, &truth, turn_at, req, p, Some(mounting), false, true)?;
-    let tag_reach = if tag.periods.is_empty() {
-        capped = true;
-        tag.end_m - turn_at
-    } else {
-        tag.periods.iter().copied().fold(f64::INFINITY, f64::min)
-    };
-    let reach = if turns_reset {
-        start_reach.min(turn_reach).min(tag_reach)
-    } else {
-        start_reach.min(tag_reach)
-    };
-    Ok(MatchedReach {
-        speed_kmh: speed_mps * 3.6,
-        mounting: mounting.as_str().into(),
-        start_reach_m: start_reach,
-        turn_reach_m: turn_reach,
-        tag_reach_m: tag_reach,
-        reach_m: reach,
-        bound_after_turn_m: turn.min_after_turn,
-        bound_after_fix_m: tag.bound_after_fix,
-        turns_reset,
-        capped,
-        profile: turn.profile,
-    })
+    let mut out = Vec::with_capacity(mountings.len());
+    for &mounting in mountings {
+        // Tag fixes on the matched straight after the turn.
+        let tag = run(scn, &truth, turn_at, req, p, Some(mounting), false, true)?;
+        let (tag_reach, tag_capped) = if tag.periods.is_empty() {
+            (tag.end_m - turn_at, true)
+        } else {
+            (
+                tag.periods.iter().copied().fold(f64::INFINITY, f64::min),
+                false,
+            )
+        };
+        let reach = if turns_reset {
+            start_reach.min(turn_reach).min(tag_reach)
+        } else {
+            start_reach.min(tag_reach)
+        };
+        out.push(MatchedReach {
+            speed_kmh: speed_mps * 3.6,
+            mounting: mounting.as_str().into(),
+            start_reach_m: start_reach,
+            turn_reach_m: turn_reach,
+            tag_reach_m: tag_reach,
+            reach_m: reach,
+            bound_after_turn_m: turn.min_after_turn,
+            bound_after_fix_m: tag.bound_after_fix,
+            turns_reset,
+            capped: start_capped || turn_capped || tag_capped,
+            profile: turn.profile.clone(),
+        });
+    }
+    Ok(out)
 }
 
 /// The bound's profile from the scenario's prior on a straight road
@@ -391,45 +395,4 @@ pub fn profile_bound(p: &[(f64, f64)], d: f64) -> f64 {
         0.0
     };
     a.1 + t * (b.1 - a.1)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn scenario() -> Scenario {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenarios/helsinki-network-trips.toml");
-        let text = std::fs::read_to_string(&path).unwrap();
-        Scenario::parse(&path, &text)
-            .unwrap()
-            .located_at([60.17, 24.94])
-    }
-
-    #[test]
-    fn debug_drives() {
-        let scn = scenario();
-        let mut legs = warm_up(500.0);
-        legs.push((90.0 + 45.0, 5000.0));
-        let (truth, turn_at) = synthetic_drive(&scn, 60.17, 24.94, 0.0, 50.0 / 3.6, &legs).unwrap();
-        let d = run(&scn, &truth, turn_at, 20.0, 0.95, None, true, true).unwrap();
-        eprintln!(
-            "turn_at {turn_at} first_exceed {:?} min_after {} end {}",
-            d.first_exceed_m, d.min_after_turn, d.end_m
-        );
-        for x in d.profile.iter().step_by(20) {
-            eprintln!("{x:?}");
-        }
-        let d = run(
-            &scn,
-            &truth,
-            turn_at,
-            20.0,
-            0.95,
-            Some(Mounting::Roadside),
-            false,
-            true,
-        );
-        eprintln!("{:?}", d.map(|d| (d.periods, d.bound_after_fix)));
-    }
 }

@@ -310,3 +310,6 @@ rfid = true
         assert!((edge_speed(v, Some(47.0)) * 3.6 - 45.0).abs() < 1e-9);
     }
 }
+
+#[cfg(test)]
+mod tests_trips;

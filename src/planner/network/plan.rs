@@ -298,6 +298,7 @@ pub fn plan_network_on(
         guarantee: None,
         windows: 0,
         planning_km: 0.0,
+        planning_windows: Vec::new(),
         edge_coverage: Vec::new(),
         chain_model: Some(std::sync::Arc::new(chain_model)),
         selected: sel,

@@ -136,11 +136,17 @@ pub(super) fn plan_network_trips(
     let mut class_turns: BTreeMap<u64, bool> = BTreeMap::new();
     let mut reach_classes: Vec<ReachClass> = Vec::new();
     if mm {
-        matched = classes
+        let ms: Vec<Mounting> = mountings
+            .iter()
+            .filter_map(|m| Mounting::parse(m))
+            .collect();
+        let per_speed: Vec<Vec<MatchedReach>> = speeds
             .par_iter()
-            .map(|&(v, m)| matched_reach(scn, lat0, lon0, height_m, v, m, req, conf))
+            .map(|&s| matched_reach(scn, lat0, lon0, height_m, s as f64 / 360.0, &ms, req, conf))
             .collect::<Result<Vec<_>>>()?;
-        for (c, &(v, _)) in matched.iter().zip(&classes) {
+        matched = per_speed.into_iter().flatten().collect();
+        for c in &matched {
+            let v = c.speed_kmh / 3.6;
             let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
             *r = r.min(c.reach_m);
             profiles.entry(key(v)).or_insert_with(|| c.profile.clone());
@@ -385,8 +391,14 @@ pub(super) fn plan_network_trips(
         requirement_m: req,
         tolerate_missed_reads: k,
         method: format!(
-            "greedy set multicover over the budget windows of {} sampled chains ({} windows), reverse \
-             deletion; certified on fresh chains ({} round(s))",
+            "{} over the budget windows of every straight walk{} and of {} sampled chains ({} windows); \
+             certified on fresh chains ({} round(s))",
+            if tp.exact {
+                "exact set multicover (integer programme, microlp)"
+            } else {
+                "greedy set multicover with reverse deletion"
+            },
+            if mm { " (turns of ≥ 45° reset)" } else { " the traffic used" },
             p.planning_chains + g.added_chains,
             tp.windows,
             g.rounds
@@ -426,6 +438,7 @@ pub(super) fn plan_network_trips(
         guarantee: Some(g),
         windows: tp.windows,
         planning_km: tp.planning_km,
+        planning_windows: tp.window_sets.clone(),
         edge_coverage: coverage,
         chain_model: Some(std::sync::Arc::new(super::traffic::ChainModel { model, dest })),
         selected: sel,

@@ -397,6 +397,9 @@ pub(crate) struct ChainBudget {
     pub sites: Vec<(f64, u32)>,
     /// Pieces: (directed edge, budget at its start, at its end).
     pub pieces: Vec<(u32, f64, f64)>,
+    /// Junction transitions without a reset, node to node: (from edge, to
+    /// edge).
+    pub straight: Vec<(u32, u32)>,
 }
 
 /// The budget view of a chain (resets at turns when `map_matching`).
@@ -408,6 +411,12 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
     for p in &chain.pieces {
         let e = p.edge as usize;
         let rate = model.rate[e];
+        if let Some(q) = prev.filter(|_| !map_matching) {
+            let qe = q.edge as usize;
+            if (q.a1 - model.length[qe]).abs() < 1e-6 && p.a0.abs() < 1e-6 {
+                out.straight.push((q.edge, p.edge));
+            }
+        }
         if map_matching {
             if let Some(q) = prev {
                 // A junction turn: the previous piece ended at its edge's end
@@ -429,6 +438,8 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
                     && resets(turn_deg(h0, h1))
                 {
                     out.resets.push((b, c));
+                } else if h0.is_finite() && h1.is_finite() {
+                    out.straight.push((q.edge, p.edge));
                 }
             }
         }
@@ -538,4 +549,146 @@ pub(crate) fn chain_use(cb: &ChainBudget, selected: &[bool], k: usize) -> f64 {
         }
     }
     worst
+}
+
+/// Marks a junction U-turn transition in the straight set (the edge index
+/// never reaches it: checked at build).
+pub(crate) const UTURN_FLAG: u32 = 1 << 31;
+
+/// Most paths followed from one window start (a guard against forks).
+const MAX_PATHS: usize = 256;
+
+/// Windows of every straight walk the traffic makes possible: from each
+/// edge start and each candidate site of the edges `used`, forward along
+/// the junction transitions without a reset in `straight`, stopping at
+/// bends that reset; each walk reaching a budget of 1 gives the window of
+/// the sites it passes within it. A stretch that traffic enters at any of
+/// its junctions (or starts on) is then covered even where no sampled chain
+/// drove exactly that combination.
+pub(crate) fn straight_windows(
+    model: &EdgeModel,
+    straight: &std::collections::HashSet<(u32, u32)>,
+    used: &[bool],
+    out: &mut HashMap<Vec<u32>, WindowInfo>,
+) {
+    let n = model.dir.len();
+    let mut next: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for &(a, b) in straight {
+        next[a as usize].push(b);
+    }
+    // A U-turn at a junction a chain made counts as one everywhere.
+    let observed_uturn = |a: usize, b: u32| model.dir[a].0 == model.dir[b as usize].0;
+    for v in &mut next {
+        v.sort_unstable();
+    }
+    for e in 0..n {
+        if !used[e] {
+            continue;
+        }
+        let mut starts: Vec<(f64, bool)> = vec![(0.0, true)];
+        starts.extend(model.sites[e].iter().map(|s| (s.0, false)));
+        starts.extend(
+            model.bends[e]
+                .iter()
+                .filter(|_| model.turn_resets[e])
+                .map(|&x| (x, true)),
+        );
+        for (x0, inclusive) in starts {
+            let mut paths = 0usize;
+            // Stack of (edge, position along it, budget so far, sites so far,
+            // a U-turn made).
+            let mut stack: Vec<(u32, f64, f64, Vec<u32>, bool)> =
+                vec![(e as u32, x0, 0.0, Vec::new(), false)];
+            while let Some((ed, x, u, mut ids, turned)) = stack.pop() {
+                let ei = ed as usize;
+                let rate = model.rate[ei];
+                let len = model.length[ei];
+                let bend = if model.turn_resets[ei] {
+                    model.bends[ei].iter().copied().find(|&b| b > x + 1e-9)
+                } else {
+                    None
+                };
+                let stop = bend.unwrap_or(len);
+                // Where the budget reaches 1 on this edge, if it does.
+                let reach_at = if rate > 0.0 {
+                    x + (1.0 - u) / rate
+                } else {
+                    f64::INFINITY
+                };
+                let end = reach_at.min(stop);
+                for &(at, site) in &model.sites[ei] {
+                    let first = ed as usize == e && x == x0;
+                    let after = if first && !inclusive { at > x } else { at >= x };
+                    if after && at <= end {
+                        ids.push(site);
+                    }
+                }
+                if reach_at <= stop {
+                    ids.sort_unstable();
+                    ids.dedup();
+                    let w = out.entry(ids).or_default();
+                    let m = if rate > 0.0 { 1.0 / rate } else { 0.0 };
+                    if w.stretch_m < m {
+                        w.stretch_m = m;
+                    }
+                    paths += 1;
+                    continue;
+                }
+                if bend.is_some() {
+                    continue; // a bend resets: no window from this start here
+                }
+                for &nx in &next[ei] {
+                    if paths + stack.len() >= MAX_PATHS {
+                        break;
+                    }
+                    let is_u = nx & UTURN_FLAG != 0 || observed_uturn(ei, nx & !UTURN_FLAG);
+                    if is_u && turned {
+                        continue;
+                    }
+                    stack.push((
+                        nx & !UTURN_FLAG,
+                        0.0,
+                        u + (len - x) * rate,
+                        ids.clone(),
+                        turned || is_u,
+                    ));
+                }
+            }
+        }
+    }
+}
+
+/// Every junction transition that does not reset (map matching on): onto
+/// a road continuing within [`TURN_DEG`] of straight on (or sharper than
+/// 180° − [`TURN_DEG`]), or onto an edge whose speed class gets no reset
+/// from turns; a U-turn onto the same road only where it ends (a dead end,
+/// where trips turn back).
+pub(crate) fn geometric_straight(
+    net: &Network,
+    model: &EdgeModel,
+) -> std::collections::HashSet<(u32, u32)> {
+    let mut out = std::collections::HashSet::new();
+    for (e, &(sec, fwd)) in model.dir.iter().enumerate() {
+        let s = &net.sections[sec as usize];
+        let v = if fwd { s.end } else { s.start };
+        let dead_end = net.topology.degree(v) <= 1;
+        for d in net.topology.departures(&net.model, v) {
+            let Some(&e2) = model.index.get(&(d.section, d.forward)) else {
+                continue;
+            };
+            if d.section == sec && !dead_end {
+                // A U-turn at a junction: trips make it right after a trip end
+                // when the next destination lies behind (the route planner's
+                // shortest path); at most one per stretch (see
+                // `straight_windows`).
+                out.insert((e as u32, e2 | UTURN_FLAG));
+                continue;
+            }
+            let turn = turn_deg(model.end_heading[e], model.start_heading[e2 as usize]);
+            if !(model.turn_resets[e2 as usize] && resets(turn)) {
+                out.insert((e as u32, e2));
+            }
+        }
+    }
+    out
 }

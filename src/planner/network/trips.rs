@@ -19,7 +19,9 @@
 //! After [`MAX_ROUNDS`] rounds the plan reports the failures and the
 //! Clopper–Pearson upper bound on the violation probability instead.
 
-use super::traffic::{add_windows, chain_budget, chain_use, sample_chain, Chain, ChainBudget};
+use super::traffic::{
+    add_windows, chain_budget, chain_use, sample_chain, straight_windows, Chain, ChainBudget,
+};
 use super::traffic::{Destinations, EdgeModel, WindowInfo};
 use crate::error::{Error, Result};
 use crate::network::Network;
@@ -28,7 +30,10 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::cmp::Ordering;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::{BinaryHeap, HashMap, HashSet};
+
+/// Largest instance (sites in windows) solved exactly.
+pub const EXACT_MAX_SITES: usize = 150;
 
 /// Most certification rounds.
 pub const MAX_ROUNDS: usize = 4;
@@ -232,6 +237,72 @@ pub(crate) fn multicover(
     Ok(sel)
 }
 
+/// Exact set multicover by integer programming (`microlp` branch and
+/// bound, warm-started by `warm`) when at most `max_vars` sites appear in
+/// windows: the optimal selection and its cost, or `None` (too large, or
+/// the node budget ran out).
+pub(crate) fn exact_multicover(
+    n_sites: usize,
+    windows: &[Vec<u32>],
+    demand: usize,
+    cost: &[f64],
+    preselected: &[bool],
+    warm: &[bool],
+    max_vars: usize,
+) -> Option<(Vec<bool>, f64)> {
+    let mut var_of: Vec<Option<microlp::Variable>> = vec![None; n_sites];
+    let mut prob = microlp::Problem::new(microlp::OptimizationDirection::Minimize);
+    let mut n_vars = 0;
+    for w in windows {
+        for &s in w {
+            let s = s as usize;
+            if var_of[s].is_none() {
+                n_vars += 1;
+                if n_vars > max_vars {
+                    return None;
+                }
+                var_of[s] = Some(if preselected[s] {
+                    prob.add_var(0.0, (1.0, 1.0))
+                } else {
+                    prob.add_binary_var(cost[s])
+                });
+            }
+        }
+    }
+    for w in windows {
+        let expr: Vec<(microlp::Variable, f64)> = w
+            .iter()
+            .filter_map(|&s| var_of[s as usize].map(|v| (v, 1.0)))
+            .collect();
+        prob.add_constraint(expr.as_slice(), microlp::ComparisonOp::Ge, demand as f64);
+    }
+    let mut opts = microlp::SolveOptions::default();
+    opts.node_limit = Some(20_000);
+    opts.warm_start = Some(
+        var_of
+            .iter()
+            .enumerate()
+            .filter_map(|(i, v)| v.map(|v| (v, if warm[i] { 1.0 } else { 0.0 })))
+            .collect(),
+    );
+    match prob.solve_with(opts) {
+        Ok(microlp::SolveOutcome::Solution(sol))
+            if sol.status() == microlp::SolutionStatus::Optimal =>
+        {
+            let mut sel = preselected.to_vec();
+            for (i, v) in var_of.iter().enumerate() {
+                if let Some(v) = v {
+                    if sol[*v] > 0.5 {
+                        sel[i] = true;
+                    }
+                }
+            }
+            Some((sel, sol.objective()))
+        }
+        _ => None,
+    }
+}
+
 /// A lower bound on the number of new tags: windows sharing no candidate
 /// site each need their own (`demand` minus installed ones).
 pub(crate) fn packing_bound(
@@ -263,6 +334,8 @@ type Solved = (Vec<bool>, Vec<Vec<u32>>, Vec<WindowInfo>);
 
 /// The outcome of planning on trips.
 pub(crate) struct TripsPlan {
+    /// The selection is the exact optimum of the planning windows.
+    pub exact: bool,
     pub selected: Vec<bool>,
     pub lower_bound: usize,
     pub guarantee: TripsGuarantee,
@@ -271,6 +344,8 @@ pub(crate) struct TripsPlan {
     pub site_reason: Vec<Option<WindowInfo>>,
     /// Windows in the final planning set.
     pub windows: usize,
+    /// The windows themselves (site ids, sorted).
+    pub window_sets: Vec<Vec<u32>>,
     /// The chains of the planning set and of the final certification round
     /// (for the coverage map).
     pub chains: Vec<ChainBudget>,
@@ -314,9 +389,22 @@ pub(crate) fn plan_trips(
         .collect();
     drop(plan_chains);
     let mut wmap: HashMap<Vec<u32>, WindowInfo> = HashMap::new();
+    // With map matching, every straight walk of the network (turns reset);
+    // without, the transitions the sampled traffic used.
+    let mut straight: HashSet<(u32, u32)> = if map_matching {
+        super::traffic::geometric_straight(net, model)
+    } else {
+        HashSet::new()
+    };
+    let mut used = vec![false; model.dir.len()];
     for cb in &budgets {
         add_windows(cb, &mut wmap);
+        straight.extend(cb.straight.iter().copied());
+        for p in &cb.pieces {
+            used[p.0 as usize] = true;
+        }
     }
+    straight_windows(model, &straight, &used, &mut wmap);
     let solve = |wmap: &HashMap<Vec<u32>, WindowInfo>,
                  infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error|
      -> Result<Solved> {
@@ -371,7 +459,12 @@ pub(crate) fn plan_trips(
         }
         for &i in &bad {
             add_windows(&cbs[i], &mut wmap);
+            straight.extend(cbs[i].straight.iter().copied());
+            for p in &cbs[i].pieces {
+                used[p.0 as usize] = true;
+            }
         }
+        straight_windows(model, &straight, &used, &mut wmap);
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
         let (s2, w2, i2) = solve(&wmap, &mut infeasible)?;
@@ -396,7 +489,36 @@ pub(crate) fn plan_trips(
              (Clopper–Pearson), above ε = {epsilon}"
         )
     };
-    let lower_bound = packing_bound(&windows, demand, preselected, n_sites);
+    let mut lower_bound = packing_bound(&windows, demand, preselected, n_sites);
+    // Small instances: the exact optimum (its tag count is then the bound).
+    let mut exact = false;
+    if let Some((s_opt, _)) = exact_multicover(
+        n_sites,
+        &windows,
+        demand,
+        cost,
+        preselected,
+        &sel,
+        EXACT_MAX_SITES,
+    ) {
+        let fresh = |s: &[bool]| {
+            s.iter()
+                .zip(preselected)
+                .filter(|(a, b)| **a && !**b)
+                .count()
+        };
+        // The optimum of the planning windows bounds every selection that
+        // satisfies them; it replaces the greedy's when it also holds the
+        // final round's fresh chains (independent of both).
+        lower_bound = lower_bound.max(fresh(&s_opt));
+        let holds_final = final_budgets
+            .iter()
+            .all(|cb| chain_use(cb, &s_opt, k) <= 1.0 + 1e-9);
+        if holds_final && fresh(&s_opt) <= fresh(&sel) {
+            sel = s_opt;
+            exact = true;
+        }
+    }
     // Reasons: the longest stretch of a window each selected site serves.
     let mut site_reason: Vec<Option<WindowInfo>> = vec![None; n_sites];
     for (w, ids) in windows.iter().enumerate() {
@@ -411,6 +533,7 @@ pub(crate) fn plan_trips(
     }
     budgets.extend(final_budgets);
     Ok(TripsPlan {
+        exact,
         selected: sel,
         lower_bound,
         guarantee: TripsGuarantee {
@@ -431,6 +554,7 @@ pub(crate) fn plan_trips(
         },
         site_reason,
         windows: windows.len(),
+        window_sets: windows,
         chains: budgets,
         planning_km,
     })

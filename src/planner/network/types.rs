@@ -191,6 +191,9 @@ pub struct NetworkPlan {
     pub windows: usize,
     /// `trips`: km of driving in the planning sample.
     pub planning_km: f64,
+    /// `trips`: the planning windows (site ids that must hold k + 1 tags).
+    #[serde(skip)]
+    pub planning_windows: Vec<Vec<u32>>,
     /// The traffic model (edges and destinations) the validation samples
     /// its chains from.
     #[serde(skip)]

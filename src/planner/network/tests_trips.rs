@@ -1,0 +1,263 @@
+//! Tests of `traffic = "trips"`: the statistics of the guarantee, the
+//! multicover against brute force, and whole plans on a small synthetic
+//! network checked against brute force under their own definitions.
+
+use super::cover;
+use super::trips::{
+    chains_needed, clopper_pearson_lower, clopper_pearson_upper, exact_multicover, multicover,
+    packing_bound,
+};
+use super::*;
+use crate::network::{model_from_polylines, Network, Oneway, RoadAttributes};
+use crate::planner::settings::PlannerSettings;
+use crate::scenario::Scenario;
+use rand::{Rng, SeedableRng};
+
+/// Binomial P(X ≤ x), by direct summation (f64 is exact enough for n ≤ 1000).
+fn binom_cdf(x: usize, n: usize, p: f64) -> f64 {
+    let mut c = 1.0f64;
+    let mut sum = 0.0;
+    for i in 0..=x {
+        if i > 0 {
+            c *= (n - i + 1) as f64 / i as f64;
+        }
+        sum += c * p.powi(i as i32) * (1.0 - p).powi((n - i) as i32);
+    }
+    sum
+}
+
+#[test]
+fn guarantee_statistics_match_their_closed_forms() {
+    // (1 − ε)^N ≤ β: 459 chains for ε = β = 0.01; 528 for β/2.
+    assert_eq!(chains_needed(0.01, 0.01), 459);
+    assert!(0.99f64.powi(459) <= 0.01 && 0.99f64.powi(458) > 0.01);
+    assert_eq!(chains_needed(0.01, 0.005), 528);
+    // No failure: the upper bound solves (1 − p)^n = β.
+    let u = clopper_pearson_upper(0, 300, 0.05);
+    assert!((u - (1.0 - 0.05f64.powf(1.0 / 300.0))).abs() < 1e-9, "{u}");
+    // With failures: the binomial CDF at the bound equals β (bisection to
+    // 2^-200; the CDF's own rounding is below 1e-12 here).
+    for (x, n) in [(1usize, 50usize), (5, 100), (12, 400)] {
+        let u = clopper_pearson_upper(x, n, 0.05);
+        assert!((binom_cdf(x, n, u) - 0.05).abs() < 1e-9, "{x}/{n}: {u}");
+        assert!(u > x as f64 / n as f64);
+        // The lower bound of successes mirrors it.
+        let l = clopper_pearson_lower(n - x, n, 0.05);
+        assert!((l - (1.0 - u)).abs() < 1e-12);
+    }
+    assert_eq!(clopper_pearson_upper(10, 10, 0.05), 1.0);
+}
+
+/// The cheapest selection by trying every subset (n ≤ 20).
+fn brute_force(n: usize, windows: &[Vec<u32>], demand: usize, cost: &[f64]) -> Option<f64> {
+    let mut best: Option<f64> = None;
+    for mask in 0u32..(1 << n) {
+        let ok = windows
+            .iter()
+            .all(|w| w.iter().filter(|&&s| mask >> s & 1 == 1).count() >= demand);
+        if ok {
+            let c: f64 = (0..n)
+                .filter(|&s| mask >> s & 1 == 1)
+                .map(|s| cost[s])
+                .sum();
+            if best.is_none_or(|b| c < b - 1e-12) {
+                best = Some(c);
+            }
+        }
+    }
+    best
+}
+
+#[test]
+fn multicover_is_feasible_and_the_exact_solver_matches_brute_force() {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for case in 0..40 {
+        let n = 8 + case % 7;
+        let demand = 1 + case % 2;
+        let cost: Vec<f64> = (0..n)
+            .map(|_| [1.0, 0.6, 2.5][rng.random_range(0..3)])
+            .collect();
+        let windows: Vec<Vec<u32>> = (0..rng.random_range(3..9))
+            .map(|_| {
+                let a = rng.random_range(0..n - 3);
+                let len = rng.random_range(demand.max(2)..=4.min(n - a));
+                (a..a + len).map(|s| s as u32).collect()
+            })
+            .collect();
+        let pre = vec![false; n];
+        let opt = brute_force(n, &windows, demand, &cost).expect("windows are satisfiable");
+        let g = multicover(n, &windows, demand, &cost, &pre).unwrap();
+        let gc: f64 = (0..n).filter(|&s| g[s]).map(|s| cost[s]).sum();
+        for w in &windows {
+            assert!(w.iter().filter(|&&s| g[s as usize]).count() >= demand);
+        }
+        assert!(gc >= opt - 1e-9, "greedy {gc} below the optimum {opt}");
+        let (e, ec) = exact_multicover(n, &windows, demand, &cost, &pre, &g, 150).unwrap();
+        assert!(
+            (ec - opt).abs() < 1e-6,
+            "case {case}: exact {ec} vs brute force {opt}"
+        );
+        for w in &windows {
+            assert!(w.iter().filter(|&&s| e[s as usize]).count() >= demand);
+        }
+        // The packing bound counts tags; with unit costs it bounds the optimum.
+        let lb = packing_bound(&windows, demand, &pre, n);
+        let min_cost = cost.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(lb as f64 * min_cost <= opt + 1e-9);
+    }
+    // A window with fewer candidates than reads needed is reported.
+    assert_eq!(
+        multicover(3, &[vec![0, 1], vec![2]], 2, &[1.0; 3], &[false; 3]),
+        Err(1)
+    );
+}
+
+fn road(id: &str, oneway: Oneway) -> RoadAttributes {
+    RoadAttributes {
+        id: id.into(),
+        name: Some(format!("Road {id}")),
+        highway: "primary".into(),
+        oneway,
+        lanes: None,
+        width_m: None,
+        maxspeed_kmh: Some(50.0),
+        tunnel: false,
+        bridge: false,
+        layer: 0,
+    }
+}
+
+/// A "comb": a straight two-way avenue of 8 km northward, with side
+/// streets of 150 m going east at 0, 4 and 8 km: trips along the avenue
+/// have long straight stretches; turning into a side street resets.
+fn comb(avenue_m: f64) -> Network {
+    let (la, lo) = (60.17f64, 24.94f64);
+    let m_lat = 111_320.0;
+    let m_lon = 111_320.0 * la.to_radians().cos();
+    let p = |n: f64, e: f64| [la + n / m_lat, lo + e / m_lon];
+    let roads = vec![
+        (
+            road("avenue", Oneway::Both),
+            vec![vec![p(0.0, 0.0), p(avenue_m / 2.0, 0.0), p(avenue_m, 0.0)]],
+        ),
+        (
+            road("s1", Oneway::Both),
+            vec![vec![p(0.0, 0.0), p(0.0, 150.0)]],
+        ),
+        (
+            road("s2", Oneway::Both),
+            vec![vec![p(avenue_m / 2.0, 0.0), p(avenue_m / 2.0, 150.0)]],
+        ),
+        (
+            road("s3", Oneway::Both),
+            vec![vec![p(avenue_m, 0.0), p(avenue_m, 150.0)]],
+        ),
+    ];
+    Network::from_model(model_from_polylines(roads).unwrap(), None).unwrap()
+}
+
+/// A navigator whose odometer scale factor (3 %) makes the error grow fast
+/// along a straight road, so that the avenue needs tags.
+fn comb_scenario(extra: &str) -> Scenario {
+    let text = format!(
+        r#"name = "comb"
+requirement_m = 20.0
+[map]
+path = "comb.osm.pbf"
+[vehicle]
+speed_kmh = 50
+[navigator]
+mode = "integrated"
+[imu]
+rate_hz = 100
+gyro_bias_dph = [10, 10, 10]
+accel_bias_ug = [1000, 1000, 1000]
+gyro_arw_dprh = 0.3
+accel_vrw_ugprhz = 100
+[odometer]
+scale_factor_error = 0.03
+[aiding]
+odometer = true
+baro = true
+rfid = true
+map_matching = true
+[planner]
+coverage = "network"
+tolerate_missed_reads = 1
+mountings = ["road_surface"]
+shift_hours = 1
+planning_chains = 16
+{extra}
+"#
+    );
+    Scenario::parse(std::path::Path::new("comb.toml"), &text).unwrap()
+}
+
+#[test]
+fn a_trips_plan_on_a_small_network_is_the_brute_force_optimum_of_its_windows() {
+    let net = comb(8000.0);
+    let scn = comb_scenario("candidate_spacing_m = 2000");
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let p = plan_network_on(&scn, &s, &net).unwrap();
+    assert_eq!(p.traffic, "trips");
+    assert!(p.map_matching);
+    let g = p.guarantee.as_ref().unwrap();
+    assert!(g.holds, "{}", g.statement);
+    assert_eq!(g.violations, 0);
+    // The avenue's straight run (8 km) exceeds the reach: tags are needed.
+    assert!(p.reach_m < 8000.0, "reach {}", p.reach_m);
+    let n = p.candidates;
+    assert!(n <= 20, "{n} candidates: too many for brute force");
+    let cost = vec![1.0; n];
+    let opt = brute_force(n, &p.planning_windows, 2, &cost).unwrap();
+    assert!(opt >= 2.0);
+    assert_eq!(p.tag_count() as f64, opt, "{}", p.method);
+    assert!(p.method.starts_with("exact"), "{}", p.method);
+    assert_eq!(p.lower_bound, p.tag_count());
+    // Every window holds k + 1 = 2 tags; every tag says why it is there.
+    for w in &p.planning_windows {
+        assert!(w.iter().filter(|&&i| p.selected[i as usize]).count() >= 2);
+    }
+    for t in &p.tags {
+        assert!(t.reason.contains("without a turn"), "{}", t.reason);
+    }
+    // The coverage: every directed edge driven, none over budget with tags.
+    assert!(p.edge_coverage.iter().all(|c| c.passes > 0));
+    assert!(p
+        .edge_coverage
+        .iter()
+        .all(|c| c.budget_with_tags <= 1.0 + 1e-9));
+    assert!(p.edge_coverage.iter().any(|c| c.budget_without_tags > 1.0));
+    // Same inputs, same plan.
+    let p2 = plan_network_on(&scn, &s, &net).unwrap();
+    assert_eq!(p2.selected, p.selected);
+}
+
+#[test]
+fn an_any_walk_plan_on_a_small_network_is_the_brute_force_optimum_of_the_walk_dp() {
+    let net = comb(2400.0);
+    let scn =
+        comb_scenario("candidate_spacing_m = 800\ntraffic = \"any_walk\"\nu_turns = \"dead_ends\"");
+    let s = PlannerSettings::from_scenario(&scn).unwrap();
+    let p = plan_network_on(&scn, &s, &net).unwrap();
+    assert_eq!(p.traffic, "any_walk");
+    let prob = p.problem.as_ref().unwrap();
+    let n = prob.sites.len();
+    assert!(n <= 16, "{n} candidates");
+    // Every subset, checked by the exact walk DP: the cheapest feasible one
+    // costs what the plan costs.
+    let mut best = f64::INFINITY;
+    for mask in 0u32..(1 << n) {
+        let sel: Vec<bool> = (0..n).map(|i| mask >> i & 1 == 1).collect();
+        let c: f64 = (0..n).filter(|&i| sel[i]).map(|i| prob.sites[i].cost).sum();
+        if c < best && cover::check(prob, &sel).feasible() {
+            best = c;
+        }
+    }
+    assert!(
+        (p.total_cost - best).abs() < 1e-9,
+        "plan {} vs brute force {best}",
+        p.total_cost
+    );
+    assert!(p.verified);
+}
