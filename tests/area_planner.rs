@@ -1,0 +1,256 @@
+//! The area planner for traffic (`coverage = "network"`, `traffic =
+//! "trips"`) as a user runs it: the bundled Helsinki scenario planned from
+//! the map alone, its guarantee, validation, coverage map and reasons; and
+//! bad input, each one clear error naming the file and the field.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_waymark"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("binary runs")
+}
+
+/// The Helsinki trips scenario, edited, in `dir` (map path made absolute).
+fn scenario_file(dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string(repo("scenarios/helsinki-network-trips.toml"))
+        .unwrap()
+        .replace(
+            "../maps/helsinki.osm.pbf",
+            repo("maps/helsinki.osm.pbf").to_str().unwrap(),
+        );
+    let p = dir.join("s.toml");
+    std::fs::write(&p, edit(text)).unwrap();
+    p
+}
+
+#[test]
+fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn = repo("scenarios/helsinki-network-trips.toml");
+    assert!(!std::fs::read_to_string(&scn)
+        .unwrap()
+        .lines()
+        .any(|l| l.trim_start().starts_with("[[route]]")));
+    let out = run(
+        &[
+            "plan",
+            scn.to_str().unwrap(),
+            "--out",
+            "out",
+            "--runs",
+            "20",
+        ],
+        dir.path(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}{stdout}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let o = dir.path().join("out");
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["traffic"], "trips");
+    assert_eq!(plan["map_matching"], true);
+    assert_eq!(plan["route_ignored"], false);
+    // At most 10 % of the 632 tags the any-walk model without map-matching
+    // credit placed on this map (issue 13's measurement).
+    let n = plan["tag_count"].as_u64().unwrap();
+    assert!((1..=63).contains(&n), "{n} tags");
+    assert!(plan["lower_bound"].as_u64().unwrap() <= n);
+    // The guarantee: all fresh certification chains hold, N ≥ ln β / ln(1 − ε).
+    let g = &plan["guarantee"];
+    assert_eq!(g["holds"], true, "{g}");
+    assert_eq!(g["violations"], 0);
+    let nc = g["certification_chains"].as_u64().unwrap() as f64;
+    assert!(0.99f64.powf(nc) <= 0.01 / 2.0, "{nc}");
+    assert!(g["worst_chain_budget"].as_f64().unwrap() <= 1.0 + 1e-9);
+    assert!(plan["rule"].as_str().unwrap().contains("0.95"));
+    // Validation: 20 runs on 20 fresh chains of ~1 h, by the stated rule.
+    let v = &plan["validation"];
+    assert_eq!(v["runs"].as_u64().unwrap(), 20);
+    assert_eq!(v["paths"].as_u64().unwrap(), 20);
+    assert!(v["chain_hours"].as_f64().unwrap() >= 20.0, "{v}");
+    assert_eq!(v["passed"], true, "{v}");
+    assert!(v["share_lower_95"].as_f64().unwrap() >= 0.95);
+    assert!(v["map_matching_fed"].as_u64().unwrap() > 10_000);
+    // Every tag says why it is there; the coverage map has every directed
+    // road with its bounds, none over the requirement with the tags.
+    for t in plan["tags"].as_array().unwrap() {
+        assert!(!t["reason"].as_str().unwrap().is_empty());
+    }
+    let cov: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("coverage.geojson")).unwrap())
+            .unwrap();
+    let f = cov["features"].as_array().unwrap();
+    assert_eq!(f.len() as u64, plan["directed_edges"].as_u64().unwrap());
+    let mut over_without = 0;
+    for x in f {
+        let p = &x["properties"];
+        assert!(p["reason"].as_str().is_some());
+        if let Some(b) = p["bound_m"].as_f64() {
+            assert!(p["budget_with_tags"].as_f64().unwrap() <= 1.0 + 1e-9, "{p}");
+            assert!(b > 0.0 && b.is_finite());
+        }
+        if p["budget_without_tags"].as_f64().unwrap() > 1.0 {
+            over_without += 1;
+        }
+    }
+    assert!(over_without > 0, "no road needs tags, yet tags were placed");
+    assert!(
+        stdout.contains("rule:") && stdout.contains("Clopper"),
+        "{stdout}"
+    );
+}
+
+/// Runs `plan` on the scenario edited by `edit`; expects one clean error
+/// line naming `needles`, exit 1, no output folder.
+fn expect_error(edit: impl Fn(String) -> String, needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scenario_file(dir.path(), edit);
+    let out = run(
+        &["plan", p.to_str().unwrap(), "--out", "o", "--runs", "0"],
+        dir.path(),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "missing {n:?} in: {err}");
+    }
+    assert!(!dir.path().join("o/plan.json").exists());
+}
+
+#[test]
+fn trips_bad_input_gives_one_clear_error() {
+    let planner = |extra: &'static str| {
+        move |t: String| {
+            t.replace(
+                "traffic = \"trips\"",
+                &format!("traffic = \"trips\"\n{extra}"),
+            )
+        }
+    };
+    expect_error(
+        |t| t.replace("traffic = \"trips\"", "traffic = \"sometimes\""),
+        &["s.toml", "planner.traffic", "trips", "any_walk"],
+    );
+    expect_error(
+        planner("shift_hours = 0"),
+        &["s.toml", "planner.shift_hours"],
+    );
+    expect_error(
+        planner("shift_hours = -3"),
+        &["s.toml", "planner.shift_hours"],
+    );
+    expect_error(
+        planner("violation_probability = 1.5"),
+        &["s.toml", "planner.violation_probability", "between 0 and 1"],
+    );
+    expect_error(
+        planner("confidence = 0"),
+        &["s.toml", "planner.confidence", "between 0 and 1"],
+    );
+    expect_error(
+        planner("requirement_confidence = 1"),
+        &["s.toml", "planner.requirement_confidence"],
+    );
+    expect_error(
+        |t| t.replace("speed_kmh = 50", "speed_kmh = 0"),
+        &["s.toml", "vehicle.speed_kmh"],
+    );
+    // Destinations: off the map, malformed, too few.
+    let dir = tempfile::tempdir().unwrap();
+    let off = dir.path().join("off.csv");
+    std::fs::write(&off, "lat,lon,weight\n60.17,24.94,1\n0.0,0.0,1\n").unwrap();
+    let d = off.display().to_string();
+    expect_error(
+        move |t| {
+            t.replace(
+                "traffic = \"trips\"",
+                &format!("traffic = \"trips\"\ndestinations = \"{d}\""),
+            )
+        },
+        &["off.csv", "line 3", "off the map"],
+    );
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "60.17,24.94\n60.17,east\n").unwrap();
+    let d = bad.display().to_string();
+    expect_error(
+        move |t| {
+            t.replace(
+                "traffic = \"trips\"",
+                &format!("traffic = \"trips\"\ndestinations = \"{d}\""),
+            )
+        },
+        &["bad.csv", "line 2", "number"],
+    );
+    let one = dir.path().join("one.csv");
+    std::fs::write(&one, "60.17,24.94\n").unwrap();
+    let d = one.display().to_string();
+    expect_error(
+        move |t| {
+            t.replace(
+                "traffic = \"trips\"",
+                &format!("traffic = \"trips\"\ndestinations = \"{d}\""),
+            )
+        },
+        &["one.csv", "at least two destinations"],
+    );
+    // Trip settings on a route plan are refused.
+    expect_error(|t| t.replace("coverage = \"network\"\n", ""), &["s.toml"]);
+    // A requirement no vehicle can meet where it starts: Infeasible, why.
+    expect_error(
+        |t| t.replace("requirement_m = 20.0", "requirement_m = 0.3"),
+        &["infeasible", "initial position uncertainty"],
+    );
+}
+
+#[test]
+fn a_network_scenario_with_a_route_still_plans_and_says_the_route_is_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scenario_file(dir.path(), |t| {
+        t.replace(
+            "[vehicle]",
+            "[[route]]\nwaypoints = [[60.1660, 24.9380], [60.1770, 24.9510]]\nspeed_kmh = 50\n\n[vehicle]",
+        )
+        .replace("shift_hours", "#")
+        .replace("traffic = \"trips\"", "traffic = \"trips\"\nshift_hours = 1\nplanning_chains = 8")
+    });
+    let out = run(
+        &["plan", p.to_str().unwrap(), "--out", "o", "--runs", "0"],
+        dir.path(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("[[route]] is ignored"), "{stdout}");
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("o/plan.json")).unwrap())
+            .unwrap();
+    assert_eq!(plan["route_ignored"], true);
+    // Simulating a map-only network scenario needs a route: a clear error.
+    let q = repo("scenarios/helsinki-network-trips.toml");
+    let out = run(
+        &["simulate", q.to_str().unwrap(), "--out", "s", "--runs", "1"],
+        dir.path(),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("no [[route]]") && err.contains("helsinki-network-trips.toml"),
+        "{err}"
+    );
+}
