@@ -555,6 +555,12 @@ pub(crate) fn chain_use(cb: &ChainBudget, selected: &[bool], k: usize) -> f64 {
 /// never reaches it: checked at build).
 pub(crate) const UTURN_FLAG: u32 = 1 << 31;
 
+/// Most junction U-turns in one stretch: a trip end with the next
+/// destination behind makes one; two in a row on the same straight run
+/// happen in long shifts but are left to the certification rounds (two per
+/// stretch cost Monaco 350 tags instead of 272 without changing its rounds).
+pub const MAX_UTURNS: u8 = 1;
+
 /// Most paths followed from one window start (a guard against forks).
 const MAX_PATHS: usize = 256;
 
@@ -597,8 +603,8 @@ pub(crate) fn straight_windows(
             let mut paths = 0usize;
             // Stack of (edge, position along it, budget so far, sites so far,
             // a U-turn made).
-            let mut stack: Vec<(u32, f64, f64, Vec<u32>, bool)> =
-                vec![(e as u32, x0, 0.0, Vec::new(), false)];
+            let mut stack: Vec<(u32, f64, f64, Vec<u32>, u8)> =
+                vec![(e as u32, x0, 0.0, Vec::new(), 0)];
             while let Some((ed, x, u, mut ids, turned)) = stack.pop() {
                 let ei = ed as usize;
                 let rate = model.rate[ei];
@@ -642,7 +648,7 @@ pub(crate) fn straight_windows(
                         break;
                     }
                     let is_u = nx & UTURN_FLAG != 0 || observed_uturn(ei, nx & !UTURN_FLAG);
-                    if is_u && turned {
+                    if is_u && turned >= MAX_UTURNS {
                         continue;
                     }
                     stack.push((
@@ -650,7 +656,7 @@ pub(crate) fn straight_windows(
                         0.0,
                         u + (len - x) * rate,
                         ids.clone(),
-                        turned || is_u,
+                        turned + u8::from(is_u),
                     ));
                 }
             }

@@ -36,7 +36,7 @@ use std::collections::{BinaryHeap, HashMap, HashSet};
 pub const EXACT_MAX_SITES: usize = 150;
 
 /// Most certification rounds.
-pub const MAX_ROUNDS: usize = 4;
+pub const MAX_ROUNDS: usize = 6;
 
 /// What the a-posteriori test established.
 #[derive(Debug, Clone, PartialEq, Serialize)]
