@@ -300,6 +300,14 @@ pub struct VehicleSection {
     /// Distance between the odometer wheels (m).
     #[serde(default = "d_track")]
     pub track_width_m: f64,
+    /// Side of the road traffic keeps to: `"right"` (default) or `"left"`;
+    /// the truth drives in a lane of its direction on that side.
+    #[serde(default)]
+    pub drive_side: Option<crate::network::DriveSide>,
+    /// Lateral wander of the vehicle about its lane centre, 1σ (m, ≥ 0;
+    /// default 0.3).
+    #[serde(default)]
+    pub lane_wander_m: Option<f64>,
 }
 fn d_width() -> f64 {
     2.5
@@ -312,6 +320,8 @@ impl Default for VehicleSection {
         Self {
             width_m: d_width(),
             track_width_m: d_track(),
+            drive_side: None,
+            lane_wander_m: None,
         }
     }
 }

@@ -75,10 +75,25 @@ impl TruthSource {
                 let route = crate::route::plan_route(&network, waypoints).map_err(|e| {
                     crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
                 })?;
-                let plan = RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
-                    .map_err(|e| {
-                        crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
-                    })?;
+                let err = |e: crate::error::Error| {
+                    crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
+                };
+                let centre = RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
+                    .map_err(err)?;
+                // The truth drives in its lane (issue 12): the centre path
+                // moved to a lane of its direction, with wander and lane changes.
+                let plan = super::lanes::lane_plan(
+                    &network,
+                    &route,
+                    &centre,
+                    &scn.lanes,
+                    scn.seed(),
+                    profile,
+                    stops,
+                    *height_m,
+                    scn.dt,
+                )
+                .map_err(err)?;
                 Ok(Self::from_route(network, route, plan))
             }
         }
