@@ -304,6 +304,7 @@ pub fn run_integrated(
             let field =
                 super::map_error::MapErrorField::draw(seed, run, me.sigma_m, me.correlation_m);
             super::map_feed::MapFeed::on_map(net, first.avp.t, field, me.sigma_m, me.correlation_m)
+                .with_lanes(scn.lanes)
         });
     let mut k = 0u64;
     for s in samples {
