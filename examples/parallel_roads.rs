@@ -24,7 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     // (road i, road j) → (parallel length, sum of separation × length)
     let mut pairs: HashMap<(u32, u32), (f64, f64)> = HashMap::new();
-    for (i, s) in segs.iter().enumerate() {
+    for s in segs.iter() {
         if s.length_m < 2.0 {
             continue;
         }
