@@ -124,6 +124,18 @@ impl TruthSource {
         }
     }
 
+    /// The route chainage (m, along the centre-line route) where a map
+    /// route's truth is at path distance `distance_m`: the truth drives its
+    /// lane, whose length differs from the centre line's at every bend, so
+    /// a uniform scale maps distances only roughly. `None` for motion
+    /// commands.
+    pub fn chainage_at(&self, distance_m: f64) -> Option<f64> {
+        match self {
+            TruthSource::Route(r) => Some(r.plan.chainage_at(distance_m)),
+            TruthSource::Motion(_) => None,
+        }
+    }
+
     /// The truth samples.
     pub fn samples(&self) -> Box<dyn Iterator<Item = Avp> + Send + '_> {
         match self {
