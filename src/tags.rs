@@ -337,6 +337,11 @@ pub struct RfidModel {
     pub ceiling_sigma_m: f64,
     /// σ of a tag's stored height (m).
     pub height_sigma_m: f64,
+    /// The vehicle's lateral place over a tag is the truth's own (a map
+    /// route's truth drives in its lane with wander, so its offset from the
+    /// tag's lane-centre point is known), not a uniform draw across the
+    /// lane's free width (motion commands: the place in the lane is unknown).
+    pub lateral_from_truth: bool,
 }
 
 impl Default for RfidModel {
@@ -353,6 +358,7 @@ impl Default for RfidModel {
             road_surface_sigma_m: 0.2,
             ceiling_sigma_m: 0.1,
             height_sigma_m: 0.1,
+            lateral_from_truth: false,
         }
     }
 }

@@ -254,6 +254,13 @@ geometry_error_m = 0
 [[route]]
 waypoints = [[60.1660, 24.9380], [60.1770, 24.9510], [60.1660, 24.9380]]
 speed_kmh = 40
+# The truth in its lane (issue 12) without wander: with it, this 8 min
+# drive's result hinges on a few junction events (20 runs, seed 1: wander
+# 0.1 / 0.2 / 0.3 / 1.0 m give RMS 0.49 / 0.84 / 0.83 / 0.78 m with map
+# matching against 0.84 m without; wrong-road share 3.3–5.6 %), which is
+# not what this test checks (that the feed pulls the navigator to its lane).
+[vehicle]
+lane_wander_m = 0
 [navigator]
 mode = "integrated"
 [imu]

@@ -10,6 +10,7 @@ pub(crate) mod geometry;
 mod grid;
 pub(crate) mod hilbert;
 mod inspect;
+mod lanes;
 mod model;
 mod osm_common;
 mod osm_pbf;
@@ -26,6 +27,10 @@ pub use defects::{check as check_defects, Defect, DefectReport, DEFAULT_NODE_TOL
 pub use geometry::{point_segment_distance, segment_intersects_box};
 pub use grid::{auto_grid_n, GridIndex, AUTO_CELL_M, MAX_GRID_N};
 pub use inspect::{inspect, Components, CountLength, GridFigures, Inspection};
+pub use lanes::{
+    carriageway_lanes, lane_offset_m, lane_offset_moments, lane_width_m, lanes_per_direction,
+    DriveSide,
+};
 pub use model::{
     LoadReport, Node, NodeId, Road, RoadId, RoadNetwork, Section, SectionId, Segment, SegmentId,
 };

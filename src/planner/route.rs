@@ -21,18 +21,27 @@ struct RoadContext<'a> {
     net: &'a std::sync::Arc<Network>,
     route: &'a crate::route::Route,
     scale: std::cell::Cell<f64>,
+    /// The truth (its lane path's distance → route chainage, issue 12).
+    truth: &'a TruthSource,
 }
 
 impl RoadContext<'_> {
+    /// Route chainage at a truth distance.
+    fn chainage(&self, distance_m: f64) -> f64 {
+        self.truth
+            .chainage_at(distance_m)
+            .unwrap_or(distance_m * self.scale.get())
+    }
+
     fn at(&self, distance_m: f64) -> &RoadAttributes {
-        let span = self.route.span_at(distance_m * self.scale.get());
+        let span = self.route.span_at(self.chainage(distance_m));
         &self.net.model.roads[span.road as usize].attributes
     }
 
     /// Chainage along the road (its digitised direction, from its first
     /// section present in the map) at a route distance.
     fn road_chainage_m(&self, distance_m: f64) -> f64 {
-        let c = distance_m * self.scale.get();
+        let c = self.chainage(distance_m);
         let span = self.route.span_at(c);
         let road = &self.net.model.roads[span.road as usize];
         let before: f64 = road
@@ -163,6 +172,7 @@ pub fn plan_with_stages(
             net,
             route,
             scale: std::cell::Cell::new(1.0),
+            truth,
         }),
         _ => None,
     };

@@ -13,24 +13,10 @@ pub const DEFAULT_READ_PROBABILITY: f64 = 0.977;
 
 /// Lane width (m) of a road from its OSM attributes: `width / lanes` when
 /// both are given (a carriageway width over its lanes), else a default by
-/// road class.
+/// road class. The one definition is [`crate::network::lane_width_m`]
+/// (shared with the simulated vehicle's lane).
 pub fn lane_width_m(a: &RoadAttributes) -> f64 {
-    if let (Some(w), Some(n)) = (a.width_m, a.lanes) {
-        if n > 0 && w > 0.0 {
-            return (w / f64::from(n)).clamp(2.5, 5.0);
-        }
-    }
-    if let (Some(w), None) = (a.width_m, a.lanes) {
-        // A two-way road's width holds two lanes, a one-way road's one.
-        let n = if a.oneway.is_oneway() { 1.0 } else { 2.0 };
-        return (w / n).clamp(2.5, 5.0);
-    }
-    match a.highway.trim_end_matches("_link") {
-        "motorway" | "trunk" => 3.75,
-        "primary" | "secondary" => 3.5,
-        "tertiary" | "unclassified" => 3.25,
-        _ => 3.0,
-    }
+    crate::network::lane_width_m(a)
 }
 
 /// Speed (m/s) at a site: the truth's speed when moving, else the road's

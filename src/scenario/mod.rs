@@ -30,9 +30,10 @@ pub use schema::{
     Adaptive, Coverage, MotionKind, NavMode, ScenarioFile, Traffic, UTurns, VerticalChannel,
 };
 pub use sections::{
-    default_mounting_cost, Aiding, ExternalFix, FilterSettings, MapErrorModel, MountingChoice,
-    Navigator, PlannerOptions, RouteKind, Scenario, ScenarioTag, TagPlace,
-    DEFAULT_NETWORK_SPACING_M, DEFAULT_ROUTE_SPACING_M, DEFAULT_VERTICAL_TAU_S,
+    default_mounting_cost, Aiding, ExternalFix, FilterSettings, LaneModel, MapErrorModel,
+    MountingChoice, Navigator, PlannerOptions, RouteKind, Scenario, ScenarioTag, TagPlace,
+    DEFAULT_LANE_WANDER_M, DEFAULT_NETWORK_SPACING_M, DEFAULT_ROUTE_SPACING_M,
+    DEFAULT_VERTICAL_TAU_S,
 };
 
 #[cfg(test)]

@@ -304,6 +304,14 @@ pub struct VehicleSection {
     /// capped on each road by its `maxspeed` or its class's typical speed.
     #[serde(default)]
     pub speed_kmh: Option<f64>,
+    /// Side of the road traffic keeps to: `"right"` (default) or `"left"`;
+    /// the truth drives in a lane of its direction on that side.
+    #[serde(default)]
+    pub drive_side: Option<crate::network::DriveSide>,
+    /// Lateral wander of the vehicle about its lane centre, 1σ (m, ≥ 0;
+    /// default 0.3).
+    #[serde(default)]
+    pub lane_wander_m: Option<f64>,
 }
 fn d_width() -> f64 {
     2.5
@@ -317,6 +325,8 @@ impl Default for VehicleSection {
             width_m: d_width(),
             track_width_m: d_track(),
             speed_kmh: None,
+            drive_side: None,
+            lane_wander_m: None,
         }
     }
 }

@@ -274,6 +274,31 @@ impl Default for MapErrorModel {
     }
 }
 
+/// Default `[vehicle] lane_wander_m` (m, 1σ): the standard deviation of
+/// lateral position drivers keep in a lane, 0.2–0.3 m in driving studies
+/// (SDLP; e.g. Verster & Roth 2011, Transportation Research Part F 14(3)).
+pub const DEFAULT_LANE_WANDER_M: f64 = 0.3;
+
+/// `[vehicle]` lane keeping, validated: the truth drives in a lane of its
+/// direction on the `drive_side` of the road, wandering about the lane's
+/// centre with 1σ `wander_m` (see `sim::lanes`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LaneModel {
+    /// Side of the road traffic keeps to.
+    pub drive_side: crate::network::DriveSide,
+    /// Lateral wander about the lane centre, 1σ (m; 0: on the centre).
+    pub wander_m: f64,
+}
+
+impl Default for LaneModel {
+    fn default() -> Self {
+        Self {
+            drive_side: crate::network::DriveSide::Right,
+            wander_m: DEFAULT_LANE_WANDER_M,
+        }
+    }
+}
+
 /// A loaded, validated scenario in SI units.
 #[derive(Debug, Clone)]
 pub struct Scenario {
@@ -301,6 +326,8 @@ pub struct Scenario {
     pub rfid: RfidModel,
     /// Geometry error of the navigator's map (`[map]`; default without one).
     pub map_error: MapErrorModel,
+    /// The vehicle in its lane (`[vehicle] drive_side`, `lane_wander_m`).
+    pub lanes: LaneModel,
     pub(super) name: String,
     pub(super) requirement_m: Option<f64>,
     pub(super) duration_cap_s: f64,

@@ -527,6 +527,13 @@ impl Scenario {
             output_interval_s,
             rfid,
             map_error,
+            lanes: LaneModel {
+                drive_side: file.vehicle.drive_side.unwrap_or_default(),
+                wander_m: c.non_negative(
+                    "vehicle.lane_wander_m",
+                    file.vehicle.lane_wander_m.unwrap_or(DEFAULT_LANE_WANDER_M),
+                )?,
+            },
             name: file.name.clone(),
             requirement_m: file.requirement_m,
             duration_cap_s: file.duration_s.unwrap_or(f64::INFINITY),

@@ -13,7 +13,8 @@
 //! `sim::draw_reads`, three draws per tag pass in pass order (uniform for
 //! read/miss, a normal and a uniform for the read's error; the normal may take
 //! more than one word, so pass k's draw sits at no fixed offset); the external
-//! fixes ([`ids::FIX`]); and the map geometry error ([`ids::MAP_ERROR`]).
+//! fixes ([`ids::FIX`]); the map geometry error ([`ids::MAP_ERROR`]); and, once
+//! per seed (run 0), the truth's lane and wander ([`ids::LANES`]).
 //!
 //! Consequences. Adding a sensor, or switching an aid on or off, never shifts
 //! another process's draws. A stream does not depend on the scenario: two
@@ -50,6 +51,9 @@ pub mod ids {
     pub const FIX: u64 = 8;
     /// The map geometry error of a run.
     pub const MAP_ERROR: u64 = 9;
+    /// The truth's lane, lane changes and lateral wander (drawn once per
+    /// seed, with run index 0: the truth is the same in every run).
+    pub const LANES: u64 = 10;
 }
 
 /// SplitMix64 finaliser: a well-mixed 64-bit hash step.

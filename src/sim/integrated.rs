@@ -30,6 +30,9 @@ pub struct Prepared {
     pub passes: Vec<TagPass>,
     /// The route's road network (with `aiding.map_matching`).
     pub network: Option<std::sync::Arc<crate::network::Network>>,
+    /// The truth drives in its lane (a map route): the lateral place over a
+    /// tag is the truth's own.
+    pub lane_truth: bool,
 }
 
 impl Prepared {
@@ -58,6 +61,7 @@ impl Prepared {
             tags,
             passes,
             network,
+            lane_truth: truth.route().is_some(),
         })
     }
 }
@@ -271,7 +275,13 @@ pub fn run_integrated(
     let mut last_distance = first.avp.distance_m;
     let mut rfid_rng = stream(seed, run, RFID_STREAM);
     let reads = if aid.rfid {
-        draw_reads(&prep.passes, &prep.tags, &scn.rfid, &mut rfid_rng)
+        // A map route's truth drives in its lane: the lateral place over a
+        // tag is its own (issue 12, point 1).
+        let rfid = crate::tags::RfidModel {
+            lateral_from_truth: prep.lane_truth,
+            ..scn.rfid
+        };
+        draw_reads(&prep.passes, &prep.tags, &rfid, &mut rfid_rng)
     } else {
         vec![]
     };
@@ -304,6 +314,7 @@ pub fn run_integrated(
             let field =
                 super::map_error::MapErrorField::draw(seed, run, me.sigma_m, me.correlation_m);
             super::map_feed::MapFeed::on_map(net, first.avp.t, field, me.sigma_m, me.correlation_m)
+                .with_lanes(scn.lanes)
         });
     let mut k = 0u64;
     for s in samples {

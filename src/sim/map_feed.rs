@@ -27,6 +27,17 @@
 //! the path, τ = Σₖ exp(−(k·d)²/2L²) ≈ √(2π)·L/d with d = speed × interval,
 //! the factor by which the variance of a mean of correlated samples exceeds
 //! that of independent ones: σ² = [`ACROSS_SIGMA_M`]² + τ·σ_map².
+//!
+//! **Lanes (issue 12, point 1).** The truth drives in a lane, not on the
+//! centre line. A navigator that knows the drive side ([`MapFeed::with_lanes`])
+//! moves each matched point to the mean offset of its direction's lanes
+//! ([`lane_offset_moments`]: half a lane right on a two-way street) and adds
+//! the rest as noise: the lane choice's variance w²(k² − 1)/12 (zero with
+//! one lane per direction), correlated over the mean distance between lane
+//! changes, and the wander's σ², correlated over its 60 m; each inflated
+//! like the map error, by Σ ρ^|k| = (1 + ρ)/(1 − ρ), ρ = e^(−d/L), for an
+//! exponential correlation. Without the shift a 1.5–1.75 m bias would pull
+//! the filter towards the centre line at 1 Hz as if it were noise.
 
 use super::map_error::MapErrorField;
 use crate::geodesy::Geodetic;
@@ -34,7 +45,8 @@ use crate::matching::{Fix, IncrementalMatcher, IncrementalParams, MatchedPoint, 
 use crate::nav::integrated::along_across_covariance;
 use crate::nav::NavState;
 use crate::nav::{Filter, FixPosition};
-use crate::network::Network;
+use crate::network::{lane_offset_moments, Network};
+use crate::scenario::LaneModel;
 
 /// Across-road standard deviation of a matched fix (m).
 pub const ACROSS_SIGMA_M: f64 = 3.0;
@@ -79,6 +91,8 @@ pub struct MapFeed<'a> {
     /// Map error variance per axis (m²) and correlation length (m).
     map_var: f64,
     map_corr_m: f64,
+    /// The lane model the navigator assumes (`None`: the centre line).
+    lanes: Option<LaneModel>,
     next_t: f64,
     /// Counts.
     pub counts: FeedCounts,
@@ -95,6 +109,7 @@ impl<'a> MapFeed<'a> {
             field: None,
             map_var: 0.0,
             map_corr_m: 1.0,
+            lanes: None,
             next_t: t0 + INTERVAL_S,
             counts: FeedCounts::default(),
         }
@@ -128,6 +143,16 @@ impl<'a> MapFeed<'a> {
         }
         f.field = field;
         f
+    }
+
+    /// The navigator expects to drive in a lane (`model`'s drive side and
+    /// wander): each matched point is moved from the centre line to the
+    /// mean lane offset of the road's direction, and the across-road
+    /// variance gains the lane choice's and the wander's, each inflated by
+    /// its correlation along the path (module doc).
+    pub fn with_lanes(mut self, model: LaneModel) -> Self {
+        self.lanes = Some(model);
+        self
     }
 
     /// Called after the filter's updates at time `t`: matches the navigator's
@@ -184,13 +209,38 @@ impl<'a> MapFeed<'a> {
         let road_heading = (b[0] - a[0]).atan2(b[1] - a[1]);
         // Across-road σ: matching and lane position, plus the map error
         // inflated by its correlation along the path (module doc).
+        let d = speed * INTERVAL_S;
         let tau = if self.map_var > 0.0 {
-            let d = speed * INTERVAL_S;
             ((2.0 * std::f64::consts::PI).sqrt() * self.map_corr_m / d).max(1.0)
         } else {
             0.0
         };
-        let across = (ACROSS_SIGMA_M * ACROSS_SIGMA_M + tau * self.map_var).sqrt();
+        let mut across_var = ACROSS_SIGMA_M * ACROSS_SIGMA_M + tau * self.map_var;
+        let mut point = point;
+        if let Some(lm) = &self.lanes {
+            let attrs =
+                &net.model.roads[net.sections[seg.section as usize].road as usize].attributes;
+            let (mean, lane_var) = lane_offset_moments(attrs, lm.drive_side);
+            // The road's direction as travelled (the navigator's heading
+            // picks the sense), and its right.
+            let h = st.v[0].atan2(st.v[1]);
+            let psi = if (road_heading - h).cos() >= 0.0 {
+                road_heading
+            } else {
+                road_heading + std::f64::consts::PI
+            };
+            let (sn, cs) = psi.sin_cos();
+            point = [point[0] + mean * cs, point[1] - mean * sn];
+            // Exponentially correlated errors over L, sampled every d:
+            // Σ ρ^|k| = (1 + ρ)/(1 − ρ) with ρ = e^(−d/L).
+            let tau_exp = |l: f64| {
+                let r = (-d.max(0.1) / l).exp();
+                (1.0 + r) / (1.0 - r)
+            };
+            across_var += tau_exp(super::lanes::LANE_CHANGE_MEAN_M) * lane_var
+                + tau_exp(super::lanes::WANDER_CORRELATION_M) * lm.wander_m * lm.wander_m;
+        }
+        let across = across_var.sqrt();
         let along = if at_road_end(net, seg_id, m.point) {
             self.counts.road_end += 1;
             across

@@ -5,6 +5,7 @@
 //! One role per file, each importing only the files above it (no circle):
 //! - [`tags`]: tags and the RFID model; `map_feed`: the map-matching feed;
 //! - `records`: the rows and records a run produces, and their recorder;
+//! - `lanes`: the truth's lane path (lane offsets, changes, wander);
 //! - `truth`: the truth source (with its loaded map and route) and the
 //!   start of a run;
 //! - `passes`: passes by tags (from the truth) and per-run reads;
@@ -19,6 +20,7 @@
 pub(crate) mod covariance;
 pub(crate) mod dead_reckoning;
 pub(crate) mod integrated;
+pub(crate) mod lanes;
 pub(crate) mod map_error;
 pub(crate) mod map_feed;
 pub(crate) mod metrics;

@@ -156,10 +156,14 @@ pub fn draw_reads(
         let (dt, lateral) = match tag.mounting {
             Mounting::RoadSurface => {
                 // Along-track timing error and the vehicle's lateral place
-                // over the tag (uniform within the lateral half-width), the
-                // whole fix error capped at 0.5 m.
+                // over the tag (the truth's, or uniform within the lateral
+                // half-width), the whole fix error capped at 0.5 m.
                 let e = rfid.road_surface_sigma_m * z1;
-                let l = rfid.road_surface_lateral_m() * (2.0 * u2 - 1.0);
+                let l = if rfid.lateral_from_truth {
+                    -p.lateral_m
+                } else {
+                    rfid.road_surface_lateral_m() * (2.0 * u2 - 1.0)
+                };
                 let n = e.hypot(l);
                 let k = if n > 0.5 { 0.5 / n } else { 1.0 };
                 (k * e / v, k * l)
@@ -169,8 +173,13 @@ pub fn draw_reads(
                 (e / v, 0.0)
             }
             Mounting::Roadside => {
-                let dx =
-                    0.5 * (rfid.lane_width_m - rfid.vehicle_width_m).max(0.0) * (2.0 * u2 - 1.0);
+                // The vehicle's offset towards the post from the lane centre:
+                // the truth's, or uniform within the lane's free width.
+                let dx = if rfid.lateral_from_truth {
+                    -p.lateral_m
+                } else {
+                    0.5 * (rfid.lane_width_m - rfid.vehicle_width_m).max(0.0) * (2.0 * u2 - 1.0)
+                };
                 let x = (rfid.roadside_distance_m - dx).max(0.0);
                 let lead = x * rfid.roadside_angle.tan();
                 (-lead / v + rfid.read_time_s, dx)

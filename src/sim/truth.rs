@@ -89,10 +89,25 @@ impl TruthSource {
                 let route = crate::route::plan_route(&network, waypoints).map_err(|e| {
                     crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
                 })?;
-                let plan = RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
-                    .map_err(|e| {
-                        crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
-                    })?;
+                let err = |e: crate::error::Error| {
+                    crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
+                };
+                let centre = RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
+                    .map_err(err)?;
+                // The truth drives in its lane (issue 12): the centre path
+                // moved to a lane of its direction, with wander and lane changes.
+                let plan = super::lanes::lane_plan(
+                    &network,
+                    &route,
+                    &centre,
+                    &scn.lanes,
+                    scn.seed(),
+                    profile,
+                    stops,
+                    *height_m,
+                    scn.dt,
+                )
+                .map_err(err)?;
                 Ok(Self::from_route(network, route, plan))
             }
         }
@@ -119,6 +134,18 @@ impl TruthSource {
     pub fn route(&self) -> Option<&Route> {
         match self {
             TruthSource::Route(r) => Some(&r.route),
+            TruthSource::Motion(_) => None,
+        }
+    }
+
+    /// The route chainage (m, along the centre-line route) where a map
+    /// route's truth is at path distance `distance_m`: the truth drives its
+    /// lane, whose length differs from the centre line's at every bend, so
+    /// a uniform scale maps distances only roughly. `None` for motion
+    /// commands.
+    pub fn chainage_at(&self, distance_m: f64) -> Option<f64> {
+        match self {
+            TruthSource::Route(r) => Some(r.plan.chainage_at(distance_m)),
             TruthSource::Motion(_) => None,
         }
     }

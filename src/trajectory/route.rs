@@ -458,6 +458,21 @@ impl RoutePlan {
         pos_heading(&self.elems, s)
     }
 
+    /// The route chainage (m) at path distance `s`: interpolated within the
+    /// element holding `s` (a smoothing arc spans the chainage of its two
+    /// tangents).
+    pub fn chainage_at(&self, s: f64) -> f64 {
+        let e = &self.elems[self
+            .elems
+            .partition_point(|e| e.s0 + e.len < s)
+            .min(self.elems.len() - 1)];
+        if e.len > 0.0 {
+            e.c0 + (e.c1 - e.c0) * ((s - e.s0) / e.len).clamp(0.0, 1.0)
+        } else {
+            e.c0
+        }
+    }
+
     /// The truth samples, the initial one first.
     pub fn trajectory(&self) -> RouteTrajectory<'_> {
         let (p, psi) = self.elems[0].eval(0.0);
