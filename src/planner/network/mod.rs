@@ -83,6 +83,7 @@ pub(crate) mod plan;
 pub(crate) mod plan_trips;
 pub(crate) mod reach;
 pub(crate) mod settings;
+pub(crate) mod tag_sites;
 pub(crate) mod traffic;
 pub(crate) mod trips;
 pub(crate) mod types;

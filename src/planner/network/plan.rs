@@ -4,14 +4,14 @@
 
 use super::cover::{self, Solved, Walk};
 use super::ilp::{self, IlpLimits, IlpOutcome};
-use super::instance::{build, describe_walk, section_point};
+use super::instance::{build, describe_walk};
 use super::reach::{reach_class, ReachClass};
 use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
-use super::types::{NetworkPlan, NetworkTag};
+use super::types::NetworkPlan;
 use super::validation::validate_network_plan;
 use crate::error::{Error, Result};
 use crate::network::Network;
-use crate::planner::settings::{lane_width_m, PlannerSettings};
+use crate::planner::settings::PlannerSettings;
 use crate::scenario::Scenario;
 use crate::sim::tags::Mounting;
 use rayon::prelude::*;
@@ -240,10 +240,11 @@ pub fn plan_network_on(
     } else {
         lb_pack
     };
-    let (tags, total_cost) = tags_of(scn, settings, net, &built, &sel, height_m, |_| {
-        "any walk through the network consuming more than the error budget passes k + 1 tags"
-            .to_string()
-    });
+    let (tags, total_cost) =
+        super::tag_sites::tags_of(scn, settings, net, &built, &sel, height_m, |_| {
+            "any walk through the network consuming more than the error budget passes k + 1 tags"
+                .to_string()
+        });
     let existing_kept = tags.iter().filter(|t| t.existing).count();
     // The traffic the validation samples (chains of trips over every
     // permitted road): edges at their planning speeds.
@@ -304,70 +305,4 @@ pub fn plan_network_on(
         selected: sel,
         problem: Some(built.problem),
     })
-}
-
-/// The selected sites as tags (installed ones keep their id and position),
-/// each with its reason; and the cost of the new ones.
-pub(super) fn tags_of(
-    scn: &Scenario,
-    settings: &PlannerSettings,
-    net: &Network,
-    built: &super::instance::Built,
-    sel: &[bool],
-    height_m: f64,
-    reason: impl Fn(usize) -> String,
-) -> (Vec<NetworkTag>, f64) {
-    let p = &built.problem;
-    let mut tags = Vec::new();
-    let mut n_new = 0;
-    let mut total_cost = 0.0;
-    for (i, site) in p.sites.iter().enumerate() {
-        if !sel[i] {
-            continue;
-        }
-        let (sec, fwd) = built.edge_dir[site.edge as usize];
-        let s = &net.sections[sec as usize];
-        let a = &net.roads[s.road as usize].attributes;
-        let at = site.at_m / built.edge_scale[site.edge as usize];
-        let off = if fwd { at } else { s.length_m - at };
-        let (ll, enu, chain, dir) = section_point(net, sec, off);
-        let oneway = s.oneway.is_oneway();
-        let lane = if oneway { 0.0 } else { 0.5 * lane_width_m(a) };
-        // Right of travel: digitised right when forward, left when backward.
-        let sign = if fwd { 1.0 } else { -1.0 };
-        let right = [dir[1] * sign, -dir[0] * sign];
-        let g = net
-            .frame
-            .to_geodetic([enu[0] + lane * right[0], enu[1] + lane * right[1], 0.0]);
-        let existing = built.site_existing[i].map(|ti| &settings.existing_tags[ti]);
-        let m = built.site_mounting[i];
-        let (sa, sc) = scn.rfid.fix_sigmas(m, built.edge_speed[site.edge as usize]);
-        if existing.is_none() {
-            n_new += 1;
-            total_cost += site.cost;
-        }
-        tags.push(NetworkTag {
-            tag_id: existing.map_or_else(|| format!("N{n_new:05}"), |t| t.id.clone()),
-            lat: existing.map_or(g.lat_deg(), |t| t.lat.to_degrees()),
-            lon: existing.map_or(g.lon_deg(), |t| t.lon.to_degrees()),
-            centre_lat: ll[0],
-            centre_lon: ll[1],
-            height_m: existing.and_then(|t| t.height_m).unwrap_or(height_m),
-            road_id: a.id.clone(),
-            road_name: a.name.clone(),
-            chainage_m: chain,
-            digitised_forward: fwd,
-            oneway,
-            mounting: m,
-            expected_fix_sigma_m: sa.max(sc),
-            tunnel: a.tunnel,
-            existing: existing.is_some(),
-            cost: site.cost,
-            lane_offset_m: lane,
-            edge: site.edge,
-            section: sec,
-            reason: reason(i),
-        });
-    }
-    (tags, total_cost)
 }

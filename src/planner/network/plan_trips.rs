@@ -6,8 +6,8 @@
 use super::coverage::edge_budgets;
 use super::instance::Built;
 use super::mm_reach::{matched_reach, profile_bound, straight_profile, MatchedReach, TURN_DEG};
-use super::plan::tags_of;
 use super::reach::{reach_class, ReachClass};
+use super::tag_sites::tags_of;
 use super::traffic::{Destinations, EdgeModel, WindowInfo};
 use super::trips::plan_trips;
 use super::types::NetworkPlan;

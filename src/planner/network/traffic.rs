@@ -587,10 +587,7 @@ pub(crate) fn straight_windows(
     for v in &mut next {
         v.sort_unstable();
     }
-    for e in 0..n {
-        if !used[e] {
-            continue;
-        }
+    for (e, _) in used.iter().enumerate().filter(|x| *x.1) {
         let mut starts: Vec<(f64, bool)> = vec![(0.0, true)];
         starts.extend(model.sites[e].iter().map(|s| (s.0, false)));
         starts.extend(

@@ -85,7 +85,7 @@ pub fn chains_needed(epsilon: f64, beta: f64) -> usize {
 /// crate for it).
 ///
 /// ```
-/// use waymark::planner::clopper_pearson_upper;
+/// use waymark::planner::network::clopper_pearson_upper;
 /// // No failure in 459 trials: (1 − p)^459 = 0.01 at p ≈ 0.01.
 /// let p = clopper_pearson_upper(0, 459, 0.01);
 /// assert!((p - (1.0 - 0.01f64.powf(1.0 / 459.0))).abs() < 1e-9);
