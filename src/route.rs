@@ -424,7 +424,12 @@ fn chainage_push(net: &Network, v: &mut Vec<RouteVertex>, enu: [f64; 2], chainag
 }
 
 /// Points of a section between two offsets, in travel order (from → to).
-fn section_points(net: &Network, section: SectionId, from: f64, to: f64) -> Vec<[f64; 2]> {
+pub(crate) fn section_points(
+    net: &Network,
+    section: SectionId,
+    from: f64,
+    to: f64,
+) -> Vec<[f64; 2]> {
     let segs = net.model.section_segments(section);
     let at = |off: f64| -> [f64; 2] {
         let i = segs

@@ -16,9 +16,13 @@
 //! `match` command reads and writes through them), the synthetic tracks' names
 //! are re-exported here.
 
+pub mod cpath;
 pub mod evaluate;
 mod hmm;
 mod incremental;
+pub mod inputs;
+pub mod options;
+pub mod path_out;
 mod paths;
 pub(crate) mod synthetic;
 pub mod track;

@@ -16,11 +16,12 @@ use std::path::Path;
 /// One row of TRACK.csv.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackRow {
-    /// 1-based line number in the file.
+    /// 1-based line number in the file (GPX, GeoJSON: the point's number
+    /// in the file).
     pub line: usize,
     /// Track identifier (empty when the file has no `track_id` column).
     pub track_id: String,
-    /// Time (s).
+    /// Time (s); NaN where the file gives none (GPX, GeoJSON).
     pub t_s: f64,
     /// Latitude (degrees).
     pub lat: f64,
@@ -168,7 +169,12 @@ fn number(path: &Path, line: usize, name: &str, v: &str) -> Result<f64> {
 /// Reads and checks TRACK.csv.
 pub fn read_track(path: &Path) -> Result<Vec<TrackRow>> {
     let text = read_text(path)?;
-    let Some(mut table) = CsvTable::open(path, &text)? else {
+    read_track_text(path, &text)
+}
+
+/// Checks TRACK.csv's text (the contents of `path`).
+pub(crate) fn read_track_text(path: &Path, text: &str) -> Result<Vec<TrackRow>> {
+    let Some(mut table) = CsvTable::open(path, text)? else {
         return Err(Error::table(
             path,
             1,
@@ -306,7 +312,11 @@ pub fn matched_csv(net: &Network, rows: &[TrackRow], matched: &[MatchedPoint]) -
     let mut s = String::with_capacity(rows.len() * 96);
     s.push_str("track_id,t_s,lat,lon,road_id,offset_m,distance_m,state,confidence\n");
     for (r, m) in rows.iter().zip(matched) {
-        let _ = write!(s, "{},{},", csv_field(&r.track_id), r.t_s);
+        let _ = write!(s, "{},", csv_field(&r.track_id));
+        if r.t_s.is_finite() {
+            let _ = write!(s, "{}", r.t_s);
+        }
+        s.push(',');
         match matched_lat_lon(net, m) {
             Some([lat, lon]) => {
                 let road = &net.roads[m.road.unwrap_or(0) as usize].attributes.id;
@@ -350,33 +360,49 @@ pub struct TrackOutcome {
     pub breaks: Vec<super::Break>,
     /// Runs of unmatched points, indices counted within the track.
     pub unmatched: Vec<super::UnmatchedSpan>,
+    /// The complete matched path, in driving order.
+    pub path: Vec<super::cpath::PathStep>,
+    /// The HMM's parameters used (search radius, σ, caps), with the
+    /// defaults taken from this track.
+    pub params: super::HmmParams,
 }
 
 /// Matches every track of a file; the result has one point per row, in row order.
 pub fn match_rows(
     net: &Network,
     rows: &[TrackRow],
-    method: Method,
+    opts: &super::options::MatchOptions,
 ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
-    use super::{HmmMatcher, HmmParams, IncrementalMatcher, IncrementalParams, Matcher};
+    use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
     let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
     let mut outcomes = Vec::new();
     for (track_id, idx) in group_tracks(rows) {
         let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
-        let (points, breaks) = match method {
+        let params = opts.hmm_params(net, &fixes);
+        let (points, breaks) = match opts.method {
             Method::Incremental => {
-                let mut m = IncrementalMatcher::new(net, IncrementalParams::default());
+                let mut m = IncrementalMatcher::new(
+                    net,
+                    IncrementalParams {
+                        // Its own tuned radius unless one is given.
+                        search_radius_m: opts
+                            .radius_m
+                            .unwrap_or(IncrementalParams::default().search_radius_m),
+                        ..IncrementalParams::default()
+                    },
+                );
                 let p = super::match_track(&mut m, &fixes);
                 (p, m.breaks().to_vec())
             }
             Method::Hmm => {
-                let mut m = HmmMatcher::new(net, HmmParams::default());
+                let mut m = HmmMatcher::new(net, params);
                 let p = super::match_track(&mut m, &fixes);
                 (p, m.breaks().to_vec())
             }
         };
         let matched = points.iter().filter(|p| p.state.is_matched()).count();
         let unmatched = super::unmatched_spans(&points);
+        let path = super::cpath::complete_path(net, &points, &breaks, &params);
         for p in points {
             all[idx[p.index as usize]] = Some(p);
         }
@@ -386,6 +412,8 @@ pub fn match_rows(
             matched,
             breaks,
             unmatched,
+            path,
+            params,
         });
     }
     let points = all

@@ -3,7 +3,7 @@
 
 use super::drift::{emission, Drift};
 use super::geometry::{clamp_to_range, dist, nearest_on_pieces, with_raw};
-use super::params::HmmParams;
+use super::params::{route_bound, HmmParams};
 use super::probability::{argmax, softmax_into};
 use super::state::Step;
 use crate::matching::paths::NetworkDistances;
@@ -91,6 +91,11 @@ impl<'a> HmmMatcher<'a> {
         }
     }
 
+    /// The longest route a transition may take ([`route_bound`]).
+    pub(super) fn route_bound(&self, gc_m: f64, dt_s: f64) -> f64 {
+        route_bound(&self.params, gc_m, dt_s)
+    }
+
     /// Back-traces the window from its newest step's best state: the chosen
     /// candidate of the first `n` steps.
     fn choices(&self, n: usize, out: &mut Vec<u32>) {
@@ -151,9 +156,10 @@ impl<'a> HmmMatcher<'a> {
                 let next = self.window.front().expect("the next step");
                 let b = next.cands[nc as usize].at;
                 let gc = dist(next.fix.enu, step.fix.enu);
-                let bound = gc + 2.0 * self.params.search_radius_m + 100.0;
+                let bound = self.route_bound(gc, next.fix.t_s - step.fix.t_s);
                 self.paths.path(c.at, b, bound, self.params.backtrack_m)
             });
+            let on_path = pieces.is_some();
             let pieces = pieces.unwrap_or_else(|| {
                 let len = net.sections[c.at.section as usize].length_m;
                 vec![(c.at.section, 0.0, len)]
@@ -167,6 +173,13 @@ impl<'a> HmmMatcher<'a> {
                 // Keep the point inside the piece's offset range.
                 let (sec, a, b) = pieces[cursor];
                 clamp_to_range(net, &mut m, sec, a.min(b), a.max(b), &fix);
+                // The direction of travel along the decided path (on the
+                // step's own section without a path: the step's).
+                m.forward = if on_path && a != b {
+                    Some(b > a)
+                } else {
+                    c.at.forward
+                };
                 out.push(with_raw(m, raw.enu));
                 self.last_matched = Some((*index, fix.t_s));
             }
@@ -202,7 +215,10 @@ impl Matcher for HmmMatcher<'_> {
     fn push(&mut self, raw_fix: &Fix, out: &mut Vec<MatchedPoint>) {
         let index = self.index;
         self.index += 1;
-        if !(raw_fix.enu[0].is_finite() && raw_fix.enu[1].is_finite() && raw_fix.t_s.is_finite()) {
+        // A missing time (NaN) is allowed: such fixes are chained by
+        // distance alone; an infinite time is not a time.
+        if !(raw_fix.enu[0].is_finite() && raw_fix.enu[1].is_finite() && !raw_fix.t_s.is_infinite())
+        {
             // Nothing to match, and nothing to let into the drift estimates;
             // what is held is decided first, so points stay in input order.
             self.flush(out);
@@ -215,6 +231,7 @@ impl Matcher for HmmMatcher<'_> {
         };
         if let Some(last) = self.last_fix {
             let d = dist(fix.enu, last.enu);
+            // A missing time (NaN) is no gap: the distance decides.
             if (d > self.params.gap_m || fix.t_s - last.t_s > self.params.gap_s)
                 && self.pending_break.is_none()
             {

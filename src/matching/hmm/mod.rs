@@ -78,4 +78,4 @@ mod state;
 mod transitions;
 
 pub use matcher::HmmMatcher;
-pub use params::HmmParams;
+pub use params::{route_bound, HmmParams};

@@ -17,9 +17,9 @@ impl HmmMatcher<'_> {
     pub(super) fn transition(&mut self, step: &mut Step) -> bool {
         let prev = self.window.back().expect("a previous step");
         let gc = dist(step.fix.enu, prev.fix.enu);
-        let bound = gc + 2.0 * self.params.search_radius_m + 100.0;
+        let bound = self.route_bound(gc, step.fix.t_s - prev.fix.t_s);
         let backtrack = self.params.backtrack_m;
-        let inv_beta = 1.0 / self.params.beta_m;
+        let inv_beta = 1.0 / (self.params.beta_m + self.params.beta_per_m * gc);
         let r2 = self.params.sigma_m * self.params.sigma_m;
         for c in &prev.cands {
             for (n, _) in self.paths.exits(c.at).into_iter().flatten() {
