@@ -14,10 +14,18 @@
 //! over the drift's default, at least 5 m (a worse track widens the
 //! emission).
 
-use super::track::Method;
 use super::{Fix, HmmParams};
 use crate::error::{Error, Result};
 use crate::network::Network;
+
+/// Which matcher to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// [`super::IncrementalMatcher`].
+    Incremental,
+    /// [`super::HmmMatcher`].
+    Hmm,
+}
 
 /// Options of a matching run (SI units except where named).
 #[derive(Debug, Clone, Copy, PartialEq)]

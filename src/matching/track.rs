@@ -338,14 +338,7 @@ pub fn matched_csv(net: &Network, rows: &[TrackRow], matched: &[MatchedPoint]) -
     s
 }
 
-/// Which matcher to run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// [`super::IncrementalMatcher`].
-    Incremental,
-    /// [`super::HmmMatcher`].
-    Hmm,
-}
+pub use super::options::Method;
 
 /// What happened to one track of a file.
 #[derive(Debug, Clone)]
