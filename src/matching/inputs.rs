@@ -115,7 +115,21 @@ fn rows_of(path: &Path, tracks: Vec<RawTrack>) -> Result<Vec<TrackRow>> {
 
 /// Reads a GPX file's track points.
 pub fn read_gpx(path: &Path, text: &str) -> Result<Vec<TrackRow>> {
-    let gpx = gpx::read(text.as_bytes())
+    // Empty text elements (`<name/>`, `<desc></desc>`: real exports have
+    // them, e.g. gpx.py's) carry nothing, but the `gpx` crate rejects them.
+    let mut cleaned = std::borrow::Cow::Borrowed(text);
+    for tag in ["name", "desc", "type", "cmt", "src", "sym", "keywords"] {
+        for empty in [
+            format!("<{tag}/>"),
+            format!("<{tag} />"),
+            format!("<{tag}></{tag}>"),
+        ] {
+            if cleaned.contains(&empty) {
+                cleaned = cleaned.replace(&empty, "").into();
+            }
+        }
+    }
+    let gpx = gpx::read(cleaned.as_bytes())
         .map_err(|e| Error::format(path, format!("not a readable GPX file ({e})")))?;
     let mut tracks = Vec::new();
     for (i, trk) in gpx.tracks.iter().enumerate() {
@@ -282,7 +296,7 @@ mod tests {
             None => format!("<trkpt lat=\"{lat}\" lon=\"24.9\"></trkpt>"),
         };
         let text = gpx(&format!(
-            "<trk><trkseg>{}{}</trkseg><trkseg>{}{}</trkseg></trk><trk><trkseg>{}</trkseg></trk>",
+            "<trk><name/><desc></desc><trkseg>{}{}</trkseg><trkseg>{}{}</trkseg></trk><trk><trkseg>{}</trkseg></trk>",
             pt(60.1, Some("2020-01-01T00:00:00Z")),
             pt(60.2, Some("2020-01-01T00:00:00Z")),
             pt(60.3, None),

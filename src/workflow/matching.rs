@@ -236,7 +236,7 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
         radius_m: outcomes.iter().map(|o| o.params.search_radius_m).collect(),
         sigma_m: outcomes.iter().map(|o| o.params.sigma_m).collect(),
         path_pieces,
-        path_length_m: lengths.values().sum(),
+        path_length_m: lengths.values().sum::<f64>() + 0.0, // not -0 when empty
         path_files,
         points: rows.len(),
         tracks: outcomes.len(),
