@@ -72,12 +72,13 @@ fn fmm_example_complete_paths_equal_fmms_committed_result() {
         assert_eq!(roads_of(&rows, track).join(","), cpath, "trip {track}");
     }
     assert_eq!(json["path_pieces"], 3);
-    // By length: FMM's path includes partial first and last edges measured
-    // from its own projections; ours differ by the projection of the first
-    // and last points (a few metres of 2.9 km).
+    // By length: both paths start and end where the first and last points
+    // project onto their edges; the truth's lengths are measured on FMM's
+    // matched geometry (haversine, 0.3 % shorter than the map's frame
+    // here), so precision and recall by length are 1 to rounding.
     let s = &json["score"];
     assert!(s["precision_length"].as_f64().unwrap() >= 0.999, "{s}");
-    assert!(s["recall_length"].as_f64().unwrap() >= 0.99, "{s}");
+    assert!(s["recall_length"].as_f64().unwrap() >= 0.999, "{s}");
 }
 
 #[test]

@@ -10,6 +10,11 @@
 //! into continuous pieces where the matcher broke the track, at unmatched
 //! points, and where no permitted path joins two points.
 //!
+//! A piece starts and ends where its first and last fixes project onto
+//! their matched sections (the fixes as given: a drift estimated along the
+//! road is least observed at a track's ends, and a peer's path, FMM's,
+//! ends at the same projections); the points in between are the matcher's.
+//!
 //! Pieces of consecutive sections of one road that continue each other are
 //! merged, so a row is a stretch of road driven without leaving it.
 
@@ -51,20 +56,39 @@ pub fn complete_path(
 ) -> Vec<PathStep> {
     let mut paths = NetworkDistances::new(net);
     paths.uturn_penalty_m = params.uturn_penalty_m;
+    complete_path_with(&mut paths, net, points, breaks, params)
+}
+
+/// [`complete_path`] with the network searches of `paths` (e.g. the
+/// matcher's own, whose cache already holds most of them).
+pub fn complete_path_with(
+    paths: &mut NetworkDistances,
+    net: &Network,
+    points: &[MatchedPoint],
+    breaks: &[Break],
+    params: &HmmParams,
+) -> Vec<PathStep> {
     let mut raw: Vec<(u32, SectionId, f64, f64)> = Vec::new();
     let mut piece = 0u32;
     // The last point on the path: its position and time.
     let mut cur: Option<(OnSection, [f64; 2], f64)> = None;
     let mut breaks_at: Vec<u64> = breaks.iter().map(|b| b.after.0).collect();
     breaks_at.sort_unstable();
-    for p in points {
-        let Some(at) = on_section(net, p) else {
+    for (i, p) in points.iter().enumerate() {
+        let Some(mut at) = on_section(net, p) else {
             if cur.take().is_some() {
                 piece += 1;
             }
             continue;
         };
         let broke = breaks_at.binary_search(&p.index).is_ok();
+        let first = cur.is_none() || broke;
+        let last = points
+            .get(i + 1)
+            .is_none_or(|q| q.segment.is_none() || breaks_at.binary_search(&q.index).is_ok());
+        if first || last {
+            at.offset_m = raw_offset(net, p, at.section);
+        }
         let Some((a, a_pt, a_t)) = cur else {
             cur = Some((at, p.point, p.t_s));
             continue;
@@ -74,7 +98,7 @@ pub fn complete_path(
             cur = Some((at, p.point, p.t_s));
             continue;
         }
-        match join(&mut paths, net, a, at, a_pt, p.point, p.t_s - a_t, params) {
+        match join(paths, net, a, at, a_pt, p.point, p.t_s - a_t, params) {
             Join::Stay => {}
             Join::Pieces(pieces) => {
                 for (s, f, t) in pieces {
@@ -166,6 +190,19 @@ fn on_section(net: &Network, p: &MatchedPoint) -> Option<OnSection> {
         offset_m: seg.section_offset_m + (p.road_offset_m - seg.road_offset_m),
         forward: p.forward,
     })
+}
+
+/// Section offset of the fix as given (`p.fix`) projected onto `sec`.
+fn raw_offset(net: &Network, p: &MatchedPoint, sec: SectionId) -> f64 {
+    let mut best = (f64::INFINITY, 0.0);
+    for seg in net.sections[sec as usize].segment_ids() {
+        let (t, _, d) = super::project(net, seg, p.fix);
+        if d < best.0 {
+            let s = &net.segments[seg as usize];
+            best = (d, s.section_offset_m + t * s.length_m);
+        }
+    }
+    best.1
 }
 
 /// Offset of a section's start along its road (m).

@@ -143,7 +143,7 @@ impl<'a> NetworkDistances<'a> {
             cost: 0.0,
             node: from,
         });
-        let mut reached = FxHashMap::default();
+        let mut reached = FxHashMap::with_capacity_and_hasher(256, Default::default());
         while let Some(Item { cost, node }) = self.heap.pop() {
             if cost > self.dist[node as usize] {
                 continue;

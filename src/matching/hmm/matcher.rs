@@ -64,6 +64,14 @@ impl<'a> HmmMatcher<'a> {
         }
     }
 
+    /// The matcher's cached network searches (its cache of shortest paths,
+    /// for the complete path), leaving an empty cache in their place.
+    pub fn take_distances(&mut self) -> NetworkDistances<'a> {
+        let mut fresh = NetworkDistances::new(self.net);
+        fresh.uturn_penalty_m = self.params.uturn_penalty_m;
+        std::mem::replace(&mut self.paths, fresh)
+    }
+
     /// Steps currently held in the lag window.
     pub fn window_len(&self) -> usize {
         self.window.len()
