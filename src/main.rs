@@ -105,7 +105,7 @@ enum Command {
         /// σ of the position noise (m) [default: from the track, at least 5 m].
         #[arg(long, value_name = "M", value_parser = match_range(0.1, 500.0))]
         sigma_m: Option<f64>,
-        /// Highest plausible speed: transitions slower than this are routed.
+        /// Highest plausible speed: a transition may route at most this speed × the time between points.
         #[arg(long, value_name = "KMH", default_value_t = MatchOptions::default().max_speed_kmh, value_parser = match_range(1.0, 1000.0))]
         max_speed_kmh: f64,
         /// Time between points that breaks the track (s).

@@ -372,8 +372,7 @@ pub fn match_rows(
     for (track_id, idx) in group_tracks(rows) {
         let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
         let params = opts.hmm_params(net, &fixes);
-        let mut distances = None;
-        let (points, breaks) = match opts.method {
+        let (points, breaks, path) = match opts.method {
             Method::Incremental => {
                 let mut m = IncrementalMatcher::new(
                     net,
@@ -386,21 +385,21 @@ pub fn match_rows(
                     },
                 );
                 let p = super::match_track(&mut m, &fixes);
-                (p, m.breaks().to_vec())
+                let b = m.breaks().to_vec();
+                let path = super::cpath::complete_path(net, &p, &b, &params);
+                (p, b, path)
             }
             Method::Hmm => {
                 let mut m = HmmMatcher::new(net, params);
                 let p = super::match_track(&mut m, &fixes);
-                distances = Some(m.take_distances());
-                (p, m.breaks().to_vec())
+                let b = m.breaks().to_vec();
+                let path =
+                    super::cpath::complete_path_with(m.distances_mut(), net, &p, &b, &params);
+                (p, b, path)
             }
         };
         let matched = points.iter().filter(|p| p.state.is_matched()).count();
         let unmatched = super::unmatched_spans(&points);
-        let path = match distances.as_mut() {
-            Some(d) => super::cpath::complete_path_with(d, net, &points, &breaks, &params),
-            None => super::cpath::complete_path(net, &points, &breaks, &params),
-        };
         for p in points {
             all[idx[p.index as usize]] = Some(p);
         }

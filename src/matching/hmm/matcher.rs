@@ -64,12 +64,10 @@ impl<'a> HmmMatcher<'a> {
         }
     }
 
-    /// The matcher's cached network searches (its cache of shortest paths,
-    /// for the complete path), leaving an empty cache in their place.
-    pub fn take_distances(&mut self) -> NetworkDistances<'a> {
-        let mut fresh = NetworkDistances::new(self.net);
-        fresh.uturn_penalty_m = self.params.uturn_penalty_m;
-        std::mem::replace(&mut self.paths, fresh)
+    /// The matcher's cached network searches (for the complete path, whose
+    /// joins are mostly the transitions the matcher already searched).
+    pub fn distances_mut(&mut self) -> &mut NetworkDistances<'a> {
+        &mut self.paths
     }
 
     /// Steps currently held in the lag window.
@@ -122,9 +120,20 @@ impl<'a> HmmMatcher<'a> {
     }
 
     /// Decides and emits the oldest step (given its choice and the next step's).
-    fn emit_front(&mut self, choice: u32, next_choice: Option<u32>, out: &mut Vec<MatchedPoint>) {
+    /// `posterior`: the front step's smoothed posterior when already known
+    /// (a flush computes every step's in one backward pass).
+    fn emit_front(
+        &mut self,
+        choice: u32,
+        next_choice: Option<u32>,
+        posterior: Option<Vec<f64>>,
+        out: &mut Vec<MatchedPoint>,
+    ) {
         let mut post = std::mem::take(&mut self.post_buf);
-        self.front_posterior(&mut post);
+        match posterior {
+            Some(p) => post = p,
+            None => self.front_posterior(&mut post),
+        }
         let step = self.window.pop_front().expect("a step");
         let net = self.net;
         let c = step.cands[choice as usize];
@@ -202,9 +211,10 @@ impl<'a> HmmMatcher<'a> {
         }
         let mut ch = Vec::new();
         self.choices(self.window.len(), &mut ch);
-        for i in 0..ch.len() {
+        let posts = self.window_posteriors();
+        for (i, post) in posts.into_iter().enumerate() {
             let next = ch.get(i + 1).copied();
-            self.emit_front(ch[i], next, out);
+            self.emit_front(ch[i], next, Some(post), out);
         }
     }
 
@@ -337,7 +347,7 @@ impl Matcher for HmmMatcher<'_> {
         if self.window.len() > self.params.lag {
             let mut ch = Vec::with_capacity(2);
             self.choices(2, &mut ch);
-            self.emit_front(ch[0], ch.get(1).copied(), out);
+            self.emit_front(ch[0], ch.get(1).copied(), None, out);
         }
     }
 

@@ -120,6 +120,49 @@ impl HmmMatcher<'_> {
         any
     }
 
+    /// The smoothed posterior of every step in the window given every fix
+    /// in it: one backward pass (what [`Self::front_posterior`] gives for
+    /// each step in turn as the window is emitted from its front, at the
+    /// cost of one pass instead of one per step).
+    pub(super) fn window_posteriors(&self) -> Vec<Vec<f64>> {
+        let len = self.window.len();
+        let mut betas: Vec<Vec<f64>> = vec![Vec::new(); len];
+        betas[len - 1] = vec![1.0; self.window[len - 1].cands.len()];
+        for t in (1..len).rev() {
+            let (st, np) = (&self.window[t], self.window[t - 1].cands.len());
+            let nc = st.cands.len();
+            let beta = &betas[t];
+            let mut next: Vec<f64> = if st.pair.len() != np * nc {
+                vec![1.0; np]
+            } else {
+                (0..np)
+                    .map(|i| {
+                        st.pair[i * nc..(i + 1) * nc]
+                            .iter()
+                            .zip(beta)
+                            .map(|(w, b)| w * b)
+                            .sum::<f64>()
+                    })
+                    .collect()
+            };
+            if !normalise(&mut next) {
+                next.iter_mut().for_each(|x| *x = 1.0);
+            }
+            betas[t - 1] = next;
+        }
+        betas
+            .into_iter()
+            .zip(&self.window)
+            .map(|(beta, step)| {
+                let mut out: Vec<f64> = step.alpha.iter().zip(&beta).map(|(a, b)| a * b).collect();
+                if !normalise(&mut out) {
+                    softmax_into(&step.score, &mut out);
+                }
+                out
+            })
+            .collect()
+    }
+
     /// The smoothed posterior of the window's oldest step given every fix in
     /// the window (forward–backward over the lag window) into `out`.
     pub(super) fn front_posterior(&self, out: &mut Vec<f64>) {
