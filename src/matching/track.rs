@@ -369,6 +369,9 @@ pub fn match_rows(
     use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
     let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
     let mut outcomes = Vec::new();
+    // One cache of network searches for the whole file: fleet files hold
+    // many tracks on the same roads.
+    let mut distances = Some(super::NetworkDistances::new(net));
     for (track_id, idx) in group_tracks(rows) {
         let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
         let params = opts.hmm_params(net, &fixes);
@@ -390,11 +393,13 @@ pub fn match_rows(
                 (p, b, path)
             }
             Method::Hmm => {
-                let mut m = HmmMatcher::new(net, params);
+                let cache = distances.take().expect("the cache");
+                let mut m = HmmMatcher::with_distances(net, params, cache);
                 let p = super::match_track(&mut m, &fixes);
                 let b = m.breaks().to_vec();
                 let path =
                     super::cpath::complete_path_with(m.distances_mut(), net, &p, &b, &params);
+                distances = Some(m.into_distances());
                 (p, b, path)
             }
         };

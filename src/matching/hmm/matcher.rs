@@ -39,14 +39,21 @@ pub struct HmmMatcher<'a> {
 impl<'a> HmmMatcher<'a> {
     /// A matcher on `net`.
     pub fn new(net: &'a Network, params: HmmParams) -> Self {
+        Self::with_distances(net, params, NetworkDistances::new(net))
+    }
+
+    /// A matcher on `net` starting from the network searches of `paths`
+    /// (e.g. those of the previous track of a file: [`Self::into_distances`]).
+    pub fn with_distances(
+        net: &'a Network,
+        params: HmmParams,
+        mut paths: NetworkDistances<'a>,
+    ) -> Self {
+        paths.uturn_penalty_m = params.uturn_penalty_m;
         Self {
             net,
             params,
-            paths: {
-                let mut p = NetworkDistances::new(net);
-                p.uturn_penalty_m = params.uturn_penalty_m;
-                p
-            },
+            paths,
             window: VecDeque::with_capacity(params.lag + 1),
             index: 0,
             last_fix: None,
@@ -68,6 +75,11 @@ impl<'a> HmmMatcher<'a> {
     /// joins are mostly the transitions the matcher already searched).
     pub fn distances_mut(&mut self) -> &mut NetworkDistances<'a> {
         &mut self.paths
+    }
+
+    /// The matcher's network searches, to start the next track's matcher.
+    pub fn into_distances(self) -> NetworkDistances<'a> {
+        self.paths
     }
 
     /// Steps currently held in the lag window.
