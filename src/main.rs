@@ -65,19 +65,24 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Matches positions (TRACK.csv) to the road network; writes MATCHED.csv.
+    /// Matches positions (TRACK.csv, GPX or GeoJSON) to the road network; writes MATCHED.csv
+    /// and, with --path, the complete path driven.
     #[command(
-        after_help = "TRACK.csv: header t_s,lat,lon and optionally heading_deg,speed_mps,track_id.\n\
+        after_help = "TRACK: CSV with header t_s,lat,lon and optionally heading_deg,speed_mps,track_id; \
+        or GPX (each track segment a track); or GeoJSON (LineString / MultiPoint features) \
+        - recognised by content.\n\
         TRUTH.csv (for --truth): header road_id and optionally length_m.\n\
+        PATH.csv (--path): track_id,seq,road_id,from_offset_m,to_offset_m,length_m in driving order.\n\
         Examples:\n  waymark match --map maps/helsinki.osm.pbf --track track.csv --out matched.csv\n  \
+        waymark match --map maps/helsinki.osm.pbf --track drive.gpx --path path.csv --path-geojson path.geojson\n  \
         waymark match --map maps/helsinki.osm.pbf --track track.csv --method incremental --truth truth.csv"
     )]
     Match {
         /// The map: .osm.pbf, .osm (XML), .geojson or .shp.
         #[arg(long)]
         map: PathBuf,
-        /// The positions to match (CSV).
-        #[arg(long, value_name = "TRACK.csv")]
+        /// The positions to match: CSV, GPX or GeoJSON.
+        #[arg(long, value_name = "TRACK")]
         track: PathBuf,
         /// Output file.
         #[arg(long, value_name = "MATCHED.csv", default_value = "matched.csv")]
@@ -85,9 +90,30 @@ enum Command {
         /// Matcher.
         #[arg(long, value_enum, default_value = "hmm")]
         method: MatchMethod,
-        /// Scores the match against the roads actually driven (CSV with road_id[,length_m]).
+        /// Scores the complete path against the roads actually driven (CSV with road_id[,length_m]).
         #[arg(long, value_name = "TRUTH.csv")]
         truth: Option<PathBuf>,
+        /// Writes the complete path (roads driven, in order, between and through the points).
+        #[arg(long, value_name = "PATH.csv")]
+        path: Option<PathBuf>,
+        /// Writes the complete path as GeoJSON (a LineString per continuous piece).
+        #[arg(long, value_name = "PATH.geojson")]
+        path_geojson: Option<PathBuf>,
+        /// Candidate search radius (m) [default: from the track, 100-300 m].
+        #[arg(long, value_name = "M", value_parser = match_range(1.0, 1000.0))]
+        radius_m: Option<f64>,
+        /// σ of the position noise (m) [default: from the track, at least 5 m].
+        #[arg(long, value_name = "M", value_parser = match_range(0.1, 500.0))]
+        sigma_m: Option<f64>,
+        /// Highest plausible speed: a transition may route at most this speed × the time between points.
+        #[arg(long, value_name = "KMH", default_value_t = MatchOptions::default().max_speed_kmh, value_parser = match_range(1.0, 1000.0))]
+        max_speed_kmh: f64,
+        /// Time between points that breaks the track (s).
+        #[arg(long, value_name = "S", default_value_t = MatchOptions::default().max_gap_s, value_parser = match_range(0.1, 86_400.0))]
+        max_gap_s: f64,
+        /// Distance between points that breaks the track (m).
+        #[arg(long, value_name = "M", default_value_t = MatchOptions::default().max_gap_m, value_parser = match_range(1.0, 100_000.0))]
+        max_gap_m: f64,
         /// Print one JSON object (counts, breaks, timings, scores) on stdout.
         #[arg(long)]
         json: bool,
@@ -322,17 +348,33 @@ fn run(cli: Cli) -> Result<()> {
             out: file,
             method,
             truth,
+            path,
+            path_geojson,
+            radius_m,
+            sigma_m,
+            max_speed_kmh,
+            max_gap_s,
+            max_gap_m,
             json,
         } => {
             let job = MatchJob {
                 map: &map,
                 track: &track,
                 out_file: &file,
-                method: match method {
-                    MatchMethod::Incremental => workflow::MatchMethod::Incremental,
-                    MatchMethod::Hmm => workflow::MatchMethod::Hmm,
+                options: MatchOptions {
+                    method: match method {
+                        MatchMethod::Incremental => workflow::MatchMethod::Incremental,
+                        MatchMethod::Hmm => workflow::MatchMethod::Hmm,
+                    },
+                    radius_m,
+                    sigma_m,
+                    max_speed_kmh,
+                    max_gap_s,
+                    max_gap_m,
                 },
                 truth: truth.as_deref(),
+                path: path.as_deref(),
+                path_geojson: path_geojson.as_deref(),
             };
             (json, match_track(&job, out(json))?)
         }
@@ -676,21 +718,44 @@ fn print_report(files: &waymark::report::ReportFiles, dir: &Path, out: Out) {
     );
 }
 
+/// A `match` option's number, from `lo` to `hi` (else clap's exit 2).
+fn match_range(lo: f64, hi: f64) -> impl Fn(&str) -> std::result::Result<f64, String> + Clone {
+    move |s: &str| {
+        let x: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}' is not a number"))?;
+        if x.is_finite() && (lo..=hi).contains(&x) {
+            Ok(x)
+        } else {
+            Err(format!("{x} is outside {lo} to {hi}"))
+        }
+    }
+}
+
+use waymark::matching::options::MatchOptions;
+
 fn match_track(job: &MatchJob, out: Out) -> Result<serde_json::Value> {
     let o = workflow::match_file(job)?;
     note!(
         out,
-        "waymark match: {} points in {} track(s) with {}: {} matched ({:.1} %), {} break(s); \
-        load {:.0} ms, match {:.1} ms; wrote {}",
+        "waymark match: {} points in {} track(s) ({}) with {}: {} matched ({:.1} %), {} break(s), \
+        path {:.0} m in {} piece(s); load {:.0} ms, match {:.1} ms; wrote {}",
         o.points,
         o.tracks,
+        o.format,
         o.method,
         o.matched,
         100.0 * o.matched_share,
         o.breaks.len(),
+        o.path_length_m,
+        o.path_pieces,
         o.timings_ms.load,
         o.timings_ms.r#match,
-        o.out
+        std::iter::once(o.out.as_str())
+            .chain(o.path_files.iter().map(String::as_str))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
     let label = |id: &str| {
         if id.is_empty() {

@@ -491,7 +491,6 @@ fn chainage_push(net: &Network, v: &mut Vec<RouteVertex>, enu: [f64; 2], chainag
     });
 }
 
-/// Points of a section between two offsets, in travel order (from → to).
 /// The ENU polyline of a section between offsets `from` and `to`, in the
 /// order driven (`from > to`: against the digitised direction).
 pub fn section_points(net: &Network, section: SectionId, from: f64, to: f64) -> Vec<[f64; 2]> {

@@ -235,7 +235,7 @@ fn bad_input_gives_one_clear_line() {
     // Entirely off the map (Stockholm): an error, no output file.
     write("off.csv", "t_s,lat,lon\n0,59.33,18.06\n1,59.33,18.0601\n");
     let out = run(&match_args("off.csv", &["--out", "off-out.csv"]), d);
-    assert_clean_error(&out, "off.csv", "no point lies within 50 m of a road");
+    assert_clean_error(&out, "off.csv", "no point lies within 100 m of a road");
     assert!(!d.join("off-out.csv").exists());
     // Truth naming a road not in the map.
     write(

@@ -12,6 +12,14 @@
 //!    segment of the same section, or, at a section end, the sections meeting
 //!    at the node from the connectivity topology), plus the segment itself.
 //!
+//! An addition to the paper: while tracking, a fix farther than
+//! `recheck_m` from the tracked segment's line counts against it; after
+//! `recheck_after` such fixes in a row, the segments within ε of the fix are
+//! scored (one bounded grid query) and the match moves to another one that
+//! lies at most half as far from the fix and scores better (a parallel
+//! road under the fixes). Constant work per fix: one query per
+//! `recheck_after` fixes at most.
+//!
 //! The matched segment maximises f = w_d / (1 + d) + w_θ cos Δθ; the matched
 //! point is the orthogonal projection. When the best update candidate is
 //! farther than ε, or the fix drifted sideways beyond ε, the matcher falls
@@ -36,6 +44,12 @@ pub struct IncrementalParams {
     /// A heading this far (degrees) from the segment's direction of travel
     /// ends tracking even inside the segment (the vehicle has turned off).
     pub max_turn_deg: f64,
+    /// Distance from the tracked segment's line beyond which a fix counts
+    /// against it (m).
+    pub recheck_m: f64,
+    /// Fixes in a row beyond `recheck_m` before the nearby segments are
+    /// scored again.
+    pub recheck_after: u32,
 }
 
 impl Default for IncrementalParams {
@@ -46,6 +60,10 @@ impl Default for IncrementalParams {
             w_d: 0.5,
             heading_baseline_m: 8.0,
             max_turn_deg: 45.0,
+            // Beyond the lane and centreline offsets of a fix on its road
+            // (a few metres), short of the 15-35 m between parallel roads.
+            recheck_m: 8.0,
+            recheck_after: 3,
         }
     }
 }
@@ -64,6 +82,8 @@ pub struct IncrementalMatcher<'a> {
     breaks: Vec<Break>,
     last_matched: Option<(u64, f64)>,
     was_unmatched: bool,
+    /// Tracking fixes in a row beyond `recheck_m` from the tracked line.
+    off_line: u32,
 }
 
 impl<'a> IncrementalMatcher<'a> {
@@ -80,6 +100,7 @@ impl<'a> IncrementalMatcher<'a> {
             breaks: Vec::new(),
             last_matched: None,
             was_unmatched: false,
+            off_line: 0,
         }
     }
 
@@ -193,6 +214,25 @@ impl Matcher for IncrementalMatcher<'_> {
             if inside && d < eps && !turned {
                 let f = self.score(seg, p, heading).0;
                 chosen = Some((seg, f, MatchState::Tracking));
+                self.off_line = if d > self.params.recheck_m {
+                    self.off_line + 1
+                } else {
+                    0
+                };
+                if self.off_line >= self.params.recheck_after {
+                    // A parallel road under the fixes? Score the segments
+                    // within ε; move only to one clearly nearer and better.
+                    self.off_line = 0;
+                    self.candidates.clear();
+                    self.net
+                        .grid
+                        .within_radius_into(p, eps, &mut self.candidates);
+                    if let Some((c, fc)) = self.best(p, heading, d / 2.0) {
+                        if c != seg && fc > f {
+                            chosen = Some((c, fc, MatchState::Initial));
+                        }
+                    }
+                }
             } else if !inside || turned {
                 self.connected(seg, eta >= 0.5);
                 if let Some((c, f)) = self.best(p, heading, eps) {
@@ -207,6 +247,9 @@ impl Matcher for IncrementalMatcher<'_> {
         }
         match chosen {
             Some((seg, f, state)) => {
+                if state != MatchState::Tracking {
+                    self.off_line = 0;
+                }
                 self.current = Some(seg);
                 if self.was_unmatched {
                     self.breaks.push(Break {

@@ -10,15 +10,20 @@
 //!   sections, transitions by network distance) with a bounded lag window,
 //!   splitting at gaps and off-road stretches.
 //!
-//! Input/output files ([`track`]), scoring against ground truth
+//! Input/output files ([`track`]: TRACK.csv and MATCHED.csv; [`inputs`]:
+//! GPX and GeoJSON tracks, recognised by content), the `match` command's
+//! options with defaults from the track ([`options`]), the complete matched
+//! path ([`cpath`], written by [`path_out`]), scoring against ground truth
 //! ([`evaluate`]) and seeded synthetic tracks along routes (`synthetic`)
-//! complete the module; the first two stay public modules (the binary's
-//! `match` command reads and writes through them), the synthetic tracks' names
-//! are re-exported here.
+//! complete the module; the synthetic tracks' names are re-exported here.
 
+pub mod cpath;
 pub mod evaluate;
 mod hmm;
 mod incremental;
+pub mod inputs;
+pub mod options;
+pub mod path_out;
 mod paths;
 pub(crate) mod synthetic;
 pub mod track;

@@ -4,7 +4,9 @@
 //! A search from a node stops at a distance bound; a later query needing a
 //! larger bound repeats the search with it (bounds grow in powers of two from
 //! [`MIN_BOUND_M`]). The cache is emptied when it holds [`CACHE_NODES`]
-//! searches, so memory stays bounded on long tracks.
+//! searches or [`CACHE_ENTRIES`] reached nodes in all (long searches of
+//! sparse tracks reach many nodes each), so memory stays bounded on long
+//! tracks.
 
 use crate::network::{DirectedSection, Network, NodeId, SectionId};
 use rustc_hash::FxHashMap;
@@ -15,6 +17,9 @@ use std::collections::BinaryHeap;
 pub const MIN_BOUND_M: f64 = 256.0;
 /// Searches kept before the cache is emptied.
 pub const CACHE_NODES: usize = 4096;
+/// Reached nodes kept in all before the cache is emptied (about 24 bytes
+/// each: some 50 MB).
+pub const CACHE_ENTRIES: usize = 2_000_000;
 
 const NO_PRED: u32 = u32::MAX;
 
@@ -71,6 +76,7 @@ pub struct NetworkDistances<'a> {
     first: Vec<u32>,
     touched: Vec<NodeId>,
     heap: BinaryHeap<Item>,
+    entries: usize,
     /// Searches run (cache misses), for diagnostics.
     pub searches: u64,
     /// Added to the distance of a path between two directed points that
@@ -100,6 +106,7 @@ impl<'a> NetworkDistances<'a> {
             first: vec![NO_PRED; net.nodes.len()],
             touched: Vec::new(),
             heap: BinaryHeap::new(),
+            entries: 0,
             searches: 0,
             uturn_penalty_m: 0.0,
         }
@@ -116,11 +123,15 @@ impl<'a> NetworkDistances<'a> {
         while bound < bound_m {
             bound *= 2.0;
         }
-        if self.cache.len() >= CACHE_NODES {
+        if self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES {
             self.cache.clear();
+            self.entries = 0;
         }
         let tree = self.search(from, bound);
-        self.cache.insert(from, tree);
+        self.entries += tree.reached.len();
+        if let Some(old) = self.cache.insert(from, tree) {
+            self.entries -= old.reached.len();
+        }
     }
 
     fn search(&mut self, from: NodeId, bound: f64) -> Tree {
@@ -132,7 +143,7 @@ impl<'a> NetworkDistances<'a> {
             cost: 0.0,
             node: from,
         });
-        let mut reached = FxHashMap::default();
+        let mut reached = FxHashMap::with_capacity_and_hasher(256, Default::default());
         while let Some(Item { cost, node }) = self.heap.pop() {
             if cost > self.dist[node as usize] {
                 continue;

@@ -16,11 +16,12 @@ use std::path::Path;
 /// One row of TRACK.csv.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackRow {
-    /// 1-based line number in the file.
+    /// 1-based line number in the file (GPX, GeoJSON: the point's number
+    /// in the file).
     pub line: usize,
     /// Track identifier (empty when the file has no `track_id` column).
     pub track_id: String,
-    /// Time (s).
+    /// Time (s); NaN where the file gives none (GPX, GeoJSON).
     pub t_s: f64,
     /// Latitude (degrees).
     pub lat: f64,
@@ -168,7 +169,12 @@ fn number(path: &Path, line: usize, name: &str, v: &str) -> Result<f64> {
 /// Reads and checks TRACK.csv.
 pub fn read_track(path: &Path) -> Result<Vec<TrackRow>> {
     let text = read_text(path)?;
-    let Some(mut table) = CsvTable::open(path, &text)? else {
+    read_track_text(path, &text)
+}
+
+/// Checks TRACK.csv's text (the contents of `path`).
+pub(crate) fn read_track_text(path: &Path, text: &str) -> Result<Vec<TrackRow>> {
+    let Some(mut table) = CsvTable::open(path, text)? else {
         return Err(Error::table(
             path,
             1,
@@ -306,7 +312,11 @@ pub fn matched_csv(net: &Network, rows: &[TrackRow], matched: &[MatchedPoint]) -
     let mut s = String::with_capacity(rows.len() * 96);
     s.push_str("track_id,t_s,lat,lon,road_id,offset_m,distance_m,state,confidence\n");
     for (r, m) in rows.iter().zip(matched) {
-        let _ = write!(s, "{},{},", csv_field(&r.track_id), r.t_s);
+        let _ = write!(s, "{},", csv_field(&r.track_id));
+        if r.t_s.is_finite() {
+            let _ = write!(s, "{}", r.t_s);
+        }
+        s.push(',');
         match matched_lat_lon(net, m) {
             Some([lat, lon]) => {
                 let road = &net.roads[m.road.unwrap_or(0) as usize].attributes.id;
@@ -328,14 +338,7 @@ pub fn matched_csv(net: &Network, rows: &[TrackRow], matched: &[MatchedPoint]) -
     s
 }
 
-/// Which matcher to run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// [`super::IncrementalMatcher`].
-    Incremental,
-    /// [`super::HmmMatcher`].
-    Hmm,
-}
+pub use super::options::Method;
 
 /// What happened to one track of a file.
 #[derive(Debug, Clone)]
@@ -350,29 +353,54 @@ pub struct TrackOutcome {
     pub breaks: Vec<super::Break>,
     /// Runs of unmatched points, indices counted within the track.
     pub unmatched: Vec<super::UnmatchedSpan>,
+    /// The complete matched path, in driving order.
+    pub path: Vec<super::cpath::PathStep>,
+    /// The HMM's parameters used (search radius, σ, caps), with the
+    /// defaults taken from this track.
+    pub params: super::HmmParams,
 }
 
 /// Matches every track of a file; the result has one point per row, in row order.
 pub fn match_rows(
     net: &Network,
     rows: &[TrackRow],
-    method: Method,
+    opts: &super::options::MatchOptions,
 ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
-    use super::{HmmMatcher, HmmParams, IncrementalMatcher, IncrementalParams, Matcher};
+    use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
     let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
     let mut outcomes = Vec::new();
+    // One cache of network searches for the whole file: fleet files hold
+    // many tracks on the same roads.
+    let mut distances = Some(super::NetworkDistances::new(net));
     for (track_id, idx) in group_tracks(rows) {
         let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
-        let (points, breaks) = match method {
+        let params = opts.hmm_params(net, &fixes);
+        let (points, breaks, path) = match opts.method {
             Method::Incremental => {
-                let mut m = IncrementalMatcher::new(net, IncrementalParams::default());
+                let mut m = IncrementalMatcher::new(
+                    net,
+                    IncrementalParams {
+                        // Its own tuned radius unless one is given.
+                        search_radius_m: opts
+                            .radius_m
+                            .unwrap_or(IncrementalParams::default().search_radius_m),
+                        ..IncrementalParams::default()
+                    },
+                );
                 let p = super::match_track(&mut m, &fixes);
-                (p, m.breaks().to_vec())
+                let b = m.breaks().to_vec();
+                let path = super::cpath::complete_path(net, &p, &b, &params);
+                (p, b, path)
             }
             Method::Hmm => {
-                let mut m = HmmMatcher::new(net, HmmParams::default());
+                let cache = distances.take().expect("the cache");
+                let mut m = HmmMatcher::with_distances(net, params, cache);
                 let p = super::match_track(&mut m, &fixes);
-                (p, m.breaks().to_vec())
+                let b = m.breaks().to_vec();
+                let path =
+                    super::cpath::complete_path_with(m.distances_mut(), net, &p, &b, &params);
+                distances = Some(m.into_distances());
+                (p, b, path)
             }
         };
         let matched = points.iter().filter(|p| p.state.is_matched()).count();
@@ -386,6 +414,8 @@ pub fn match_rows(
             matched,
             breaks,
             unmatched,
+            path,
+            params,
         });
     }
     let points = all

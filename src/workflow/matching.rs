@@ -3,7 +3,10 @@
 use super::inputs::check_out_dir;
 use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
-use crate::matching::evaluate::{self, RoadLengths, Score};
+use crate::matching::evaluate::{self, Score};
+use crate::matching::inputs::read_track_file;
+use crate::matching::options::MatchOptions;
+use crate::matching::path_out;
 use crate::matching::track::{self as tr, Method};
 use crate::network::{LoadOptions, Network};
 use serde::Serialize;
@@ -18,14 +21,18 @@ pub type MatchMethod = Method;
 pub struct MatchJob<'a> {
     /// The map file.
     pub map: &'a Path,
-    /// The track CSV.
+    /// The track: CSV, GPX or GeoJSON (recognised by content).
     pub track: &'a Path,
     /// The matched CSV to write.
     pub out_file: &'a Path,
-    /// The matcher.
-    pub method: MatchMethod,
-    /// The roads actually driven (CSV), to score the match against.
+    /// The matcher, its search radius, noise and caps.
+    pub options: MatchOptions,
+    /// The roads actually driven (CSV), to score the complete path against.
     pub truth: Option<&'a Path>,
+    /// The complete path's CSV to write.
+    pub path: Option<&'a Path>,
+    /// The complete path's GeoJSON to write.
+    pub path_geojson: Option<&'a Path>,
 }
 
 /// A break in the matched path.
@@ -69,6 +76,19 @@ pub struct MatchOutcome {
     pub out: String,
     /// The matcher (`hmm` or `incremental`).
     pub method: &'static str,
+    /// The track file's format (`csv`, `gpx` or `geojson`).
+    pub format: &'static str,
+    /// Search radius and white-noise σ used (m), per track in file order
+    /// (from the options, else from the track).
+    pub radius_m: Vec<f64>,
+    /// σ of the white part of the error model (m), per track.
+    pub sigma_m: Vec<f64>,
+    /// Continuous pieces of the complete path (all tracks).
+    pub path_pieces: usize,
+    /// Length of the complete path (m, all tracks).
+    pub path_length_m: f64,
+    /// The path files written.
+    pub path_files: Vec<String>,
     /// Points in the track file.
     pub points: usize,
     /// Tracks in it.
@@ -95,7 +115,7 @@ pub struct MatchOutcome {
 pub struct Timings {
     /// Reading the track, the map and the truth.
     pub load: f64,
-    /// Matching.
+    /// Matching (the complete path included).
     pub r#match: f64,
 }
 
@@ -107,21 +127,35 @@ fn method_name(m: Method) -> &'static str {
     }
 }
 
-/// Matches the track file to the map and writes the matched CSV; with a
-/// truth file, scores the matched roads by length and count.
-pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
-    let t0 = Instant::now();
-    // The output's folder is checked before any work, made when writing.
-    if let Some(parent) = job.out_file.parent().filter(|p| !p.as_os_str().is_empty()) {
+/// The output's folder is checked before any work, made when writing.
+fn check_out(file: &Path) -> Result<()> {
+    if let Some(parent) = file.parent().filter(|p| !p.as_os_str().is_empty()) {
         check_out_dir(parent)?;
     }
-    if job.out_file.is_dir() {
-        return Err(Error::format(
-            job.out_file,
-            "the output file is an existing folder",
-        ));
+    if file.is_dir() {
+        return Err(Error::format(file, "the output file is an existing folder"));
     }
-    let rows = tr::read_track(job.track)?;
+    Ok(())
+}
+
+fn write_out(file: &Path, text: &str) -> Result<()> {
+    if let Some(parent) = file.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
+    }
+    write_atomic(file, text.as_bytes())
+}
+
+/// Matches the track file to the map and writes the matched CSV (and the
+/// complete path, when asked); with a truth file, scores the complete path
+/// by length and count.
+pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
+    let t0 = Instant::now();
+    job.options.validate()?;
+    check_out(job.out_file)?;
+    for f in [job.path, job.path_geojson].into_iter().flatten() {
+        check_out(f)?;
+    }
+    let (rows, format) = read_track_file(job.track)?;
     let net = Network::load(job.map, &LoadOptions::default())?;
     let truth = job
         .truth
@@ -129,25 +163,36 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
         .transpose()?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
-    let (points, outcomes) = tr::match_rows(&net, &rows, job.method);
+    let (points, outcomes) = tr::match_rows(&net, &rows, &job.options);
     let match_ms = t1.elapsed().as_secs_f64() * 1e3;
     let matched: usize = outcomes.iter().map(|o| o.matched).sum();
     if matched == 0 {
+        let radius = outcomes
+            .iter()
+            .map(|o| o.params.search_radius_m)
+            .fold(0.0, f64::max);
         return Err(Error::format(
             job.track,
             format!(
-                "no point lies within 50 m of a road of {} (is the track on this map?)",
+                "no point lies within {radius:.0} m of a road of {} (is the track on this map?)",
                 job.map.display()
             ),
         ));
     }
-    if let Some(parent) = job.out_file.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
+    write_out(job.out_file, &tr::matched_csv(&net, &rows, &points))?;
+    let tracks: Vec<(&str, &[_])> = outcomes
+        .iter()
+        .map(|o| (o.track_id.as_str(), &o.path[..]))
+        .collect();
+    let mut path_files = Vec::new();
+    if let Some(f) = job.path {
+        write_out(f, &path_out::path_csv(&net, &tracks))?;
+        path_files.push(f.display().to_string());
     }
-    write_atomic(
-        job.out_file,
-        tr::matched_csv(&net, &rows, &points).as_bytes(),
-    )?;
+    if let Some(f) = job.path_geojson {
+        write_out(f, &path_out::path_geojson(&net, &tracks))?;
+        path_files.push(f.display().to_string());
+    }
     let mut breaks = Vec::new();
     let mut spans = Vec::new();
     let mut unmatched_tracks = Vec::new();
@@ -175,21 +220,24 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
             });
         }
     }
-    let score = truth.map(|truth| {
-        let mut lengths = RoadLengths::new();
-        for o in &outcomes {
-            let pts: Vec<_> = o.rows.iter().map(|&i| points[i]).collect();
-            for (k, v) in evaluate::matched_lengths(&net, &pts) {
-                *lengths.entry(k).or_default() += v;
-            }
-        }
-        evaluate::score(&lengths, &truth)
-    });
+    let paths: Vec<&[_]> = tracks.iter().map(|t| t.1).collect();
+    let lengths = path_out::path_lengths(&net, &paths);
+    let score = truth.map(|truth| evaluate::score(&lengths, &truth));
+    let path_pieces = outcomes
+        .iter()
+        .map(|o| o.path.last().map_or(0, |p| p.piece as usize + 1))
+        .sum();
     Ok(MatchOutcome {
         map: job.map.display().to_string(),
         track: job.track.display().to_string(),
         out: job.out_file.display().to_string(),
-        method: method_name(job.method),
+        method: method_name(job.options.method),
+        format: format.as_str(),
+        radius_m: outcomes.iter().map(|o| o.params.search_radius_m).collect(),
+        sigma_m: outcomes.iter().map(|o| o.params.sigma_m).collect(),
+        path_pieces,
+        path_length_m: lengths.values().sum::<f64>() + 0.0, // not -0 when empty
+        path_files,
         points: rows.len(),
         tracks: outcomes.len(),
         matched,

@@ -3,7 +3,7 @@
 
 use super::drift::{emission, Drift};
 use super::geometry::{clamp_to_range, dist, nearest_on_pieces, with_raw};
-use super::params::HmmParams;
+use super::params::{route_bound, HmmParams};
 use super::probability::{argmax, softmax_into};
 use super::state::Step;
 use crate::matching::paths::NetworkDistances;
@@ -39,14 +39,21 @@ pub struct HmmMatcher<'a> {
 impl<'a> HmmMatcher<'a> {
     /// A matcher on `net`.
     pub fn new(net: &'a Network, params: HmmParams) -> Self {
+        Self::with_distances(net, params, NetworkDistances::new(net))
+    }
+
+    /// A matcher on `net` starting from the network searches of `paths`
+    /// (e.g. those of the previous track of a file: [`Self::into_distances`]).
+    pub fn with_distances(
+        net: &'a Network,
+        params: HmmParams,
+        mut paths: NetworkDistances<'a>,
+    ) -> Self {
+        paths.uturn_penalty_m = params.uturn_penalty_m;
         Self {
             net,
             params,
-            paths: {
-                let mut p = NetworkDistances::new(net);
-                p.uturn_penalty_m = params.uturn_penalty_m;
-                p
-            },
+            paths,
             window: VecDeque::with_capacity(params.lag + 1),
             index: 0,
             last_fix: None,
@@ -62,6 +69,17 @@ impl<'a> HmmMatcher<'a> {
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
         }
+    }
+
+    /// The matcher's cached network searches (for the complete path, whose
+    /// joins are mostly the transitions the matcher already searched).
+    pub fn distances_mut(&mut self) -> &mut NetworkDistances<'a> {
+        &mut self.paths
+    }
+
+    /// The matcher's network searches, to start the next track's matcher.
+    pub fn into_distances(self) -> NetworkDistances<'a> {
+        self.paths
     }
 
     /// Steps currently held in the lag window.
@@ -91,6 +109,11 @@ impl<'a> HmmMatcher<'a> {
         }
     }
 
+    /// The longest route a transition may take ([`route_bound`]).
+    pub(super) fn route_bound(&self, gc_m: f64, dt_s: f64) -> f64 {
+        route_bound(&self.params, gc_m, dt_s)
+    }
+
     /// Back-traces the window from its newest step's best state: the chosen
     /// candidate of the first `n` steps.
     fn choices(&self, n: usize, out: &mut Vec<u32>) {
@@ -109,9 +132,20 @@ impl<'a> HmmMatcher<'a> {
     }
 
     /// Decides and emits the oldest step (given its choice and the next step's).
-    fn emit_front(&mut self, choice: u32, next_choice: Option<u32>, out: &mut Vec<MatchedPoint>) {
+    /// `posterior`: the front step's smoothed posterior when already known
+    /// (a flush computes every step's in one backward pass).
+    fn emit_front(
+        &mut self,
+        choice: u32,
+        next_choice: Option<u32>,
+        posterior: Option<Vec<f64>>,
+        out: &mut Vec<MatchedPoint>,
+    ) {
         let mut post = std::mem::take(&mut self.post_buf);
-        self.front_posterior(&mut post);
+        match posterior {
+            Some(p) => post = p,
+            None => self.front_posterior(&mut post),
+        }
         let step = self.window.pop_front().expect("a step");
         let net = self.net;
         let c = step.cands[choice as usize];
@@ -151,9 +185,10 @@ impl<'a> HmmMatcher<'a> {
                 let next = self.window.front().expect("the next step");
                 let b = next.cands[nc as usize].at;
                 let gc = dist(next.fix.enu, step.fix.enu);
-                let bound = gc + 2.0 * self.params.search_radius_m + 100.0;
+                let bound = self.route_bound(gc, next.fix.t_s - step.fix.t_s);
                 self.paths.path(c.at, b, bound, self.params.backtrack_m)
             });
+            let on_path = pieces.is_some();
             let pieces = pieces.unwrap_or_else(|| {
                 let len = net.sections[c.at.section as usize].length_m;
                 vec![(c.at.section, 0.0, len)]
@@ -167,6 +202,13 @@ impl<'a> HmmMatcher<'a> {
                 // Keep the point inside the piece's offset range.
                 let (sec, a, b) = pieces[cursor];
                 clamp_to_range(net, &mut m, sec, a.min(b), a.max(b), &fix);
+                // The direction of travel along the decided path (on the
+                // step's own section without a path: the step's).
+                m.forward = if on_path && a != b {
+                    Some(b > a)
+                } else {
+                    c.at.forward
+                };
                 out.push(with_raw(m, raw.enu));
                 self.last_matched = Some((*index, fix.t_s));
             }
@@ -181,9 +223,10 @@ impl<'a> HmmMatcher<'a> {
         }
         let mut ch = Vec::new();
         self.choices(self.window.len(), &mut ch);
-        for i in 0..ch.len() {
+        let posts = self.window_posteriors();
+        for (i, post) in posts.into_iter().enumerate() {
             let next = ch.get(i + 1).copied();
-            self.emit_front(ch[i], next, out);
+            self.emit_front(ch[i], next, Some(post), out);
         }
     }
 
@@ -202,7 +245,10 @@ impl Matcher for HmmMatcher<'_> {
     fn push(&mut self, raw_fix: &Fix, out: &mut Vec<MatchedPoint>) {
         let index = self.index;
         self.index += 1;
-        if !(raw_fix.enu[0].is_finite() && raw_fix.enu[1].is_finite() && raw_fix.t_s.is_finite()) {
+        // A missing time (NaN) is allowed: such fixes are chained by
+        // distance alone; an infinite time is not a time.
+        if !(raw_fix.enu[0].is_finite() && raw_fix.enu[1].is_finite() && !raw_fix.t_s.is_infinite())
+        {
             // Nothing to match, and nothing to let into the drift estimates;
             // what is held is decided first, so points stay in input order.
             self.flush(out);
@@ -215,6 +261,7 @@ impl Matcher for HmmMatcher<'_> {
         };
         if let Some(last) = self.last_fix {
             let d = dist(fix.enu, last.enu);
+            // A missing time (NaN) is no gap: the distance decides.
             if (d > self.params.gap_m || fix.t_s - last.t_s > self.params.gap_s)
                 && self.pending_break.is_none()
             {
@@ -312,7 +359,7 @@ impl Matcher for HmmMatcher<'_> {
         if self.window.len() > self.params.lag {
             let mut ch = Vec::with_capacity(2);
             self.choices(2, &mut ch);
-            self.emit_front(ch[0], ch.get(1).copied(), out);
+            self.emit_front(ch[0], ch.get(1).copied(), None, out);
         }
     }
 

@@ -44,7 +44,13 @@
 //!   carriageways apart.
 //! - Transition: log p = −|route distance − straight distance| / β, with route
 //!   distances from bounded, cached Dijkstra searches honouring one-way roads
-//!   ([`super::NetworkDistances`]); no path within the bound: impossible.
+//!   ([`super::NetworkDistances`]); β = `beta_m` + `beta_per_m` × the
+//!   straight distance (sparse tracks' true routes bend more between
+//!   points). The bound ([`route_bound`]): at most twice the straight
+//!   distance and no faster than `max_speed_mps` over the time between the
+//!   fixes (each plus twice the radius), never below the straight distance
+//!   plus twice the radius and 100 m; no path within it: impossible. So
+//!   sparse tracks (a fix every 30-60 s) are routed, not split.
 //! - Dense tracks: a fix becomes a Viterbi step only once it lies at least
 //!   `min_step_m` from the previous step (jitter and backward drift between
 //!   steps cannot create loops or U-turns); the fixes in between are matched
@@ -56,7 +62,8 @@
 //!   the fixes less the chosen state's drift, projected onto the road.
 //!   Memory is proportional to the window (`lag` steps of at most
 //!   `max_skip` fixes each, a fixed-size drift estimate per state).
-//! - Breaks: a gap (time or distance between consecutive fixes), a fix with no
+//! - Breaks: a gap (more than `gap_s` or `gap_m` between consecutive
+//!   fixes; a fix without a time is chained by distance alone), a fix with no
 //!   road within the radius, or no permitted path between consecutive steps
 //!   ends the chain (everything in the window is decided) and a new one starts
 //!   from the last drift estimate, relaxed towards the prior over the
@@ -78,4 +85,4 @@ mod state;
 mod transitions;
 
 pub use matcher::HmmMatcher;
-pub use params::HmmParams;
+pub use params::{route_bound, HmmParams};

@@ -10,8 +10,15 @@ pub struct HmmParams {
     /// σ of the white part of the fix error, per axis (m): noise, lane and
     /// centreline offsets. The slowly varying part is the drift below.
     pub sigma_m: f64,
-    /// β of the transition (m).
+    /// β of the transition (m) between fixes close together.
     pub beta_m: f64,
+    /// Growth of β with the straight distance between the fixes (m per m):
+    /// β = `beta_m` + `beta_per_m` × distance. Between fixes hundreds of
+    /// metres apart the route's excess over the straight line is naturally
+    /// tens of metres (Newson and Krumm 2009 found β growing with the
+    /// sampling interval), so a fixed β would charge the true route's bends
+    /// as much as a wrong candidate's detour.
+    pub beta_per_m: f64,
     /// κ for a heading given with the fix.
     pub kappa_given: f64,
     /// κ for a heading derived from the displacement between steps.
@@ -26,6 +33,12 @@ pub struct HmmParams {
     pub gap_m: f64,
     /// Time between consecutive fixes that breaks the track (s).
     pub gap_s: f64,
+    /// Highest plausible speed (m/s): a transition may route at most this
+    /// speed × the time between the fixes (plus twice the search radius)
+    /// through the network. Fixes without usable times (missing, identical)
+    /// are bounded by distance alone (twice the straight distance plus twice
+    /// the radius and 100 m).
+    pub max_speed_mps: f64,
     /// Backward move along a one-way section accepted as noise (m).
     pub backtrack_m: f64,
     /// Extra distance charged for turning round at a node straight back onto
@@ -48,18 +61,27 @@ pub struct HmmParams {
 impl Default for HmmParams {
     fn default() -> Self {
         Self {
-            search_radius_m: 50.0,
+            // Points up to 100 m from their road are matched (a wider
+            // search than the usual position error needs; the candidates
+            // are ranked by emission and capped at `max_candidates`).
+            search_radius_m: 100.0,
             max_candidates: 12,
             // 2 m noise per axis plus lane and centreline offsets.
             sigma_m: 5.0,
             beta_m: 5.0,
+            beta_per_m: 0.1,
             kappa_given: 3.0,
             kappa_derived: 1.0,
             min_step_m: 10.0,
             max_skip: 256,
             lag: 32,
-            gap_m: 200.0,
-            gap_s: 60.0,
+            // Sparse fleet tracks (a fix every 30-60 s) are chained: a
+            // break needs more than 3 min or 2.5 km between fixes (the
+            // distance 60 s at 150 km/h covers), or no plausible route.
+            gap_m: 2500.0,
+            gap_s: 180.0,
+            // 150 km/h.
+            max_speed_mps: 150.0 / 3.6,
             backtrack_m: 15.0,
             uturn_penalty_m: 300.0,
             // √(19.4² + 5²) = 20 m: without tracking, the classic emission σ.
@@ -71,4 +93,21 @@ impl Default for HmmParams {
             track_drift: true,
         }
     }
+}
+
+/// The longest route (m) a transition may take between fixes `gc_m` apart
+/// in a straight line and `dt_s` apart in time: at most twice the straight
+/// distance (plus twice the search radius and 100 m), and no faster than
+/// `max_speed_mps` where the time is known (plus twice the radius: the fixes
+/// may lie that far from the road on either side); never less than the
+/// straight distance plus twice the radius and 100 m, so dense tracks
+/// (where the speed bound would be tight on noise) keep their margin.
+pub fn route_bound(p: &HmmParams, gc_m: f64, dt_s: f64) -> f64 {
+    let r2 = 2.0 * p.search_radius_m;
+    let floor = gc_m + r2 + 100.0;
+    let mut cap = 2.0 * gc_m + r2 + 100.0;
+    if dt_s.is_finite() && dt_s > 0.0 {
+        cap = cap.min(p.max_speed_mps * dt_s + r2);
+    }
+    floor.max(cap)
 }

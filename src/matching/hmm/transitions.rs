@@ -17,9 +17,9 @@ impl HmmMatcher<'_> {
     pub(super) fn transition(&mut self, step: &mut Step) -> bool {
         let prev = self.window.back().expect("a previous step");
         let gc = dist(step.fix.enu, prev.fix.enu);
-        let bound = gc + 2.0 * self.params.search_radius_m + 100.0;
+        let bound = self.route_bound(gc, step.fix.t_s - prev.fix.t_s);
         let backtrack = self.params.backtrack_m;
-        let inv_beta = 1.0 / self.params.beta_m;
+        let inv_beta = 1.0 / (self.params.beta_m + self.params.beta_per_m * gc);
         let r2 = self.params.sigma_m * self.params.sigma_m;
         for c in &prev.cands {
             for (n, _) in self.paths.exits(c.at).into_iter().flatten() {
@@ -118,6 +118,49 @@ impl HmmMatcher<'_> {
             }
         }
         any
+    }
+
+    /// The smoothed posterior of every step in the window given every fix
+    /// in it: one backward pass (what [`Self::front_posterior`] gives for
+    /// each step in turn as the window is emitted from its front, at the
+    /// cost of one pass instead of one per step).
+    pub(super) fn window_posteriors(&self) -> Vec<Vec<f64>> {
+        let len = self.window.len();
+        let mut betas: Vec<Vec<f64>> = vec![Vec::new(); len];
+        betas[len - 1] = vec![1.0; self.window[len - 1].cands.len()];
+        for t in (1..len).rev() {
+            let (st, np) = (&self.window[t], self.window[t - 1].cands.len());
+            let nc = st.cands.len();
+            let beta = &betas[t];
+            let mut next: Vec<f64> = if st.pair.len() != np * nc {
+                vec![1.0; np]
+            } else {
+                (0..np)
+                    .map(|i| {
+                        st.pair[i * nc..(i + 1) * nc]
+                            .iter()
+                            .zip(beta)
+                            .map(|(w, b)| w * b)
+                            .sum::<f64>()
+                    })
+                    .collect()
+            };
+            if !normalise(&mut next) {
+                next.iter_mut().for_each(|x| *x = 1.0);
+            }
+            betas[t - 1] = next;
+        }
+        betas
+            .into_iter()
+            .zip(&self.window)
+            .map(|(beta, step)| {
+                let mut out: Vec<f64> = step.alpha.iter().zip(&beta).map(|(a, b)| a * b).collect();
+                if !normalise(&mut out) {
+                    softmax_into(&step.score, &mut out);
+                }
+                out
+            })
+            .collect()
     }
 
     /// The smoothed posterior of the window's oldest step given every fix in

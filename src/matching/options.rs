@@ -1,0 +1,135 @@
+//! The `match` command's options: checked once, and the HMM's parameters
+//! drawn from them and from the track itself.
+//!
+//! Defaults from the track: the fixes' distances to their nearest road give
+//! a robust estimate of the position error, σ̂ = 1.4826 × median distance
+//! (Newson and Krumm 2009, §4: the median absolute deviation scaled to a
+//! Gaussian σ). The search radius is 6 σ̂, at least 100 m (so plausible
+//! points up to 100 m from a road are matched on a good track) and at most
+//! 300 m (beyond that the candidates of a fix cover whole blocks). The HMM's
+//! error model has a slowly varying drift (stationary σ, 19.4 m by default,
+//! tuned for dead reckoning) and a white part (5 m): the drift's σ becomes
+//! σ̂ within 5-19.4 m (a GNSS track with metres of error does not get to
+//! wander 20 m onto a parallel road), and the white part what σ̂ leaves
+//! over the drift's default, at least 5 m (a worse track widens the
+//! emission).
+
+use super::{Fix, HmmParams};
+use crate::error::{Error, Result};
+use crate::network::Network;
+
+/// Which matcher to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// [`super::IncrementalMatcher`].
+    Incremental,
+    /// [`super::HmmMatcher`].
+    Hmm,
+}
+
+/// Options of a matching run (SI units except where named).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchOptions {
+    /// The matcher.
+    pub method: Method,
+    /// Candidate search radius (m); `None`: from the track.
+    pub radius_m: Option<f64>,
+    /// σ of the white part of the fix error (m); `None`: from the track.
+    pub sigma_m: Option<f64>,
+    /// Highest plausible speed (km/h).
+    pub max_speed_kmh: f64,
+    /// Time between fixes that breaks the track (s).
+    pub max_gap_s: f64,
+    /// Distance between fixes that breaks the track (m).
+    pub max_gap_m: f64,
+}
+
+impl Default for MatchOptions {
+    fn default() -> Self {
+        let p = HmmParams::default();
+        Self {
+            method: Method::Hmm,
+            radius_m: None,
+            sigma_m: None,
+            max_speed_kmh: p.max_speed_mps * 3.6,
+            max_gap_s: p.gap_s,
+            max_gap_m: p.gap_m,
+        }
+    }
+}
+
+/// Smallest and largest search radius taken from the track (m).
+pub const AUTO_RADIUS_M: [f64; 2] = [100.0, 300.0];
+
+impl MatchOptions {
+    /// Checks every option; the error names the command-line option.
+    pub fn validate(&self) -> Result<()> {
+        let check = |name: &str, v: Option<f64>, lo: f64, hi: f64| -> Result<()> {
+            match v {
+                Some(x) if !(x.is_finite() && x >= lo && x <= hi) => Err(Error::InvalidParameter(
+                    format!("--{name} {x}: expected a number from {lo} to {hi}"),
+                )),
+                _ => Ok(()),
+            }
+        };
+        check("radius-m", self.radius_m, 1.0, 1000.0)?;
+        check("sigma-m", self.sigma_m, 0.1, 500.0)?;
+        check("max-speed-kmh", Some(self.max_speed_kmh), 1.0, 1000.0)?;
+        check("max-gap-s", Some(self.max_gap_s), 0.1, 86_400.0)?;
+        check("max-gap-m", Some(self.max_gap_m), 1.0, 100_000.0)?;
+        Ok(())
+    }
+
+    /// The HMM's parameters for these fixes (defaults from the track where
+    /// an option is not given; see the module documentation).
+    pub fn hmm_params(&self, net: &Network, fixes: &[Fix]) -> HmmParams {
+        let base = HmmParams::default();
+        let sigma_hat = estimate_sigma_m(net, fixes);
+        let radius = self.radius_m.unwrap_or_else(|| match sigma_hat {
+            Some(s) => (6.0 * s).clamp(AUTO_RADIUS_M[0], AUTO_RADIUS_M[1]),
+            None => base.search_radius_m,
+        });
+        let sigma = self.sigma_m.unwrap_or_else(|| match sigma_hat {
+            Some(s) => (s * s - base.drift_sigma_m * base.drift_sigma_m)
+                .max(0.0)
+                .sqrt()
+                .max(base.sigma_m),
+            None => base.sigma_m,
+        });
+        let drift = match sigma_hat {
+            Some(s) => s.clamp(5.0, base.drift_sigma_m),
+            None => base.drift_sigma_m,
+        };
+        HmmParams {
+            search_radius_m: radius,
+            sigma_m: sigma,
+            drift_sigma_m: drift,
+            max_speed_mps: self.max_speed_kmh / 3.6,
+            gap_s: self.max_gap_s,
+            gap_m: self.max_gap_m,
+            ..base
+        }
+    }
+}
+
+/// Robust estimate of the position error σ (m): 1.4826 × the median
+/// distance from a fix to its nearest road, over the fixes within
+/// [`AUTO_RADIUS_M`]'s upper end of a road (the others say nothing about
+/// the error, only that the track left the map). `None` without such fixes.
+pub fn estimate_sigma_m(net: &Network, fixes: &[Fix]) -> Option<f64> {
+    // A sample of at most 2,000 fixes, evenly spread, is plenty for a median.
+    let step = (fixes.len() / 2000).max(1);
+    let mut d: Vec<f64> = fixes
+        .iter()
+        .step_by(step)
+        .filter(|f| f.enu[0].is_finite() && f.enu[1].is_finite())
+        .filter_map(|f| net.rtree.nearest(f.enu).map(|(_, d)| d))
+        .filter(|d| *d <= AUTO_RADIUS_M[1])
+        .collect();
+    if d.is_empty() {
+        return None;
+    }
+    let mid = d.len() / 2;
+    let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+    Some(1.4826 * *m)
+}
