@@ -645,6 +645,9 @@ fn report(dir: &Path, out: Out) -> Result<serde_json::Value> {
 }
 
 fn print_report(files: &waymark::report::ReportFiles, dir: &Path, out: Out) {
+    for m in &files.missing {
+        note!(out, "waymark report: warning: {}: {m}", dir.display());
+    }
     text!(
         out,
         "wrote {} and {}",

@@ -53,7 +53,11 @@ fn report_is_self_contained_and_plots_are_drawn() {
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.starts_with("<!DOCTYPE html>"));
     assert!(html.contains("<svg"), "plots are inline SVG");
-    assert!(html.contains("Meets the 10 m requirement"), "verdict shown");
+    assert!(
+        html.contains("Simulation meets the 10 m requirement in every run"),
+        "verdict shown"
+    );
+    assert!(html.contains("Rule: green when"), "the rule is stated");
     // The map of the scenario's area, redrawn from the scenario recorded by simulate.
     assert!(html.contains("<h2>Map</h2>"), "map section");
     assert!(
@@ -61,7 +65,9 @@ fn report_is_self_contained_and_plots_are_drawn() {
         "the Helsinki roads are drawn"
     );
     assert!(html.contains("<h2>Scenario</h2>"), "scenario shown");
-    assert!(!html.contains("<script"), "no scripts");
+    // One script, the project's own, inline: nothing loaded.
+    assert_eq!(html.matches("<script").count(), 1, "one inline script");
+    assert!(!html.contains("<script src"), "no external script");
     // No external resources: the only URLs are XML namespaces.
     for (i, _) in html.match_indices("http") {
         let tail = &html[i..(i + 40).min(html.len())];
@@ -111,29 +117,6 @@ fn monte_carlo_report_shows_the_filter_bound_and_the_envelope() {
     ] {
         assert!(html.contains(label), "missing legend entry '{label}'");
     }
-}
-
-#[test]
-fn report_of_a_folder_without_results_is_a_clean_error() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = bin()
-        .args(["report", dir.path().to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("summary.json") && !err.contains("panicked"),
-        "{err}"
-    );
-    std::fs::write(dir.path().join("summary.json"), "{\"name\": \"x\"}").unwrap();
-    std::fs::write(dir.path().join("errors.csv"), "t_s,distance_m\n0,0\n").unwrap();
-    let out = bin()
-        .args(["report", dir.path().to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("missing column 'horizontal_m'"));
 }
 
 fn chromium() -> Option<PathBuf> {
@@ -201,7 +184,7 @@ fn report_renders_in_headless_chromium() {
 #[test]
 fn map_draws_every_section_the_route_and_the_tags() {
     use waymark::network::{LoadOptions, Network};
-    use waymark::report::{map_svg, MapOverlay};
+    use waymark::report::{map_svg, MapOverlay, MapTag};
     use waymark::tags::Mounting;
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf");
     let net = Network::load(&p, &LoadOptions::default()).unwrap();
@@ -225,21 +208,66 @@ fn map_draws_every_section_the_route_and_the_tags() {
             })
             .collect(),
         tags: vec![
-            (route.vertices[n / 3].lat_lon, Mounting::Roadside),
-            (route.vertices[2 * n / 3].lat_lon, Mounting::Ceiling),
+            MapTag {
+                lat_lon: route.vertices[n / 3].lat_lon,
+                mounting: Mounting::Roadside,
+                info: "A".into(),
+            },
+            MapTag {
+                lat_lon: route.vertices[2 * n / 3].lat_lon,
+                mounting: Mounting::Ceiling,
+                info: "B".into(),
+            },
+            // 1 m from B: drawn apart, each with a leader to its place.
+            MapTag {
+                lat_lon: [
+                    route.vertices[2 * n / 3].lat_lon[0] + 1e-5,
+                    route.vertices[2 * n / 3].lat_lon[1],
+                ],
+                mounting: Mounting::RoadSurface,
+                info: "C".into(),
+            },
         ],
         requirement_m: Some(20.0),
+        ..Default::default()
     };
     let svg = map_svg(&net, &overlay, 900);
-    assert_eq!(svg.matches("<polyline").count(), net.sections.len());
+    // The view is fitted to the route: sections far from it are left out.
+    let drawn = svg.matches("<polyline").count();
+    assert!(
+        drawn > 100 && drawn <= net.sections.len(),
+        "{drawn} of {} sections",
+        net.sections.len()
+    );
     assert_eq!(
         svg.matches("<line ").count(),
-        n - 1 + 1,
-        "route segments plus the scale bar"
+        n - 1 + 2,
+        "route segments plus two leaders of the co-located tags"
     );
-    assert_eq!(svg.matches("<circle").count(), 2);
-    // The error colour runs from green to red past the requirement.
-    assert!(svg.contains("hsl(120,85%,42%)") && svg.contains("hsl(0,85%,42%)"));
+    assert_eq!(svg.matches("<circle").count(), 3);
+    let centre = |info: &str| {
+        let i = svg.find(&format!("data-info=\"{info}\"")).unwrap();
+        let c = &svg[svg[..i].rfind("<circle").unwrap()..i];
+        let num = |k: &str| -> f64 {
+            let j = c.find(k).unwrap() + k.len();
+            c[j..].split('"').next().unwrap().parse().unwrap()
+        };
+        (num("cx=\""), num("cy=\""))
+    };
+    let (b, c) = (centre("B"), centre("C"));
+    let r: f64 = {
+        let i = svg.find(" r=\"").unwrap() + 4;
+        svg[i..].split('"').next().unwrap().parse().unwrap()
+    };
+    assert!(
+        ((b.0 - c.0).powi(2) + (b.1 - c.1).powi(2)).sqrt() > 2.0 * r,
+        "co-located tags overlap: {b:?} {c:?}"
+    );
+    // Start and end marked.
+    assert!(svg.contains("data-info=\"start\"") && svg.contains("data-info=\"end\""));
+    // The error colour runs from green to red at the requirement, and a
+    // colour of its own past it.
+    assert!(svg.contains("hsl(120,85%,42%)") && svg.contains(waymark::report::OVER_COLOUR));
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(

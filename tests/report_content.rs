@@ -233,7 +233,7 @@ fn report_of_a_plan_folder_shows_the_map_profile_summary_and_verdict() {
     for row in [
         "total cost",
         "largest gap between tags",
-        "predicted max 95 % bound (all read)",
+        "predicted max 95 % bound, all tags read",
         "missed reads tolerated",
     ] {
         assert!(html.contains(&format!("<th>{row}</th>")), "{row}");
@@ -242,7 +242,7 @@ fn report_of_a_plan_folder_shows_the_map_profile_summary_and_verdict() {
     // circle per tag in the road-surface or roadside colour.
     assert!(html.contains("<h2>Map</h2>"));
     assert!(html.matches("<polyline").count() > 500, "Helsinki roads");
-    assert!(html.contains("coloured by the predicted 95 % bound"));
+    assert!(html.contains("route: predicted 95 % bound with the tags, all read (m)"));
     let circles = html.matches("<circle").count();
     assert_eq!(circles as u64, n, "one circle per planned tag");
     assert!(html.contains("fill=\"#f39c12\"") || html.contains("fill=\"#27ae60\""));

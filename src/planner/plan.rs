@@ -70,6 +70,8 @@ pub struct Validation {
     pub worst_t_s: f64,
     /// Route distance of the worst point (m).
     pub worst_distance_m: f64,
+    /// Runs whose horizontal error exceeds the requirement somewhere.
+    pub runs_exceeding_requirement: u64,
 }
 
 /// A plan for one route.
