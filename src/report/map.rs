@@ -2,7 +2,8 @@
 //! roads (tunnels highlighted), directed road pieces coloured by a
 //! predicted bound (network plans), the route coloured by navigation error
 //! with start and end markers, and tags coloured by mounting (tags closer
-//! than a few pixels spread on a ring with a leader to their true place).
+//! would overlap moved to the nearest free place with a leader to their true
+//! place).
 //! The view is fitted to the route (or to the tags and pieces of an area
 //! plan) with the network around it; the north arrow, the scale bar and the
 //! colour bar are drawn outside the data by [`map_legend`] and the page's
@@ -244,27 +245,24 @@ pub fn map_svg(net: &Network, overlay: &MapOverlay, width_px: u32) -> String {
         s.push_str("</g>");
     }
     s.push_str("</g>");
-    // Tags: those closer than ~6 px to an earlier one spread on a ring.
-    let r = 0.006 * w.max(h);
+    // Tags: smaller dots when there are many; a dot that would overlap one
+    // already drawn moves to the nearest free place on rings around its
+    // true place, with a leader back to it.
+    let n_tags = overlay.tags.len();
+    let r = w.max(h) * if n_tags <= 60 { 0.006 } else { 0.003 };
     let spots: Vec<(f64, f64)> = overlay.tags.iter().map(|t| px(enu(t.lat_lon))).collect();
-    let groups = co_located(&spots, 2.0 * r);
+    let placed = spread(&spots, r);
     s.push_str("<g class=\"tags\">");
     for (i, t) in overlay.tags.iter().enumerate() {
         let (x, y) = spots[i];
-        let (n, k) = groups[i];
-        let (cx, cy) = if n > 1 {
-            let a = std::f64::consts::TAU * k as f64 / n as f64;
-            let ring = 2.2 * r * (1.0 + n as f64 / 8.0);
-            let (cx, cy) = (x + ring * a.cos(), y + ring * a.sin());
+        let (cx, cy) = placed[i];
+        if (cx, cy) != (x, y) {
             let _ = write!(
                 s,
                 "<line class=\"leader\" x1=\"{x:.1}\" y1=\"{y:.1}\" x2=\"{cx:.1}\" y2=\"{cy:.1}\" \
                  stroke=\"#333\" stroke-width=\"1\" vector-effect=\"non-scaling-stroke\"/>"
             );
-            (cx, cy)
-        } else {
-            (x, y)
-        };
+        }
         let _ = write!(
             s,
             "<circle class=\"tag\" cx=\"{cx:.1}\" cy=\"{cy:.1}\" r=\"{r:.1}\" fill=\"{}\" stroke=\"#fff\" \
@@ -307,42 +305,50 @@ pub fn map_svg(net: &Network, overlay: &MapOverlay, width_px: u32) -> String {
     s
 }
 
-/// For points (in map units), the size of the group of points within
-/// `d` of each other (by single linkage) each belongs to, and its rank in
-/// that group.
-fn co_located(p: &[(f64, f64)], d: f64) -> Vec<(usize, usize)> {
-    let n = p.len();
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    // Sort by x to compare only near neighbours.
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| p[a].0.total_cmp(&p[b].0));
-    for (oi, &i) in order.iter().enumerate() {
-        for &j in &order[oi + 1..] {
-            if p[j].0 - p[i].0 > d {
-                break;
+/// Where to draw dots of radius `r` at points `p` (map units) so that
+/// none overlaps another: each in turn at its place when free, else at the
+/// first free place on rings of 2.2 r, 4.4 r, ... around it (8, 16, ...
+/// places per ring). A grid of 2r cells keeps it linear.
+fn spread(p: &[(f64, f64)], r: f64) -> Vec<(f64, f64)> {
+    let cell = 2.0 * r;
+    let key = |q: (f64, f64)| ((q.0 / cell).floor() as i64, (q.1 / cell).floor() as i64);
+    let mut grid: std::collections::HashMap<(i64, i64), Vec<(f64, f64)>> = Default::default();
+    let free = |grid: &std::collections::HashMap<(i64, i64), Vec<(f64, f64)>>, q: (f64, f64)| {
+        let (kx, ky) = key(q);
+        (-1..=1).all(|dx| {
+            (-1..=1).all(|dy| {
+                grid.get(&(kx + dx, ky + dy)).is_none_or(|v| {
+                    v.iter()
+                        .all(|o| (o.0 - q.0).powi(2) + (o.1 - q.1).powi(2) >= (1.9 * r).powi(2))
+                })
+            })
+        })
+    };
+    let mut out = Vec::with_capacity(p.len());
+    for &q in p {
+        let mut at = q;
+        'rings: for ring in 0..6 {
+            if ring == 0 {
+                if free(&grid, q) {
+                    break;
+                }
+                continue;
             }
-            if (p[j].1 - p[i].1).abs() <= d {
-                let (a, b) = (root(&mut parent, i), root(&mut parent, j));
-                parent[a] = b;
+            let n = 8 * ring;
+            for k in 0..n {
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                let c = (
+                    q.0 + 2.2 * r * ring as f64 * a.cos(),
+                    q.1 + 2.2 * r * ring as f64 * a.sin(),
+                );
+                if free(&grid, c) {
+                    at = c;
+                    break 'rings;
+                }
             }
         }
-    }
-    let roots: Vec<usize> = (0..n).map(|i| root(&mut parent, i)).collect();
-    let mut size = vec![0usize; n];
-    let mut out = vec![(1, 0); n];
-    for i in 0..n {
-        out[i].1 = size[roots[i]];
-        size[roots[i]] += 1;
-    }
-    for i in 0..n {
-        out[i].0 = size[roots[i]];
+        grid.entry(key(at)).or_default().push(at);
+        out.push(at);
     }
     out
 }
@@ -439,16 +445,27 @@ mod tests {
     use super::*;
 
     #[test]
-    fn co_located_points_form_groups_with_ranks() {
-        let p = [(0.0, 0.0), (1.0, 0.5), (100.0, 0.0), (1.5, 1.0)];
-        let g = co_located(&p, 2.0);
-        assert_eq!(g[2], (1, 0));
-        assert_eq!(g[0].0, 3);
-        assert_eq!(g[1].0, 3);
-        assert_eq!(g[3].0, 3);
-        let mut ranks = [g[0].1, g[1].1, g[3].1];
-        ranks.sort();
-        assert_eq!(ranks, [0, 1, 2]);
+    fn spread_dots_do_not_overlap_and_lone_dots_stay() {
+        let r = 1.0;
+        let p = [
+            (0.0, 0.0),
+            (0.5, 0.2),
+            (100.0, 0.0),
+            (0.3, -0.4),
+            (0.0, 0.0),
+        ];
+        let q = spread(&p, r);
+        assert_eq!(q[0], p[0]);
+        assert_eq!(q[2], p[2], "a lone dot stays at its place");
+        for i in 0..q.len() {
+            for j in 0..i {
+                let d = ((q[i].0 - q[j].0).powi(2) + (q[i].1 - q[j].1).powi(2)).sqrt();
+                assert!(d >= 1.9 * r - 1e-9, "{i} {j}: {d}");
+            }
+            // Each moved dot stays near its place (first ring).
+            let d = ((q[i].0 - p[i].0).powi(2) + (q[i].1 - p[i].1).powi(2)).sqrt();
+            assert!(d <= 2.2 * r * 2.0 + 1e-9, "{i}: moved {d}");
+        }
     }
 
     #[test]
