@@ -2,15 +2,69 @@
 //! tags (with payloads) and the metadata of the tag files, for route and
 //! network plans alike.
 
+use super::budget::Budget;
 use super::network::types::NetworkPlan;
 use super::plan::Plan;
 use crate::error::Result;
 use crate::scenario::{RouteKind, Scenario};
 use crate::sim::tags::Mounting;
+use crate::sim::TruthSource;
 use crate::tags::TagPayload;
 use crate::tags::{ExportMetadata, TagRecord};
 
 impl Plan {
+    /// The largest predicted 95 % horizontal bound along the route with
+    /// any `k` consecutive tags missed (`k` = the tolerated missed reads):
+    /// for each window of `k` consecutive tags, the filter just before its
+    /// first tag run to the end of the route without them and with every
+    /// later tag read (the covariance check the plan was made to pass, here
+    /// run to the end rather than stopped at the requirement), and the
+    /// all-read bound. `None` when no read is tolerated or there are no tags.
+    /// The tags are matched to the truth samples by their pass time.
+    pub fn missed_bound(&self, scn: &Scenario, truth: &TruthSource) -> Option<f64> {
+        use rayon::prelude::*;
+        let k = self.tolerate_missed_reads;
+        if k == 0 || self.tags.is_empty() {
+            return None;
+        }
+        let network = match scn.route {
+            RouteKind::Map { .. } => truth.network().map(|n| &**n),
+            _ => None,
+        };
+        let budget = Budget::new(scn, truth, network);
+        let samples = budget.samples();
+        if samples.is_empty() {
+            return None;
+        }
+        let fixes: Vec<(usize, Mounting)> = self
+            .tags
+            .iter()
+            .map(|t| {
+                let i = samples.partition_point(|x| x.avp.t < t.t_s - 1e-9);
+                (i.min(samples.len() - 1), t.mounting)
+            })
+            .collect();
+        let at: Vec<f64> = fixes
+            .iter()
+            .map(|&(i, _)| samples[i].avp.distance_m)
+            .collect();
+        let every = 50.0;
+        let (profile, snaps) = budget.with_fixes_and_snapshots(&fixes, every, &at);
+        let all_read = profile.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
+        let n = fixes.len();
+        if snaps.len() != n {
+            return None;
+        }
+        let worst = (0..n.saturating_sub(k - 1).max(1))
+            .into_par_iter()
+            .map(|d| {
+                let rest = &fixes[(d + k).min(n)..];
+                budget.worst_bound_from(fixes[d].0, snaps[d].filter.clone(), rest, f64::INFINITY)
+            })
+            .reduce(|| 0.0, f64::max);
+        Some(all_read.max(worst))
+    }
+
     /// Export records (with payloads) and metadata.
     pub fn export(&self, scn: &Scenario) -> Result<(Vec<TagRecord>, ExportMetadata)> {
         let mut recs = Vec::with_capacity(self.tags.len());

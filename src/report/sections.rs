@@ -80,7 +80,15 @@ pub fn plan_verdict(p: &serde_json::Value) -> String {
     let v = &p["validation"];
     let predicted = num(&p["predicted_max_bound95_m"]);
     let predicted_text = match (predicted, network) {
-        (Some(b), _) => format!(" Predicted max 95 % bound {b:.2} m (all tags read)."),
+        (Some(b), _) => format!(
+            " Predicted max 95 % bound {b:.2} m with all tags read{}.",
+            num(&p["predicted_max_bound95_missed_m"])
+                .map(|m| format!(
+                    ", {m:.2} m with any {} consecutive tag(s) missed",
+                    p["tolerate_missed_reads"].as_u64().unwrap_or(0)
+                ))
+                .unwrap_or_default()
+        ),
         (None, true) => {
             let verified = p["verified"].as_bool() == Some(true);
             format!(

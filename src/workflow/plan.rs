@@ -174,6 +174,7 @@ pub(super) fn route_plan(
         progress.finish();
     }
     let mut p = planned?;
+    p.predicted_max_bound95_missed_m = p.missed_bound(scn, truth);
     let t_plan = t0.elapsed().as_secs_f64();
     if settings.validation_runs > 0 {
         progress.note(&format!(
