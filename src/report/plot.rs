@@ -284,7 +284,7 @@ where
             )
             .map_err(|e| err(&e))?;
         legend.push((
-            format!("▲ clipped at the top: values up to {data_max:.0} m"),
+            format!("clipped at the top: values up to {data_max:.0} m"),
             c,
             LegendMark::Triangle,
         ));
@@ -402,4 +402,65 @@ fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>> {
         writer.write_image_data(rgb).map_err(err)?;
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn series(top: f64) -> ErrorSeries {
+        ErrorSeries {
+            x: (0..100).map(f64::from).collect(),
+            error: (0..100).map(|i| top * f64::from(i) / 99.0).collect(),
+            bound95: vec![None; 100],
+            envelope: None,
+        }
+    }
+
+    #[test]
+    fn a_curve_clipped_at_the_axis_is_marked_with_its_true_maximum() {
+        let decor = PlotDecor {
+            title: "t".into(),
+            x_label: "x".into(),
+            requirement_m: Some(20.0),
+            y_max: Some(50.0),
+            ..Default::default()
+        };
+        // 286 m shown on a 50 m axis (issue 16's "26 m shown for 286 m").
+        let svg = error_plot_svg(&series(286.0), &decor, (900, 400)).unwrap();
+        // The legend (wrapped over lines) names the true maximum.
+        assert!(svg.contains("clipped at the top"), "{svg}");
+        assert!(svg.contains("286 m\n</text>"), "{svg}");
+        // One marker where the curve leaves the axis.
+        assert_eq!(svg.matches("<polygon").count(), 2, "marker and its legend");
+        // Not clipped: no mark.
+        let svg = error_plot_svg(&series(30.0), &decor, (900, 400)).unwrap();
+        assert!(!svg.contains("clipped"));
+    }
+
+    #[test]
+    fn the_legend_is_drawn_right_of_the_plot_area() {
+        let decor = PlotDecor {
+            title: "t".into(),
+            x_label: "x".into(),
+            requirement_m: Some(20.0),
+            ..Default::default()
+        };
+        let svg = error_plot_svg(&series(30.0), &decor, (900, 400)).unwrap();
+        // The legend's text starts right of the plotting area's right edge
+        // (the chart takes the width less the legend column).
+        let legend_w = (900 / 4).clamp(200, 300);
+        let i = svg.find("requirement 20 m").unwrap();
+        let tag = &svg[svg[..i].rfind("<text").unwrap()..i];
+        let x: f64 = tag
+            .split("x=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(x >= f64::from(900 - legend_w), "{x}");
+    }
 }
