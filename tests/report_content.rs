@@ -264,6 +264,12 @@ fn report_of_a_plan_folder_shows_the_map_profile_summary_and_verdict() {
         assert!(html.contains(&legend(label)), "{label}");
     }
     assert!(html.contains("<h2>Scenario</h2>") && html.contains("name = &quot;demo&quot;"));
+    // The tag table: one row per tag, and where the heights come from (no
+    // elevation model on a map).
+    let table = &html[html.find("id=\"tag-table\"").unwrap()..];
+    let body = &table[table.find("<tbody>").unwrap()..table.find("</tbody>").unwrap()];
+    assert_eq!(body.matches("<tr").count() as u64, n);
+    assert!(html.contains("Heights: no elevation model"));
     assert!(!html.contains("<h2>Summary</h2>"), "no simulation here");
     assert!(out.join("plots/plan_profile.png").exists());
 }

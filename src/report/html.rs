@@ -338,9 +338,21 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
     }
 
     if !input.tags.is_empty() {
+        // Where the heights come from, as the tag files' metadata says.
+        let heights = match (
+            p["tag_files"]["heights_known"].as_bool(),
+            p["tag_files"]["parameters"]["height_m"].as_str(),
+        ) {
+            (Some(false), Some(why)) => format!(
+                "<p class=\"figures\">Heights: {} (the files say so: KML clamps the tags to the ground, GPX has no elevation).</p>",
+                escape(why)
+            ),
+            (Some(true), Some(why)) => format!("<p class=\"figures\">Heights: {}.</p>", escape(why)),
+            _ => String::new(),
+        };
         let _ = write!(
             html,
-            "<section id=\"tags\"><h2>Tags</h2>{}</section>",
+            "<section id=\"tags\"><h2>Tags</h2>{heights}{}</section>",
             sections::tag_table(&input.tags)
         );
     }
