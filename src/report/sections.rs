@@ -186,17 +186,17 @@ pub fn nees(s: &serde_json::Value) -> Option<String> {
     let (l, meaning) = if mean < lo {
         (
             Level::Amber,
-            "below the band: the filter is pessimistic — its covariance is larger than the errors it makes, so its 95 % bound (and the planner's prediction, from the same filter) overstates the error: safe, but tags may be more than needed",
+            "Below the band: the filter is pessimistic — its covariance is larger than the errors it makes, so its 95 % bound (and the planner's prediction, from the same filter) overstates the error: safe, but tags may be more than needed",
         )
     } else if mean > hi {
         (
             Level::Red,
-            "above the band: the filter is optimistic — its errors are larger than its covariance says, so its 95 % bound understates the error and cannot be trusted",
+            "Above the band: the filter is optimistic — its errors are larger than its covariance says, so its 95 % bound understates the error and cannot be trusted",
         )
     } else {
         (
             Level::Green,
-            "inside the band: the filter's covariance matches the errors it makes, so its 95 % bound can be trusted",
+            "Inside the band: the filter's covariance matches the errors it makes, so its 95 % bound can be trusted",
         )
     };
     Some(format!(
