@@ -306,61 +306,72 @@ pub fn map_svg(net: &Network, overlay: &MapOverlay, width_px: u32) -> String {
     s
 }
 
-/// Street names where they fit: for each named road, along its longest
-/// straight segment inside the view when that is longer than the name
-/// (at most 40 names, none over another).
+/// Street names where they fit: each named road's name along its longest
+/// section inside the view (a text path, read left to right) when the
+/// section is nearly straight and longer than the name; at most 40 names,
+/// none over another.
 fn street_names(s: &mut String, net: &Network, v: &View, px: &dyn Fn([f64; 2]) -> (f64, f64)) {
-    let font = 0.012 * v.w.max(v.h);
+    let font = 0.009 * v.w.max(v.h);
     let inside = |p: [f64; 2]| p[0] > v.x0 && p[0] < v.x0 + v.w && p[1] > v.y0 && p[1] < v.y0 + v.h;
-    // The longest segment per name.
-    type Seg = ([f64; 2], [f64; 2], f64);
-    let mut best: std::collections::HashMap<&str, Seg> = Default::default();
+    // The longest section inside the view, per name.
+    let mut best: std::collections::HashMap<&str, (usize, f64)> = Default::default();
     for (i, sec) in net.sections.iter().enumerate() {
         let Some(name) = net.roads[sec.road as usize].attributes.name.as_deref() else {
             continue;
         };
-        for g in net.model.section_segments(i as u32) {
-            let len = (g.b[0] - g.a[0]).hypot(g.b[1] - g.a[1]);
-            if inside(g.a) && inside(g.b) && best.get(name).is_none_or(|b| b.2 < len) {
-                best.insert(name, (g.a, g.b, len));
-            }
+        let segs = net.model.section_segments(i as u32);
+        if !segs.iter().all(|g| inside(g.a) && inside(g.b)) {
+            continue;
+        }
+        if best.get(name).is_none_or(|b| b.1 < sec.length_m) {
+            best.insert(name, (i, sec.length_m));
         }
     }
-    let mut names: Vec<(&str, Seg)> = best.into_iter().collect();
-    names.sort_by(|a, b| b.1 .2.total_cmp(&a.1 .2).then(a.0.cmp(b.0)));
+    let mut names: Vec<(&str, (usize, f64))> = best.into_iter().collect();
+    names.sort_by(|a, b| b.1 .1.total_cmp(&a.1 .1).then(a.0.cmp(b.0)));
     let mut taken: Vec<(f64, f64, f64)> = Vec::new();
     s.push_str(
         "<g class=\"names\" font-family=\"sans-serif\" fill=\"#555\" text-anchor=\"middle\">",
     );
     let mut drawn = 0;
-    for (name, (a, b, len)) in names {
+    for (name, (i, len)) in names {
         let width = 0.55 * font * name.chars().count() as f64;
-        if len < 1.1 * width || drawn >= 40 {
+        if len < 1.2 * width || drawn >= 40 {
             continue;
         }
-        let (pa, pb) = (px(a), px(b));
-        let (cx, cy) = (0.5 * (pa.0 + pb.0), 0.5 * (pa.1 + pb.1));
+        let segs = net.model.section_segments(i as u32);
+        let mut pts: Vec<(f64, f64)> = std::iter::once(px(segs[0].a))
+            .chain(segs.iter().map(|g| px(g.b)))
+            .collect();
+        // Nearly straight sections only: a name round a corner is unreadable.
+        let (a, b) = (pts[0], pts[pts.len() - 1]);
+        if (b.0 - a.0).hypot(b.1 - a.1) < 0.9 * len {
+            continue;
+        }
+        // Read left to right.
+        if pts[pts.len() - 1].0 < pts[0].0 {
+            pts.reverse();
+        }
+        let mid = pts[pts.len() / 2];
         if taken
             .iter()
-            .any(|&(x, y, w)| (x - cx).hypot(y - cy) < 0.5 * (w + width))
+            .any(|&(x, y, w)| (x - mid.0).hypot(y - mid.1) < 0.5 * (w + width))
         {
             continue;
         }
-        let mut angle = (pb.1 - pa.1).atan2(pb.0 - pa.0).to_degrees();
-        if angle > 90.0 {
-            angle -= 180.0;
-        } else if angle < -90.0 {
-            angle += 180.0;
+        let _ = write!(s, "<path id=\"wm-name-{i}\" fill=\"none\" d=\"M");
+        for (k, p) in pts.iter().enumerate() {
+            let _ = write!(s, "{}{:.1},{:.1}", if k > 0 { " L" } else { "" }, p.0, p.1);
         }
         let _ = write!(
             s,
-            "<text font-size=\"{font:.1}\" transform=\"translate({cx:.1},{cy:.1}) rotate({angle:.1})\" dy=\"{:.1}\" \
-             stroke=\"#fbfbf8\" stroke-width=\"{:.1}\" paint-order=\"stroke\">{}</text>",
-            -0.35 * font,
+            "\"/><text font-size=\"{font:.1}\" dy=\"{:.1}\" stroke=\"#fbfbf8\" stroke-width=\"{:.1}\" \
+             paint-order=\"stroke\"><textPath href=\"#wm-name-{i}\" startOffset=\"50%\">{}</textPath></text>",
+            -0.4 * font,
             0.25 * font,
             escape(name)
         );
-        taken.push((cx, cy, width));
+        taken.push((mid.0, mid.1, width));
         drawn += 1;
     }
     s.push_str("</g>");
