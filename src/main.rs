@@ -145,11 +145,32 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Plans RFID tags for a scenario's route: the fewest tags keeping the predicted 95 % horizontal error within requirement_m; validates by Monte Carlo; writes tags.csv/.geojson/.kml/.gpx, plan.json, profile.csv and, for `waymark report`, scenario.toml and inputs.json.
+    /// Writes a commented starting scenario (IMU class preset, odometer, RFID, planner): on a map's roads with --map, for every road with --network, else a drive by motion commands. Edit it, then plan, simulate and report.
+    #[command(
+        after_help = "Examples:\n  waymark init                                  # scenario.toml: a drive by motion commands\n  \
+        waymark init --map maps/helsinki.osm.pbf --out route.toml\n  \
+        waymark init --map maps/helsinki.osm.pbf --network --out area.toml"
+    )]
+    Init {
+        /// The map the scenario drives on (.osm.pbf, .osm, .geojson, .shp); two waypoints are chosen on it.
+        #[arg(long)]
+        map: Option<PathBuf>,
+        /// Plan tags for every road of the map in each permitted direction (planner.coverage = "network"); needs --map.
+        #[arg(long, requires = "map")]
+        network: bool,
+        /// The scenario file to write (must not exist).
+        #[arg(long, default_value = "scenario.toml")]
+        out: PathBuf,
+        /// Print one JSON object (the file, the map, the waypoints) on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Plans RFID tags: along the scenario's route (planner.coverage = "routes", the default: the fewest tags keeping the predicted 95 % horizontal error within requirement_m with tolerate_missed_reads consecutive tags missed), or for the whole map (coverage = "network": every drivable road in each permitted direction, on any path through the network; reports the reach between fixes, a lower bound on the tag count and a walk check; validated on sampled paths). Validates by Monte Carlo; writes tags.csv (header first), tags.meta.json, tags.geojson/.kml/.gpx, plan.json, profile.csv (routes) and, for `waymark report`, scenario.toml and inputs.json.
     #[command(
         after_help = "Examples:\n  waymark plan scenarios/helsinki-plan-tactical.toml --out /tmp/plan\n  \
         waymark plan drive.toml --runs 20 --seed 3 --out /tmp/drive-plan\n  \
-        waymark plan scenarios/demo.toml --baseline --json --out /tmp/demo-plan"
+        waymark plan scenarios/demo.toml --baseline --json --out /tmp/demo-plan\n  \
+        waymark plan scenarios/helsinki-network-plan.toml --out /tmp/area   # network coverage"
     )]
     Plan {
         /// The scenario file (TOML) with requirement_m and an integrated navigator.
@@ -325,6 +346,25 @@ fn run(cli: Cli) -> Result<()> {
             (json, simulate(&job, out(json))?)
         }
         Command::Report { dir, json } => (json, report(&dir, out(json))?),
+        Command::Init {
+            map,
+            network,
+            out: file,
+            json,
+        } => {
+            let o = workflow::init_scenario(&file, map.as_deref(), network)?;
+            out(json).text(format_args!(
+                "wrote {} ({}); next: waymark plan {} --out plan",
+                o.scenario.display(),
+                match (&o.map, o.network) {
+                    (Some(m), true) => format!("network coverage of {}", m.display()),
+                    (Some(m), false) => format!("a route on {}", m.display()),
+                    (None, _) => "a drive by motion commands".into(),
+                },
+                o.scenario.display()
+            ));
+            (json, serde_json::to_value(&o)?)
+        }
         Command::Plan {
             scenario,
             out: dir,
@@ -710,6 +750,9 @@ fn report(dir: &Path, out: Out) -> Result<serde_json::Value> {
 }
 
 fn print_report(files: &waymark::report::ReportFiles, dir: &Path, out: Out) {
+    for m in &files.missing {
+        note!(out, "waymark report: warning: {}: {m}", dir.display());
+    }
     text!(
         out,
         "wrote {} and {}",

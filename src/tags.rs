@@ -124,6 +124,10 @@ pub struct ExportMetadata {
     pub parameters: BTreeMap<String, String>,
     /// Data attribution of the map the tags were planned on.
     pub attribution: Option<String>,
+    /// Whether the tags' heights are real heights (from the trajectory or
+    /// an elevation model); when not, they are 0 m placeholders and the
+    /// files say so (KML clamps the placemarks to the ground).
+    pub heights_known: bool,
 }
 
 impl ExportMetadata {

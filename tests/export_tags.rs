@@ -1,9 +1,13 @@
 //! Tag exports open in standard tools: the GeoJSON follows RFC 7946 and parses
 //! with `geojson`, the KML parses with `kml`, the GPX with `gpx`, the CSV with
-//! `csv`; every file carries the metadata and round-trips the positions.
+//! a strict-header `csv` reader (its first line is its header); every file
+//! carries every column of `tags.csv` for every tag, the metadata is in the
+//! `tags.meta.json` sidecar (and GeoJSON/KML/GPX document metadata), and
+//! the positions round-trip.
 
 use waymark::export::{
-    tags_csv, tags_geojson, tags_gpx, tags_kml, ExportMetadata, TagRecord, CSV_COLUMNS,
+    csv_row, tags_csv, tags_geojson, tags_gpx, tags_kml, tags_meta_json, ExportMetadata, TagRecord,
+    CSV_COLUMNS, GPX_NAMESPACE,
 };
 use waymark::tags::{Mounting, TagPayload};
 
@@ -22,7 +26,8 @@ fn sample() -> (Vec<TagRecord>, ExportMetadata) {
             lon,
             height_m: h,
             road_id: Some(format!("way/{}&x", 100 + i)),
-            chainage_m: Some(10.0 * i as f64),
+            // Chainages with float noise: written at 1 cm.
+            chainage_m: Some(10.0 * i as f64 + 0.123456789012),
             side: Some("right".into()),
             lateral_offset_m: Some(1.5),
             mounting: m,
@@ -44,6 +49,7 @@ fn sample() -> (Vec<TagRecord>, ExportMetadata) {
     meta.parameters
         .insert("imu".into(), "tactical <1 deg/h>".into());
     meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
+    meta.heights_known = true;
     (tags, meta)
 }
 
@@ -150,9 +156,12 @@ fn gpx_parses_with_the_gpx_crate() {
 fn csv_round_trips_and_payloads_decode_to_the_rows() {
     let (tags, meta) = sample();
     let text = tags_csv(&tags, &meta);
-    assert!(text.starts_with("# Waymark "));
+    // Strict: no comment lines allowed, the first line is the header (as
+    // GDAL and QGIS read it).
+    assert_eq!(text.lines().next().unwrap(), CSV_COLUMNS.join(","));
     let mut r = csv::ReaderBuilder::new()
-        .comment(Some(b'#'))
+        .has_headers(true)
+        .flexible(false)
         .from_reader(text.as_bytes());
     let header: Vec<String> = r.headers().unwrap().iter().map(str::to_owned).collect();
     assert_eq!(header, CSV_COLUMNS);
@@ -163,6 +172,7 @@ fn csv_round_trips_and_payloads_decode_to_the_rows() {
         let (lat, lon): (f64, f64) = (row[1].parse().unwrap(), row[2].parse().unwrap());
         assert!((lat - t.lat).abs() < 5e-8 && (lon - t.lon).abs() < 5e-8);
         assert_eq!(&row[8], t.mounting.as_str());
+        assert_eq!(&row[5], format!("{:.2}", t.chainage_m.unwrap()));
         let p = TagPayload::from_hex(&row[11]).unwrap();
         assert!((p.lat_deg - lat).abs() <= 0.5e-6 && (p.lon_deg - lon).abs() <= 0.5e-6);
         assert_eq!(p.mounting, t.mounting);
@@ -183,4 +193,161 @@ fn exported_csv_is_accepted_as_simulator_input() {
         assert!((r.lat.to_degrees() - t.lat).abs() < 5e-8);
         assert!((r.height_m.unwrap() - t.height_m).abs() < 5e-3);
     }
+}
+
+/// Every tag's columns as `tags.csv` writes them.
+fn expected_columns(tags: &[TagRecord]) -> Vec<Vec<(String, String)>> {
+    tags.iter()
+        .map(|t| {
+            CSV_COLUMNS
+                .iter()
+                .map(|c| c.to_string())
+                .zip(csv_row(t))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn kml_extended_data_holds_every_column_and_heights_are_absolute() {
+    let (tags, meta) = sample();
+    let text = tags_kml(&tags, &meta);
+    let k: kml::Kml = text.parse().expect("KML parses");
+    let mut placemarks = Vec::new();
+    fn walk(k: &kml::Kml, out: &mut Vec<kml::types::Placemark>) {
+        match k {
+            kml::Kml::KmlDocument(d) => d.elements.iter().for_each(|e| walk(e, out)),
+            kml::Kml::Document { elements, .. } => elements.iter().for_each(|e| walk(e, out)),
+            kml::Kml::Placemark(p) => out.push(p.clone()),
+            _ => {}
+        }
+    }
+    walk(&k, &mut placemarks);
+    for (p, want) in placemarks.iter().zip(expected_columns(&tags)) {
+        let ext = p
+            .children
+            .iter()
+            .find(|e| e.name == "ExtendedData")
+            .expect("ExtendedData");
+        let got: Vec<(String, String)> = ext
+            .children
+            .iter()
+            .filter(|d| d.name == "Data")
+            .map(|d| {
+                (
+                    d.attrs["name"].clone(),
+                    d.children[0].content.clone().unwrap_or_default(),
+                )
+            })
+            .collect();
+        assert_eq!(got, want);
+        let Some(kml::types::Geometry::Point(pt)) = &p.geometry else {
+            panic!("no point")
+        };
+        assert_eq!(pt.altitude_mode, kml::types::AltitudeMode::Absolute);
+        assert!(pt.coord.z.is_some());
+    }
+}
+
+#[test]
+fn without_known_heights_kml_clamps_to_ground_and_gpx_has_no_elevation() {
+    let (tags, mut meta) = sample();
+    meta.heights_known = false;
+    let k: kml::Kml = tags_kml(&tags, &meta).parse().unwrap();
+    let text = k.to_string();
+    assert!(text.contains("clampToGround"), "{text}");
+    let g = gpx::read(tags_gpx(&tags, &meta).as_bytes()).unwrap();
+    assert!(g.waypoints.iter().all(|w| w.elevation.is_none()));
+    // The sidecar says so.
+    let m: serde_json::Value = serde_json::from_str(&tags_meta_json(&meta)).unwrap();
+    assert_eq!(m["heights_known"], false);
+}
+
+#[test]
+fn gpx_extensions_hold_every_column() {
+    use quick_xml::events::Event;
+    let (tags, meta) = sample();
+    let text = tags_gpx(&tags, &meta);
+    assert!(text.contains(&format!("xmlns:waymark=\"{GPX_NAMESPACE}\"")));
+    // The gpx crate reads it (and skips the extensions) ...
+    assert_eq!(gpx::read(text.as_bytes()).unwrap().waypoints.len(), 3);
+    // ... and a namespace-aware reader finds every column in them.
+    let mut r = quick_xml::NsReader::from_str(&text);
+    let mut got: Vec<Vec<(String, String)>> = Vec::new();
+    let mut current: Option<String> = None;
+    loop {
+        match r.read_resolved_event().unwrap() {
+            (_, Event::Start(e)) if e.local_name().as_ref() == b"wpt" => got.push(Vec::new()),
+            (quick_xml::name::ResolveResult::Bound(ns), Event::Start(e))
+                if ns.as_ref() == GPX_NAMESPACE.as_bytes() =>
+            {
+                current = Some(String::from_utf8(e.local_name().as_ref().to_vec()).unwrap());
+            }
+            (_, Event::Text(t)) if current.is_some() => {
+                let v = t.unescape().unwrap().to_string();
+                got.last_mut().unwrap().push((current.take().unwrap(), v));
+            }
+            (_, Event::End(_)) if current.is_some() => {
+                // An empty element: an empty column.
+                got.last_mut()
+                    .unwrap()
+                    .push((current.take().unwrap(), String::new()));
+            }
+            (_, Event::Eof) => break,
+            _ => {}
+        }
+    }
+    assert_eq!(got, expected_columns(&tags));
+}
+
+#[test]
+fn geojson_numbers_are_at_sensible_precision() {
+    let (tags, meta) = sample();
+    let text = tags_geojson(&tags, &meta);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for (f, want) in v["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(expected_columns(&tags))
+    {
+        let p = &f["properties"];
+        // Every column is a property (positions also as the geometry).
+        let c = &f["geometry"]["coordinates"];
+        for (col, value) in &want {
+            let got = match col.as_str() {
+                "lat" => &c[1],
+                "lon" => &c[0],
+                k => &p[k],
+            };
+            match got {
+                serde_json::Value::Number(n) => {
+                    let printed = n.to_string();
+                    let decimals = printed.split('.').nth(1).map_or(0, str::len);
+                    assert!(decimals <= 7, "{col}: {printed}");
+                    assert!(
+                        (n.as_f64().unwrap() - value.parse::<f64>().unwrap()).abs() < 1e-9,
+                        "{col}: {printed} vs {value}"
+                    );
+                }
+                serde_json::Value::String(s) => assert_eq!(s, value, "{col}"),
+                serde_json::Value::Null => assert!(value.is_empty(), "{col}"),
+                other => panic!("{col}: {other}"),
+            }
+        }
+        let chainage = p["chainage_m"].to_string();
+        assert!(
+            chainage.split('.').nth(1).map_or(0, str::len) <= 2,
+            "{chainage}"
+        );
+    }
+}
+
+#[test]
+fn sidecar_holds_the_metadata_and_the_columns() {
+    let (_, meta) = sample();
+    let m: serde_json::Value = serde_json::from_str(&tags_meta_json(&meta)).unwrap();
+    assert_eq!(m["requirement_m"], 20.0);
+    assert_eq!(m["parameters"]["imu"], "tactical <1 deg/h>");
+    assert_eq!(m["columns"].as_array().unwrap().len(), CSV_COLUMNS.len());
 }

@@ -76,11 +76,12 @@ fn plan_cli_on_helsinki_writes_validated_plan_and_exports() {
     let tags = waymark::sim::tags::load_tags_csv(&csv).unwrap();
     assert_eq!(tags.len() as u64, n);
     let text = std::fs::read_to_string(&csv).unwrap();
-    assert!(text.starts_with("# Waymark "), "{text}");
-    assert!(text.contains("# requirement_m = 20"), "{text}");
-    let mut rdr = csv::ReaderBuilder::new()
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
+    // The first line is the header; the metadata is in the sidecar.
+    assert!(text.starts_with("tag_id,"), "{text}");
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("tags.meta.json")).unwrap()).unwrap();
+    assert_eq!(meta["requirement_m"], 20.0);
+    let mut rdr = csv::ReaderBuilder::new().from_reader(text.as_bytes());
     let h = rdr.headers().unwrap().clone();
     let col = |name: &str| h.iter().position(|c| c == name).unwrap();
     for r in rdr.records() {

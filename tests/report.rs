@@ -53,7 +53,11 @@ fn report_is_self_contained_and_plots_are_drawn() {
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.starts_with("<!DOCTYPE html>"));
     assert!(html.contains("<svg"), "plots are inline SVG");
-    assert!(html.contains("Meets the 10 m requirement"), "verdict shown");
+    assert!(
+        html.contains("Simulation meets the 10 m requirement in every run"),
+        "verdict shown"
+    );
+    assert!(html.contains("Rule: green when"), "the rule is stated");
     // The map of the scenario's area, redrawn from the scenario recorded by simulate.
     assert!(html.contains("<h2>Map</h2>"), "map section");
     assert!(
@@ -61,7 +65,9 @@ fn report_is_self_contained_and_plots_are_drawn() {
         "the Helsinki roads are drawn"
     );
     assert!(html.contains("<h2>Scenario</h2>"), "scenario shown");
-    assert!(!html.contains("<script"), "no scripts");
+    // One script, the project's own, inline: nothing loaded.
+    assert_eq!(html.matches("<script").count(), 1, "one inline script");
+    assert!(!html.contains("<script src"), "no external script");
     // No external resources: the only URLs are XML namespaces.
     for (i, _) in html.match_indices("http") {
         let tail = &html[i..(i + 40).min(html.len())];
@@ -113,29 +119,6 @@ fn monte_carlo_report_shows_the_filter_bound_and_the_envelope() {
     }
 }
 
-#[test]
-fn report_of_a_folder_without_results_is_a_clean_error() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = bin()
-        .args(["report", dir.path().to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("summary.json") && !err.contains("panicked"),
-        "{err}"
-    );
-    std::fs::write(dir.path().join("summary.json"), "{\"name\": \"x\"}").unwrap();
-    std::fs::write(dir.path().join("errors.csv"), "t_s,distance_m\n0,0\n").unwrap();
-    let out = bin()
-        .args(["report", dir.path().to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("missing column 'horizontal_m'"));
-}
-
 fn chromium() -> Option<PathBuf> {
     [
         "/usr/bin/chromium",
@@ -145,6 +128,65 @@ fn chromium() -> Option<PathBuf> {
     .iter()
     .map(PathBuf::from)
     .find(|p| p.exists())
+}
+
+/// Runs headless Chromium on `page`: the DOM after the page's script ran,
+/// and a screenshot at `shot`. Panics on console output (errors included).
+fn render(browser: &Path, page: &Path, shot: &Path, profile: &Path) -> String {
+    let common = |extra: &[String]| {
+        let mut args: Vec<String> = [
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--hide-scrollbars",
+            "--enable-logging=stderr",
+            "--v=0",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        args.push(format!("--user-data-dir={}", profile.display()));
+        args.extend_from_slice(extra);
+        args.push(format!("file://{}", page.display()));
+        let run = Command::new(browser).args(&args).output().unwrap();
+        let log = String::from_utf8_lossy(&run.stderr).into_owned();
+        assert!(run.status.success(), "chromium failed: {log}");
+        // Console messages are logged as "CONSOLE(line)": the page's own
+        // script logs nothing, so any (errors included) means a fault.
+        let console: Vec<&str> = log.lines().filter(|l| l.contains("CONSOLE")).collect();
+        assert!(console.is_empty(), "console output: {console:?}");
+        String::from_utf8_lossy(&run.stdout).into_owned()
+    };
+    common(&[
+        format!("--screenshot={}", shot.display()),
+        "--window-size=1200,1800".into(),
+    ]);
+    let ink = ink_share(&std::fs::read(shot).unwrap());
+    assert!(ink > 0.02, "screenshot looks blank (ink share {ink})");
+    common(&["--dump-dom".into(), "--virtual-time-budget=2000".into()])
+}
+
+/// Checks a rendered report: the map's script ran, every tag is drawn and
+/// has a row in the tag table, and no number is NaN.
+fn check_rendered(dom: &str, tags_csv: &Path) {
+    let tags = std::fs::read_to_string(tags_csv).unwrap().lines().count() - 1;
+    assert!(
+        dom.contains("data-map-script=\"ready\""),
+        "the map's script did not run"
+    );
+    let table = &dom[dom.find("id=\"tag-table\"").expect("tag table")..];
+    let body = &table[table.find("<tbody>").unwrap()..table.find("</tbody>").unwrap()];
+    assert_eq!(body.matches("<tr").count(), tags, "one table row per tag");
+    assert!(
+        dom.matches("class=\"tag\"").count() >= tags,
+        "every tag drawn on the map"
+    );
+    assert!(!dom.contains("NaN"), "NaN on the page");
+    assert!(!dom.contains(">—<"), "a dash where a number belongs");
 }
 
 #[test]
@@ -159,49 +201,58 @@ fn report_renders_in_headless_chromium() {
         eprintln!("skipping: Chromium not installed");
         return;
     };
-    // The demo's report: plan, validation, map with the tags, plots.
     let dir = tempfile::tempdir().unwrap();
+    let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
+    std::fs::create_dir_all(&target).unwrap();
+    // The demo's report (a route): plan, validation, map with the tags, plots.
     let out = dir.path().join("demo");
     let d = bin()
         .args(["demo", "--out", out.to_str().unwrap()])
         .output()
         .unwrap();
     assert!(d.status.success(), "{}", String::from_utf8_lossy(&d.stderr));
-    let shot = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/report-screenshot.png");
-    let profile = dir.path().join("chromium-profile");
-    let run = Command::new(browser)
+    let dom = render(
+        &browser,
+        &out.join("report.html"),
+        &target.join("report-screenshot.png"),
+        &dir.path().join("profile-a"),
+    );
+    check_rendered(&dom, &out.join("tags.csv"));
+    assert!(dom.contains("data-info=\"start\"") && dom.contains("class=\"north\""));
+    // An area plan's report: the whole network, every tag.
+    let net = dir.path().join("net");
+    let scn = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/helsinki-network-plan.toml");
+    let p = bin()
         .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--hide-scrollbars",
-            "--enable-logging=stderr",
-            "--v=0",
-            &format!("--user-data-dir={}", profile.display()),
-            &format!("--screenshot={}", shot.display()),
-            "--window-size=1200,1800",
-            &format!("file://{}", out.join("report.html").display()),
+            "plan",
+            scn.to_str().unwrap(),
+            "--runs",
+            "4",
+            "--out",
+            net.to_str().unwrap(),
         ])
         .output()
         .unwrap();
-    let log = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "chromium failed: {log}");
-    // Console messages are logged as "CONSOLE(line)"; the page has no scripts,
-    // so any console output (errors included) means something is wrong.
-    let console: Vec<&str> = log.lines().filter(|l| l.contains("CONSOLE")).collect();
-    assert!(console.is_empty(), "console output: {console:?}");
-    let ink = ink_share(&std::fs::read(&shot).unwrap());
-    assert!(ink > 0.02, "screenshot looks blank (ink share {ink})");
+    assert!(p.status.success(), "{}", String::from_utf8_lossy(&p.stderr));
+    let r = bin()
+        .args(["report", net.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let dom = render(
+        &browser,
+        &net.join("report.html"),
+        &target.join("report-network-screenshot.png"),
+        &dir.path().join("profile-b"),
+    );
+    check_rendered(&dom, &net.join("tags.csv"));
+    assert!(dom.contains("lower bound on new tags") && dom.contains("reach between fixes"));
 }
 
 #[test]
 fn map_draws_every_section_the_route_and_the_tags() {
     use waymark::network::{LoadOptions, Network};
-    use waymark::report::{map_svg, MapOverlay};
+    use waymark::report::{map_svg, MapOverlay, MapTag};
     use waymark::tags::Mounting;
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf");
     let net = Network::load(&p, &LoadOptions::default()).unwrap();
@@ -225,21 +276,66 @@ fn map_draws_every_section_the_route_and_the_tags() {
             })
             .collect(),
         tags: vec![
-            (route.vertices[n / 3].lat_lon, Mounting::Roadside),
-            (route.vertices[2 * n / 3].lat_lon, Mounting::Ceiling),
+            MapTag {
+                lat_lon: route.vertices[n / 3].lat_lon,
+                mounting: Mounting::Roadside,
+                info: "A".into(),
+            },
+            MapTag {
+                lat_lon: route.vertices[2 * n / 3].lat_lon,
+                mounting: Mounting::Ceiling,
+                info: "B".into(),
+            },
+            // 1 m from B: drawn apart, each with a leader to its place.
+            MapTag {
+                lat_lon: [
+                    route.vertices[2 * n / 3].lat_lon[0] + 1e-5,
+                    route.vertices[2 * n / 3].lat_lon[1],
+                ],
+                mounting: Mounting::RoadSurface,
+                info: "C".into(),
+            },
         ],
         requirement_m: Some(20.0),
+        ..Default::default()
     };
     let svg = map_svg(&net, &overlay, 900);
-    assert_eq!(svg.matches("<polyline").count(), net.sections.len());
+    // The view is fitted to the route: sections far from it are left out.
+    let drawn = svg.matches("<polyline").count();
+    assert!(
+        drawn > 100 && drawn <= net.sections.len(),
+        "{drawn} of {} sections",
+        net.sections.len()
+    );
     assert_eq!(
         svg.matches("<line ").count(),
         n - 1 + 1,
-        "route segments plus the scale bar"
+        "route segments plus the leader of the tag moved off B"
     );
-    assert_eq!(svg.matches("<circle").count(), 2);
-    // The error colour runs from green to red past the requirement.
-    assert!(svg.contains("hsl(120,85%,42%)") && svg.contains("hsl(0,85%,42%)"));
+    assert_eq!(svg.matches("<circle").count(), 3);
+    let centre = |info: &str| {
+        let i = svg.find(&format!("data-info=\"{info}\"")).unwrap();
+        let c = &svg[svg[..i].rfind("<circle").unwrap()..i];
+        let num = |k: &str| -> f64 {
+            let j = c.find(k).unwrap() + k.len();
+            c[j..].split('"').next().unwrap().parse().unwrap()
+        };
+        (num("cx=\""), num("cy=\""))
+    };
+    let (b, c) = (centre("B"), centre("C"));
+    let r: f64 = {
+        let i = svg.find(" r=\"").unwrap() + 4;
+        svg[i..].split('"').next().unwrap().parse().unwrap()
+    };
+    assert!(
+        ((b.0 - c.0).powi(2) + (b.1 - c.1).powi(2)).sqrt() > 2.0 * r,
+        "co-located tags overlap: {b:?} {c:?}"
+    );
+    // Start and end marked.
+    assert!(svg.contains("data-info=\"start\"") && svg.contains("data-info=\"end\""));
+    // The error colour runs from green to red at the requirement, and a
+    // colour of its own past it.
+    assert!(svg.contains("hsl(120,85%,42%)") && svg.contains(waymark::report::OVER_COLOUR));
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(

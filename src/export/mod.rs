@@ -7,7 +7,9 @@ mod tags;
 
 pub use crate::fsio::write_atomic;
 pub use crate::tags::{ExportMetadata, TagRecord};
-pub use tags::{tags_csv, tags_geojson, tags_gpx, tags_kml, CSV_COLUMNS};
+pub use tags::{
+    csv_row, tags_csv, tags_geojson, tags_gpx, tags_kml, tags_meta_json, CSV_COLUMNS, GPX_NAMESPACE,
+};
 
 /// The defects as a GeoJSON FeatureCollection of points (RFC 7946, [lon, lat]).
 pub fn defects_geojson(defects: &crate::network::DefectReport) -> String {

@@ -1,12 +1,21 @@
 //! Tag files for installers: CSV, GeoJSON (RFC 7946), KML 2.2 and GPX 1.1.
 //!
-//! Every file carries the requirement, the models' parameters and the Waymark
-//! version: CSV as leading `#` comment lines, GeoJSON as a `waymark` foreign
-//! member of the FeatureCollection, KML as `ExtendedData` of the Document, GPX
-//! in its `metadata`. Coordinates are WGS-84 degrees with 7 decimals (1 cm).
+//! Every file carries every column of `tags.csv` for every tag: GeoJSON as
+//! feature properties, KML as each Placemark's `ExtendedData`, GPX in each
+//! waypoint's `<extensions>` under the namespace [`GPX_NAMESPACE`]. The
+//! metadata (requirement, the models' parameters as the plan used them,
+//! the Waymark version) is in the `tags.meta.json` sidecar
+//! ([`tags_meta_json`]), GeoJSON's `waymark` foreign member, the KML
+//! Document's `ExtendedData` and the GPX `metadata`; `tags.csv` holds none,
+//! so its first line is its header (GIS tools take it as such).
+//! Coordinates are WGS-84 degrees with 7 decimals (1 cm); heights,
+//! chainages and offsets with 2 (cm), fix sigmas with 3 (mm). Heights are
+//! written as altitudes (KML `altitudeMode` absolute, GPX `ele`) only when
+//! [`ExportMetadata::heights_known`]; otherwise KML clamps to the ground.
 //!
-//! The documents are built as the `geojson`, `kml` and `gpx` crates' types and
-//! written by those crates.
+//! GeoJSON and KML are built as the `geojson` and `kml` crates' types and
+//! written by those crates; GPX with `quick-xml` (the `gpx` crate writes
+//! no extensions).
 
 use crate::tags::{ExportMetadata, Mounting, TagRecord};
 use geojson::{feature::Id, Feature, FeatureCollection, Geometry, JsonObject, JsonValue};
@@ -35,40 +44,52 @@ fn opt_f(v: Option<f64>, decimals: usize) -> String {
     v.map(|x| format!("{x:.decimals$}")).unwrap_or_default()
 }
 
-/// Writes `tags.csv`: `#` metadata lines, then a header row and one row per tag.
-pub fn tags_csv(tags: &[TagRecord], meta: &ExportMetadata) -> String {
+/// The namespace of the GPX waypoints' `<extensions>` (prefix `waymark`).
+pub const GPX_NAMESPACE: &str = "urn:waymark:gpx:tags:1";
+
+/// A tag's columns, as `tags.csv` writes them (in [`CSV_COLUMNS`] order).
+pub fn csv_row(t: &TagRecord) -> [String; 12] {
+    [
+        t.tag_id.clone(),
+        format!("{:.7}", t.lat),
+        format!("{:.7}", t.lon),
+        format!("{:.2}", t.height_m),
+        t.road_id.clone().unwrap_or_default(),
+        opt_f(t.chainage_m, 2),
+        t.side.clone().unwrap_or_default(),
+        opt_f(t.lateral_offset_m, 2),
+        t.mounting.to_string(),
+        opt_f(t.expected_fix_sigma_m, 3),
+        t.redundancy_group
+            .map(|g| g.to_string())
+            .unwrap_or_default(),
+        t.payload_hex.clone().unwrap_or_default(),
+    ]
+}
+
+/// Writes `tags.meta.json`: the metadata of the tag files (version,
+/// requirement, parameters as the plan used them, attribution, whether
+/// heights are real) and the columns of `tags.csv`.
+pub fn tags_meta_json(meta: &ExportMetadata) -> String {
+    let mut v = serde_json::to_value(meta).unwrap_or_default();
+    v["columns"] = CSV_COLUMNS.iter().map(|c| JsonValue::from(*c)).collect();
+    v["crs"] = "WGS 84 (EPSG:4326), degrees; heights in metres".into();
+    serde_json::to_string_pretty(&v).unwrap_or_default()
+}
+
+/// Writes `tags.csv`: a header row, then one row per tag (no metadata
+/// lines: those are in `tags.meta.json`).
+pub fn tags_csv(tags: &[TagRecord], _meta: &ExportMetadata) -> String {
     let mut out = String::new();
-    for l in meta.lines() {
-        let _ = writeln!(out, "# {l}");
-    }
     let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
     let _ = w.write_record(CSV_COLUMNS);
     for t in tags {
-        let row = [
-            t.tag_id.clone(),
-            format!("{:.7}", t.lat),
-            format!("{:.7}", t.lon),
-            format!("{:.2}", t.height_m),
-            t.road_id.clone().unwrap_or_default(),
-            opt_f(t.chainage_m, 2),
-            t.side.clone().unwrap_or_default(),
-            opt_f(t.lateral_offset_m, 2),
-            t.mounting.to_string(),
-            opt_f(t.expected_fix_sigma_m, 3),
-            t.redundancy_group
-                .map(|g| g.to_string())
-                .unwrap_or_default(),
-            t.payload_hex.clone().unwrap_or_default(),
-        ];
+        let row = csv_row(t);
         let _ = w.write_record(&row);
     }
     let body = w.into_inner().unwrap_or_default();
     out.push_str(&String::from_utf8_lossy(&body));
     out
-}
-
-fn round7(x: f64) -> f64 {
-    (x * 1e7).round() / 1e7
 }
 
 /// `x` as written with `decimals` decimals, read back (so a crate printing
@@ -88,19 +109,26 @@ pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
             };
             put("tag_id", t.tag_id.clone().into());
             put("road_id", t.road_id.clone().into());
-            put("chainage_m", t.chainage_m.into());
+            put("height_m", printed(t.height_m, 2).into());
+            put("chainage_m", t.chainage_m.map(|c| printed(c, 2)).into());
             put("side", t.side.clone().into());
-            put("lateral_offset_m", t.lateral_offset_m.into());
+            put(
+                "lateral_offset_m",
+                t.lateral_offset_m.map(|c| printed(c, 2)).into(),
+            );
             put("mounting", t.mounting.as_str().into());
-            put("expected_fix_sigma_m", t.expected_fix_sigma_m.into());
+            put(
+                "expected_fix_sigma_m",
+                t.expected_fix_sigma_m.map(|c| printed(c, 3)).into(),
+            );
             put("redundancy_group", t.redundancy_group.into());
             put("payload_hex", t.payload_hex.clone().into());
             Feature {
                 bbox: None,
                 geometry: Some(Geometry::new(geojson::Value::Point(vec![
-                    round7(t.lon),
-                    round7(t.lat),
-                    (t.height_m * 100.0).round() / 100.0,
+                    printed(t.lon, 7),
+                    printed(t.lat, 7),
+                    printed(t.height_m, 2),
                 ]))),
                 id: Some(Id::String(t.tag_id.clone())),
                 properties: Some(properties),
@@ -118,7 +146,7 @@ pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
                 b[3].max(t.lat),
             ];
         }
-        b.map(round7).to_vec()
+        b.map(|x| printed(x, 7)).to_vec()
     });
     let mut foreign = JsonObject::new();
     foreign.insert(
@@ -191,6 +219,10 @@ pub fn tags_kml(tags: &[TagRecord], meta: &ExportMetadata) -> String {
         Kml::Element(extended_data(
             std::iter::once(("waymark_version", meta.waymark_version.clone()))
                 .chain(meta.requirement_m.map(|r| ("requirement_m", r.to_string())))
+                .chain(std::iter::once((
+                    "heights_known",
+                    meta.heights_known.to_string(),
+                )))
                 .chain(meta.parameters.iter().map(|(k, v)| (k.as_str(), v.clone()))),
         )),
     ];
@@ -212,10 +244,17 @@ pub fn tags_kml(tags: &[TagRecord], meta: &ExportMetadata) -> String {
         )));
     }
     for t in tags {
-        let mut data = vec![("mounting", t.mounting.to_string())];
-        if let Some(p) = &t.payload_hex {
-            data.push(("payload_hex", p.clone()));
-        }
+        let data = CSV_COLUMNS.iter().copied().zip(csv_row(t));
+        let mut point = Point::from(Coord::new(
+            printed(t.lon, 7),
+            printed(t.lat, 7),
+            meta.heights_known.then(|| printed(t.height_m, 2)),
+        ));
+        point.altitude_mode = if meta.heights_known {
+            kml::types::AltitudeMode::Absolute
+        } else {
+            kml::types::AltitudeMode::ClampToGround
+        };
         doc.push(Kml::Placemark(kml::types::Placemark {
             name: Some(t.tag_id.clone()),
             description: Some(description(t)),
@@ -225,11 +264,7 @@ pub fn tags_kml(tags: &[TagRecord], meta: &ExportMetadata) -> String {
                 text_element("styleUrl", format!("#{}", t.mounting)),
                 extended_data(data),
             ],
-            geometry: Some(kml::types::Geometry::Point(Point::from(Coord::new(
-                printed(t.lon, 7),
-                printed(t.lat, 7),
-                Some(printed(t.height_m, 2)),
-            )))),
+            geometry: Some(kml::types::Geometry::Point(point)),
             ..Default::default()
         }));
     }
@@ -252,32 +287,54 @@ pub fn tags_kml(tags: &[TagRecord], meta: &ExportMetadata) -> String {
     String::from_utf8(out).expect("the KML writer writes UTF-8")
 }
 
-/// Writes `tags.gpx` (GPX 1.1): one waypoint per tag.
+/// Writes `tags.gpx` (GPX 1.1): one waypoint per tag, every column of
+/// `tags.csv` in its `<extensions>` (namespace [`GPX_NAMESPACE`]).
 pub fn tags_gpx(tags: &[TagRecord], meta: &ExportMetadata) -> String {
-    let waypoints = tags
-        .iter()
-        .map(|t| {
-            let mut w = gpx::Waypoint::new((printed(t.lon, 7), printed(t.lat, 7)).into());
-            w.elevation = Some(printed(t.height_m, 2));
-            w.name = Some(t.tag_id.clone());
-            w.description = Some(description(t));
-            w.type_ = Some(t.mounting.to_string());
-            w
-        })
-        .collect();
-    let doc = gpx::Gpx {
-        version: gpx::GpxVersion::Gpx11,
-        creator: Some(format!("Waymark {}", meta.waymark_version)),
-        metadata: Some(gpx::Metadata {
-            name: Some("Waymark RFID tags".to_owned()),
-            description: Some(meta.lines().join("; ")),
-            ..Default::default()
-        }),
-        waypoints,
-        ..Default::default()
+    use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, BytesText, Event};
+    let mut w = quick_xml::Writer::new_with_indent(Vec::new(), b' ', 2);
+    // Writing into a Vec cannot fail.
+    let mut ev = |e: Event<'_>| {
+        w.write_event(e)
+            .expect("writing XML into memory cannot fail");
     };
-    let mut out = Vec::new();
-    gpx::write(&doc, &mut out).expect("writing GPX 1.1 into memory cannot fail");
+    let text = |ev: &mut dyn FnMut(Event<'_>), name: &str, value: &str| {
+        ev(Event::Start(BytesStart::new(name)));
+        ev(Event::Text(BytesText::new(value)));
+        ev(Event::End(BytesEnd::new(name)));
+    };
+    ev(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
+    let creator = format!("Waymark {}", meta.waymark_version);
+    ev(Event::Start(BytesStart::new("gpx").with_attributes([
+        ("version", "1.1"),
+        ("creator", creator.as_str()),
+        ("xmlns", "http://www.topografix.com/GPX/1/1"),
+        ("xmlns:waymark", GPX_NAMESPACE),
+    ])));
+    ev(Event::Start(BytesStart::new("metadata")));
+    text(&mut ev, "name", "Waymark RFID tags");
+    text(&mut ev, "desc", &meta.lines().join("; "));
+    ev(Event::End(BytesEnd::new("metadata")));
+    for t in tags {
+        let (lat, lon) = (format!("{:.7}", t.lat), format!("{:.7}", t.lon));
+        ev(Event::Start(BytesStart::new("wpt").with_attributes([
+            ("lat", lat.as_str()),
+            ("lon", lon.as_str()),
+        ])));
+        if meta.heights_known {
+            text(&mut ev, "ele", &format!("{:.2}", t.height_m));
+        }
+        text(&mut ev, "name", &t.tag_id);
+        text(&mut ev, "desc", &description(t));
+        text(&mut ev, "type", t.mounting.as_str());
+        ev(Event::Start(BytesStart::new("extensions")));
+        for (col, value) in CSV_COLUMNS.iter().zip(csv_row(t)) {
+            text(&mut ev, &format!("waymark:{col}"), &value);
+        }
+        ev(Event::End(BytesEnd::new("extensions")));
+        ev(Event::End(BytesEnd::new("wpt")));
+    }
+    ev(Event::End(BytesEnd::new("gpx")));
+    let mut out = w.into_inner();
     out.push(b'\n');
-    String::from_utf8(out).expect("the GPX writer writes UTF-8")
+    String::from_utf8(out).expect("the XML writer writes UTF-8")
 }

@@ -130,6 +130,7 @@ pub fn uniform_baseline(
             total_cost: 0.0,
             max_gap_m: 0.0,
             predicted_max_bound95_m: 0.0,
+            predicted_max_bound95_missed_m: None,
             profile_without_tags: vec![],
             profile_with_tags: vec![],
             validation: None,

@@ -2,15 +2,69 @@
 //! tags (with payloads) and the metadata of the tag files, for route and
 //! network plans alike.
 
+use super::budget::Budget;
 use super::network::types::NetworkPlan;
 use super::plan::Plan;
 use crate::error::Result;
 use crate::scenario::{RouteKind, Scenario};
 use crate::sim::tags::Mounting;
+use crate::sim::TruthSource;
 use crate::tags::TagPayload;
 use crate::tags::{ExportMetadata, TagRecord};
 
 impl Plan {
+    /// The largest predicted 95 % horizontal bound along the route with
+    /// any `k` consecutive tags missed (`k` = the tolerated missed reads):
+    /// for each window of `k` consecutive tags, the filter just before its
+    /// first tag run to the end of the route without them and with every
+    /// later tag read (the covariance check the plan was made to pass, here
+    /// run to the end rather than stopped at the requirement), and the
+    /// all-read bound. `None` when no read is tolerated or there are no tags.
+    /// The tags are matched to the truth samples by their pass time.
+    pub fn missed_bound(&self, scn: &Scenario, truth: &TruthSource) -> Option<f64> {
+        use rayon::prelude::*;
+        let k = self.tolerate_missed_reads;
+        if k == 0 || self.tags.is_empty() {
+            return None;
+        }
+        let network = match scn.route {
+            RouteKind::Map { .. } => truth.network().map(|n| &**n),
+            _ => None,
+        };
+        let budget = Budget::new(scn, truth, network);
+        let samples = budget.samples();
+        if samples.is_empty() {
+            return None;
+        }
+        let fixes: Vec<(usize, Mounting)> = self
+            .tags
+            .iter()
+            .map(|t| {
+                let i = samples.partition_point(|x| x.avp.t < t.t_s - 1e-9);
+                (i.min(samples.len() - 1), t.mounting)
+            })
+            .collect();
+        let at: Vec<f64> = fixes
+            .iter()
+            .map(|&(i, _)| samples[i].avp.distance_m)
+            .collect();
+        let every = 50.0;
+        let (profile, snaps) = budget.with_fixes_and_snapshots(&fixes, every, &at);
+        let all_read = profile.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
+        let n = fixes.len();
+        if snaps.len() != n {
+            return None;
+        }
+        let worst = (0..n.saturating_sub(k - 1).max(1))
+            .into_par_iter()
+            .map(|d| {
+                let rest = &fixes[(d + k).min(n)..];
+                budget.worst_bound_from(fixes[d].0, snaps[d].filter.clone(), rest, f64::INFINITY)
+            })
+            .reduce(|| 0.0, f64::max);
+        Some(all_read.max(worst))
+    }
+
     /// Export records (with payloads) and metadata.
     pub fn export(&self, scn: &Scenario) -> Result<(Vec<TagRecord>, ExportMetadata)> {
         let mut recs = Vec::with_capacity(self.tags.len());
@@ -55,41 +109,40 @@ impl Plan {
                 payload_hex: Some(payload),
             });
         }
-        let mut meta = ExportMetadata::new(Some(self.requirement_m));
-        let r = &scn.rfid;
+        let on_map = matches!(scn.route, RouteKind::Map { .. });
+        // Lane widths as the plan used them: per site from the road on a
+        // map, else the scenario's.
+        let widths: Vec<f64> = self
+            .tags
+            .iter()
+            .map(|t| t.lane_width_m.unwrap_or(scn.rfid.lane_width_m))
+            .collect();
+        let mut meta = common_metadata(
+            scn,
+            &self.scenario,
+            &self.method,
+            self.requirement_m,
+            self.tolerate_missed_reads,
+            &widths,
+        );
         let p = &mut meta.parameters;
-        p.insert("scenario".into(), self.scenario.clone());
-        p.insert("method".into(), self.method.clone());
-        p.insert(
-            "tolerate_missed_reads".into(),
-            self.tolerate_missed_reads.to_string(),
-        );
-        p.insert("read_probability".into(), r.read_probability.to_string());
-        p.insert("lane_width_m".into(), r.lane_width_m.to_string());
-        p.insert("vehicle_width_m".into(), r.vehicle_width_m.to_string());
-        p.insert(
-            "roadside_distance_m".into(),
-            r.roadside_distance_m.to_string(),
-        );
-        p.insert(
-            "roadside_angle_deg".into(),
-            format!("{:.3}", r.roadside_angle.to_degrees()),
-        );
-        p.insert("read_time_s".into(), r.read_time_s.to_string());
-        p.insert(
-            "road_surface_sigma_m".into(),
-            r.road_surface_sigma_m.to_string(),
-        );
-        p.insert("ceiling_sigma_m".into(), r.ceiling_sigma_m.to_string());
+        p.insert("coverage".into(), "route".into());
         p.insert(
             "chainage_m".into(),
-            if matches!(scn.route, RouteKind::Map { .. }) {
+            if on_map {
                 "distance along road_id in its digitised direction".into()
             } else {
                 "distance along the planned route".into()
             },
         );
-        if matches!(scn.route, RouteKind::Map { .. }) {
+        p.insert(
+            "redundancy_group".into(),
+            "tags within one window of k+1 consecutive tags along the route".into(),
+        );
+        // Motion-command routes carry the trajectory's heights; map routes
+        // a constant height (no elevation model).
+        meta.heights_known = !on_map;
+        if on_map {
             meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
         }
         Ok((recs, meta))
@@ -135,12 +188,18 @@ impl NetworkPlan {
                 payload_hex: Some(payload),
             });
         }
-        let mut meta = ExportMetadata::new(Some(self.requirement_m));
-        let r = &scn.rfid;
+        // The fix error model uses the scenario's lane width; lane centres
+        // (the tag positions) each road's own (lane_offset_m in plan.json).
+        let mut meta = common_metadata(
+            scn,
+            &self.scenario,
+            &self.method,
+            self.requirement_m,
+            self.tolerate_missed_reads,
+            &[scn.rfid.lane_width_m],
+        );
         let p = &mut meta.parameters;
-        p.insert("scenario".into(), self.scenario.clone());
         p.insert("coverage".into(), "network".into());
-        p.insert("method".into(), self.method.clone());
         p.insert("reach_m".into(), format!("{:.1}", self.reach_m));
         p.insert(
             "budget_reference_m".into(),
@@ -148,19 +207,9 @@ impl NetworkPlan {
         );
         p.insert("u_turns".into(), self.u_turns.clone());
         p.insert(
-            "tolerate_missed_reads".into(),
-            self.tolerate_missed_reads.to_string(),
-        );
-        p.insert("read_probability".into(), r.read_probability.to_string());
-        p.insert(
             "candidate_spacing_m".into(),
             self.candidate_spacing_m.to_string(),
         );
-        p.insert(
-            "roadside_distance_m".into(),
-            r.roadside_distance_m.to_string(),
-        );
-        p.insert("vehicle_width_m".into(), r.vehicle_width_m.to_string());
         p.insert(
             "chainage_m".into(),
             "distance along the road (road_id) in its digitised direction".into(),
@@ -175,7 +224,69 @@ impl NetworkPlan {
             "redundancy_group".into(),
             "directed road section (section and direction) the tag serves".into(),
         );
+        meta.heights_known = false;
         meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
         Ok((recs, meta))
     }
+}
+
+/// The metadata route and area plans share: the scenario, the method, the
+/// requirement, the missed reads tolerated and the RFID model's parameters
+/// as the plan used them (`lane_widths_m`: the lane widths of the sites,
+/// written as one value when they agree, else as their range), and what
+/// the heights are.
+fn common_metadata(
+    scn: &Scenario,
+    scenario: &str,
+    method: &str,
+    requirement_m: f64,
+    tolerate_missed_reads: usize,
+    lane_widths_m: &[f64],
+) -> ExportMetadata {
+    let mut meta = ExportMetadata::new(Some(requirement_m));
+    let r = &scn.rfid;
+    let p = &mut meta.parameters;
+    p.insert("scenario".into(), scenario.to_string());
+    p.insert("method".into(), method.to_string());
+    p.insert(
+        "tolerate_missed_reads".into(),
+        tolerate_missed_reads.to_string(),
+    );
+    p.insert("read_probability".into(), r.read_probability.to_string());
+    let lo = lane_widths_m.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = lane_widths_m.iter().copied().fold(0.0, f64::max);
+    p.insert(
+        "lane_width_m".into(),
+        if lane_widths_m.is_empty() {
+            r.lane_width_m.to_string()
+        } else if hi - lo < 1e-9 {
+            lo.to_string()
+        } else {
+            format!("{lo}..{hi} (per site: the road's OSM width/lanes or its class)")
+        },
+    );
+    p.insert("vehicle_width_m".into(), r.vehicle_width_m.to_string());
+    p.insert(
+        "roadside_distance_m".into(),
+        r.roadside_distance_m.to_string(),
+    );
+    p.insert(
+        "roadside_angle_deg".into(),
+        format!("{:.3}", r.roadside_angle.to_degrees()),
+    );
+    p.insert("read_time_s".into(), r.read_time_s.to_string());
+    p.insert(
+        "road_surface_sigma_m".into(),
+        r.road_surface_sigma_m.to_string(),
+    );
+    p.insert("ceiling_sigma_m".into(), r.ceiling_sigma_m.to_string());
+    p.insert(
+        "height_m".into(),
+        if matches!(scn.route, RouteKind::Map { .. }) {
+            "no elevation model: heights are the scenario's constant route height, not the terrain's".into()
+        } else {
+            "the trajectory's height (from the start height and the motion commands)".into()
+        },
+    );
+    meta
 }

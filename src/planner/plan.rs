@@ -70,6 +70,8 @@ pub struct Validation {
     pub worst_t_s: f64,
     /// Route distance of the worst point (m).
     pub worst_distance_m: f64,
+    /// Runs whose horizontal error exceeds the requirement somewhere.
+    pub runs_exceeding_requirement: u64,
 }
 
 /// A plan for one route.
@@ -106,6 +108,10 @@ pub struct Plan {
     pub max_gap_m: f64,
     /// Largest predicted 95 % bound along the route with every tag read (m).
     pub predicted_max_bound95_m: f64,
+    /// Largest predicted 95 % bound with any `tolerate_missed_reads`
+    /// consecutive tags missed (m), when computed ([`Plan::missed_bound`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predicted_max_bound95_missed_m: Option<f64>,
     /// Predicted bound profile without tags (distance, bound).
     #[serde(skip)]
     pub profile_without_tags: Vec<BudgetPoint>,

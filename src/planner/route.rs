@@ -603,6 +603,7 @@ pub fn plan_with_stages(
         total_cost,
         max_gap_m: max_gap,
         predicted_max_bound95_m: predicted,
+        predicted_max_bound95_missed_m: None,
         profile_without_tags: profile,
         profile_with_tags: with,
         validation: None,

@@ -32,7 +32,9 @@ pub(super) fn validation_of(
     let req = plan.requirement_m;
     let (mut within, mut total) = (0.0, 0.0);
     let mut worst = (0.0f64, 0u64, 0.0, 0.0);
+    let mut exceeding = 0u64;
     for r in &res.runs {
+        exceeding += u64::from(r.rows.iter().any(|row| row.horizontal_m > req));
         for w in r.rows.windows(2) {
             let dd = (w[1].distance_m - w[0].distance_m).max(0.0);
             total += dd;
@@ -54,6 +56,7 @@ pub(super) fn validation_of(
         worst_run: worst.1,
         worst_t_s: worst.2,
         worst_distance_m: worst.3,
+        runs_exceeding_requirement: exceeding,
     }
 }
 

@@ -1,6 +1,8 @@
 //! The HTML report: one self-contained file.
 
+use super::folder::{ExampleRun, TagRow};
 use super::plot::{error_plot_svg, ErrorSeries, PassKind, PlotDecor, TagMark};
+use super::sections;
 use super::{bound95, ErrorRow, PassRow, PlanProfileRow};
 use crate::error::Result;
 use quick_xml::escape::escape;
@@ -23,8 +25,20 @@ pub struct ReportInput {
     pub plan_profile: Vec<PlanProfileRow>,
     /// The scenario file's text, when the folder has it.
     pub scenario: Option<String>,
-    /// The map of the area as SVG, when the scenario drives on a map.
-    pub map_svg: Option<String>,
+    /// The map of the area (SVG with its legend, as HTML), when the
+    /// scenario drives on a map.
+    pub map_html: Option<String>,
+    /// The tag table's rows.
+    pub tags: Vec<TagRow>,
+    /// An area plan's road pieces: predicted bound with and without tags (m).
+    pub coverage_bounds: Vec<(f64, Option<f64>)>,
+    /// An area plan's road pieces: why tags are needed there.
+    pub coverage_reasons: Vec<String>,
+    /// The example runs of a Monte Carlo simulation: the median by maximum
+    /// error, then the worst (empty: run 0 from `errors.csv` is shown).
+    pub examples: Vec<ExampleRun>,
+    /// What the folder lacks, shown on the page.
+    pub notes: Vec<String>,
 }
 
 const CSS: &str = "body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:0;color:#1d2330;background:#f6f7f9}\
@@ -33,8 +47,20 @@ header p{margin:6px 0 0;opacity:.85}main{padding:16px 32px;max-width:1100px}\
 section{background:#fff;border:1px solid #dde1e7;border-radius:6px;padding:14px 20px;margin:14px 0}\
 h2{font-size:18px;margin:4px 0 10px}table{border-collapse:collapse}td,th{padding:4px 14px 4px 0;text-align:left}\
 th{color:#555;font-weight:600}.verdict{display:inline-block;padding:6px 12px;border-radius:4px;font-weight:600}\
-.pass{background:#d8f3dc;color:#1b4332}.fail{background:#ffd6d6;color:#7a0b0b}.info{background:#e7ecf5;color:#1d3557}\
-pre{background:#f3f4f6;padding:10px;overflow:auto;font-size:13px}svg{max-width:100%;height:auto}footer{padding:12px 32px;color:#666;font-size:13px}";
+.pass{background:#d8f3dc;color:#1b4332}.warn{background:#ffe8b3;color:#6b4500}.fail{background:#ffd6d6;color:#7a0b0b}.info{background:#e7ecf5;color:#1d3557}\
+.figures,.rule{font-size:14px}.rule{color:#555}.notes{border-color:#e0a800;background:#fffaf0}\
+pre{background:#f3f4f6;padding:10px;overflow:auto;font-size:13px}svg{max-width:100%;height:auto}footer{padding:12px 32px;color:#666;font-size:13px}\
+.map-box{position:relative;border:1px solid #dde1e7;overflow:hidden;touch-action:none}.map-box svg.wm-map{display:block;width:100%;height:auto;cursor:grab}\
+.north-box{position:absolute;top:8px;right:10px;pointer-events:none}.zoom{position:absolute;top:8px;left:8px}\
+.zoom button{display:block;width:34px;margin:0 0 4px;font-size:16px;background:#fff;border:1px solid #aaa;border-radius:3px;cursor:pointer}\
+.map-tip{position:absolute;display:none;background:rgba(255,255,255,.95);border:1px solid #888;padding:3px 6px;font-size:12px;pointer-events:none;max-width:360px}\
+.map-legend{display:flex;flex-wrap:wrap;gap:6px 18px;align-items:center;font-size:13px;color:#444;margin-top:6px}.map-legend .keys span{margin-right:12px}\
+.scale-bar .bar{display:inline-block;height:4px;background:#222;vertical-align:middle}\
+.scroll{max-height:480px;overflow:auto}table.tags{font-size:12.5px}table.tags td,table.tags th{padding:2px 10px 2px 0;white-space:nowrap}\
+table.tags thead th{position:sticky;top:0;background:#fff}tr.existing{color:#777}";
+
+/// The map's pan, zoom and hover script (the project's own, inline).
+const MAP_JS: &str = include_str!("map.js");
 
 fn num(v: &serde_json::Value) -> Option<f64> {
     v.as_f64()
@@ -62,53 +88,50 @@ impl ReportInput {
     }
 }
 
-/// The report's plots: a file stem, the series and the decoration. Error
-/// against time and distance for a simulation (tag passes marked, odometer
-/// faults shaded); the predicted bound along the route for a plan.
+/// The report's plots: a file stem, the series and the decoration. For a
+/// simulation, the example run's error against time and distance (the
+/// median run by maximum error, or run 0 when the folder has no example
+/// files; tag passes marked, odometer faults shaded) and the worst run's
+/// against distance; for a route plan, the predicted bound along the route.
 pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)> {
     let mut out = Vec::new();
     if let Some(s) = &input.summary {
         let requirement = num(&s["requirement_m"]);
-        let bound: Vec<Option<f64>> = input
-            .rows
-            .iter()
-            .map(|r| r.sigma_en_m.map(bound95))
-            .collect();
-        let error: Vec<f64> = input.rows.iter().map(|r| r.horizontal_m).collect();
-        for (name, title, x_label, by_time) in [
-            (
-                "error_time",
-                "Horizontal error against time",
-                "time (s)",
-                true,
-            ),
-            (
-                "error_distance",
-                "Horizontal error against distance",
-                "distance driven (m)",
-                false,
-            ),
-        ] {
-            let x: Vec<f64> = input
+        let run0 = ExampleRun {
+            label: "run 0".into(),
+            rows: input.rows.clone(),
+            passes: input.tag_passes.clone(),
+        };
+        let example = input.examples.first().unwrap_or(&run0);
+        let worst = input.examples.get(1);
+        let mut plot = |name: &'static str, title: String, run: &ExampleRun, by_time: bool| {
+            let x: Vec<f64> = run
                 .rows
                 .iter()
                 .map(|r| if by_time { r.t_s } else { r.distance_m })
                 .collect();
-            if x.iter().all(|v| *v == 0.0) {
-                continue; // a static run has no distance axis
+            if x.is_empty() || x.iter().all(|v| *v == 0.0) {
+                return; // no rows, or a static run with no distance axis
             }
             let series = ErrorSeries {
                 envelope: envelope(s, by_time),
                 x,
-                error: error.clone(),
-                bound95: bound.clone(),
+                error: run.rows.iter().map(|r| r.horizontal_m).collect(),
+                bound95: run.rows.iter().map(|r| r.sigma_en_m.map(bound95)).collect(),
             };
             let decor = PlotDecor {
-                title: title.into(),
-                x_label: x_label.into(),
+                title,
+                x_label: if by_time {
+                    "time (s)"
+                } else {
+                    "distance driven (m)"
+                }
+                .into(),
                 requirement_m: requirement,
-                tag_passes: input
-                    .tag_passes
+                error_label: Some(format!("horizontal error ({})", run.label)),
+                bound_label: Some(format!("filter 95 % bound ({})", short(&run.label))),
+                tag_passes: run
+                    .passes
                     .iter()
                     .map(|p| TagMark {
                         x: if by_time { p.t_s } else { p.distance_m },
@@ -123,6 +146,29 @@ pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)>
                 ..Default::default()
             };
             out.push((name, series, decor));
+        };
+        plot(
+            "error_time",
+            format!("Horizontal error against time: {}", short(&example.label)),
+            example,
+            true,
+        );
+        plot(
+            "error_distance",
+            format!(
+                "Horizontal error against distance: {}",
+                short(&example.label)
+            ),
+            example,
+            false,
+        );
+        if let Some(w) = worst {
+            plot(
+                "error_distance_worst",
+                format!("Horizontal error against distance: {}", short(&w.label)),
+                w,
+                false,
+            );
         }
     }
     if let (Some(p), false) = (&input.plan, input.plan_profile.is_empty()) {
@@ -146,7 +192,7 @@ pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)>
             error_label: Some("with the planned tags (all read)".into()),
             bound_label: Some("without tags".into()),
             // The bound without tags can grow to kilometres: keep the
-            // requirement readable.
+            // requirement readable (the clipped part is marked).
             y_max: requirement.map(|r| 2.5 * r),
             tag_label: Some("planned tag".into()),
             tag_passes: tags
@@ -164,129 +210,9 @@ pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)>
     out
 }
 
-/// The verdict of a simulation: within the requirement 99 % of the time.
-fn sim_verdict(s: &serde_json::Value) -> String {
-    let requirement = num(&s["requirement_m"]);
-    match (requirement, num(&s["fraction_within_requirement"])) {
-        (Some(r), Some(f)) if f >= 0.99 => format!(
-            "<span class=\"verdict pass\">Meets the {r} m requirement: {:.2} % of the time within it</span>",
-            100.0 * f
-        ),
-        (Some(r), Some(f)) => format!(
-            "<span class=\"verdict fail\">Does not meet the {r} m requirement: {:.2} % of the time within it{}</span>",
-            100.0 * f,
-            num(&s["time_to_exceed_requirement_s"])
-                .map(|t| format!(", first exceeded at {t:.0} s"))
-                .unwrap_or_default()
-        ),
-        _ => "<span class=\"verdict info\">No requirement set in the scenario</span>".into(),
-    }
-}
-
-/// The verdict of a plan: its Monte Carlo validation keeps 99 % of the
-/// distance within the requirement.
-fn plan_verdict(p: &serde_json::Value) -> String {
-    let r = num(&p["requirement_m"]).unwrap_or(f64::NAN);
-    let predicted = num(&p["predicted_max_bound95_m"]).unwrap_or(f64::NAN);
-    let n = p["tag_count"].as_u64().unwrap_or(0);
-    let v = &p["validation"];
-    match (num(&v["fraction_within_requirement"]), v["runs"].as_u64()) {
-        (Some(f), Some(runs)) if f >= 0.99 => format!(
-            "<span class=\"verdict pass\">Plan validated: with {n} new tag(s), {:.2} % of the distance within {r} m over {runs} Monte Carlo run(s); predicted max 95 % bound {predicted:.2} m</span>",
-            100.0 * f
-        ),
-        (Some(f), Some(runs)) => format!(
-            "<span class=\"verdict fail\">Plan not validated: with {n} new tag(s), {:.2} % of the distance within {r} m over {runs} Monte Carlo run(s) (99 % asked); predicted max 95 % bound {predicted:.2} m</span>",
-            100.0 * f
-        ),
-        _ if predicted <= r => format!(
-            "<span class=\"verdict info\">Predicted max 95 % bound {predicted:.2} m with {n} new tag(s), within {r} m; not validated by simulation</span>"
-        ),
-        _ => format!(
-            "<span class=\"verdict fail\">Predicted max 95 % bound {predicted:.2} m exceeds {r} m; not validated by simulation</span>"
-        ),
-    }
-}
-
-/// The plan's summary table.
-fn plan_table(p: &serde_json::Value) -> String {
-    let mut rows: Vec<(&str, String)> = Vec::new();
-    let by = p["tags_by_mounting"]
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .map(|(k, v)| format!("{} {}", v.as_u64().unwrap_or(0), k.replace('_', " ")))
-                .collect::<Vec<_>>()
-                .join(", ")
-        })
-        .filter(|s| !s.is_empty())
-        .unwrap_or_else(|| "none".into());
-    rows.push((
-        "new tags",
-        format!("{} ({by})", p["tag_count"].as_u64().unwrap_or(0)),
-    ));
-    if let Some(k) = p["existing_tags_kept"].as_u64().filter(|k| *k > 0) {
-        rows.push(("installed tags kept", k.to_string()));
-    }
-    rows.push(("total cost", fmt_opt(num(&p["total_cost"]), "", 1)));
-    rows.push((
-        "route length",
-        fmt_opt(num(&p["route_length_m"]).map(|d| d / 1e3), "km", 2),
-    ));
-    rows.push((
-        "largest gap between tags",
-        fmt_opt(num(&p["max_gap_m"]), "m", 0),
-    ));
-    rows.push(("requirement", fmt_opt(num(&p["requirement_m"]), "m", 1)));
-    rows.push((
-        "missed reads tolerated",
-        p["tolerate_missed_reads"]
-            .as_u64()
-            .map(|k| k.to_string())
-            .unwrap_or_default(),
-    ));
-    rows.push((
-        "predicted max 95 % bound (all read)",
-        fmt_opt(num(&p["predicted_max_bound95_m"]), "m", 2),
-    ));
-    let v = &p["validation"];
-    if v.is_object() {
-        rows.push((
-            "validation",
-            format!(
-                "{} run(s), seed {}: {} of the distance within the requirement; max horizontal error {}",
-                v["runs"].as_u64().unwrap_or(0),
-                v["seed"].as_u64().unwrap_or(0),
-                fmt_opt(num(&v["fraction_within_requirement"]).map(|f| 100.0 * f), "%", 2),
-                fmt_opt(num(&v["max_horizontal_error_m"]), "m", 2),
-            ),
-        ));
-    } else {
-        rows.push(("validation", "not run".into()));
-    }
-    let b = &p["uniform_baseline"];
-    if b.is_object() {
-        rows.push((
-            "uniform baseline",
-            format!(
-                "{} tag(s) every {}: {} of the distance within the requirement",
-                b["tag_count"].as_u64().unwrap_or(0),
-                fmt_opt(num(&b["spacing_m"]), "m", 0),
-                fmt_opt(
-                    num(&b["validation"]["fraction_within_requirement"]).map(|f| 100.0 * f),
-                    "%",
-                    2
-                ),
-            ),
-        ));
-    }
-    rows.push(("method", p["method"].as_str().unwrap_or("?").to_string()));
-    let mut html = String::from("<table>");
-    for (k, v) in rows {
-        let _ = write!(html, "<tr><th>{k}</th><td>{}</td></tr>", escape(&v));
-    }
-    html.push_str("</table>");
-    html
+/// "run 7" of "run 7, the median run by maximum error (3.20 m)".
+fn short(label: &str) -> &str {
+    label.split(" (").next().unwrap_or(label)
 }
 
 /// Renders the report.
@@ -294,11 +220,11 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
     let null = serde_json::Value::Null;
     let s = input.summary.as_ref().unwrap_or(&null);
     let p = input.plan.as_ref().unwrap_or(&null);
+    let network = p["coverage"].as_str() == Some("network");
     let name = s["name"]
         .as_str()
         .or_else(|| p["scenario"].as_str())
         .unwrap_or("simulation");
-    let requirement = num(&s["requirement_m"]);
     let mut html = String::new();
     let _ = write!(
         html,
@@ -310,17 +236,19 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
     let subtitle = match (&input.summary, &input.plan) {
         (Some(_), plan) => format!(
             "navigator <b>{}</b>, {} run(s), seed {}{}",
-            escape(s["mode"].as_str().unwrap_or("?")),
+            escape(s["mode"].as_str().unwrap_or("")),
             s["runs"].as_u64().unwrap_or(1),
-            s["seed"]
-                .as_u64()
-                .map(|x| x.to_string())
-                .unwrap_or_else(|| "?".into()),
+            s["seed"].as_u64().unwrap_or(0),
             if plan.is_some() { "; tag plan" } else { "" }
         ),
         (None, _) => format!(
-            "tag plan for a {} m requirement",
-            num(&p["requirement_m"]).unwrap_or(f64::NAN)
+            "{} plan for a {} m requirement",
+            if network {
+                "area (network coverage)"
+            } else {
+                "route"
+            },
+            num(&p["requirement_m"]).unwrap_or(0.0)
         ),
     };
     let _ = write!(
@@ -328,14 +256,26 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
         "<header><h1>Waymark report: {}</h1><p>{subtitle}</p></header><main>",
         escape(name),
     );
+    if let Some(n) = sections::notes(&input.notes) {
+        html.push_str(&n);
+    }
 
     // Verdicts.
-    html.push_str("<section><h2>Verdict</h2>");
+    html.push_str("<section id=\"verdict\"><h2>Verdict</h2>");
     if input.plan.is_some() {
-        let _ = write!(html, "<p>{}</p>", plan_verdict(p));
+        html.push_str(&sections::plan_verdict(p));
+        if p["validation"].is_object() {
+            html.push_str(&sections::rule());
+        }
     }
     if input.summary.is_some() {
-        let _ = write!(html, "<p>{}</p>", sim_verdict(s));
+        html.push_str(&sections::sim_verdict(s));
+        if let Some(n) = sections::nees(s) {
+            html.push_str(&n);
+        }
+        if input.plan.is_none() && s["requirement_m"].is_number() {
+            html.push_str(&sections::rule());
+        }
         let mm = &s["map_matching"];
         if mm.is_object() {
             let _ = write!(
@@ -352,93 +292,37 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
     html.push_str("</section>");
 
     if input.plan.is_some() {
-        let _ = write!(html, "<section><h2>Plan</h2>{}</section>", plan_table(p));
+        let table = if network {
+            sections::network_table(
+                p,
+                &input.coverage_bounds,
+                &input.coverage_reasons,
+                &input.tags,
+            )
+        } else {
+            sections::plan_table(p, missed_text(p))
+        };
+        let _ = write!(html, "<section id=\"plan\"><h2>Plan</h2>{table}</section>");
     }
 
     // Summary table.
     if input.summary.is_some() {
-        let frac = num(&s["fraction_within_requirement"]);
-        html.push_str("<section><h2>Summary</h2><table>");
-        let mut rows: Vec<(&str, String)> = vec![
-            ("duration", fmt_opt(num(&s["duration_s"]), "s", 0)),
-            (
-                "distance",
-                fmt_opt(num(&s["distance_m"]).map(|d| d / 1e3), "km", 2),
-            ),
-            (
-                "max horizontal error",
-                fmt_opt(num(&s["max_horizontal_error_m"]), "m", 2),
-            ),
-            (
-                "RMS horizontal error",
-                fmt_opt(num(&s["rms_horizontal_error_m"]), "m", 2),
-            ),
-            (
-                "95th percentile horizontal error",
-                fmt_opt(num(&s["p95_horizontal_error_m"]), "m", 2),
-            ),
-            ("requirement", fmt_opt(requirement, "m", 1)),
-            (
-                "fraction within requirement",
-                fmt_opt(frac.map(|f| 100.0 * f), "%", 2),
-            ),
-            (
-                "first exceeded",
-                fmt_opt(num(&s["time_to_exceed_requirement_s"]), "s", 0),
-            ),
-            (
-                "runs",
-                s["runs"]
-                    .as_u64()
-                    .map(|r| r.to_string())
-                    .unwrap_or_default(),
-            ),
-        ];
-        if !input.tag_passes.is_empty() {
-            let count = |k: PassKind| input.tag_passes.iter().filter(|p| p.kind == k).count();
-            rows.push((
-                "tag passes (run 0)",
-                format!(
-                    "{}: {} read and accepted, {} rejected by the filter, {} missed",
-                    input.tag_passes.len(),
-                    count(PassKind::Accepted),
-                    count(PassKind::Rejected),
-                    count(PassKind::Missed)
-                ),
-            ));
-        }
-        for (t, d) in &input.odometer_faults {
-            rows.push((
-                "odometer fault",
-                format!(
-                    "failed from {:.0} s ({:.2} km) to the end ({:.0} s)",
-                    t[0],
-                    d[0] / 1e3,
-                    t[1]
-                ),
-            ));
-        }
-        for (k, v) in rows {
-            let _ = write!(html, "<tr><th>{k}</th><td>{}</td></tr>", escape(&v));
-        }
-        html.push_str("</table></section>");
+        html.push_str("<section id=\"summary\"><h2>Summary</h2>");
+        html.push_str(&summary_table(input, s));
+        html.push_str("</section>");
     }
 
-    if let Some(map) = &input.map_svg {
-        let colour = if input.rows.is_empty() {
-            "the route coloured by the predicted 95 % bound with the tags (green 0, red at the requirement)"
+    if let Some(map) = &input.map_html {
+        let what = if network {
+            "The whole area: every road of the map, the plan's tags"
         } else {
-            "the route coloured by horizontal error (green 0, red at the requirement)"
+            "The route with the network around it"
         };
         let _ = write!(
             html,
-            "<section><h2>Map</h2>{map}<p style=\"font-size:13px;color:#555\">Roads grey, tunnels blue dashed; \
-             {colour}; tags: \
-             <span style=\"color:{}\">●</span> road surface, <span style=\"color:{}\">●</span> roadside, \
-             <span style=\"color:{}\">●</span> ceiling. Local metric (ENU) projection.</p></section>",
-            super::map::mounting_colour(crate::tags::Mounting::RoadSurface),
-            super::map::mounting_colour(crate::tags::Mounting::Roadside),
-            super::map::mounting_colour(crate::tags::Mounting::Ceiling),
+            "<section id=\"map\"><h2>Map</h2>{map}<p style=\"font-size:13px;color:#555\">{what}. \
+             Drag to pan, wheel or +/− to zoom, double-click or \"fit\" to reset; hover a road or a tag for its details. \
+             Local metric (east-north) projection, north up.</p></section>"
         );
     }
 
@@ -447,9 +331,29 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
         let svg = error_plot_svg(&series, &decor, (960, 420))?;
         let _ = write!(
             html,
-            "<section><h2>{}</h2>{}</section>",
+            "<section class=\"plot\"><h2>{}</h2>{}</section>",
             escape(&decor.title),
             strip_xml_decl(&svg)
+        );
+    }
+
+    if !input.tags.is_empty() {
+        // Where the heights come from, as the tag files' metadata says.
+        let heights = match (
+            p["tag_files"]["heights_known"].as_bool(),
+            p["tag_files"]["parameters"]["height_m"].as_str(),
+        ) {
+            (Some(false), Some(why)) => format!(
+                "<p class=\"figures\">Heights: {} (the files say so: KML clamps the tags to the ground, GPX has no elevation).</p>",
+                escape(why)
+            ),
+            (Some(true), Some(why)) => format!("<p class=\"figures\">Heights: {}.</p>", escape(why)),
+            _ => String::new(),
+        };
+        let _ = write!(
+            html,
+            "<section id=\"tags\"><h2>Tags</h2>{heights}{}</section>",
+            sections::tag_table(&input.tags)
         );
     }
 
@@ -460,12 +364,120 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
             escape(scn)
         );
     }
-    let _ = writeln!(
+    let _ = write!(
         html,
-        "</main><footer>Made by Waymark {}. Map data © OpenStreetMap contributors, ODbL.</footer></body></html>",
+        "</main><footer>Made by Waymark {}. Map data © OpenStreetMap contributors, ODbL.</footer>",
         env!("CARGO_PKG_VERSION")
     );
+    if input.map_html.is_some() {
+        let _ = write!(html, "<script>{MAP_JS}</script>");
+    }
+    html.push_str("</body></html>\n");
     Ok(html)
+}
+
+/// The plan's predicted bound with tags missed, when `plan.json` has it.
+fn missed_text(p: &serde_json::Value) -> Option<String> {
+    let b = num(&p["predicted_max_bound95_missed_m"])?;
+    let k = p["tolerate_missed_reads"].as_u64().unwrap_or(0);
+    Some(format!(
+        "{b:.2} m with any {k} consecutive tag(s) missed (the worst such window)"
+    ))
+}
+
+/// The simulation's summary table: only the numbers that exist.
+fn summary_table(input: &ReportInput, s: &serde_json::Value) -> String {
+    let mut rows: Vec<(String, String)> = Vec::new();
+    let mut push = |k: &str, v: Option<String>| {
+        if let Some(v) = v {
+            rows.push((k.to_string(), v));
+        }
+    };
+    push(
+        "duration",
+        num(&s["duration_s"]).map(|x| format!("{x:.0} s")),
+    );
+    push(
+        "distance",
+        num(&s["distance_m"]).map(|d| format!("{:.2} km", d / 1e3)),
+    );
+    push(
+        "max horizontal error (all runs)",
+        num(&s["max_horizontal_error_m"]).map(|x| format!("{x:.2} m")),
+    );
+    push(
+        "RMS horizontal error",
+        num(&s["rms_horizontal_error_m"]).map(|x| format!("{x:.2} m")),
+    );
+    push(
+        "95th percentile horizontal error",
+        num(&s["p95_horizontal_error_m"]).map(|x| format!("{x:.2} m")),
+    );
+    push(
+        "requirement",
+        num(&s["requirement_m"]).map(|x| format!("{x} m")),
+    );
+    push(
+        "time within requirement",
+        num(&s["fraction_within_requirement"]).map(|f| format!("{:.2} %", 100.0 * f)),
+    );
+    push(
+        "first exceeded",
+        num(&s["time_to_exceed_requirement_s"]).map(|x| format!("{x:.0} s")),
+    );
+    push("runs", s["runs"].as_u64().map(|r| r.to_string()));
+    let maxima = super::folder::per_run_max(s);
+    if maxima.len() > 1 {
+        let mut m: Vec<f64> = maxima.iter().map(|x| x.1).collect();
+        m.sort_by(f64::total_cmp);
+        push(
+            "per-run maximum error",
+            Some(format!(
+                "smallest {:.2} m, median {:.2} m, largest {:.2} m",
+                m[0],
+                m[(m.len() - 1) / 2],
+                m[m.len() - 1]
+            )),
+        );
+    }
+    for e in &input.examples {
+        push("example run", Some(e.label.clone()));
+    }
+    let example = input.examples.first();
+    let passes = example.map_or(&input.tag_passes, |e| &e.passes);
+    if !passes.is_empty() {
+        let count = |k: PassKind| passes.iter().filter(|p| p.kind == k).count();
+        push(
+            &format!(
+                "tag passes ({})",
+                example.map_or("run 0", |e| short(&e.label))
+            ),
+            Some(format!(
+                "{}: {} read and accepted, {} rejected by the filter, {} missed",
+                passes.len(),
+                count(PassKind::Accepted),
+                count(PassKind::Rejected),
+                count(PassKind::Missed)
+            )),
+        );
+    }
+    for (t, d) in &input.odometer_faults {
+        push(
+            "odometer fault",
+            Some(format!(
+                "failed from {:.0} s ({:.2} km) to the end ({:.0} s)",
+                t[0],
+                d[0] / 1e3,
+                t[1]
+            )),
+        );
+    }
+    let mut html = String::from("<table class=\"kv\">");
+    for (k, v) in rows {
+        let _ = write!(html, "<tr><th>{k}</th><td>{}</td></tr>", escape(&v));
+    }
+    html.push_str("</table>");
+    html
 }
 
 /// The Monte Carlo envelope from `summary.json`'s `profile` (median, 95th
@@ -497,12 +509,5 @@ fn strip_xml_decl(svg: &str) -> &str {
     match svg.find("<svg") {
         Some(i) => &svg[i..],
         None => svg,
-    }
-}
-
-fn fmt_opt(v: Option<f64>, unit: &str, decimals: usize) -> String {
-    match v {
-        Some(x) => format!("{x:.decimals$} {unit}"),
-        None => "—".into(),
     }
 }

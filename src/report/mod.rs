@@ -1,27 +1,28 @@
-//! Reports: plots and a self-contained HTML page (inline SVG and CSS, no
-//! scripts, no network) for a `simulate` or `plan` output folder (or one
-//! holding both, as `waymark demo` writes).
+//! Reports: plots and a self-contained HTML page (inline SVG, CSS and the
+//! project's own small script for the map's pan, zoom and hover details;
+//! nothing loaded from the network) for a `simulate` or `plan` output
+//! folder (or one holding both, as `waymark demo` writes).
 
+mod folder;
 mod html;
 mod map;
 mod plot;
+mod sections;
+pub mod verdict;
 
+pub use folder::{
+    example_files, example_runs, merge_plan_tags, per_run_max, read_coverage, read_tag_table,
+    ExampleRun, TagRow,
+};
 pub use html::{envelope, plots, render_html, ReportInput};
-use map::map_svg as render_map;
-pub use map::{error_colour, map_svg, mounting_colour, MapOverlay};
+pub use map::{
+    error_colour, map_legend, map_svg, mounting_colour, CoveragePiece, MapOverlay, MapTag,
+    OVER_COLOUR,
+};
 pub use plot::{error_plot_png, error_plot_svg, ErrorSeries, PassKind, PlotDecor, TagMark};
 
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
-
-/// `inputs.json`: where the scenario and the tag file were when simulated.
-fn read_inputs(dir: &Path) -> Option<(PathBuf, Option<PathBuf>)> {
-    let text = std::fs::read_to_string(dir.join("inputs.json")).ok()?;
-    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
-    let scenario = PathBuf::from(v["scenario_path"].as_str()?);
-    let tags = v["tags_path"].as_str().map(PathBuf::from);
-    Some((scenario, tags))
-}
 
 /// Writes `inputs.json` beside a simulation's results, so `waymark report`
 /// can draw the map later.
@@ -97,32 +98,37 @@ pub fn read_errors_csv(path: &Path) -> Result<Vec<ErrorRow>> {
     Ok(rows)
 }
 
-/// The map of a scenario driven on a road network: the network, and the
-/// overlay of the route coloured by `colour_by` (distance driven, value in
-/// metres: the horizontal error, or a predicted bound; matched by distance
-/// driven ≈ chainage; uncoloured where empty) and the tags (scenario
-/// `[[tag]]` entries with a position or an `at_m` chainage, plus
-/// `extra_tags`), drawn as SVG. `None` for scenarios driven by motion
-/// commands, which have no map. `loaded` is the scenario's map and route when
-/// the caller has them already (e.g. a simulation's truth); else they are
-/// loaded from the scenario.
+/// The map of a scenario on a road network, as the report's HTML block
+/// (the map, its north arrow, zoom buttons, hover box and legend): the
+/// network, and `overlay` (the route coloured by error or bound, the tags,
+/// an area plan's road pieces). With `route_colour_by` (distance driven,
+/// value in metres; matched by distance ≈ chainage) the scenario's route is
+/// drawn; an area plan (`overlay.fit_network`) draws none. `None` for
+/// scenarios driven by motion commands, which have no map. `loaded` is the
+/// scenario's map and route when the caller has them already.
 pub fn scenario_map(
     scn: &crate::sim::Scenario,
-    colour_by: &[(f64, f64)],
-    extra_tags: &[crate::sim::tags::Tag],
+    route_colour_by: Option<&[(f64, f64)]>,
+    mut overlay: MapOverlay,
+    what: &str,
     loaded: Option<(&crate::network::Network, &crate::route::Route)>,
 ) -> Result<Option<String>> {
     let crate::scenario::RouteKind::Map { map, waypoints, .. } = &scn.route else {
         return Ok(None);
     };
-    let owned;
+    let owned_net;
+    let owned_route;
     let (net, route) = match loaded {
-        Some(l) => l,
+        Some((n, r)) => (n, Some(r)),
         None => {
-            let net = crate::network::Network::load(map, &crate::network::LoadOptions::default())?;
-            let route = crate::route::plan_route(&net, waypoints)?;
-            owned = (net, route);
-            (&owned.0, &owned.1)
+            owned_net =
+                crate::network::Network::load(map, &crate::network::LoadOptions::default())?;
+            let route = match route_colour_by {
+                Some(_) => Some(crate::route::plan_route(&owned_net, waypoints)?),
+                None => None,
+            };
+            owned_route = route;
+            (&owned_net, owned_route.as_ref())
         }
     };
     tracing::info!(
@@ -130,45 +136,53 @@ pub fn scenario_map(
         "report: drawing the map of {}",
         map.display()
     );
-    let error_at = |d: f64| -> f64 {
-        if colour_by.is_empty() {
-            return 0.0;
-        }
-        let i = colour_by
-            .partition_point(|r| r.0 < d)
-            .min(colour_by.len() - 1);
-        colour_by[i].1
-    };
-    let mut overlay = MapOverlay {
-        route: route
+    if let (Some(colour_by), Some(route)) = (route_colour_by, route) {
+        let value_at = |d: f64| -> f64 {
+            if colour_by.is_empty() {
+                return 0.0;
+            }
+            let i = colour_by
+                .partition_point(|r| r.0 < d)
+                .min(colour_by.len() - 1);
+            colour_by[i].1
+        };
+        overlay.route = route
             .vertices
             .iter()
-            .map(|v| (v.lat_lon, error_at(v.chainage_m)))
-            .collect(),
-        tags: Vec::new(),
-        requirement_m: scn.requirement_m(),
-    };
-    for t in scn.tags() {
-        let m = t.mounting;
-        let ll = match t.place {
-            crate::scenario::TagPlace::LatLonDeg(ll) => Some(ll),
-            crate::scenario::TagPlace::AtDistance(at) => {
+            .map(|v| (v.lat_lon, value_at(v.chainage_m)))
+            .collect();
+        // Scenario tags placed by chainage along the route.
+        for t in scn.tags() {
+            if let crate::scenario::TagPlace::AtDistance(at) = t.place {
                 let p = route.position_at(at);
                 let g = net.frame.to_geodetic([p[0], p[1], 0.0]);
-                Some([g.lat_deg(), g.lon_deg()])
+                overlay.tags.push(MapTag {
+                    lat_lon: [g.lat_deg(), g.lon_deg()],
+                    mounting: t.mounting,
+                    info: format!("scenario tag at {at:.0} m · {}", t.mounting),
+                });
             }
-            _ => None,
-        };
-        if let Some(ll) = ll {
-            overlay.tags.push((ll, m));
         }
     }
-    for t in extra_tags {
-        overlay
-            .tags
-            .push(([t.lat.to_degrees(), t.lon.to_degrees()], t.mounting));
+    for t in scn.tags() {
+        if let crate::scenario::TagPlace::LatLonDeg(ll) = t.place {
+            overlay.tags.push(MapTag {
+                lat_lon: ll,
+                mounting: t.mounting,
+                info: format!("scenario tag · {}", t.mounting),
+            });
+        }
     }
-    Ok(Some(render_map(net, &overlay, 960)))
+    let svg = map_svg(net, &overlay, 960);
+    let legend = map_legend(&overlay, what, Some(map::map_view_width_m(net, &overlay)));
+    Ok(Some(format!(
+        "<div class=\"map-box\">{svg}<div class=\"north-box\">{}</div>\
+         <div class=\"zoom\"><button type=\"button\" data-zoom=\"0.5\" title=\"zoom in\">+</button>\
+         <button type=\"button\" data-zoom=\"2\" title=\"zoom out\">−</button>\
+         <button type=\"button\" data-zoom=\"reset\" title=\"fit\">fit</button></div>\
+         <div class=\"map-tip\"></div></div>{legend}",
+        map::NORTH_ARROW
+    )))
 }
 
 /// One row of `tag_passes.csv`, as the report needs it.
@@ -283,25 +297,23 @@ fn read_csv<T>(
     Ok(out)
 }
 
-fn read_json(path: &Path) -> Result<serde_json::Value> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Error::format(path, format!("invalid JSON: {e}")))?;
-    if !v.is_object() {
-        return Err(Error::format(path, "not a JSON object"));
-    }
-    Ok(v)
-}
-
 /// Reads an output folder of `simulate` (`summary.json`, `errors.csv`,
-/// `tag_passes.csv`), of `plan` (`plan.json`, `profile.csv`, `tags.csv`) or
-/// both, and, when present, `scenario.toml` and `inputs.json` (the
-/// scenario's and the tag file's original paths, for the map). `loaded`: the
-/// scenario's map and route when the caller has them (see [`scenario_map`]).
+/// `tag_passes.csv`, the example runs), of `plan` (`plan.json`,
+/// `profile.csv`, `tags.csv`, an area plan's `coverage.geojson`) or both,
+/// and, when present, `scenario.toml` and `inputs.json` (the scenario's and
+/// the tag file's original paths, for the map). `summary.json` and
+/// `plan.json` must hold what the page is made from (else an error naming
+/// the file and the key); any other file missing or unusable is a note in
+/// [`ReportInput::notes`]. `loaded`: the scenario's map and route when the
+/// caller has them (see [`scenario_map`]).
 pub fn read_output_folder(
     dir: &Path,
     loaded: Option<(&crate::network::Network, &crate::route::Route)>,
 ) -> Result<ReportInput> {
+    use folder::{read_json, require};
+    if !dir.is_dir() {
+        return Err(Error::format(dir, "not a folder"));
+    }
     let summary_path = dir.join("summary.json");
     let plan_path = dir.join("plan.json");
     if !summary_path.exists() && !plan_path.exists() {
@@ -310,56 +322,210 @@ pub fn read_output_folder(
             "no summary.json (from waymark simulate) or plan.json (from waymark plan) in this folder",
         ));
     }
+    let mut notes = Vec::new();
     let summary = summary_path
         .exists()
         .then(|| read_json(&summary_path))
         .transpose()?;
-    let rows = match summary {
-        Some(_) => read_errors_csv(&dir.join("errors.csv"))?,
-        None => Vec::new(),
-    };
-    let passes_path = dir.join("tag_passes.csv");
-    let tag_passes = match (&summary, passes_path.exists()) {
-        (Some(_), true) => read_tag_passes_csv(&passes_path)?,
-        _ => Vec::new(),
-    };
+    if let Some(s) = &summary {
+        require(
+            &summary_path,
+            s,
+            &["duration_s", "distance_m", "max_horizontal_error_m"],
+            &["requirement_m", "fraction_within_requirement"],
+            &["runs", "seed"],
+            &["name", "mode"],
+        )?;
+    }
     let plan = plan_path
         .exists()
         .then(|| read_json(&plan_path))
         .transpose()?;
-    let profile_path = dir.join("profile.csv");
-    let plan_profile = match (&plan, profile_path.exists()) {
-        (Some(_), true) => read_plan_profile_csv(&profile_path)?,
+    if let Some(p) = &plan {
+        require(&plan_path, p, &["requirement_m"], &[], &["tag_count"], &[])?;
+        if !p["tags"].is_array() {
+            return Err(Error::format(&plan_path, "'tags' is missing or not a list"));
+        }
+    }
+    let errors_path = dir.join("errors.csv");
+    let rows = match (&summary, errors_path.exists()) {
+        (Some(_), true) => read_errors_csv(&errors_path)?,
+        (Some(_), false) => {
+            notes.push("errors.csv is missing: run 0's error is not plotted".into());
+            Vec::new()
+        }
         _ => Vec::new(),
     };
+    let passes_path = dir.join("tag_passes.csv");
+    let integrated = summary
+        .as_ref()
+        .is_some_and(|s| s["updates_run0"].is_object());
+    let tag_passes = match (integrated, passes_path.exists()) {
+        (true, true) => read_tag_passes_csv(&passes_path)?,
+        (true, false) => {
+            notes.push("tag_passes.csv is missing: tag passes are not marked".into());
+            Vec::new()
+        }
+        _ => Vec::new(),
+    };
+    // The example runs: the median by maximum error and the worst.
+    let mut examples = Vec::new();
+    if let Some(s) = summary.as_ref().filter(|s| s["runs"].as_u64() > Some(1)) {
+        if let Some((median, worst)) = example_runs(&per_run_max(s)) {
+            for (which, (run, max), why) in [
+                ("median", median, "the median run by maximum error"),
+                ("worst", worst, "the worst run"),
+            ] {
+                let label = format!("run {run}, {why} ({max:.2} m)");
+                if let Some(x) = folder::read_example(dir, which, label, &mut notes)? {
+                    examples.push(x);
+                }
+            }
+            if examples.is_empty() {
+                notes.push(format!(
+                    "{} are missing (written by this version's simulate): run 0 is plotted, not the median run",
+                    example_files("median").0
+                ));
+            }
+        }
+    }
+    let plan_profile = match &plan {
+        Some(p) => folder::read_profile(dir, p, &mut notes)?,
+        None => Vec::new(),
+    };
+    let network_plan = plan
+        .as_ref()
+        .is_some_and(|p| p["coverage"].as_str() == Some("network"));
+    // The tag table: the folder's installer file, else the tag file simulated with.
     let scenario = std::fs::read_to_string(dir.join("scenario.toml")).ok();
-    let map_svg = match (&scenario, read_inputs(dir)) {
-        (Some(text), Some((path, tags_path))) => {
+    let inputs = folder::read_inputs(dir, &mut notes);
+    let local_tags = dir.join("tags.csv");
+    let tags_file = if local_tags.exists() {
+        Some(local_tags)
+    } else {
+        match inputs.as_ref().and_then(|i| i.1.clone()) {
+            Some(p) if p.exists() => Some(p),
+            Some(p) => {
+                notes.push(format!(
+                    "the tag file recorded in inputs.json, {}, is missing: its tags are not shown",
+                    p.display()
+                ));
+                None
+            }
+            None => None,
+        }
+    };
+    if plan.is_some() && !dir.join("tags.csv").exists() {
+        notes.push(
+            "tags.csv is missing: the tag table holds the plan's tags without payloads".into(),
+        );
+    }
+    let mut tags = match &tags_file {
+        Some(p) => read_tag_table(p)?,
+        None => Vec::new(),
+    };
+    if let Some(p) = &plan {
+        merge_plan_tags(&mut tags, p);
+        if tags.is_empty() {
+            // No tags.csv: the plan's own list.
+            let mut from_plan = Vec::new();
+            for t in p["tags"].as_array().into_iter().flatten() {
+                if let (Some(id), Some(lat), Some(lon)) =
+                    (t["tag_id"].as_str(), t["lat"].as_f64(), t["lon"].as_f64())
+                {
+                    from_plan.push(TagRow {
+                        tag_id: id.into(),
+                        lat_lon: [lat, lon],
+                        height_m: t["height_m"].as_f64(),
+                        mounting: t["mounting"].as_str().unwrap_or("").into(),
+                        road: t["road_id"].as_str().unwrap_or("").into(),
+                        chainage_m: t["chainage_m"]
+                            .as_f64()
+                            .or_else(|| t["road_chainage_m"].as_f64()),
+                        reason: t["reason"].as_str().unwrap_or("").into(),
+                        existing: t["existing"].as_bool().unwrap_or(false),
+                        ..Default::default()
+                    });
+                }
+            }
+            tags = from_plan;
+        }
+    }
+    let coverage_path = dir.join("coverage.geojson");
+    let coverage = if coverage_path.exists() {
+        read_coverage(&coverage_path)?
+    } else {
+        Vec::new()
+    };
+    let requirement = summary
+        .as_ref()
+        .and_then(|s| s["requirement_m"].as_f64())
+        .or_else(|| plan.as_ref().and_then(|p| p["requirement_m"].as_f64()));
+    let map_html = match (&scenario, &inputs) {
+        (Some(text), Some((path, _))) => {
             // The map follows the scenario's own folder, as when it was simulated.
-            let scn = crate::sim::Scenario::parse(&path, text)?;
-            // The tag file as recorded, else the folder's own (a plan's tags.csv).
-            let local = dir.join("tags.csv");
-            let tags_file = tags_path
-                .filter(|p| p.exists())
-                .or_else(|| local.exists().then_some(local));
-            let extra = match tags_file {
-                Some(p) => crate::sim::tags::load_tags_csv(&p)?,
-                None => Vec::new(),
-            };
-            let colour_by: Vec<(f64, f64)> = if rows.is_empty() {
-                plan_profile
-                    .iter()
-                    .map(|p| (p.distance_m, p.with_tags_m))
-                    .collect()
-            } else {
-                rows.iter()
-                    .map(|r| (r.distance_m, r.horizontal_m))
-                    .collect()
-            };
-            scenario_map(&scn, &colour_by, &extra, loaded)?
+            match crate::sim::Scenario::parse(path, text) {
+                Ok(scn) => {
+                    let mut overlay = folder::overlay(requirement);
+                    overlay.tags = folder::map_tags(&tags);
+                    overlay.coverage = coverage.iter().map(|c| c.0.clone()).collect();
+                    overlay.fit_network = network_plan;
+                    let colour_by: Vec<(f64, f64)> = if rows.is_empty() {
+                        plan_profile
+                            .iter()
+                            .map(|p| (p.distance_m, p.with_tags_m))
+                            .collect()
+                    } else {
+                        let r = examples.first().map_or(&rows, |e| &e.rows);
+                        r.iter().map(|r| (r.distance_m, r.horizontal_m)).collect()
+                    };
+                    let what = if network_plan {
+                        "roads: predicted 95 % bound with the tags, all read (m)".to_string()
+                    } else if rows.is_empty() {
+                        "route: predicted 95 % bound with the tags, all read (m)".to_string()
+                    } else {
+                        format!(
+                            "route: horizontal error of {} (m)",
+                            examples
+                                .first()
+                                .map_or("run 0".to_string(), |e| e.label.clone())
+                        )
+                    };
+                    let drawn = scenario_map(
+                        &scn,
+                        (!network_plan).then_some(&colour_by[..]),
+                        overlay,
+                        &what,
+                        loaded,
+                    );
+                    match drawn {
+                        Ok(m) => m,
+                        Err(e) => {
+                            notes.push(format!("the map is not drawn: {e}"));
+                            None
+                        }
+                    }
+                }
+                Err(e) => {
+                    notes.push(format!(
+                        "scenario.toml cannot be read ({e}): the map is not drawn"
+                    ));
+                    None
+                }
+            }
+        }
+        (None, _) => {
+            notes.push("scenario.toml is missing: the map and the scenario are not shown".into());
+            None
         }
         _ => None,
     };
+    if network_plan && coverage.is_empty() {
+        notes.push(
+            "coverage.geojson is absent: roads are drawn grey, not coloured by their predicted bound"
+                .into(),
+        );
+    }
     Ok(ReportInput {
         summary,
         rows,
@@ -368,7 +534,12 @@ pub fn read_output_folder(
         plan,
         plan_profile,
         scenario,
-        map_svg,
+        map_html,
+        tags,
+        coverage_reasons: coverage.iter().map(|c| c.2.clone()).collect(),
+        coverage_bounds: coverage.iter().map(|c| (c.0.value_m, c.1)).collect(),
+        examples,
+        notes,
     }
     .with_faults_from_summary())
 }
@@ -384,6 +555,8 @@ pub struct ReportFiles {
     pub simulation: bool,
     /// Whether the folder held a plan.
     pub plan: bool,
+    /// What the folder lacked (also shown on the page).
+    pub missing: Vec<String>,
 }
 
 /// Writes `DIR/report.html` and PNG plots in `DIR/plots/` for an output
@@ -421,5 +594,6 @@ pub fn write_report_on(
         plots,
         simulation: input.summary.is_some(),
         plan: input.plan.is_some(),
+        missing: input.notes.clone(),
     })
 }

@@ -81,12 +81,18 @@ fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     s: &ErrorSeries,
     d: &PlotDecor,
+    caption: bool,
 ) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
     let err = |e: &dyn std::fmt::Display| Error::InvalidParameter(format!("plot: {e}"));
     root.fill(&WHITE).map_err(|e| err(&e))?;
+    // The legend in a column of its own right of the plot: it never hides data.
+    let (w_px, _) = root.dim_in_pixel();
+    let legend_w = (w_px / 4).clamp(200, 300);
+    let (root, legend_area) = root.split_horizontally(w_px - legend_w);
+    let mut legend: Vec<(String, RGBColor, LegendMark)> = Vec::new();
     let mut x_max = s.x.iter().copied().fold(0.0f64, f64::max).max(1e-9);
     if let Some((ex, _)) = &s.envelope {
         x_max = x_max.max(ex.iter().copied().fold(0.0, f64::max));
@@ -101,15 +107,20 @@ where
     if let Some(r) = d.requirement_m {
         y_max = y_max.max(r * 1.1);
     }
+    let data_max = y_max;
     let y_max = match d.y_max {
         Some(m) if m > 0.0 => y_max.min(m),
         _ => y_max,
     };
     let y_max = if y_max > 0.0 { y_max * 1.05 } else { 1.0 };
     let clip = |v: f64| v.min(y_max);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(&d.title, (FONT, 20))
+    let mut builder = ChartBuilder::on(&root);
+    if caption {
+        builder.caption(&d.title, (FONT, 20));
+    }
+    let mut chart = builder
         .margin(12)
+        .margin_top(20)
         .x_label_area_size(40)
         .y_label_area_size(60)
         .build_cartesian_2d(0.0..x_max, 0.0..y_max)
@@ -130,14 +141,12 @@ where
                     RGBAColor(255, 165, 0, 0.18).filled(),
                 )
             }))
-            .map_err(|e| err(&e))?
-            .label("odometer fault")
-            .legend(|(x, y)| {
-                Rectangle::new(
-                    [(x, y - 5), (x + 15, y + 5)],
-                    RGBAColor(255, 165, 0, 0.4).filled(),
-                )
-            });
+            .map_err(|e| err(&e))?;
+        legend.push((
+            "odometer fault".into(),
+            RGBColor(255, 200, 120),
+            LegendMark::Box,
+        ));
     }
     if let Some((ex, env)) = &s.envelope {
         let names = [
@@ -157,9 +166,8 @@ where
                     ex.iter().copied().zip(env[k].iter().map(|&v| clip(v))),
                     c.stroke_width(1),
                 ))
-                .map_err(|e| err(&e))?
-                .label(names[k])
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c));
+                .map_err(|e| err(&e))?;
+            legend.push((names[k].into(), c, LegendMark::Line));
         }
     }
     let bound: Vec<(f64, f64)> =
@@ -171,9 +179,15 @@ where
         let c = RGBColor(0, 140, 70);
         chart
             .draw_series(LineSeries::new(bound, c.stroke_width(2)))
-            .map_err(|e| err(&e))?
-            .label(d.bound_label.as_deref().unwrap_or("filter 95 % bound"))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c));
+            .map_err(|e| err(&e))?;
+        legend.push((
+            d.bound_label
+                .as_deref()
+                .unwrap_or("filter 95 % bound")
+                .into(),
+            c,
+            LegendMark::Line,
+        ));
     }
     let c = RGBColor(20, 70, 200);
     chart
@@ -181,13 +195,15 @@ where
             s.x.iter().copied().zip(s.error.iter().map(|&v| clip(v))),
             c.stroke_width(2),
         ))
-        .map_err(|e| err(&e))?
-        .label(
-            d.error_label
-                .as_deref()
-                .unwrap_or("horizontal error (run 0)"),
-        )
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c));
+        .map_err(|e| err(&e))?;
+    legend.push((
+        d.error_label
+            .as_deref()
+            .unwrap_or("horizontal error (run 0)")
+            .into(),
+        c,
+        LegendMark::Line,
+    ));
     if let Some(r) = d.requirement_m {
         chart
             .draw_series(DashedLineSeries::new(
@@ -196,9 +212,8 @@ where
                 5,
                 RED.stroke_width(2),
             ))
-            .map_err(|e| err(&e))?
-            .label(format!("requirement {r} m"))
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));
+            .map_err(|e| err(&e))?;
+        legend.push((format!("requirement {r} m"), RED, LegendMark::Dashed));
     }
     for (kind, colour, height, label) in [
         (
@@ -233,21 +248,123 @@ where
             .draw_series(xs.into_iter().map(move |x| {
                 PathElement::new(vec![(x, 0.0), (x, y_max * height)], colour.stroke_width(2))
             }))
-            .map_err(|e| err(&e))?
-            .label(label)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x + 7, y - 5), (x + 7, y + 5)], colour.stroke_width(2))
-            });
+            .map_err(|e| err(&e))?;
+        legend.push((label.into(), colour, LegendMark::Tick));
     }
-    chart
-        .configure_series_labels()
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(200, 200, 200))
-        .draw()
+    // Curves clipped at the top of the axis: a marker where each clipped
+    // stretch starts, and the true maximum in the legend.
+    if data_max > y_max {
+        let mut starts = Vec::new();
+        let mut check = |xs: &mut dyn Iterator<Item = (f64, f64)>| {
+            let mut above = false;
+            for (x, v) in xs {
+                if v >= y_max && !above {
+                    starts.push(x);
+                }
+                above = v >= y_max;
+            }
+        };
+        check(&mut s.x.iter().copied().zip(s.error.iter().copied()));
+        check(
+            &mut s
+                .x
+                .iter()
+                .zip(&s.bound95)
+                .filter_map(|(x, b)| b.map(|b| (*x, b))),
+        );
+        if let Some((ex, env)) = &s.envelope {
+            check(&mut ex.iter().copied().zip(env[2].iter().copied()));
+        }
+        let c = RGBColor(90, 0, 60);
+        chart
+            .draw_series(
+                starts
+                    .into_iter()
+                    .map(|x| TriangleMarker::new((x, y_max * 0.985), 7, c.filled())),
+            )
+            .map_err(|e| err(&e))?;
+        legend.push((
+            format!("clipped at the top: values up to {data_max:.0} m"),
+            c,
+            LegendMark::Triangle,
+        ));
+    }
+    let title_style = TextStyle::from((FONT, 13).into_font()).color(&BLACK);
+    let mut y = 30;
+    for (label, colour, mark) in &legend {
+        let colour = *colour;
+        match mark {
+            LegendMark::Line => legend_area.draw(&PathElement::new(
+                vec![(8, y), (28, y)],
+                colour.stroke_width(2),
+            )),
+            LegendMark::Dashed => legend_area
+                .draw(&PathElement::new(
+                    vec![(8, y), (14, y)],
+                    colour.stroke_width(2),
+                ))
+                .and_then(|_| {
+                    legend_area.draw(&PathElement::new(
+                        vec![(20, y), (28, y)],
+                        colour.stroke_width(2),
+                    ))
+                }),
+            LegendMark::Tick => legend_area.draw(&PathElement::new(
+                vec![(18, y - 6), (18, y + 6)],
+                colour.stroke_width(2),
+            )),
+            LegendMark::Box => {
+                legend_area.draw(&Rectangle::new([(8, y - 5), (28, y + 5)], colour.filled()))
+            }
+            LegendMark::Triangle => {
+                legend_area.draw(&TriangleMarker::new((18, y), 6, colour.filled()))
+            }
+        }
         .map_err(|e| err(&e))?;
+        // Long labels wrap onto further lines.
+        let lines = wrap(label, (legend_w as usize - 40) / 6);
+        for (k, line) in lines.iter().enumerate() {
+            legend_area
+                .draw(&Text::new(
+                    line.clone(),
+                    (34, y - 7 + 15 * k as i32),
+                    title_style.clone(),
+                ))
+                .map_err(|e| err(&e))?;
+        }
+        y += 8 + 15 * lines.len() as i32;
+    }
     root.present().map_err(|e| err(&e))?;
     Ok(())
+}
+
+/// How a legend entry is drawn.
+#[derive(Debug, Clone, Copy)]
+enum LegendMark {
+    Line,
+    Dashed,
+    Tick,
+    Box,
+    Triangle,
+}
+
+/// Splits a label into lines of at most about `width` characters, at spaces.
+fn wrap(label: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut cur = String::new();
+    for word in label.split(' ') {
+        if !cur.is_empty() && cur.chars().count() + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut cur));
+        }
+        if !cur.is_empty() {
+            cur.push(' ');
+        }
+        cur.push_str(word);
+    }
+    if !cur.is_empty() {
+        lines.push(cur);
+    }
+    lines
 }
 
 /// The plot as an SVG document.
@@ -256,7 +373,7 @@ pub fn error_plot_svg(s: &ErrorSeries, d: &PlotDecor, size: (u32, u32)) -> Resul
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
-        draw(root, s, d)?;
+        draw(root, s, d, false)?;
     }
     Ok(out)
 }
@@ -268,7 +385,7 @@ pub fn error_plot_png(s: &ErrorSeries, d: &PlotDecor, size: (u32, u32)) -> Resul
     let mut rgb = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
-        draw(root, s, d)?;
+        draw(root, s, d, true)?;
     }
     encode_png(&rgb, w, h)
 }
@@ -285,4 +402,65 @@ fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>> {
         writer.write_image_data(rgb).map_err(err)?;
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn series(top: f64) -> ErrorSeries {
+        ErrorSeries {
+            x: (0..100).map(f64::from).collect(),
+            error: (0..100).map(|i| top * f64::from(i) / 99.0).collect(),
+            bound95: vec![None; 100],
+            envelope: None,
+        }
+    }
+
+    #[test]
+    fn a_curve_clipped_at_the_axis_is_marked_with_its_true_maximum() {
+        let decor = PlotDecor {
+            title: "t".into(),
+            x_label: "x".into(),
+            requirement_m: Some(20.0),
+            y_max: Some(50.0),
+            ..Default::default()
+        };
+        // 286 m shown on a 50 m axis (issue 16's "26 m shown for 286 m").
+        let svg = error_plot_svg(&series(286.0), &decor, (900, 400)).unwrap();
+        // The legend (wrapped over lines) names the true maximum.
+        assert!(svg.contains("clipped at the top"), "{svg}");
+        assert!(svg.contains("286 m\n</text>"), "{svg}");
+        // One marker where the curve leaves the axis.
+        assert_eq!(svg.matches("<polygon").count(), 2, "marker and its legend");
+        // Not clipped: no mark.
+        let svg = error_plot_svg(&series(30.0), &decor, (900, 400)).unwrap();
+        assert!(!svg.contains("clipped"));
+    }
+
+    #[test]
+    fn the_legend_is_drawn_right_of_the_plot_area() {
+        let decor = PlotDecor {
+            title: "t".into(),
+            x_label: "x".into(),
+            requirement_m: Some(20.0),
+            ..Default::default()
+        };
+        let svg = error_plot_svg(&series(30.0), &decor, (900, 400)).unwrap();
+        // The legend's text starts right of the plotting area's right edge
+        // (the chart takes the width less the legend column).
+        let legend_w = (900 / 4).clamp(200, 300);
+        let i = svg.find("requirement 20 m").unwrap();
+        let tag = &svg[svg[..i].rfind("<text").unwrap()..i];
+        let x: f64 = tag
+            .split("x=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(x >= f64::from(900 - legend_w), "{x}");
+    }
 }

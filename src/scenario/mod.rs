@@ -21,11 +21,13 @@
 //! `bad.toml: line 14: planner.coverage "everything" is not one of routes, network`.
 
 mod check;
+mod presets;
 mod route;
 pub mod schema;
 mod sections;
 mod validate;
 
+pub use presets::{starter_scenario, ImuGrade, Starter};
 pub use schema::{
     Adaptive, Coverage, MotionKind, NavMode, ScenarioFile, Traffic, UTurns, VerticalChannel,
 };

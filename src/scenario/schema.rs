@@ -404,6 +404,10 @@ pub struct RotationSpec {
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ImuSection {
+    /// Class preset: fills the bias and random-walk fields the file leaves
+    /// out with the class's typical figures (`super::presets`).
+    #[serde(default)]
+    pub grade: Option<super::presets::ImuGrade>,
     /// Sampling rate (Hz).
     #[serde(default = "d_rate")]
     pub rate_hz: f64,

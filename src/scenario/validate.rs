@@ -105,6 +105,14 @@ impl Scenario {
     pub fn parse(path: &Path, text: &str) -> Result<Scenario> {
         let file: ScenarioFile =
             toml::from_str(text).map_err(|e| Error::scenario(path, toml_error(text, &e)))?;
+        // An `[imu] grade` fills the fields the file leaves out.
+        let file = match super::presets::apply_imu_grade(text) {
+            Ok(Some(doc)) => {
+                use serde::Deserialize;
+                ScenarioFile::deserialize(doc).map_err(|e| Error::scenario(path, e.to_string()))?
+            }
+            _ => file,
+        };
         let c = Check { path };
         if let Some(r) = file.requirement_m {
             c.positive("requirement_m", r)?;

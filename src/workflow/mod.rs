@@ -7,6 +7,7 @@
 //! - [`simulate_folder`]: `waymark simulate`;
 //! - [`match_file`]: `waymark match`;
 //! - [`inspect_map`]: `waymark network inspect`;
+//! - [`init_scenario`]: `waymark init` (a commented starting scenario);
 //! - [`demo_folder`]: `waymark demo` (plan, simulate with the planned tags,
 //!   report), composed of the jobs above on one loaded scenario and map.
 //!
@@ -14,6 +15,7 @@
 //! counts within long ones); the library never prints.
 
 mod demo;
+mod init;
 mod inputs;
 mod inspect;
 mod matching;
@@ -22,6 +24,7 @@ mod progress;
 mod simulate;
 
 pub use demo::{demo_folder, DemoOutcome};
+pub use init::{init_scenario, InitOutcome};
 pub use inputs::{check_out_dir, keep_inputs};
 pub use inspect::{inspect_map, InspectOutcome};
 pub use matching::{

@@ -3,7 +3,7 @@
 use super::inputs::{check_out_dir, keep_inputs};
 use super::progress::Progress;
 use crate::error::{Error, Result};
-use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml};
+use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml, tags_meta_json};
 use crate::fsio::write_atomic;
 use crate::planner::network::{plan_network_loaded, validate_network_plan, NetworkPlan};
 use crate::planner::{
@@ -48,6 +48,8 @@ pub struct RoutePlanFile {
     pub waymark_version: &'static str,
     /// Planning time before validation (s).
     pub plan_time_s: f64,
+    /// The tag files' metadata (as `tags.meta.json`).
+    pub tag_files: ExportMetadata,
 }
 
 /// `plan.json` of a network plan.
@@ -64,6 +66,8 @@ pub struct NetworkPlanFile {
     pub waymark_version: &'static str,
     /// Planning time before validation (s).
     pub plan_time_s: f64,
+    /// The tag files' metadata (as `tags.meta.json`).
+    pub tag_files: ExportMetadata,
 }
 
 /// The plan written, by coverage.
@@ -91,8 +95,9 @@ pub struct PlanOutcome {
 }
 
 /// Route plan files.
-const ROUTE_FILES: [&str; 8] = [
+const ROUTE_FILES: [&str; 9] = [
     "tags.csv",
+    "tags.meta.json",
     "tags.geojson",
     "tags.kml",
     "tags.gpx",
@@ -102,12 +107,15 @@ const ROUTE_FILES: [&str; 8] = [
     "inputs.json",
 ];
 /// Network plan files.
-const NETWORK_FILES: [&str; 5] = [
+const NETWORK_FILES: [&str; 8] = [
     "tags.csv",
+    "tags.meta.json",
     "tags.geojson",
     "tags.kml",
     "tags.gpx",
     "plan.json",
+    "scenario.toml",
+    "inputs.json",
 ];
 
 /// Plans tags for the scenario `job.scenario`, validates the plan by Monte
@@ -166,6 +174,7 @@ pub(super) fn route_plan(
         progress.finish();
     }
     let mut p = planned?;
+    p.predicted_max_bound95_missed_m = p.missed_bound(scn, truth);
     let t_plan = t0.elapsed().as_secs_f64();
     if settings.validation_runs > 0 {
         progress.note(&format!(
@@ -216,6 +225,7 @@ pub(super) fn write_route_plan(
         waymark_version: env!("CARGO_PKG_VERSION"),
         plan_time_s,
         plan,
+        tag_files: meta,
     };
     write_json(&out_dir.join("plan.json"), &file)?;
     // What `waymark report` needs to draw the map later.
@@ -281,8 +291,15 @@ fn network_plan_folder(
         waymark_version: env!("CARGO_PKG_VERSION"),
         plan_time_s,
         plan,
+        tag_files: meta,
     };
     write_json(&job.out_dir.join("plan.json"), &file)?;
+    // What `waymark report` needs to draw the area later.
+    keep_inputs(
+        job.scenario,
+        job.out_dir,
+        Some(&job.out_dir.join("tags.csv")),
+    )?;
     Ok(PlanOutcome {
         plan: PlanFiles::Network(Box::new(file)),
         out: job.out_dir.to_path_buf(),
@@ -295,6 +312,10 @@ fn network_plan_folder(
 fn write_tag_files(out_dir: &Path, recs: &[TagRecord], meta: &ExportMetadata) -> Result<()> {
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
     write_atomic(&out_dir.join("tags.csv"), tags_csv(recs, meta).as_bytes())?;
+    write_atomic(
+        &out_dir.join("tags.meta.json"),
+        tags_meta_json(meta).as_bytes(),
+    )?;
     write_atomic(
         &out_dir.join("tags.geojson"),
         tags_geojson(recs, meta).as_bytes(),

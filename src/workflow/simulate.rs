@@ -81,6 +81,7 @@ pub(super) fn simulate_loaded(
     output::write(job.out_dir, &result)?;
     keep_inputs(job.scenario, job.out_dir, job.tags)?;
     let mut files = vec!["errors.csv", "summary.json", "scenario.toml", "inputs.json"];
+    files.extend(write_example_runs(job.out_dir, &result)?);
     if result.summary.updates_run0.is_some() {
         files.push("tag_passes.csv");
     }
@@ -90,4 +91,60 @@ pub(super) fn simulate_loaded(
         files,
         elapsed_s: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// With several runs, the runs the report plots: the median run by maximum
+/// horizontal error and the worst (`errors_median_run.csv`,
+/// `tag_passes_median_run.csv`, `errors_worst_run.csv`,
+/// `tag_passes_worst_run.csv`; see [`crate::report::example_runs`]).
+/// With one run, any such files of an earlier run are removed.
+fn write_example_runs(dir: &Path, result: &SimResult) -> Result<Vec<&'static str>> {
+    use crate::fsio::write_atomic;
+    use crate::report::{example_files, example_runs};
+    let maxima: Vec<(u64, f64)> = result
+        .summary
+        .per_run
+        .iter()
+        .map(|r| (r.run, r.max_horizontal_error_m))
+        .collect();
+    let mut files = Vec::new();
+    for (which, names) in [
+        (
+            "median",
+            ["errors_median_run.csv", "tag_passes_median_run.csv"],
+        ),
+        (
+            "worst",
+            ["errors_worst_run.csv", "tag_passes_worst_run.csv"],
+        ),
+    ] {
+        let (e, p) = example_files(which);
+        debug_assert_eq!([e.as_str(), p.as_str()], names);
+        let pick = example_runs(&maxima)
+            .filter(|_| result.runs.len() > 1)
+            .map(|(m, w)| if which == "median" { m.0 } else { w.0 });
+        let run = pick.and_then(|k| result.runs.iter().find(|r| r.run == k));
+        match run {
+            Some(r) => {
+                write_atomic(&dir.join(&e), output::errors_csv(&r.rows).as_bytes())?;
+                files.push(names[0]);
+                if r.counts.is_some() {
+                    write_atomic(
+                        &dir.join(&p),
+                        output::tag_passes_csv(&r.tag_passes).as_bytes(),
+                    )?;
+                    files.push(names[1]);
+                }
+            }
+            None => {
+                for f in [&e, &p] {
+                    let path = dir.join(f);
+                    if path.exists() {
+                        std::fs::remove_file(&path).map_err(|err| Error::io(&path, err))?;
+                    }
+                }
+            }
+        }
+    }
+    Ok(files)
 }

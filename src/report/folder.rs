@@ -1,0 +1,443 @@
+//! Reading an output folder for the report: the required files strictly
+//! (a clear error naming the file and the field), the optional ones
+//! leniently, each missing or unusable one recorded as a note the page
+//! shows ("what is missing") and `waymark report` prints.
+
+use super::map::{CoveragePiece, MapOverlay, MapTag};
+use super::{read_errors_csv, read_plan_profile_csv, read_tag_passes_csv, ErrorRow, PassRow};
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// One row of the tag table: the installer file's columns and, where the
+/// plan gives it, why the tag is there.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TagRow {
+    /// `tag_id`.
+    pub tag_id: String,
+    /// Latitude, longitude (degrees).
+    pub lat_lon: [f64; 2],
+    /// Height (m), when the file gives one.
+    pub height_m: Option<f64>,
+    /// Mounting as written (`road_surface`, `roadside`, `ceiling`).
+    pub mounting: String,
+    /// Road id (and name, when the plan gives one).
+    pub road: String,
+    /// Chainage along the road (m).
+    pub chainage_m: Option<f64>,
+    /// Side of the road.
+    pub side: String,
+    /// Why the tag is needed (the plan's `reason`), when given.
+    pub reason: String,
+    /// The 96-bit payload in hexadecimal.
+    pub payload_hex: String,
+    /// Installed already (kept from `existing_tags`).
+    pub existing: bool,
+}
+
+/// Reads a tags CSV with a strict header: its first line (after
+/// legacy `#` lines) must name `tag_id`, `lat`, `lon` and `mounting`;
+/// other known columns are taken when present.
+pub fn read_tag_table(path: &Path) -> Result<Vec<TagRow>> {
+    let fail = |m: String| Error::format(path, m);
+    let mut r = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .map_err(|e| fail(format!("cannot read: {e}")))?;
+    let headers = r
+        .headers()
+        .map_err(|e| fail(format!("bad header: {e}")))?
+        .clone();
+    let col = |name: &str| headers.iter().position(|h| h == name);
+    let need = |name: &str| col(name).ok_or_else(|| fail(format!("missing column '{name}'")));
+    let (ci, cla, clo, cm) = (
+        need("tag_id")?,
+        need("lat")?,
+        need("lon")?,
+        need("mounting")?,
+    );
+    let (ch, cr, cc, cs, cp, creason) = (
+        col("height_m"),
+        col("road_id"),
+        col("chainage_m"),
+        col("side"),
+        col("payload_hex"),
+        col("reason"),
+    );
+    let mut rows = Vec::new();
+    for (i, rec) in r.records().enumerate() {
+        let rec = rec.map_err(|e| fail(format!("record {}: {e}", i + 1)))?;
+        let line = rec.position().map_or(i as u64 + 2, |p| p.line());
+        let text = |k: Option<usize>| k.and_then(|k| rec.get(k)).unwrap_or("").to_string();
+        let number = |k: Option<usize>, name: &str| -> Result<Option<f64>> {
+            match k.and_then(|k| rec.get(k)).filter(|v| !v.is_empty()) {
+                None => Ok(None),
+                Some(v) => v
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .map(Some)
+                    .ok_or_else(|| fail(format!("line {line}: '{name}' is not a number: {v:?}"))),
+            }
+        };
+        let lat =
+            number(Some(cla), "lat")?.ok_or_else(|| fail(format!("line {line}: no 'lat'")))?;
+        let lon =
+            number(Some(clo), "lon")?.ok_or_else(|| fail(format!("line {line}: no 'lon'")))?;
+        rows.push(TagRow {
+            tag_id: text(Some(ci)),
+            lat_lon: [lat, lon],
+            height_m: number(ch, "height_m")?,
+            mounting: text(Some(cm)),
+            road: text(cr),
+            chainage_m: number(cc, "chainage_m")?,
+            side: text(cs),
+            reason: text(creason),
+            payload_hex: text(cp),
+            existing: false,
+        });
+    }
+    Ok(rows)
+}
+
+/// Adds what `plan.json`'s tags say (road name, reason) to the table's
+/// rows, and appends the plan's installed tags kept (which the installer
+/// file leaves out).
+pub fn merge_plan_tags(rows: &mut Vec<TagRow>, plan: &serde_json::Value) {
+    let Some(tags) = plan["tags"].as_array() else {
+        return;
+    };
+    let index: std::collections::HashMap<String, usize> = rows
+        .iter()
+        .enumerate()
+        .map(|(i, r)| (r.tag_id.clone(), i))
+        .collect();
+    for t in tags {
+        let Some(id) = t["tag_id"].as_str() else {
+            continue;
+        };
+        let reason = t["reason"].as_str().unwrap_or("");
+        let name = t["road_name"].as_str().unwrap_or("");
+        if let Some(&i) = index.get(id) {
+            let r = &mut rows[i];
+            if r.reason.is_empty() {
+                r.reason = reason.to_string();
+            }
+            if !name.is_empty() && !r.road.contains(name) {
+                r.road = format!("{} ({name})", r.road);
+            }
+        } else if t["existing"].as_bool() == Some(true) {
+            let (Some(lat), Some(lon)) = (t["lat"].as_f64(), t["lon"].as_f64()) else {
+                continue;
+            };
+            rows.push(TagRow {
+                tag_id: id.to_string(),
+                lat_lon: [lat, lon],
+                height_m: t["height_m"].as_f64(),
+                mounting: t["mounting"].as_str().unwrap_or("").to_string(),
+                road: t["road_id"].as_str().unwrap_or("").to_string(),
+                chainage_m: t["chainage_m"]
+                    .as_f64()
+                    .or_else(|| t["road_chainage_m"].as_f64()),
+                side: String::new(),
+                reason: if reason.is_empty() {
+                    "installed already".into()
+                } else {
+                    reason.to_string()
+                },
+                payload_hex: String::new(),
+                existing: true,
+            });
+        }
+    }
+}
+
+/// Reads an area plan's `coverage.geojson`: directed road pieces
+/// (LineStrings) with `bound_m`, and `bound_without_tags_m` and `reason`
+/// when given.
+pub fn read_coverage(path: &Path) -> Result<Vec<(CoveragePiece, Option<f64>, String)>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let gj: geojson::GeoJson = text
+        .parse()
+        .map_err(|e| Error::format(path, format!("invalid GeoJSON: {e}")))?;
+    let geojson::GeoJson::FeatureCollection(fc) = gj else {
+        return Err(Error::format(path, "not a FeatureCollection"));
+    };
+    let mut out = Vec::with_capacity(fc.features.len());
+    for (i, f) in fc.features.iter().enumerate() {
+        let props = f.properties.as_ref();
+        let get = |k: &str| props.and_then(|p| p.get(k));
+        let bound = get("bound_m").and_then(|v| v.as_f64()).ok_or_else(|| {
+            Error::format(
+                path,
+                format!("feature {i}: 'bound_m' is missing or not a number"),
+            )
+        })?;
+        let without = get("bound_without_tags_m").and_then(|v| v.as_f64());
+        let reason = get("reason")
+            .and_then(|v| v.as_str())
+            .unwrap_or("")
+            .to_string();
+        let lines: Vec<Vec<Vec<f64>>> = match f.geometry.as_ref().map(|g| &g.value) {
+            Some(geojson::Value::LineString(l)) => vec![l.clone()],
+            Some(geojson::Value::MultiLineString(m)) => m.clone(),
+            _ => {
+                return Err(Error::format(
+                    path,
+                    format!("feature {i}: geometry is not a LineString"),
+                ))
+            }
+        };
+        let road = get("road_id")
+            .and_then(|v| v.as_str())
+            .map(|r| format!("road {r}: "))
+            .unwrap_or_default();
+        let mut info = format!("{road}predicted 95 % bound {bound:.1} m");
+        if let Some(w) = without {
+            info.push_str(&format!(" ({w:.0} m without tags)"));
+        }
+        if !reason.is_empty() {
+            info.push_str(&format!("; {reason}"));
+        }
+        for l in lines {
+            out.push((
+                CoveragePiece {
+                    line: l
+                        .iter()
+                        .filter(|p| p.len() >= 2)
+                        .map(|p| [p[1], p[0]])
+                        .collect(),
+                    value_m: bound,
+                    info: info.clone(),
+                },
+                without,
+                reason.clone(),
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// Reads `inputs.json`: the scenario's and the tag file's paths when
+/// simulated or planned. Every problem is a note.
+pub(super) fn read_inputs(
+    dir: &Path,
+    notes: &mut Vec<String>,
+) -> Option<(PathBuf, Option<PathBuf>)> {
+    let path = dir.join("inputs.json");
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(_) => {
+            notes.push(
+                "inputs.json is missing: where the scenario was is unknown, so the map is not drawn"
+                    .into(),
+            );
+            return None;
+        }
+    };
+    let v: serde_json::Value = match serde_json::from_str(&text) {
+        Ok(v) => v,
+        Err(e) => {
+            notes.push(format!(
+                "inputs.json is not valid JSON ({e}): the map is not drawn"
+            ));
+            return None;
+        }
+    };
+    let Some(scenario) = v["scenario_path"].as_str() else {
+        notes.push(
+            "inputs.json: 'scenario_path' is missing or not a string: the map is not drawn".into(),
+        );
+        return None;
+    };
+    let tags = match &v["tags_path"] {
+        serde_json::Value::Null => None,
+        serde_json::Value::String(s) => Some(PathBuf::from(s)),
+        _ => {
+            notes.push(
+                "inputs.json: 'tags_path' is not a string: the recorded tag file is ignored".into(),
+            );
+            None
+        }
+    };
+    Some((PathBuf::from(scenario), tags))
+}
+
+/// Reads a JSON object file.
+pub(super) fn read_json(path: &Path) -> Result<serde_json::Value> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::format(path, format!("invalid JSON: {e}")))?;
+    if !v.is_object() {
+        return Err(Error::format(path, "not a JSON object"));
+    }
+    Ok(v)
+}
+
+/// Checks that `v` holds the keys the report is made from, with their
+/// types: `numbers` finite numbers (or null where `nullable`), `counts`
+/// non-negative integers, `strings` strings.
+pub(super) fn require(
+    path: &Path,
+    v: &serde_json::Value,
+    numbers: &[&str],
+    nullable: &[&str],
+    counts: &[&str],
+    strings: &[&str],
+) -> Result<()> {
+    let bad = |k: &str, what: &str| {
+        Error::format(path, format!("'{k}' is {}, not {what}", describe(&v[k])))
+    };
+    for k in numbers {
+        if !v[k].is_number() {
+            return Err(bad(k, "a number"));
+        }
+    }
+    for k in nullable {
+        if !(v[k].is_number() || v[k].is_null()) {
+            return Err(bad(k, "a number or null"));
+        }
+    }
+    for k in counts {
+        if !v[k].is_u64() {
+            return Err(bad(k, "a whole number"));
+        }
+    }
+    for k in strings {
+        if !v[k].is_string() {
+            return Err(bad(k, "a string"));
+        }
+    }
+    Ok(())
+}
+
+fn describe(v: &serde_json::Value) -> String {
+    match v {
+        serde_json::Value::Null => "missing".into(),
+        serde_json::Value::Bool(b) => format!("{b}"),
+        serde_json::Value::Number(n) => format!("the number {n}"),
+        serde_json::Value::String(s) => format!("the text {s:?}"),
+        serde_json::Value::Array(_) => "a list".into(),
+        serde_json::Value::Object(_) => "an object".into(),
+    }
+}
+
+/// One example run of a Monte Carlo simulation, as plotted.
+#[derive(Debug, Clone, Default)]
+pub struct ExampleRun {
+    /// Which run and why it is shown ("run 7, the median by maximum error").
+    pub label: String,
+    /// Its `errors.csv` rows.
+    pub rows: Vec<ErrorRow>,
+    /// Its tag passes.
+    pub passes: Vec<PassRow>,
+}
+
+/// The runs shown of a Monte Carlo simulation: the median run by maximum
+/// horizontal error (the lower median for an even count) and the worst,
+/// as (run index, maximum) pairs from `summary.json`'s `per_run`.
+pub fn example_runs(per_run_max: &[(u64, f64)]) -> Option<((u64, f64), (u64, f64))> {
+    if per_run_max.is_empty() {
+        return None;
+    }
+    let mut v = per_run_max.to_vec();
+    v.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+    Some((v[(v.len() - 1) / 2], v[v.len() - 1]))
+}
+
+/// `summary.json`'s per-run maxima.
+pub fn per_run_max(summary: &serde_json::Value) -> Vec<(u64, f64)> {
+    summary["per_run"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|r| Some((r["run"].as_u64()?, r["max_horizontal_error_m"].as_f64()?)))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// The files an example run is written to (`errors_median_run.csv`, ...).
+pub fn example_files(which: &str) -> (String, String) {
+    (
+        format!("errors_{which}_run.csv"),
+        format!("tag_passes_{which}_run.csv"),
+    )
+}
+
+/// Reads an example run's files when present.
+pub(super) fn read_example(
+    dir: &Path,
+    which: &str,
+    label: String,
+    notes: &mut Vec<String>,
+) -> Result<Option<ExampleRun>> {
+    let (e, p) = example_files(which);
+    let (e, p) = (dir.join(e), dir.join(p));
+    if !e.exists() {
+        return Ok(None);
+    }
+    let rows = read_errors_csv(&e)?;
+    let passes = if p.exists() {
+        read_tag_passes_csv(&p)?
+    } else {
+        Vec::new()
+    };
+    let _ = notes;
+    Ok(Some(ExampleRun {
+        label,
+        rows,
+        passes,
+    }))
+}
+
+/// The plan's profile, or a note when a route plan lacks it.
+pub(super) fn read_profile(
+    dir: &Path,
+    plan: &serde_json::Value,
+    notes: &mut Vec<String>,
+) -> Result<Vec<super::PlanProfileRow>> {
+    let path = dir.join("profile.csv");
+    if path.exists() {
+        read_plan_profile_csv(&path)
+    } else {
+        if plan["coverage"].as_str() != Some("network") {
+            notes.push(
+                "profile.csv is missing: the predicted bound along the route is not plotted".into(),
+            );
+        }
+        Ok(Vec::new())
+    }
+}
+
+/// The overlay's tags from the table.
+pub(super) fn map_tags(rows: &[TagRow]) -> Vec<MapTag> {
+    rows.iter()
+        .filter_map(|r| {
+            let m = crate::tags::Mounting::parse(&r.mounting)?;
+            let mut info = format!("{} · {}", r.tag_id, r.mounting.replace('_', " "));
+            if !r.road.is_empty() {
+                info.push_str(&format!(" · road {}", r.road));
+            }
+            if let Some(c) = r.chainage_m {
+                info.push_str(&format!(" · chainage {c:.1} m"));
+            }
+            if !r.reason.is_empty() {
+                info.push_str(&format!(" · {}", r.reason));
+            }
+            Some(MapTag {
+                lat_lon: r.lat_lon,
+                mounting: m,
+                info,
+            })
+        })
+        .collect()
+}
+
+/// An empty overlay scaled to `requirement_m`.
+pub(super) fn overlay(requirement_m: Option<f64>) -> MapOverlay {
+    MapOverlay {
+        requirement_m,
+        ..Default::default()
+    }
+}

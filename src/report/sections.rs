@@ -1,0 +1,594 @@
+//! The report's sections as HTML: verdicts with their rule, filter
+//! consistency, the plan tables (route and area), the tag table and the
+//! notes on what the folder lacks. Every number shown exists in the files;
+//! a row whose number does not exist is left out rather than shown as a
+//! dash or NaN.
+
+use super::folder::TagRow;
+use super::verdict::{figures_text, level, rule_text, upper_bound, Evidence, Level, CONFIDENCE};
+use quick_xml::escape::escape;
+use std::fmt::Write;
+
+fn num(v: &serde_json::Value) -> Option<f64> {
+    v.as_f64().filter(|x| x.is_finite())
+}
+
+fn badge(level: Level, text: &str) -> String {
+    format!(
+        "<span class=\"verdict {}\" data-level=\"{}\">{}</span>",
+        level.css(),
+        match level {
+            Level::Green => "green",
+            Level::Amber => "amber",
+            Level::Red => "red",
+            Level::Info => "info",
+        },
+        escape(text)
+    )
+}
+
+/// The verdict of a simulation, under the stated rule.
+pub fn sim_verdict(s: &serde_json::Value) -> String {
+    let (Some(r), Some(share)) = (
+        num(&s["requirement_m"]),
+        num(&s["fraction_within_requirement"]),
+    ) else {
+        return format!(
+            "<p>{}</p>",
+            badge(
+                Level::Info,
+                "No requirement set in the scenario: nothing to judge against"
+            )
+        );
+    };
+    let runs = s["runs"].as_u64().unwrap_or(1);
+    let e = Evidence {
+        requirement_m: r,
+        runs,
+        runs_exceeding: s["runs_exceeding_requirement"].as_u64(),
+        max_error_m: num(&s["max_horizontal_error_m"]).unwrap_or(0.0),
+        share_within: share,
+    };
+    let l = level(&e);
+    let head = match l {
+        Level::Green => format!("Simulation meets the {r} m requirement in every run"),
+        Level::Amber => format!(
+            "Simulation meets the {r} m requirement for {:.2} % of the time, but not in every run",
+            100.0 * share
+        ),
+        _ => format!(
+            "Simulation does not meet the {r} m requirement: {:.2} % of the time within it",
+            100.0 * share
+        ),
+    };
+    let first = num(&s["time_to_exceed_requirement_s"])
+        .map(|t| format!(" First exceeded at {t:.0} s."))
+        .unwrap_or_default();
+    format!(
+        "<p>{}</p><p class=\"figures\">Simulation: {}{first}</p>",
+        badge(l, &head),
+        escape(figures_text(&e, "time")),
+    )
+}
+
+/// The verdict of a plan: its Monte Carlo validation under the stated rule,
+/// or, without one, its prediction (amber at best: not simulated).
+pub fn plan_verdict(p: &serde_json::Value) -> String {
+    let r = num(&p["requirement_m"]).unwrap_or(0.0);
+    let n = p["tag_count"].as_u64().unwrap_or(0);
+    let network = p["coverage"].as_str() == Some("network");
+    let v = &p["validation"];
+    let predicted = num(&p["predicted_max_bound95_m"]);
+    let predicted_text = match (predicted, network) {
+        (Some(b), _) => format!(
+            " Predicted max 95 % bound {b:.2} m with all tags read{}.",
+            num(&p["predicted_max_bound95_missed_m"])
+                .map(|m| format!(
+                    ", {m:.2} m with any {} consecutive tag(s) missed",
+                    p["tolerate_missed_reads"].as_u64().unwrap_or(0)
+                ))
+                .unwrap_or_default()
+        ),
+        (None, true) => {
+            let verified = p["verified"].as_bool() == Some(true);
+            format!(
+                " Every directed road's predicted bound within {r} m with up to {} missed read(s) {}.",
+                p["tolerate_missed_reads"].as_u64().unwrap_or(0),
+                if verified {
+                    "(verified over all walks)"
+                } else {
+                    "(not verified over all walks)"
+                }
+            )
+        }
+        _ => String::new(),
+    };
+    match (
+        num(&v["fraction_within_requirement"]),
+        v["runs"].as_u64(),
+        num(&v["max_horizontal_error_m"]),
+    ) {
+        (Some(share), Some(runs), Some(max)) => {
+            let e = Evidence {
+                requirement_m: r,
+                runs,
+                runs_exceeding: v["runs_exceeding_requirement"].as_u64(),
+                max_error_m: max,
+                share_within: share,
+            };
+            let l = level(&e);
+            let head = match l {
+                Level::Green => format!("Plan validated: {n} new tag(s) keep every run within {r} m"),
+                Level::Amber => format!(
+                    "Plan validated for {:.2} % of the distance, but not in every run ({n} new tag(s), {r} m)",
+                    100.0 * share
+                ),
+                _ => format!(
+                    "Plan not validated: {:.2} % of the distance within {r} m ({n} new tag(s))",
+                    100.0 * share
+                ),
+            };
+            let paths = v["paths"]
+                .as_u64()
+                .map(|k| format!(" on {k} sampled path(s)"))
+                .unwrap_or_default();
+            format!(
+                "<p>{}</p><p class=\"figures\">Validation by {runs} Monte Carlo run(s){paths}, seed {}: {}{}</p>",
+                badge(l, &head),
+                v["seed"].as_u64().unwrap_or(0),
+                escape(figures_text(&e, "distance")),
+                escape(&predicted_text),
+            )
+        }
+        _ => {
+            let within = predicted.is_none_or(|b| b <= r);
+            let (l, head) = if within {
+                (
+                    Level::Amber,
+                    format!("Plan of {n} new tag(s) predicted within {r} m, not validated by simulation"),
+                )
+            } else {
+                (
+                    Level::Red,
+                    format!("Plan of {n} new tag(s) predicted to exceed {r} m, not validated by simulation"),
+                )
+            };
+            format!(
+                "<p>{}</p><p class=\"figures\">{}</p><p class=\"rule\">Rule: a plan is green only when a Monte Carlo validation keeps every run within the requirement; a prediction alone is amber at best (run waymark plan with --runs N).</p>",
+                badge(l, &head),
+                escape(predicted_text.trim())
+            )
+        }
+    }
+}
+
+/// The rule the verdicts follow, once for the page: of the distance (a
+/// plan's validation) and of the time (a simulation).
+pub fn rule() -> String {
+    format!(
+        "<p class=\"rule\">{}</p>",
+        escape(rule_text("distance (plan validation) or time (simulation)"))
+    )
+}
+
+/// Filter consistency: the run-averaged NEES against its band, and what it means.
+pub fn nees(s: &serde_json::Value) -> Option<String> {
+    let n = &s["nees"];
+    let (mean, lo, hi) = (
+        num(&n["mean"])?,
+        num(&n["band_95"][0])?,
+        num(&n["band_95"][1])?,
+    );
+    let runs = n["runs"].as_u64().unwrap_or(0);
+    let dof = n["dof"].as_u64().unwrap_or(2);
+    let inside = num(&n["fraction_within_band"]).unwrap_or(0.0);
+    let above = num(&n["fraction_above_band"]).unwrap_or(0.0);
+    let (l, meaning) = if mean < lo {
+        (
+            Level::Amber,
+            "Below the band: the filter is pessimistic — its covariance is larger than the errors it makes, so its 95 % bound (and the planner's prediction, from the same filter) overstates the error: safe, but tags may be more than needed",
+        )
+    } else if mean > hi {
+        (
+            Level::Red,
+            "Above the band: the filter is optimistic — its errors are larger than its covariance says, so its 95 % bound understates the error and cannot be trusted",
+        )
+    } else {
+        (
+            Level::Green,
+            "Inside the band: the filter's covariance matches the errors it makes, so its 95 % bound can be trusted",
+        )
+    };
+    Some(format!(
+        "<p>{} <span class=\"figures\">Run-averaged horizontal NEES {mean:.2} ({dof} degrees of freedom, 95 % band {lo:.2}–{hi:.2} for {runs} run(s)); inside the band {:.0} % of the time, above it {:.0} %. {}.</span></p>",
+        badge(l, &format!("Filter consistency: NEES {mean:.2}")),
+        100.0 * inside,
+        100.0 * above,
+        meaning
+    ))
+}
+
+fn table(rows: &[(&str, String)]) -> String {
+    let mut html = String::from("<table class=\"kv\">");
+    for (k, v) in rows {
+        let _ = write!(html, "<tr><th>{k}</th><td>{}</td></tr>", escape(v));
+    }
+    html.push_str("</table>");
+    html
+}
+
+fn by_mounting(p: &serde_json::Value) -> String {
+    p["tags_by_mounting"]
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .map(|(k, v)| format!("{} {}", v.as_u64().unwrap_or(0), k.replace('_', " ")))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "none".into())
+}
+
+/// Pushes `(key, value)` when the value exists.
+fn push(rows: &mut Vec<(&'static str, String)>, k: &'static str, v: Option<String>) {
+    if let Some(v) = v {
+        rows.push((k, v));
+    }
+}
+
+/// The route plan's table.
+pub fn plan_table(p: &serde_json::Value, missed_note: Option<String>) -> String {
+    let mut rows: Vec<(&str, String)> = Vec::new();
+    rows.push((
+        "new tags",
+        format!(
+            "{} ({})",
+            p["tag_count"].as_u64().unwrap_or(0),
+            by_mounting(p)
+        ),
+    ));
+    push(
+        &mut rows,
+        "installed tags kept",
+        p["existing_tags_kept"]
+            .as_u64()
+            .filter(|k| *k > 0)
+            .map(|k| k.to_string()),
+    );
+    push(
+        &mut rows,
+        "lower bound on new tags",
+        p["lower_bound"].as_u64().map(|b| {
+            format!(
+                "{b}{}",
+                if p["optimal"].as_bool() == Some(true) {
+                    " (the plan is minimal)"
+                } else {
+                    ""
+                }
+            )
+        }),
+    );
+    push(
+        &mut rows,
+        "total cost",
+        num(&p["total_cost"]).map(|c| format!("{c:.1}")),
+    );
+    push(
+        &mut rows,
+        "route length",
+        num(&p["route_length_m"]).map(|d| format!("{:.2} km", d / 1e3)),
+    );
+    push(
+        &mut rows,
+        "largest gap between tags",
+        num(&p["max_gap_m"]).map(|g| format!("{g:.0} m")),
+    );
+    push(
+        &mut rows,
+        "reach from the start without tags",
+        num(&p["start_reach_m"]).map(|g| format!("{g:.0} m")),
+    );
+    push(
+        &mut rows,
+        "requirement",
+        num(&p["requirement_m"]).map(|r| format!("{r} m")),
+    );
+    push(
+        &mut rows,
+        "missed reads tolerated",
+        p["tolerate_missed_reads"].as_u64().map(|k| k.to_string()),
+    );
+    push(
+        &mut rows,
+        "predicted max 95 % bound, all tags read",
+        num(&p["predicted_max_bound95_m"]).map(|b| format!("{b:.2} m")),
+    );
+    push(
+        &mut rows,
+        "predicted max 95 % bound, tags missed",
+        missed_note,
+    );
+    validation_rows(&mut rows, &p["validation"], num(&p["requirement_m"]));
+    let b = &p["uniform_baseline"];
+    if b.is_object() {
+        push(
+            &mut rows,
+            "uniform baseline",
+            (|| {
+                Some(format!(
+                    "{} tag(s) every {:.0} m: {:.2} % of the distance within the requirement",
+                    b["tag_count"].as_u64()?,
+                    num(&b["spacing_m"])?,
+                    100.0 * num(&b["validation"]["fraction_within_requirement"])?
+                ))
+            })(),
+        );
+    }
+    push(&mut rows, "method", p["method"].as_str().map(String::from));
+    table(&rows)
+}
+
+fn validation_rows(
+    rows: &mut Vec<(&'static str, String)>,
+    v: &serde_json::Value,
+    requirement_m: Option<f64>,
+) {
+    if !v.is_object() {
+        rows.push((
+            "validation",
+            "not run (waymark plan --runs N runs it)".into(),
+        ));
+        return;
+    }
+    push(
+        rows,
+        "validation",
+        (|| {
+            Some(format!(
+                "{} run(s), seed {}: {:.2} % of the distance within the requirement; max horizontal error {:.2} m (run {}, {:.0} m along{})",
+                v["runs"].as_u64()?,
+                v["seed"].as_u64()?,
+                100.0 * num(&v["fraction_within_requirement"])?,
+                num(&v["max_horizontal_error_m"])?,
+                v["worst_run"].as_u64()?,
+                num(&v["worst_distance_m"])?,
+                v["worst_path"]
+                    .as_u64()
+                    .map(|k| format!(" sampled path {k}"))
+                    .unwrap_or_default(),
+            ))
+        })(),
+    );
+    // Counted by the validation, or known to be none when the largest
+    // error is within the requirement.
+    let none = num(&v["max_horizontal_error_m"])
+        .zip(requirement_m)
+        .is_some_and(|(m, r)| m <= r)
+        .then_some(0);
+    push(
+        rows,
+        "runs exceeding the requirement",
+        v["runs_exceeding_requirement"].as_u64().or(none).map(|k| {
+            let n = v["runs"].as_u64().unwrap_or(0);
+            format!(
+                "{k} of {n} (chance per run ≤ {:.1} % at {:.0} % confidence)",
+                100.0 * upper_bound(k, n, CONFIDENCE),
+                100.0 * CONFIDENCE
+            )
+        }),
+    );
+}
+
+/// The area plan's table: tags, lower bound, reach, coverage, validation,
+/// and the reasons tags are needed.
+pub fn network_table(
+    p: &serde_json::Value,
+    bounds: &[(f64, Option<f64>)],
+    reasons: &[String],
+    tags: &[TagRow],
+) -> String {
+    let mut rows: Vec<(&str, String)> = Vec::new();
+    rows.push((
+        "new tags",
+        format!(
+            "{} ({})",
+            p["tag_count"].as_u64().unwrap_or(0),
+            by_mounting(p)
+        ),
+    ));
+    push(
+        &mut rows,
+        "installed tags kept",
+        p["existing_kept"]
+            .as_u64()
+            .filter(|k| *k > 0)
+            .map(|k| k.to_string()),
+    );
+    push(
+        &mut rows,
+        "lower bound on new tags",
+        p["lower_bound"].as_u64().map(|b| {
+            format!(
+                "{b}{}",
+                num(&p["lower_bound_cost"])
+                    .map(|c| format!(" (cost {c:.1})"))
+                    .unwrap_or_default()
+            )
+        }),
+    );
+    push(
+        &mut rows,
+        "total cost",
+        num(&p["total_cost"]).map(|c| format!("{c:.1}")),
+    );
+    push(
+        &mut rows,
+        "roads covered",
+        (|| {
+            Some(format!(
+                "{} directed road(s), {:.2} km",
+                p["directed_edges"].as_u64()?,
+                num(&p["directed_length_km"])?
+            ))
+        })(),
+    );
+    push(
+        &mut rows,
+        "reach between fixes",
+        (|| {
+            Some(format!(
+                "{:.0} m (slowest speed class; fastest {:.0} m); steady state {:.0} m, from the start {:.0} m",
+                num(&p["reach_m"])?,
+                num(&p["budget_reference_m"])?,
+                num(&p["steady_reach_m"])?,
+                num(&p["start_reach_m"])?
+            ))
+        })(),
+    );
+    push(
+        &mut rows,
+        "requirement",
+        num(&p["requirement_m"]).map(|r| format!("{r} m")),
+    );
+    push(
+        &mut rows,
+        "missed reads tolerated",
+        p["tolerate_missed_reads"].as_u64().map(|k| k.to_string()),
+    );
+    push(
+        &mut rows,
+        "walk check",
+        p["verified"].as_bool().map(|v| {
+            format!(
+                "{}; the longest walk with at most k passes uses {:.0} % of the budget",
+                if v {
+                    "verified: no walk exceeds the budget"
+                } else {
+                    "not verified"
+                },
+                100.0 * num(&p["longest_walk_budget"]).unwrap_or(0.0)
+            )
+        }),
+    );
+    if !bounds.is_empty() {
+        let max = bounds.iter().map(|b| b.0).fold(0.0, f64::max);
+        let r = num(&p["requirement_m"]).unwrap_or(f64::INFINITY);
+        let over = bounds.iter().filter(|b| b.0 > r).count();
+        rows.push((
+            "predicted 95 % bound on the roads",
+            format!(
+                "largest {max:.2} m over {} road piece(s); {over} piece(s) above the requirement",
+                bounds.len()
+            ),
+        ));
+        let without: Vec<f64> = bounds.iter().filter_map(|b| b.1).collect();
+        if !without.is_empty() {
+            rows.push((
+                "predicted 95 % bound without tags",
+                format!(
+                    "largest {:.0} m",
+                    without.iter().copied().fold(0.0, f64::max)
+                ),
+            ));
+        }
+    }
+    validation_rows(&mut rows, &p["validation"], num(&p["requirement_m"]));
+    push(
+        &mut rows,
+        "worst point of the validation",
+        (|| {
+            let v = &p["validation"];
+            Some(format!(
+                "{:.6}, {:.6}{}",
+                num(&v["worst_lat"])?,
+                num(&v["worst_lon"])?,
+                v["worst_road_id"]
+                    .as_str()
+                    .map(|r| format!(" on road {r}"))
+                    .unwrap_or_default()
+            ))
+        })(),
+    );
+    push(&mut rows, "method", p["method"].as_str().map(String::from));
+    let mut html = table(&rows);
+    // Why tags are needed: the plan's reasons, counted.
+    let mut counts: std::collections::BTreeMap<&str, usize> = Default::default();
+    for r in tags
+        .iter()
+        .map(|t| t.reason.as_str())
+        .chain(reasons.iter().map(String::as_str))
+    {
+        if !r.is_empty() {
+            *counts.entry(r).or_default() += 1;
+        }
+    }
+    if !counts.is_empty() {
+        html.push_str("<h3>Why tags are needed</h3><table class=\"kv\">");
+        let mut v: Vec<_> = counts.into_iter().collect();
+        v.sort_by_key(|b| std::cmp::Reverse(b.1));
+        for (reason, n) in v {
+            let _ = write!(html, "<tr><td>{n}</td><td>{}</td></tr>", escape(reason));
+        }
+        html.push_str("</table>");
+    }
+    html
+}
+
+/// The tag table: one row per tag, in the installer file's order.
+pub fn tag_table(tags: &[TagRow]) -> String {
+    let with_reason = tags.iter().any(|t| !t.reason.is_empty());
+    let mut html = format!(
+        "<p>{} tag(s); the rows are the lines of <code>tags.csv</code>{}. Hover a tag on the map for its id.</p>\
+         <div class=\"scroll\"><table class=\"tags\" id=\"tag-table\"><thead><tr><th>tag_id</th><th>lat</th><th>lon</th>\
+         <th>height (m)</th><th>mounting</th><th>road</th><th>chainage (m)</th><th>side</th>{}<th>payload</th></tr></thead><tbody>",
+        tags.len(),
+        if tags.iter().any(|t| t.existing) {
+            " and the installed tags kept"
+        } else {
+            ""
+        },
+        if with_reason { "<th>reason</th>" } else { "" }
+    );
+    let opt = |v: Option<f64>, d: usize| v.map(|x| format!("{x:.d$}")).unwrap_or_default();
+    for t in tags {
+        let _ = write!(
+            html,
+            "<tr{}><td>{}</td><td>{:.7}</td><td>{:.7}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+            if t.existing { " class=\"existing\"" } else { "" },
+            escape(&t.tag_id),
+            t.lat_lon[0],
+            t.lat_lon[1],
+            opt(t.height_m, 2),
+            escape(t.mounting.replace('_', " ")),
+            escape(&t.road),
+            opt(t.chainage_m, 1),
+            escape(&t.side),
+        );
+        if with_reason {
+            let _ = write!(html, "<td>{}</td>", escape(&t.reason));
+        }
+        let _ = write!(
+            html,
+            "<td><code>{}</code></td></tr>",
+            escape(&t.payload_hex)
+        );
+    }
+    html.push_str("</tbody></table></div>");
+    html
+}
+
+/// What the folder lacks, as a list.
+pub fn notes(notes: &[String]) -> Option<String> {
+    if notes.is_empty() {
+        return None;
+    }
+    let mut html =
+        String::from("<section class=\"notes\" id=\"missing\"><h2>What this folder lacks</h2><ul>");
+    for n in notes {
+        let _ = write!(html, "<li>{}</li>", escape(n));
+    }
+    html.push_str("</ul></section>");
+    Some(html)
+}
