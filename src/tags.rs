@@ -111,6 +111,8 @@ pub struct TagRecord {
     pub redundancy_group: Option<u32>,
     /// The 96-bit payload as 24 hexadecimal digits.
     pub payload_hex: Option<String>,
+    /// Why the plan needs the tag there (area plans), when given.
+    pub reason: Option<String>,
 }
 
 /// What every file says about how it was made.

@@ -33,6 +33,7 @@ fn sample() -> (Vec<TagRecord>, ExportMetadata) {
             mounting: m,
             expected_fix_sigma_m: Some(0.5),
             redundancy_group: Some(i as u32 / 2),
+            reason: Some(format!("stretch {i}, \"quoted\" & <odd>")),
             payload_hex: Some(
                 TagPayload {
                     lat_deg: lat,

@@ -38,6 +38,7 @@ pub const CSV_COLUMNS: &[&str] = &[
     "expected_fix_sigma_m",
     "redundancy_group",
     "payload_hex",
+    "reason",
 ];
 
 fn opt_f(v: Option<f64>, decimals: usize) -> String {
@@ -48,7 +49,7 @@ fn opt_f(v: Option<f64>, decimals: usize) -> String {
 pub const GPX_NAMESPACE: &str = "urn:waymark:gpx:tags:1";
 
 /// A tag's columns, as `tags.csv` writes them (in [`CSV_COLUMNS`] order).
-pub fn csv_row(t: &TagRecord) -> [String; 12] {
+pub fn csv_row(t: &TagRecord) -> [String; 13] {
     [
         t.tag_id.clone(),
         format!("{:.7}", t.lat),
@@ -64,6 +65,7 @@ pub fn csv_row(t: &TagRecord) -> [String; 12] {
             .map(|g| g.to_string())
             .unwrap_or_default(),
         t.payload_hex.clone().unwrap_or_default(),
+        t.reason.clone().unwrap_or_default(),
     ]
 }
 
@@ -123,6 +125,7 @@ pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
             );
             put("redundancy_group", t.redundancy_group.into());
             put("payload_hex", t.payload_hex.clone().into());
+            put("reason", t.reason.clone().into());
             Feature {
                 bbox: None,
                 geometry: Some(Geometry::new(geojson::Value::Point(vec![

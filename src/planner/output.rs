@@ -107,6 +107,7 @@ impl Plan {
                 // Tags within one window of k+1 consecutive tags back each other up.
                 redundancy_group: Some((i / (self.tolerate_missed_reads + 1)) as u32),
                 payload_hex: Some(payload),
+                reason: None,
             });
         }
         let on_map = matches!(scn.route, RouteKind::Map { .. });
@@ -186,6 +187,7 @@ impl NetworkPlan {
                 expected_fix_sigma_m: Some(t.expected_fix_sigma_m),
                 redundancy_group: Some(t.edge),
                 payload_hex: Some(payload),
+                reason: Some(t.reason.clone()),
             });
         }
         // The fix error model uses the scenario's lane width; lane centres
