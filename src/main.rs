@@ -569,72 +569,8 @@ fn print_plan(o: &PlanOutcome, baseline: bool, out: Out) {
             }
         }
         PlanFiles::Network(f) => {
-            let p = &f.plan;
-            text!(
-                out,
-                "{}: network coverage: {} new tag(s) ({}){} on {} directed road sections ({:.1} km, {} candidates), total cost {:.1}; \
-                 requirement {} m with {} missed read(s) tolerated; reach R = {:.0}–{:.0} m by speed class (slowest: steady {:.0} m, start {:.0} m); \
-                 method: {}; lower bound {} tag(s); verified: {}",
-                p.scenario,
-                f.tag_count,
-                by(&f.tags_by_mounting),
-                if p.existing_kept > 0 { format!(" + {} installed", p.existing_kept) } else { String::new() },
-                p.directed_edges,
-                p.directed_length_km,
-                p.candidates,
-                p.total_cost,
-                p.requirement_m,
-                p.tolerate_missed_reads,
-                p.reach_m,
-                p.budget_reference_m,
-                p.steady_reach_m,
-                p.start_reach_m,
-                p.method,
-                p.lower_bound,
-                match (&p.guarantee, p.verified) {
-                    (Some(_), true) => "every sampled chain holds the error budget with ≤ k tags missed",
-                    (None, true) => "no walk exceeds the error budget with ≤ k tags",
-                    _ => "NO",
-                },
-            );
-            text!(
-                out,
-                "traffic: {}{}; rule: {}",
-                p.traffic,
-                if p.map_matching {
-                    " (map matching credited)"
-                } else {
-                    ""
-                },
-                p.rule
-            );
-            if p.route_ignored {
-                text!(out, "note: the scenario's [[route]] is ignored by network coverage (the map alone is planned; vehicles at [vehicle] speed_kmh = {:.0} km/h)", p.vehicle_speed_kmh);
-            }
-            if let Some(v) = &p.validation {
-                text!(
-                    out,
-                    "validation: {} run(s) on {} fresh chain(s) of trips ({:.1} km, {:.1} h), seed {}: {:.2} % of time within {} m; {}; \
-                     {} run(s) with a maximum above it (median run maximum {:.2} m); \
-                     max horizontal error {:.2} m (chain {}, run {}, {:.0} m along it, at {:.6}, {:.6}{})",
-                    v.runs,
-                    v.paths,
-                    v.paths_length_km,
-                    v.chain_hours,
-                    v.seed,
-                    100.0 * v.fraction_within_requirement,
-                    p.requirement_m,
-                    v.rule,
-                    v.runs_exceeding,
-                    v.median_run_max_m,
-                    v.max_horizontal_error_m,
-                    v.worst_path,
-                    v.worst_run,
-                    v.worst_distance_m,
-                    v.worst_lat,
-                    v.worst_lon,
-                    v.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default()
-                );
+            for line in f.summary() {
+                text!(out, "{line}");
             }
         }
     }

@@ -64,6 +64,10 @@ pub(super) fn edge_speed(scn_speed: f64, maxspeed_kmh: Option<f64>) -> f64 {
     kmh / 3.6
 }
 
+/// Whether the transition from one directed section to the next resets the
+/// along-road error (a turn map matching observes).
+pub(super) type ResetTest<'a> = dyn Fn((SectionId, bool), (SectionId, bool)) -> bool + 'a;
+
 pub(super) fn build(
     net: &Network,
     settings: &PlannerSettings,
@@ -71,6 +75,7 @@ pub(super) fn build(
     spacing: f64,
     reach_m: f64,
     u_turns: UTurns,
+    resets: Option<&ResetTest<'_>>,
 ) -> Result<Built> {
     let mut edges = Vec::new();
     let mut edge_dir = Vec::new();
@@ -199,10 +204,14 @@ pub(super) fn build(
     // nodes, joined by connectors (1 mm, no sites) for each permitted
     // transition; the walk model is unchanged and walks gain at most 1 mm per
     // junction (conservative).
+    // With map matching (`resets` given) every directed edge gets its own
+    // end nodes too, and a transition that resets the along-road error (a
+    // turn map matching observes) has no connector: a walk ends there, and
+    // the next one starts on the road turned into.
     let physical = edges.len();
-    let nodes = match u_turns {
-        UTurns::Anywhere => net.nodes.len(),
-        UTurns::DeadEnds => {
+    let nodes = match (u_turns, resets) {
+        (UTurns::Anywhere, None) => net.nodes.len(),
+        _ => {
             for e in 0..physical {
                 let (sec, fwd) = edge_dir[e];
                 let v = edges[e].head;
@@ -211,7 +220,10 @@ pub(super) fn build(
                         continue;
                     };
                     let u_turn = d.section == sec && d.forward != fwd;
-                    if u_turn && net.topology.degree(v) > 1 {
+                    if u_turn && u_turns == UTurns::DeadEnds && net.topology.degree(v) > 1 {
+                        continue;
+                    }
+                    if resets.is_some_and(|r| r((sec, fwd), (d.section, d.forward))) {
                         continue;
                     }
                     edges.push(CoverEdge {

@@ -10,7 +10,7 @@ use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::NetworkPlan;
 use super::validation::validate_network_plan;
 use crate::error::{Error, Result};
-use crate::network::Network;
+use crate::network::{Network, SectionId};
 use crate::planner::settings::PlannerSettings;
 use crate::scenario::Scenario;
 use crate::sim::tags::Mounting;
@@ -75,7 +75,7 @@ pub fn plan_network_on(
     let mut timings = BTreeMap::new();
     // Instance with a placeholder reach, to learn the speed classes and mountings.
     let t = Instant::now();
-    let mut built = build(net, settings, speed_mps, spacing, 1.0, u_turns)?;
+    let mut built = build(net, settings, speed_mps, spacing, 1.0, u_turns, None)?;
     timings.insert("build".into(), t.elapsed().as_secs_f64() * 1e3);
     if scn.planner().traffic == crate::scenario::Traffic::Trips {
         return super::plan_trips::plan_network_trips(
@@ -113,27 +113,93 @@ pub fn plan_network_on(
         ));
     }
     let origin = net.frame.origin();
-    let reach_classes: Vec<ReachClass> = classes
-        .par_iter()
-        .map(|&(v, m)| reach_class(scn, origin.lat, origin.lon, height_m, v, m, req))
-        .collect::<Result<Vec<_>>>()?;
-    timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
-    let steady = reach_classes
-        .iter()
-        .map(|c| c.steady_reach_m)
-        .fold(f64::INFINITY, f64::min);
-    let start = reach_classes
-        .iter()
-        .map(|c| c.start_reach_m)
-        .fold(f64::INFINITY, f64::min);
-    // Reach per speed class: the smallest over the mountings in use, steady
-    // and from the prior.
     let key = |v: f64| (v * 3.6 * 100.0).round() as u64;
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
-    for (c, &(v, _)) in reach_classes.iter().zip(&classes) {
-        let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
-        *r = r.min(c.steady_reach_m.min(c.start_reach_m));
+    let mm =
+        scn.aiding().map_matching && scn.navigator().mode == crate::scenario::NavMode::Integrated;
+    let mut matched: Vec<super::mm_reach::MatchedReach> = Vec::new();
+    let mut reach_classes: Vec<ReachClass> = Vec::new();
+    let (steady, start);
+    if mm {
+        // Map matching credited (docs/DESIGN.md §3.4): the matched reach per
+        // speed class, and walks that end at every turn map matching observes.
+        let ms: Vec<Mounting> = mountings
+            .iter()
+            .filter_map(|m| Mounting::parse(m))
+            .collect();
+        let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
+        let conf = scn.planner().requirement_confidence;
+        let per: Vec<Vec<super::mm_reach::MatchedReach>> = speeds
+            .par_iter()
+            .map(|&s| {
+                super::mm_reach::matched_reach(
+                    scn,
+                    lat0,
+                    lon0,
+                    height_m,
+                    s as f64 / 360.0,
+                    &ms,
+                    req,
+                    conf,
+                )
+            })
+            .collect::<Result<Vec<_>>>()?;
+        matched = per.into_iter().flatten().collect();
+        let mut turns: BTreeMap<u64, bool> = BTreeMap::new();
+        for c in &matched {
+            let r = class_reach
+                .entry(key(c.speed_kmh / 3.6))
+                .or_insert(f64::INFINITY);
+            *r = r.min(c.reach_m);
+            let t = turns.entry(key(c.speed_kmh / 3.6)).or_insert(true);
+            *t = *t && c.turns_reset;
+        }
+        steady = matched
+            .iter()
+            .map(|c| c.tag_reach_m)
+            .fold(f64::INFINITY, f64::min);
+        start = matched
+            .iter()
+            .map(|c| c.start_reach_m)
+            .fold(f64::INFINITY, f64::min);
+        let resets = |a: (SectionId, bool), b: (SectionId, bool)| -> bool {
+            let (_, h0) = super::traffic::end_headings(net, a.0, a.1);
+            let (h1, _) = super::traffic::end_headings(net, b.0, b.1);
+            let attrs = &net.roads[net.sections[b.0 as usize].road as usize].attributes;
+            let v = super::instance::road_speed(speed_mps, attrs.maxspeed_kmh, &attrs.highway);
+            turns.get(&key(v)).copied().unwrap_or(false)
+                && super::traffic::resets(super::traffic::turn_deg(h0, h1))
+        };
+        built = build(
+            net,
+            settings,
+            speed_mps,
+            spacing,
+            1.0,
+            u_turns,
+            Some(&resets),
+        )?;
+    } else {
+        reach_classes = classes
+            .par_iter()
+            .map(|&(v, m)| reach_class(scn, origin.lat, origin.lon, height_m, v, m, req))
+            .collect::<Result<Vec<_>>>()?;
+        steady = reach_classes
+            .iter()
+            .map(|c| c.steady_reach_m)
+            .fold(f64::INFINITY, f64::min);
+        start = reach_classes
+            .iter()
+            .map(|c| c.start_reach_m)
+            .fold(f64::INFINITY, f64::min);
+        // Reach per speed class: the smallest over the mountings in use,
+        // steady and from the prior.
+        for (c, &(v, _)) in reach_classes.iter().zip(&classes) {
+            let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
+            *r = r.min(c.steady_reach_m.min(c.start_reach_m));
+        }
     }
+    timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
     let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);
     let r_ref = class_reach.values().copied().fold(0.0, f64::max);
     if !(reach_m > 0.0 && r_ref.is_finite()) {
@@ -287,7 +353,7 @@ pub fn plan_network_on(
         timings_ms: timings,
         validation: None,
         traffic: "any_walk".into(),
-        map_matching: false,
+        map_matching: mm,
         vehicle_speed_kmh: scn.planner().vehicle_speed_mps * 3.6,
         requirement_confidence: 0.95,
         rule: format!(
@@ -295,7 +361,7 @@ pub fn plan_network_on(
              {req} m on every walk through the network, with {k} consecutive missed read(s) tolerated"
         ),
         route_ignored: super::settings::has_waypoints(scn) && !scn_had_no_route,
-        matched_reach: Vec::new(),
+        matched_reach: matched,
         guarantee: None,
         windows: 0,
         planning_km: 0.0,

@@ -104,6 +104,24 @@ fn at(pts: &[[f64; 2]], cum: &[f64], c: f64) -> [f64; 2] {
     [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
 }
 
+/// Chord headings (rad) at the start and the end of a directed section.
+pub(crate) fn end_headings(net: &Network, sec: SectionId, fwd: bool) -> (f64, f64) {
+    let len = net.sections[sec as usize].length_m;
+    let (from, to) = if fwd { (0.0, len) } else { (len, 0.0) };
+    let pts = section_points(net, sec, from, to);
+    let mut cum = vec![0.0];
+    for w in pts.windows(2) {
+        let l = cum[cum.len() - 1] + (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+        cum.push(l);
+    }
+    let total = cum[cum.len() - 1];
+    let ch = CHORD_M.min(total);
+    (
+        heading(pts[0], at(&pts, &cum, ch)),
+        heading(at(&pts, &cum, total - ch), pts[pts.len() - 1]),
+    )
+}
+
 impl EdgeModel {
     /// The geometry of every directed edge: chord headings at its ends and
     /// its resetting bends.
