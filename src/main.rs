@@ -251,6 +251,12 @@ macro_rules! note {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
+    // SIGINT, SIGTERM: remove the output file being written (its hidden
+    // temporary), then stop with 130.
+    let _ = ctrlc::set_handler(|| {
+        waymark::fsio::remove_temporaries();
+        std::process::exit(130);
+    });
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -21,11 +21,13 @@
 //! `bad.toml: line 14: planner.coverage "everything" is not one of routes, network`.
 
 mod check;
+mod limits;
 mod route;
 pub mod schema;
 mod sections;
 mod validate;
 
+pub use limits::{MAX_REFINE_ITERATIONS, MAX_RUNS, MAX_SCENARIO_BYTES, MAX_TOLERATED_MISSED_READS};
 pub use schema::{Adaptive, Coverage, MotionKind, NavMode, ScenarioFile, UTurns, VerticalChannel};
 pub use sections::{
     default_mounting_cost, Aiding, ExternalFix, FilterSettings, MapErrorModel, MountingChoice,

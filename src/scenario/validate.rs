@@ -95,7 +95,7 @@ fn value_at(
 impl Scenario {
     /// Reads and validates a scenario file.
     pub fn load(path: &Path) -> Result<Scenario> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::fsio::read_text_limited(path, super::MAX_SCENARIO_BYTES, "scenario")?;
         tracing::debug!("reading scenario {}", path.display());
         Self::parse(path, &text)
     }
@@ -106,6 +106,7 @@ impl Scenario {
         let file: ScenarioFile =
             toml::from_str(text).map_err(|e| Error::scenario(path, toml_error(text, &e)))?;
         let c = Check { path };
+        super::limits::check(&c, &file)?;
         if let Some(r) = file.requirement_m {
             c.positive("requirement_m", r)?;
         }

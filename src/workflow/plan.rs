@@ -1,6 +1,6 @@
 //! `waymark plan`: plan, validate, write the plan folder.
 
-use super::inputs::{check_out_dir, keep_inputs};
+use super::inputs::{check_out_dir, clear_outputs, keep_inputs, PLAN_OUTPUTS};
 use super::progress::Progress;
 use crate::error::{Error, Result};
 use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml};
@@ -204,6 +204,7 @@ pub(super) fn write_route_plan(
     t0: Instant,
 ) -> Result<PlanOutcome> {
     let (recs, meta) = plan.export(scn)?;
+    clear_outputs(out_dir, PLAN_OUTPUTS, false)?;
     write_tag_files(out_dir, &recs, &meta)?;
     write_atomic(
         &out_dir.join("profile.csv"),
@@ -266,6 +267,7 @@ fn network_plan_folder(
         )?);
     }
     let (recs, meta) = plan.export(scn)?;
+    clear_outputs(job.out_dir, PLAN_OUTPUTS, true)?;
     write_tag_files(job.out_dir, &recs, &meta)?;
     let file = NetworkPlanFile {
         tag_count: plan.tag_count(),
