@@ -27,7 +27,10 @@ pub mod schema;
 mod sections;
 mod validate;
 
-pub use limits::{MAX_REFINE_ITERATIONS, MAX_RUNS, MAX_SCENARIO_BYTES, MAX_TOLERATED_MISSED_READS};
+pub use limits::{
+    MAX_ACCEL_ERROR_UG, MAX_GYRO_ARW_DPRH, MAX_GYRO_ERROR_DPH, MAX_REFINE_ITERATIONS, MAX_RUNS,
+    MAX_SCENARIO_BYTES, MAX_TOLERATED_MISSED_READS,
+};
 pub use schema::{Adaptive, Coverage, MotionKind, NavMode, ScenarioFile, UTurns, VerticalChannel};
 pub use sections::{
     default_mounting_cost, Aiding, ExternalFix, FilterSettings, MapErrorModel, MountingChoice,

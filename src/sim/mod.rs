@@ -12,6 +12,7 @@
 //! - `integrated`: the integrated navigator's runner and its filter settings;
 //! - `map_error`: the map's geometry error field, drawn per run;
 //! - `covariance`: the perfect-data covariance engine and the 95 % bound;
+//! - `finite`: a diverged run (NaN, infinity) as an error with its likely cause;
 //! - `metrics`: the summary of the runs;
 //! - `limits`: the size limits checked before a simulation starts;
 //! - `monte_carlo`: Monte Carlo dispatch;
@@ -19,6 +20,7 @@
 
 pub(crate) mod covariance;
 pub(crate) mod dead_reckoning;
+pub(crate) mod finite;
 pub(crate) mod integrated;
 pub(crate) mod limits;
 pub(crate) mod map_error;
@@ -33,6 +35,7 @@ pub(crate) mod truth;
 
 pub use crate::scenario::{NavMode, Scenario};
 pub use covariance::{bound95, bound95_of_sigmas, CHI2_2_95};
+pub use finite::check_runs_finite;
 pub use integrated::Prepared;
 pub use limits::{check_simulation_size, MAX_RUNS, MAX_SIMULATED_S, MAX_STORED_ROWS};
 pub use map_feed::FeedCounts;

@@ -90,6 +90,7 @@ pub fn simulate_with(
             r
         })
         .collect();
+    super::finite::check_runs_finite(scn, &results)?;
     let summary = summarize(scn, seed, &results);
     tracing::info!(
         runs,

@@ -14,6 +14,7 @@
 //! counts within long ones); the library never prints.
 
 mod demo;
+mod finite;
 mod inputs;
 mod inspect;
 mod matching;

@@ -203,6 +203,7 @@ pub(super) fn write_route_plan(
     (plan, plan_time_s): (Plan, f64),
     t0: Instant,
 ) -> Result<PlanOutcome> {
+    super::finite::check_plan(scenario, &plan)?;
     let (recs, meta) = plan.export(scn)?;
     clear_outputs(out_dir, PLAN_OUTPUTS, false)?;
     write_tag_files(out_dir, &recs, &meta)?;
@@ -266,6 +267,7 @@ fn network_plan_folder(
             seed,
         )?);
     }
+    super::finite::check_network_plan(job.scenario, &plan)?;
     let (recs, meta) = plan.export(scn)?;
     clear_outputs(job.out_dir, PLAN_OUTPUTS, true)?;
     write_tag_files(job.out_dir, &recs, &meta)?;
