@@ -93,7 +93,7 @@ fn likely_causes(scn: &Scenario) -> String {
     ];
     let named: Vec<String> = fields
         .iter()
-        .filter(|f| !(f.1 <= f.3))
+        .filter(|f| f.1.is_nan() || f.1 > f.3)
         .map(|(name, x, unit, _)| format!("[imu] {name} ({x:.3e} {unit})"))
         .collect();
     if named.is_empty() {
