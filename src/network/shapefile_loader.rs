@@ -38,10 +38,20 @@ fn check_prj(path: &Path) -> Result<()> {
     if text.trim_start().starts_with("PROJCS") {
         return Err(Error::format(
             &prj,
-            "the shapefile uses a projected coordinate system (PROJCS); reproject it to WGS-84 (EPSG:4326)",
+            format!(
+                "{} uses a projected coordinate system (PROJCS); reproject it to WGS-84 (EPSG:4326)",
+                file_name(path)
+            ),
         ));
     }
     Ok(())
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
 
 type FileReader =
@@ -59,7 +69,10 @@ fn open(path: &Path) -> Result<FileReader> {
         if e.kind() == std::io::ErrorKind::NotFound {
             Error::format(
                 &dbf,
-                "missing: a shapefile's road attributes are in the .dbf file beside the .shp",
+                format!(
+                    "missing: the attribute table (.dbf) of {} must lie beside it",
+                    file_name(path)
+                ),
             )
         } else {
             Error::io(&dbf, e)
