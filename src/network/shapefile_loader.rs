@@ -70,7 +70,7 @@ fn open(path: &Path) -> Result<FileReader> {
             Error::format(
                 &dbf,
                 format!(
-                    "missing: the attribute table (.dbf) of {} must lie beside it",
+                    "missing: the shapefile {} keeps its road attributes in this .dbf file beside it",
                     file_name(path)
                 ),
             )
