@@ -148,6 +148,48 @@ fn rows_kept_in_memory_are_limited_before_the_runs_start() {
 }
 
 #[test]
+fn a_route_plan_too_large_to_hold_is_refused_before_planning() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan_scn = |name: &str, rate: &str, motion: &str, spacing: &str| {
+        let text = format!(
+            "name = \"p\"\nrequirement_m = 20\n[[route]]\n\
+             start = {{ lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = 45.0 }}\n\
+             motion = {motion}\n[navigator]\nmode = \"integrated\"\n[aiding]\nrfid = true\n\
+             [imu]\nrate_hz = {rate}\n[planner]\ncandidate_spacing_m = {spacing}\n"
+        );
+        std::fs::write(dir.path().join(name), text).unwrap();
+        name.to_string()
+    };
+    // 3000 s at 10 kHz: 3e7 truth samples, over the 1e7 limit.
+    let scn = plan_scn(
+        "samples.toml",
+        "10000",
+        "[ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 3000 } ]",
+        "20",
+    );
+    let out = run(&["plan", &scn, "--out", "p"], dir.path());
+    fails_with(&out, &["samples.toml", "truth samples", "10000000"]);
+    // 300 km every metre: 3e5 candidate sites, over the 2e5 limit.
+    let scn = plan_scn(
+        "sites.toml",
+        "100",
+        "[ { kind = \"accelerate\", to_kmh = 100 }, { kind = \"cruise\", distance_m = 300000 } ]",
+        "1",
+    );
+    let out = run(&["plan", &scn, "--out", "p"], dir.path());
+    fails_with(
+        &out,
+        &[
+            "sites.toml",
+            "candidate sites",
+            "200000",
+            "candidate_spacing_m",
+        ],
+    );
+    assert!(!dir.path().join("p").exists());
+}
+
+#[test]
 fn an_imu_rate_beyond_the_limit_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let scn = motion_scenario(

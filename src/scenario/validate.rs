@@ -106,7 +106,6 @@ impl Scenario {
         let file: ScenarioFile =
             toml::from_str(text).map_err(|e| Error::scenario(path, toml_error(text, &e)))?;
         let c = Check { path };
-        super::limits::check(&c, &file)?;
         if let Some(r) = file.requirement_m {
             c.positive("requirement_m", r)?;
         }
@@ -505,6 +504,7 @@ impl Scenario {
             None => None,
         };
         let route = route(&c, path, &file)?;
+        super::limits::check(&c, &file)?;
         let map_error = map_error(&c, file.map.as_ref())?;
         let planner = planner(&c, path, file.planner.clone().unwrap_or_default())?;
         let filter = filter(&file, &odometer, dt);

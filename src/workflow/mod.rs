@@ -17,6 +17,7 @@ mod demo;
 mod finite;
 mod inputs;
 mod inspect;
+mod limits;
 mod matching;
 mod plan;
 mod progress;
@@ -25,6 +26,7 @@ mod simulate;
 pub use demo::{demo_folder, DemoOutcome};
 pub use inputs::{check_out_dir, keep_inputs};
 pub use inspect::{inspect_map, InspectOutcome};
+pub use limits::{MAX_CANDIDATE_SITES, MAX_PLAN_SAMPLES};
 pub use matching::{
     match_file, MatchBreak, MatchJob, MatchMethod, MatchOutcome, Timings, UnmatchedSpan,
 };

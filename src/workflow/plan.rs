@@ -143,6 +143,7 @@ pub(super) fn route_plan(
     progress: &dyn Progress,
 ) -> Result<(Plan, f64)> {
     let t0 = Instant::now();
+    super::limits::check_route_plan_size(scn, truth, settings)?;
     progress.note(&format!(
         "waymark plan: {}: covariance analysis along the route, then placement",
         scn.name()
