@@ -105,6 +105,12 @@ pub fn remove_temporaries() {
     }
 }
 
+/// Whether [`remove_temporaries`] was called (the process is stopping on a
+/// signal): an error that follows is the signal's doing.
+pub fn stopping() -> bool {
+    pending().1
+}
+
 /// An output file written atomically: the bytes go to a hidden temporary
 /// file beside `path` (`.NAME.tmpPID`), which [`AtomicFile::commit`] syncs
 /// and renames into place. Dropped without a commit (an error, a panic), the

@@ -276,6 +276,8 @@ fn main() -> ExitCode {
     });
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        // The signal handler removed the file being written: its exit code.
+        Err(_) if waymark::fsio::stopping() => ExitCode::from(130),
         Err(e) => {
             eprintln!("waymark: error: {e:#}");
             ExitCode::from(1)
