@@ -392,6 +392,15 @@ fn a_shapefile_names_its_failing_component_in_words() {
     let good_shp = std::fs::read(&shp).unwrap();
     std::fs::write(&shp, &good_shp[..good_shp.len() - 10]).unwrap();
     fails_with(&inspect(dir.path()), &["roads.shp", "(.shp)"]);
+    // A record declaring 800 million parts (found by fuzzing: the reader
+    // reserved 3.2 GB for them before failing): refused from its size.
+    let mut huge = good_shp.clone();
+    huge[144..148].copy_from_slice(&800_000_000i32.to_le_bytes());
+    std::fs::write(&shp, &huge).unwrap();
+    fails_with(
+        &inspect(dir.path()),
+        &["roads.shp", "record 1", "800000000 part(s)", "corrupt"],
+    );
     std::fs::write(&shp, &good_shp).unwrap();
     std::fs::write(dir.path().join("roads.shx"), b"not an index").unwrap();
     assert_eq!(inspect(dir.path()).status.code(), Some(0));

@@ -16,10 +16,17 @@ pub fn load_map(name: &str, bytes: &[u8]) {
     }
 }
 
-/// A scratch folder of this process (in the system's temporary folder).
+/// A scratch folder of this process: in memory (`/dev/shm`) where there is
+/// one, else in the system's temporary folder.
 #[allow(dead_code)]
 pub fn scratch() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("waymark-fuzz-{}", std::process::id()));
+    let shm = Path::new("/dev/shm");
+    let base = if shm.is_dir() {
+        shm.to_path_buf()
+    } else {
+        std::env::temp_dir()
+    };
+    let d = base.join(format!("waymark-fuzz-{}", std::process::id()));
     std::fs::create_dir_all(&d).expect("scratch folder");
     d
 }

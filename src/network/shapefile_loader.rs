@@ -87,6 +87,65 @@ fn open(path: &Path) -> Result<FileReader> {
     Ok(shapefile::Reader::new(shapes, table))
 }
 
+/// Checks the `.shp`'s records against its size before the shapefile crate
+/// reads them: a record that declares more parts or points than its bytes
+/// hold would make the reader reserve memory for them (gigabytes for a
+/// corrupt count, found by fuzzing) before failing.
+fn check_shp_records(path: &Path) -> Result<()> {
+    let bytes = crate::fsio::read_limited(path, super::MAX_MAP_BYTES, "shape file (.shp)")?;
+    let corrupt = |at: usize, what: String| {
+        Error::format(
+            path,
+            format!("the shape file (.shp) at record {at}: {what} (corrupt)"),
+        )
+    };
+    let be = |i: usize| {
+        bytes
+            .get(i..i + 4)
+            .map(|b| i32::from_be_bytes(b.try_into().unwrap()))
+    };
+    let le = |i: usize| {
+        bytes
+            .get(i..i + 4)
+            .map(|b| i32::from_le_bytes(b.try_into().unwrap()))
+    };
+    let mut at = 100; // after the file header
+    let mut index = 0;
+    while at + 8 <= bytes.len() {
+        index += 1;
+        let words = be(at + 4).unwrap_or(0);
+        let len = 2 * words.max(0) as usize;
+        let content = at + 8;
+        if words < 0 || content + len > bytes.len() {
+            return Err(corrupt(
+                index,
+                format!(
+                    "declares {len} bytes of content where {} remain",
+                    bytes.len() - content
+                ),
+            ));
+        }
+        // Poly-lines and polygons (plain, M, Z) and multi-patches: parts
+        // and points after the shape type and the 32-byte box; each part
+        // takes at least 4 bytes, each point at least 16 (x, y).
+        if let Some(3 | 5 | 13 | 15 | 23 | 25 | 31) = le(content) {
+            if let (Some(parts), Some(points)) = (le(content + 36), le(content + 40)) {
+                let need = 44 + 4 * parts.max(0) as u64 + 16 * points.max(0) as u64;
+                if parts < 0 || points < 0 || need > len as u64 {
+                    return Err(corrupt(
+                        index,
+                        format!(
+                            "declares {parts} part(s) and {points} point(s), more than its {len} bytes hold"
+                        ),
+                    ));
+                }
+            }
+        }
+        at = content + len;
+    }
+    Ok(())
+}
+
 /// A failure while reading record `index`, named by its component.
 fn component_error(path: &Path, index: usize, e: shapefile::Error) -> Error {
     match e {
@@ -158,6 +217,7 @@ pub(crate) fn load(
     filter: DrivableFilter,
 ) -> Result<(Vec<RawRoad>, FxHashSet<u64>, LoadReport)> {
     check_prj(path)?;
+    check_shp_records(path)?;
     let mut reader = open(path)?;
     let mut report = LoadReport {
         format: "shapefile".into(),
