@@ -1,37 +1,218 @@
 //! File-system helpers below every other module: writing an output file so
-//! that it appears completely or not at all.
+//! that it appears completely or not at all, and reading an input file up to
+//! a size limit (an endless input such as `/dev/zero` is refused once it
+//! passes the limit, not read until memory runs out).
 
 use crate::error::{Error, Result};
-use std::io::Write;
-use std::path::Path;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+/// Reads at most `limit` bytes of `path`; a longer file (or an endless
+/// stream) is an error naming it, what it is (`what`, e.g. "map") and the
+/// limit. A regular file's size is checked before reading.
+pub fn read_limited(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>> {
+    let too_big = || {
+        Error::format(
+            path,
+            format!(
+                "the {what} is larger than the limit of {} ({limit} bytes)",
+                human_bytes(limit)
+            ),
+        )
+    };
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    if let Ok(m) = f.metadata() {
+        if m.is_file() && m.len() > limit {
+            return Err(too_big());
+        }
+    }
+    read_to_limit(f, limit, path).and_then(|b| {
+        if b.len() as u64 > limit {
+            Err(too_big())
+        } else {
+            Ok(b)
+        }
+    })
+}
+
+/// Up to `limit + 1` bytes of `r` (one more than allowed tells "too long").
+fn read_to_limit(r: impl Read, limit: u64, path: &Path) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    r.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(path, e))?;
+    Ok(bytes)
+}
+
+/// [`read_limited`] as UTF-8 text.
+pub fn read_text_limited(path: &Path, limit: u64, what: &str) -> Result<String> {
+    let bytes = read_limited(path, limit, what)?;
+    String::from_utf8(bytes).map_err(|e| {
+        Error::format(
+            path,
+            format!(
+                "the {what} is not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}
+
+/// The first `n` bytes of `path` (fewer if it is shorter): to recognise a
+/// format before reading a whole file.
+pub fn read_head(path: &Path, n: u64) -> Result<Vec<u8>> {
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut bytes = Vec::new();
+    f.take(n)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(path, e))?;
+    Ok(bytes)
+}
+
+/// A byte count for people: "16 MiB", "1 GiB".
+pub fn human_bytes(n: u64) -> String {
+    const UNITS: [(u64, &str); 3] = [(1 << 30, "GiB"), (1 << 20, "MiB"), (1 << 10, "KiB")];
+    for (size, unit) in UNITS {
+        if n >= size {
+            let x = n as f64 / size as f64;
+            return if x.fract() == 0.0 {
+                format!("{x:.0} {unit}")
+            } else {
+                format!("{x:.1} {unit}")
+            };
+        }
+    }
+    format!("{n} bytes")
+}
+
+/// Temporary files being written, removed by [`remove_temporaries`] (the
+/// binary calls it on SIGINT and SIGTERM).
+/// After [`remove_temporaries`], no new one is started (`true`).
+static PENDING: std::sync::Mutex<(Vec<PathBuf>, bool)> = std::sync::Mutex::new((Vec::new(), false));
+
+fn pending() -> std::sync::MutexGuard<'static, (Vec<PathBuf>, bool)> {
+    PENDING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Removes every temporary file an [`AtomicFile`] (or [`write_atomic`]) is
+/// writing at this moment, and refuses new ones: for a signal handler,
+/// before the process exits.
+pub fn remove_temporaries() {
+    let mut p = pending();
+    p.1 = true;
+    for t in p.0.drain(..) {
+        let _ = std::fs::remove_file(t);
+    }
+}
+
+/// Whether [`remove_temporaries`] was called (the process is stopping on a
+/// signal): an error that follows is the signal's doing.
+pub fn stopping() -> bool {
+    pending().1
+}
+
+/// An output file written atomically: the bytes go to a hidden temporary
+/// file beside `path` (`.NAME.tmpPID`), which [`AtomicFile::commit`] syncs
+/// and renames into place. Dropped without a commit (an error, a panic), the
+/// temporary file is removed and `path` is left as it was; the binary also
+/// removes it on SIGINT and SIGTERM ([`remove_temporaries`]).
+#[derive(Debug)]
+pub struct AtomicFile {
+    path: PathBuf,
+    tmp: PathBuf,
+    file: Option<std::io::BufWriter<std::fs::File>>,
+}
+
+impl AtomicFile {
+    /// Starts writing `path` (its folder must exist).
+    pub fn create(path: &Path) -> Result<AtomicFile> {
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        let name = path.file_name().ok_or_else(|| {
+            Error::InvalidParameter(format!("{}: not a file path", path.display()))
+        })?;
+        let tmp = dir.join(format!(
+            ".{}.tmp{}",
+            name.to_string_lossy(),
+            std::process::id()
+        ));
+        // Created and registered under the lock, so that a signal handler's
+        // [`remove_temporaries`] sees every temporary file there is.
+        let file = {
+            let mut p = pending();
+            if p.1 {
+                return Err(Error::io(
+                    path,
+                    std::io::Error::new(std::io::ErrorKind::Interrupted, "stopping on a signal"),
+                ));
+            }
+            let f = std::fs::File::create(&tmp).map_err(|e| Error::io(path, e))?;
+            p.0.push(tmp.clone());
+            f
+        };
+        Ok(AtomicFile {
+            path: path.to_path_buf(),
+            tmp,
+            file: Some(std::io::BufWriter::new(file)),
+        })
+    }
+
+    /// Syncs the temporary file and renames it to the final path.
+    pub fn commit(mut self) -> Result<()> {
+        let file = self
+            .file
+            .take()
+            .expect("an uncommitted AtomicFile has its file");
+        let result = (|| -> std::io::Result<()> {
+            let f = file.into_inner().map_err(|e| e.into_error())?;
+            f.sync_all()?;
+            std::fs::rename(&self.tmp, &self.path)
+        })();
+        match result {
+            Ok(()) => {
+                forget(&self.tmp);
+                Ok(())
+            }
+            Err(e) => Err(Error::io(&self.path, e)), // Drop removes the temporary file.
+        }
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.file.as_mut().expect("not committed").write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.as_mut().expect("not committed").flush()
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if self.file.take().is_some() || self.tmp.exists() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+        forget(&self.tmp);
+    }
+}
+
+/// Takes `tmp` off the list of temporary files.
+fn forget(tmp: &Path) {
+    let mut p = pending();
+    if let Some(i) = p.0.iter().position(|q| q == tmp) {
+        p.0.swap_remove(i);
+    }
+}
 
 /// Writes `bytes` to `path` atomically: to a temporary file beside it, synced,
 /// then renamed into place. On failure the temporary file is removed and
 /// `path` is left as it was.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| Error::InvalidParameter(format!("{}: not a file path", path.display())))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
-    }
-    Ok(())
+    let mut f = AtomicFile::create(path)?;
+    f.write_all(bytes).map_err(|e| Error::io(path, e))?;
+    f.commit()
 }
 
 #[cfg(test)]
@@ -46,6 +227,36 @@ mod tests {
         write_atomic(&p, b"two").unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"two");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn limited_read_refuses_long_files_and_endless_streams() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("f");
+        std::fs::write(&p, b"0123456789").unwrap();
+        assert_eq!(read_limited(&p, 10, "map").unwrap(), b"0123456789");
+        let e = read_limited(&p, 9, "map").unwrap_err().to_string();
+        assert!(e.contains("larger than the limit of 9 bytes"), "{e}");
+        // An endless stream: stops after limit + 1 bytes.
+        let b = read_to_limit(std::io::repeat(0), 1000, &p).unwrap();
+        assert_eq!(b.len(), 1001);
+        assert_eq!(human_bytes(1 << 30), "1 GiB");
+        assert_eq!(human_bytes(16 << 20), "16 MiB");
+    }
+
+    #[test]
+    fn an_uncommitted_atomic_file_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.csv");
+        std::fs::write(&p, "old").unwrap();
+        let mut f = AtomicFile::create(&p).unwrap();
+        f.write_all(b"half").unwrap();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+        drop(f);
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        // (remove_temporaries is tested through the binary, on SIGTERM: here
+        // it would remove other tests' files being written.)
     }
 
     #[test]

@@ -132,8 +132,8 @@ enum Command {
         /// Existing tags (CSV: tag_id,lat,lon,mounting required; height_m optional); integrated mode.
         #[arg(long, value_name = "TAGS.csv")]
         tags: Option<PathBuf>,
-        /// Monte Carlo runs.
-        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+        /// Monte Carlo runs (1 to 100000).
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=waymark::sim::MAX_RUNS))]
         runs: u64,
         /// Base seed (default: the scenario's `seed`, else 1).
         #[arg(long)]
@@ -178,8 +178,8 @@ enum Command {
         /// Output folder.
         #[arg(long, default_value = "waymark-plan")]
         out: PathBuf,
-        /// Validation runs (default: planner.validation_runs, else 100; 0 skips validation).
-        #[arg(long)]
+        /// Validation runs, up to 100000 (default: planner.validation_runs, else 100; 0 skips validation).
+        #[arg(long, value_parser = clap::value_parser!(u64).range(0..=waymark::sim::MAX_RUNS))]
         runs: Option<u64>,
         /// Base seed of the validation (default: the scenario's `seed`, else 1).
         #[arg(long)]
@@ -219,15 +219,32 @@ enum NetworkCommand {
         #[arg(long)]
         tracks: bool,
         /// Grid size N (a power of two up to 2048); chosen from the map's size by default.
-        #[arg(long)]
+        #[arg(long, value_parser = grid_size)]
         grid_n: Option<u32>,
-        /// Distance below which two unjoined nodes are reported (m).
-        #[arg(long, default_value_t = DEFAULT_NODE_TOLERANCE_M)]
+        /// Distance below which two unjoined nodes are reported (m, 0 to 1000).
+        #[arg(long, default_value_t = DEFAULT_NODE_TOLERANCE_M, value_parser = tolerance_m)]
         tolerance: f64,
         /// Write every defect as a GeoJSON point to this file.
         #[arg(long, value_name = "FILE")]
         defects: Option<PathBuf>,
     },
+}
+
+/// `--grid-n`: a power of two up to the grid's limit (else exit 2).
+fn grid_size(s: &str) -> std::result::Result<u32, String> {
+    let max = waymark::network::MAX_GRID_N;
+    match s.parse::<u32>() {
+        Ok(n) if n.is_power_of_two() && n <= max => Ok(n),
+        _ => Err(format!("must be a power of two from 1 to {max}")),
+    }
+}
+
+/// `--tolerance`: metres, finite, 0 to 1000 (else exit 2).
+fn tolerance_m(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if (0.0..=1000.0).contains(&x) => Ok(x),
+        _ => Err("must be a number of metres from 0 to 1000".into()),
+    }
 }
 
 /// Where a command's output goes: results on stdout (text, or one JSON
@@ -298,8 +315,16 @@ macro_rules! note {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
+    // SIGINT, SIGTERM: remove the output file being written (its hidden
+    // temporary), then stop with 130.
+    let _ = ctrlc::set_handler(|| {
+        waymark::fsio::remove_temporaries();
+        std::process::exit(130);
+    });
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        // The signal handler removed the file being written: its exit code.
+        Err(_) if waymark::fsio::stopping() => ExitCode::from(130),
         Err(e) => {
             eprintln!("waymark: error: {e:#}");
             ExitCode::from(1)

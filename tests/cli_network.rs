@@ -295,7 +295,8 @@ fn bad_parameters() {
         ],
         dir.path(),
     );
-    assert_eq!(out.status.code(), Some(1));
+    // A bad option value is a bad command line (README, exit codes): 2.
+    assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("power of two"));
     let out = run(
         &[

@@ -100,6 +100,26 @@ impl std::ops::Deref for Network {
     }
 }
 
+/// Largest map file read (bytes): 1 GiB. The loader keeps the whole file
+/// and the model built from it in memory (several times the file's size);
+/// an endless input (`/dev/zero`, a pipe) stops here instead of filling
+/// memory.
+pub const MAX_MAP_BYTES: u64 = 1 << 30;
+
+/// Reads a map file up to [`MAX_MAP_BYTES`]; content that no format starts
+/// with is refused from its first bytes, before the rest is read.
+fn read_map(path: &Path) -> Result<Vec<u8>> {
+    const HEAD: u64 = 64 * 1024;
+    let head = crate::fsio::read_head(path, HEAD)?;
+    // The format follows the first non-blank byte: decided by the head
+    // unless it is all blank and longer input follows.
+    let decided = (head.len() as u64) < HEAD || head.iter().any(|b| !b.is_ascii_whitespace());
+    if decided {
+        detect_format(path, &head)?;
+    }
+    crate::fsio::read_limited(path, MAX_MAP_BYTES, "map")
+}
+
 /// Decides a map's format from its first bytes, then its extension.
 pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<MapFormat> {
     let start = bytes
@@ -207,7 +227,7 @@ impl Network {
     /// Loads, indexes and topologises the map at `path`.
     pub fn load(path: &Path, options: &LoadOptions) -> Result<Network> {
         let t0 = Instant::now();
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = read_map(path)?;
         let read_ms = ms(t0);
         let t1 = Instant::now();
         let model = load_model(path, &bytes, options)?;

@@ -21,22 +21,204 @@ const TAG_KEYS: &[&str] = &[
     "layer", "area", "covered",
 ];
 
+/// The `.prj` beside `path`, when present: it must be text, and a projected
+/// system (`PROJCS`) is refused rather than misread as degrees.
+fn check_prj(path: &Path) -> Result<()> {
+    let prj = path.with_extension("prj");
+    if !prj.exists() {
+        return Ok(());
+    }
+    let bytes = crate::fsio::read_limited(&prj, 1 << 20, "projection file (.prj)")?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        Error::format(
+            &prj,
+            "the projection file (.prj) is not text: expected a WKT coordinate system such as GEOGCS[\"GCS_WGS_1984\", ...]",
+        )
+    })?;
+    if text.trim_start().starts_with("PROJCS") {
+        return Err(Error::format(
+            &prj,
+            format!(
+                "{} uses a projected coordinate system (PROJCS); reproject it to WGS-84 (EPSG:4326)",
+                file_name(path)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+type FileReader =
+    shapefile::Reader<std::io::BufReader<std::fs::File>, std::io::BufReader<std::fs::File>>;
+
+/// Opens the `.shp` (read in sequence: the `.shx` index is not needed) and
+/// its `.dbf`, each error naming the component that fails.
+fn open(path: &Path) -> Result<FileReader> {
+    use std::io::BufReader;
+    let shp = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let shapes = shapefile::ShapeReader::new(BufReader::new(shp))
+        .map_err(|e| Error::format(path, format!("the shape file (.shp) {}", shp_problem(&e))))?;
+    let dbf = path.with_extension("dbf");
+    let f = std::fs::File::open(&dbf).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::NotFound {
+            Error::format(
+                &dbf,
+                format!(
+                    "missing: the shapefile {} keeps its road attributes in this .dbf file beside it",
+                    file_name(path)
+                ),
+            )
+        } else {
+            Error::io(&dbf, e)
+        }
+    })?;
+    let table = shapefile::dbase::Reader::new(BufReader::new(f)).map_err(|e| {
+        Error::format(
+            &dbf,
+            format!("the attribute table (.dbf) {}", dbf_problem(&e)),
+        )
+    })?;
+    Ok(shapefile::Reader::new(shapes, table))
+}
+
+/// Checks the `.shp`'s records against its size before the shapefile crate
+/// reads them: a record that declares more parts or points than its bytes
+/// hold would make the reader reserve memory for them (gigabytes for a
+/// corrupt count, found by fuzzing) before failing.
+fn check_shp_records(path: &Path) -> Result<()> {
+    let bytes = crate::fsio::read_limited(path, super::MAX_MAP_BYTES, "shape file (.shp)")?;
+    let corrupt = |at: usize, what: String| {
+        Error::format(
+            path,
+            format!("the shape file (.shp) at record {at}: {what} (corrupt)"),
+        )
+    };
+    let be = |i: usize| {
+        bytes
+            .get(i..i + 4)
+            .map(|b| i32::from_be_bytes(b.try_into().unwrap()))
+    };
+    let le = |i: usize| {
+        bytes
+            .get(i..i + 4)
+            .map(|b| i32::from_le_bytes(b.try_into().unwrap()))
+    };
+    let mut at = 100; // after the file header
+    let mut index = 0;
+    while at + 8 <= bytes.len() {
+        index += 1;
+        let words = be(at + 4).unwrap_or(0);
+        let len = 2 * words.max(0) as usize;
+        let content = at + 8;
+        if words < 0 || content + len > bytes.len() {
+            return Err(corrupt(
+                index,
+                format!(
+                    "declares {len} bytes of content where {} remain",
+                    bytes.len() - content
+                ),
+            ));
+        }
+        // Poly-lines and polygons (plain, M, Z) and multi-patches: parts
+        // and points after the shape type and the 32-byte box; each part
+        // takes at least 4 bytes, each point at least 16 (x, y).
+        if let Some(3 | 5 | 13 | 15 | 23 | 25 | 31) = le(content) {
+            if let (Some(parts), Some(points)) = (le(content + 36), le(content + 40)) {
+                let need = 44 + 4 * parts.max(0) as u64 + 16 * points.max(0) as u64;
+                if parts < 0 || points < 0 || need > len as u64 {
+                    return Err(corrupt(
+                        index,
+                        format!(
+                            "declares {parts} part(s) and {points} point(s), more than its {len} bytes hold"
+                        ),
+                    ));
+                }
+            }
+        }
+        at = content + len;
+    }
+    Ok(())
+}
+
+/// A failure while reading record `index`, named by its component.
+fn component_error(path: &Path, index: usize, e: shapefile::Error) -> Error {
+    match e {
+        shapefile::Error::DbaseError(d) => Error::format(
+            &path.with_extension("dbf"),
+            format!(
+                "the attribute table (.dbf) is unreadable at record {}: {}",
+                index + 1,
+                dbf_problem(&d)
+            ),
+        ),
+        e => Error::format(
+            path,
+            format!(
+                "the shape file (.shp) at record {}: {}",
+                index + 1,
+                shp_problem(&e)
+            ),
+        ),
+    }
+}
+
+/// What is wrong with a `.shp`, in words.
+fn shp_problem(e: &shapefile::Error) -> String {
+    use shapefile::Error as E;
+    match e {
+        E::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "ends too early: the file is truncated".into()
+        }
+        E::IoError(io) => format!("cannot be read: {io}"),
+        E::InvalidFileCode(c) => format!("is not a shapefile (file code {c}, expected 9994)"),
+        E::InvalidShapeType(c) => format!("holds an unknown shape type code {c}"),
+        E::InvalidShapeRecordSize => {
+            "declares a record size that does not match its content (corrupt)".into()
+        }
+        E::AllocationLimitExceeded { requested_bytes } => {
+            format!("declares a shape of {requested_bytes} bytes, more than it can hold (corrupt)")
+        }
+        E::MismatchShapeType { requested, actual } => {
+            format!("mixes shape types ({actual} where the header says {requested})")
+        }
+        other => format!("is invalid: {other}"),
+    }
+}
+
+/// What is wrong with a `.dbf`, in words.
+fn dbf_problem(e: &shapefile::dbase::Error) -> String {
+    use shapefile::dbase::ErrorKind as K;
+    let what = match e.kind() {
+        K::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "ends too early: the file is truncated".to_string()
+        }
+        K::IoError(io) => format!("cannot be read: {io}"),
+        K::InvalidFieldType(c) => format!("declares a field of unknown type '{c}'"),
+        K::ParseFloatError(_) | K::ParseIntError(_) => "holds a number that is not a number".into(),
+        K::StringDecodeError(_) => "holds text that is not valid in its encoding".into(),
+        K::InvalidFile(d) => format!("is not a valid dBase table: {d}"),
+        other => other.to_string(),
+    };
+    match e.field_index() {
+        Some(i) => format!("{what} (field {})", i.0 + 1),
+        None => what,
+    }
+}
+
 /// Reads a shapefile (`.shp` with its `.dbf`, and `.prj` when present).
 pub(crate) fn load(
     path: &Path,
     filter: DrivableFilter,
 ) -> Result<(Vec<RawRoad>, FxHashSet<u64>, LoadReport)> {
-    let prj = path.with_extension("prj");
-    if let Ok(text) = std::fs::read_to_string(&prj) {
-        if text.trim_start().starts_with("PROJCS") {
-            return Err(Error::format(
-                path,
-                "the shapefile uses a projected coordinate system (.prj PROJCS); reproject it to WGS-84 (EPSG:4326)",
-            ));
-        }
-    }
-    let mut reader = shapefile::Reader::from_path(path)
-        .map_err(|e| Error::format(path, format!("not a readable shapefile: {e}")))?;
+    check_prj(path)?;
+    check_shp_records(path)?;
+    let mut reader = open(path)?;
     let mut report = LoadReport {
         format: "shapefile".into(),
         ..Default::default()
@@ -44,8 +226,7 @@ pub(crate) fn load(
     let mut roads = Vec::new();
     let mut seen_edges: FxHashSet<(String, String, String, String)> = FxHashSet::default();
     for (index, item) in reader.iter_shapes_and_records().enumerate() {
-        let (shape, record) =
-            item.map_err(|e| Error::format(path, format!("not a readable shapefile: {e}")))?;
+        let (shape, record) = item.map_err(|e| component_error(path, index, e))?;
         report.features_read += 1;
         let parts: Vec<Vec<(f64, f64)>> = match shape {
             Shape::Polyline(p) => p

@@ -21,12 +21,17 @@
 //! `bad.toml: line 14: planner.coverage "everything" is not one of routes, network`.
 
 mod check;
+mod limits;
 mod presets;
 mod route;
 pub mod schema;
 mod sections;
 mod validate;
 
+pub use limits::{
+    MAX_ACCEL_ERROR_UG, MAX_GYRO_ARW_DPRH, MAX_GYRO_ERROR_DPH, MAX_REFINE_ITERATIONS, MAX_RUNS,
+    MAX_SCENARIO_BYTES, MAX_TOLERATED_MISSED_READS,
+};
 pub use presets::{starter_scenario, ImuGrade, Starter};
 pub use schema::{
     Adaptive, Coverage, MotionKind, NavMode, ScenarioFile, Traffic, UTurns, VerticalChannel,

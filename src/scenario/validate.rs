@@ -95,7 +95,7 @@ fn value_at(
 impl Scenario {
     /// Reads and validates a scenario file.
     pub fn load(path: &Path) -> Result<Scenario> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::fsio::read_text_limited(path, super::MAX_SCENARIO_BYTES, "scenario")?;
         tracing::debug!("reading scenario {}", path.display());
         Self::parse(path, &text)
     }
@@ -518,6 +518,7 @@ impl Scenario {
             &file.vehicle,
         )?;
         let route = route(&c, path, &file, planner.coverage)?;
+        super::limits::check(&c, &file)?;
         let map_error = map_error(&c, file.map.as_ref())?;
         let filter = filter(&file, &odometer, dt);
         let a = file.aiding;
@@ -774,9 +775,18 @@ fn planner(
         )));
     }
     let planning_chains = p.planning_chains.unwrap_or(64) as usize;
-    if !(1..=100_000).contains(&planning_chains) {
+    if !(1..=5_000).contains(&planning_chains) {
         return Err(c.err(format!(
-            "planner.planning_chains = {planning_chains} must be between 1 and 100000"
+            "planner.planning_chains = {planning_chains} must be between 1 and 5000"
+        )));
+    }
+    // The certification's last round needs ln(β/2⁶) / ln(1 − ε) chains.
+    let last_round = ((1.0 - confidence) / 64.0).ln() / (1.0 - violation_probability).ln();
+    if last_round > 50_000.0 {
+        return Err(c.err(format!(
+            "planner.violation_probability = {violation_probability} with confidence = {confidence} \
+             needs up to {last_round:.0} fresh chains to certify (limit 50000): allow a larger \
+             violation probability"
         )));
     }
     let validation_chains = p.validation_chains.unwrap_or(20) as usize;

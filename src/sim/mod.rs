@@ -13,14 +13,18 @@
 //! - `integrated`: the integrated navigator's runner and its filter settings;
 //! - `map_error`: the map's geometry error field, drawn per run;
 //! - `covariance`: the perfect-data covariance engine and the 95 % bound;
+//! - `finite`: a diverged run (NaN, infinity) as an error with its likely cause;
 //! - `metrics`: the summary of the runs;
+//! - `limits`: the size limits checked before a simulation starts;
 //! - `monte_carlo`: Monte Carlo dispatch;
 //! - `output`: the files of `waymark simulate`.
 
 pub(crate) mod covariance;
 pub(crate) mod dead_reckoning;
+pub(crate) mod finite;
 pub(crate) mod integrated;
 pub(crate) mod lanes;
+pub(crate) mod limits;
 pub(crate) mod map_error;
 pub(crate) mod map_feed;
 pub(crate) mod metrics;
@@ -33,7 +37,9 @@ pub(crate) mod truth;
 
 pub use crate::scenario::{NavMode, Scenario};
 pub use covariance::{bound95, bound95_of_sigmas, bound_at, CHI2_2_95};
+pub use finite::check_runs_finite;
 pub use integrated::Prepared;
+pub use limits::{check_simulation_size, MAX_RUNS, MAX_SIMULATED_S, MAX_STORED_ROWS};
 pub use map_feed::FeedCounts;
 pub use metrics::{
     FaultInterval, MapMatchingSummary, NeesSummary, ProfilePoint, RunSummary, Summary, TagSummary,

@@ -41,6 +41,7 @@ pub fn simulate_with(
             "the number of runs must be at least 1".into(),
         ));
     }
+    super::limits::check_simulation_size(scn, truth, runs)?;
     let integrated = scn.navigator().mode == NavMode::Integrated;
     if integrated && scn.rotation.is_some() {
         return Err(crate::error::Error::scenario(
@@ -89,6 +90,7 @@ pub fn simulate_with(
             r
         })
         .collect();
+    super::finite::check_runs_finite(scn, &results)?;
     let summary = summarize(scn, seed, &results);
     tracing::info!(
         runs,

@@ -44,10 +44,14 @@ pub struct Tag {
     pub lane_width_m: Option<f64>,
 }
 
+/// Largest tag file read (bytes): 256 MiB, about two million tags.
+pub const MAX_TAGS_CSV_BYTES: u64 = 256 << 20;
+
 /// Reads a tags CSV (header row; `tag_id,lat,lon,mounting` required,
-/// `height_m` optional, other columns ignored).
+/// `height_m` optional, other columns ignored), up to
+/// [`MAX_TAGS_CSV_BYTES`].
 pub fn load_tags_csv(path: &Path) -> Result<Vec<Tag>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::fsio::read_text_limited(path, MAX_TAGS_CSV_BYTES, "tag file")?;
     parse_tags_csv(path, &text)
 }
 

@@ -228,7 +228,9 @@ pub(super) fn start_run<'a>(
     let samples = ideal_imu(body.map(move |a| imu_frame(a, rot)), dt);
     let rec = Recorder {
         every: ((scn.output_interval_s / dt).round() as u64).max(1),
-        rows: Vec::with_capacity((truth.duration_s() / scn.output_interval_s) as usize + 2),
+        rows: Vec::with_capacity(
+            (truth.duration_s().min(scn.duration_cap_s()) / scn.output_interval_s) as usize + 2,
+        ),
         pending: None,
     };
     (samples, rec)

@@ -1,4 +1,5 @@
-//! What an output folder keeps of its inputs, for `waymark report`.
+//! What an output folder keeps of its inputs, for `waymark report`, and the
+//! clearing of an earlier run's outputs before a command writes its own.
 
 use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
@@ -33,4 +34,91 @@ pub fn keep_inputs(scenario: &Path, out_dir: &Path, tags: Option<&Path>) -> Resu
     let text = std::fs::read(scenario).map_err(|e| Error::io(scenario, e))?;
     write_atomic(&out_dir.join("scenario.toml"), &text)?;
     crate::report::write_inputs(out_dir, scenario, tags)
+}
+
+/// What `waymark simulate` writes (beside the inputs).
+pub(super) const SIMULATION_OUTPUTS: &[&str] = &["errors.csv", "summary.json", "tag_passes.csv"];
+/// What `waymark plan` writes (beside the inputs).
+pub(super) const PLAN_OUTPUTS: &[&str] = &[
+    "tags.csv",
+    "tags.geojson",
+    "tags.kml",
+    "tags.gpx",
+    "plan.json",
+    "profile.csv",
+];
+/// What `simulate` and route `plan` keep of their inputs for `waymark report`.
+const INPUT_COPIES: &[&str] = &["scenario.toml", "inputs.json"];
+
+/// Before a command writes its files into `dir` (made if missing): removes
+/// the files an earlier run of the same kind wrote there (`own`: all of
+/// them, so none that this run does not write is left beside its own, e.g.
+/// an integrated run's `tag_passes.csv` under a dead-reckoning run), and the
+/// report made from the earlier content (`report.html`, `plots/*.png`).
+/// With `inputs_too`, the copies of the inputs go as well (a network plan
+/// writes none), unless the other kind's results still need them. Files
+/// Waymark does not write are never touched.
+pub(super) fn clear_outputs(dir: &Path, own: &[&str], inputs_too: bool) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let remove = |p: &Path| match std::fs::remove_file(p) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::io(p, e)),
+        _ => Ok(()),
+    };
+    for f in own {
+        remove(&dir.join(f))?;
+    }
+    if inputs_too {
+        let others = if own == PLAN_OUTPUTS {
+            SIMULATION_OUTPUTS
+        } else {
+            PLAN_OUTPUTS
+        };
+        if !others.iter().any(|f| dir.join(f).exists()) {
+            for f in INPUT_COPIES {
+                remove(&dir.join(f))?;
+            }
+        }
+    }
+    remove(&dir.join("report.html"))?;
+    let plots = dir.join("plots");
+    if let Ok(entries) = std::fs::read_dir(&plots) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.extension().is_some_and(|x| x == "png") && p.is_file() {
+                remove(&p)?;
+            }
+        }
+        // Removed only when that leaves it empty.
+        let _ = std::fs::remove_dir(&plots);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clearing_removes_own_kind_and_report_only() {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path();
+        for f in [
+            "errors.csv",
+            "tag_passes.csv",
+            "plan.json",
+            "notes.txt",
+            "report.html",
+        ] {
+            std::fs::write(dir.join(f), "x").unwrap();
+        }
+        std::fs::create_dir(dir.join("plots")).unwrap();
+        std::fs::write(dir.join("plots/error_time.png"), "x").unwrap();
+        clear_outputs(dir, SIMULATION_OUTPUTS, false).unwrap();
+        let mut left: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["notes.txt", "plan.json"]);
+    }
 }

@@ -24,6 +24,16 @@ pub fn inspect_map(
             "--tolerance must be a non-negative number of metres, got {tolerance_m}"
         )));
     }
+    if let Some(path) = defects_out {
+        // Checked before the map is loaded: its folder must exist.
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+        if let Some(d) = dir.filter(|d| !d.is_dir()) {
+            return Err(Error::format(
+                path,
+                format!("cannot write the defects: {} is not a folder", d.display()),
+            ));
+        }
+    }
     let net = Network::load(map, options)?;
     let t = Instant::now();
     let defects = net.defects(tolerance_m);

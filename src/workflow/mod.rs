@@ -15,9 +15,11 @@
 //! counts within long ones); the library never prints.
 
 mod demo;
+mod finite;
 mod init;
 mod inputs;
 mod inspect;
+mod limits;
 mod matching;
 mod plan;
 mod progress;
@@ -27,6 +29,7 @@ pub use demo::{demo_folder, DemoOutcome};
 pub use init::{init_scenario, InitOutcome};
 pub use inputs::{check_out_dir, keep_inputs};
 pub use inspect::{inspect_map, InspectOutcome};
+pub use limits::{MAX_CANDIDATE_SITES, MAX_PLAN_SAMPLES};
 pub use matching::{
     match_file, MatchBreak, MatchJob, MatchMethod, MatchOutcome, Timings, UnmatchedSpan,
 };

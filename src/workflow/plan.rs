@@ -1,6 +1,6 @@
 //! `waymark plan`: plan, validate, write the plan folder.
 
-use super::inputs::{check_out_dir, keep_inputs};
+use super::inputs::{check_out_dir, clear_outputs, keep_inputs, PLAN_OUTPUTS};
 use super::progress::Progress;
 use crate::error::{Error, Result};
 use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml, tags_meta_json};
@@ -232,6 +232,7 @@ pub(super) fn route_plan(
     progress: &dyn Progress,
 ) -> Result<(Plan, f64)> {
     let t0 = Instant::now();
+    super::limits::check_route_plan_size(scn, truth, settings)?;
     progress.note(&format!(
         "waymark plan: {}: covariance analysis along the route, then placement",
         scn.name()
@@ -293,7 +294,9 @@ pub(super) fn write_route_plan(
     (plan, plan_time_s): (Plan, f64),
     t0: Instant,
 ) -> Result<PlanOutcome> {
+    super::finite::check_plan(scenario, &plan)?;
     let (recs, meta) = plan.export(scn)?;
+    clear_outputs(out_dir, PLAN_OUTPUTS, false)?;
     write_tag_files(out_dir, &recs, &meta)?;
     write_atomic(
         &out_dir.join("profile.csv"),
@@ -356,7 +359,9 @@ fn network_plan_folder(
             seed,
         )?);
     }
+    super::finite::check_network_plan(job.scenario, &plan)?;
     let (recs, meta) = plan.export(scn)?;
+    clear_outputs(job.out_dir, PLAN_OUTPUTS, true)?;
     write_tag_files(job.out_dir, &recs, &meta)?;
     let mut files = NETWORK_FILES.to_vec();
     if !plan.edge_coverage.is_empty() {

@@ -1,6 +1,6 @@
 //! `waymark simulate`: Monte Carlo runs of a scenario, written to a folder.
 
-use super::inputs::{check_out_dir, keep_inputs};
+use super::inputs::{check_out_dir, clear_outputs, keep_inputs, SIMULATION_OUTPUTS};
 use super::progress::Progress;
 use crate::error::{Error, Result};
 use crate::scenario::Scenario;
@@ -78,6 +78,7 @@ pub(super) fn simulate_loaded(
     if job.runs > 1 {
         progress.finish();
     }
+    clear_outputs(job.out_dir, SIMULATION_OUTPUTS, false)?;
     output::write(job.out_dir, &result)?;
     keep_inputs(job.scenario, job.out_dir, job.tags)?;
     let mut files = vec!["errors.csv", "summary.json", "scenario.toml", "inputs.json"];

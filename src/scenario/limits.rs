@@ -1,0 +1,123 @@
+//! Size limits of a scenario, checked before any work allocates memory or
+//! time in proportion to them: one error naming the field and the limit
+//! (README, "Limits and reliability"). Durations, rates and the rows a
+//! simulation keeps are checked where they are known: the IMU rate and
+//! the motion commands' 30-day limit in validation and the motion compiler,
+//! the drive's length and the kept rows in `sim::limits`.
+
+use super::check::Check;
+use super::schema::ScenarioFile;
+use crate::error::Result;
+
+/// Largest scenario file read (bytes): a scenario with thousands of
+/// `[[tag]]` entries is well under 1 MiB.
+pub const MAX_SCENARIO_BYTES: u64 = 16 << 20;
+
+/// Most Monte Carlo runs of one simulation or plan validation
+/// (`planner.validation_runs`, `simulate --runs`, `plan --runs`).
+pub const MAX_RUNS: u64 = 100_000;
+
+/// Most consecutive missed reads a plan may tolerate
+/// (`planner.tolerate_missed_reads`): the route planner searches windows of
+/// the last k + 1 tags, whose number grows as (sites within reach)^k; on
+/// the demo's 4 km route k = 2 takes 3 s and 0.1 GB, k = 3 45 s and 1.4 GB,
+/// and k = 4 did not finish within 2 minutes.
+pub const MAX_TOLERATED_MISSED_READS: u64 = 3;
+
+/// Most refinements of a route plan's reaches (`planner.refine_iterations`;
+/// each is a covariance pass and a placement).
+pub const MAX_REFINE_ITERATIONS: u64 = 100;
+
+/// Largest gyro error term (°/h: `gyro_bias_dph`, `gyro_bias_instability_dph`,
+/// `gyro_bias_random_dph`): 1000 °/s, beyond any gyro's measurement range.
+/// At this limit the simulation and the planner's covariance analysis stay
+/// finite (measured: a 1 h free-inertial drive; the demo plan reports the
+/// requirement infeasible); at 1e300 °/h they did not.
+pub const MAX_GYRO_ERROR_DPH: f64 = 3.6e6;
+
+/// Largest accelerometer error term (µg: `accel_bias_ug`,
+/// `accel_bias_instability_ug`, `accel_bias_random_ug`, `accel_vrw_ugprhz`):
+/// 10 g.
+pub const MAX_ACCEL_ERROR_UG: f64 = 1e7;
+
+/// Largest gyro angle random walk (°/√h): 60 °/√h is 1 °/√s.
+pub const MAX_GYRO_ARW_DPRH: f64 = 3600.0;
+
+/// Checks the counts of `file` against the limits above, and that a motion
+/// route has motion commands.
+pub(super) fn check(c: &Check, file: &ScenarioFile) -> Result<()> {
+    let imu = &file.imu;
+    let mut terms: Vec<(String, f64, f64)> = Vec::new();
+    for (name, v, max) in [
+        ("gyro_bias_dph", imu.gyro_bias_dph, MAX_GYRO_ERROR_DPH),
+        ("accel_bias_ug", imu.accel_bias_ug, MAX_ACCEL_ERROR_UG),
+    ] {
+        for (i, x) in v.iter().enumerate() {
+            terms.push((format!("imu.{name}[{i}]"), *x, max));
+        }
+    }
+    for (name, x, max) in [
+        (
+            "gyro_bias_instability_dph",
+            imu.gyro_bias_instability_dph,
+            MAX_GYRO_ERROR_DPH,
+        ),
+        (
+            "gyro_bias_random_dph",
+            imu.gyro_bias_random_dph,
+            MAX_GYRO_ERROR_DPH,
+        ),
+        (
+            "accel_bias_instability_ug",
+            imu.accel_bias_instability_ug,
+            MAX_ACCEL_ERROR_UG,
+        ),
+        (
+            "accel_bias_random_ug",
+            imu.accel_bias_random_ug,
+            MAX_ACCEL_ERROR_UG,
+        ),
+        ("accel_vrw_ugprhz", imu.accel_vrw_ugprhz, MAX_ACCEL_ERROR_UG),
+        ("gyro_arw_dprh", imu.gyro_arw_dprh, MAX_GYRO_ARW_DPRH),
+    ] {
+        terms.push((format!("imu.{name}"), x, max));
+    }
+    for (field, x, max) in terms {
+        // NaN and infinity are left to the finite-number checks.
+        if x.is_finite() && x.abs() > max {
+            return Err(c.err(format!(
+                "{field} = {x} is beyond the limit of ±{max} (no sensor errs this much; \
+                 the navigation would diverge)"
+            )));
+        }
+    }
+    if let Some(r) = file.route.first() {
+        if r.start.is_some() && r.waypoints.is_none() && r.motion.is_empty() {
+            return Err(c.err(
+                "route[0].motion is empty: give at least one motion command (e.g. \
+                 { kind = \"stay\", duration_s = 60 }); a drive of 0 s has nothing to simulate",
+            ));
+        }
+    }
+    let Some(p) = &file.planner else {
+        return Ok(());
+    };
+    for (field, value, max) in [
+        ("planner.validation_runs", p.validation_runs, MAX_RUNS),
+        (
+            "planner.tolerate_missed_reads",
+            p.tolerate_missed_reads.map(u64::from),
+            MAX_TOLERATED_MISSED_READS,
+        ),
+        (
+            "planner.refine_iterations",
+            p.refine_iterations.map(u64::from),
+            MAX_REFINE_ITERATIONS,
+        ),
+    ] {
+        if let Some(v) = value.filter(|&v| v > max) {
+            return Err(c.err(format!("{field} = {v} is above the limit of {max}")));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,555 @@
+//! Absurd, huge and interrupted input as a user hits it (issue 17): every
+//! case runs the real binary in a temporary folder and checks the exit
+//! code, the one error line (naming the file, the field and the limit) and
+//! what is left on disk.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_waymark"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("binary runs")
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn scenario(name: &str) -> String {
+    root().join("scenarios").join(name).display().to_string()
+}
+
+/// Exit 1 with one error line holding every one of `needles`.
+fn fails_with(out: &Output, needles: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("waymark: error: "), "{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "{n:?} not in {stderr}");
+    }
+    stderr
+}
+
+/// A motion scenario with `extra` appended (sections after the route).
+fn motion_scenario(dir: &Path, name: &str, motion: &str, extra: &str) -> String {
+    let text = format!(
+        "name = \"r\"\n[[route]]\nstart = {{ lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = 45.0 }}\n\
+         motion = {motion}\n{extra}\n"
+    );
+    std::fs::write(dir.join(name), text).unwrap();
+    name.to_string()
+}
+
+/// The demo scenario with its `[planner]` key `key` set to `value`, and its
+/// map path made absolute.
+fn demo_with(dir: &Path, key: &str, value: &str) -> String {
+    let text = std::fs::read_to_string(root().join("scenarios/demo.toml")).unwrap();
+    let map = root().join("maps/helsinki.osm.pbf");
+    let mut text = text.replace("../maps/helsinki.osm.pbf", &map.display().to_string());
+    text = text.replace("[planner]\n", &format!("[planner]\n{key} = {value}\n"));
+    let lines: Vec<&str> = text.lines().collect();
+    // The key must now appear once: drop the demo's own setting of it.
+    let mut seen = false;
+    let kept: Vec<&str> = lines
+        .into_iter()
+        .filter(|l| {
+            if l.split('=').next().map(str::trim) == Some(key) {
+                let first = !seen;
+                seen = true;
+                first
+            } else {
+                true
+            }
+        })
+        .collect();
+    std::fs::write(dir.join("demo.toml"), kept.join("\n")).unwrap();
+    "demo.toml".into()
+}
+
+// --- 1. Limits before allocation ---------------------------------------------
+
+#[test]
+fn runs_beyond_the_limit_are_bad_option_values_for_simulate_and_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    for args in [
+        vec![
+            "simulate",
+            &scenario("dr-straight-10km.toml"),
+            "--runs",
+            "1000000000",
+        ],
+        vec!["plan", &scenario("demo.toml"), "--runs", "1000000000"],
+    ] {
+        let out = run(&args, dir.path());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains("--runs") && stderr.contains("100000"),
+            "{stderr}"
+        );
+        assert!(!stderr.contains("memory allocation"), "{stderr}");
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn planner_counts_beyond_their_limits_name_the_field_and_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    for (key, value, limit) in [
+        ("validation_runs", "1000000000", "100000"),
+        ("tolerate_missed_reads", "1000", "3"),
+        ("refine_iterations", "100000", "100"),
+    ] {
+        let scn = demo_with(dir.path(), key, value);
+        let out = run(&["plan", &scn, "--out", "p"], dir.path());
+        let field = format!("planner.{key} = {value}");
+        fails_with(&out, &["demo.toml", &field, "limit of", limit]);
+        assert!(!dir.path().join("p").exists());
+    }
+}
+
+#[test]
+fn rows_kept_in_memory_are_limited_before_the_runs_start() {
+    // 23 days at a 10 ms output interval: 2e8 rows of one run, over the
+    // 2e7-row limit (the motion commands' own limit is 30 days).
+    let dir = tempfile::tempdir().unwrap();
+    let scn = motion_scenario(
+        dir.path(),
+        "long.toml",
+        "[ { kind = \"stay\", duration_s = 2000000 } ]",
+        "output_interval_s = 0.01",
+    );
+    // `output_interval_s` must precede the tables: rewrite it at the top.
+    let text = std::fs::read_to_string(dir.path().join(&scn)).unwrap();
+    let text = format!(
+        "output_interval_s = 0.01\n{}",
+        text.replace("output_interval_s = 0.01\n", "")
+    );
+    std::fs::write(dir.path().join(&scn), text).unwrap();
+    let out = run(&["simulate", &scn, "--out", "o"], dir.path());
+    fails_with(
+        &out,
+        &["long.toml", "error rows", "20000000", "output_interval_s"],
+    );
+    assert!(!dir.path().join("o").exists());
+    // Beyond 30 days of motion: refused by the motion compiler.
+    let scn = motion_scenario(
+        dir.path(),
+        "longer.toml",
+        "[ { kind = \"stay\", duration_s = 1e9 } ]",
+        "",
+    );
+    let out = run(&["simulate", &scn, "--out", "o"], dir.path());
+    fails_with(&out, &["longer.toml", "route[0]"]);
+}
+
+#[test]
+fn a_route_plan_too_large_to_hold_is_refused_before_planning() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan_scn = |name: &str, rate: &str, motion: &str, spacing: &str| {
+        let text = format!(
+            "name = \"p\"\nrequirement_m = 20\n[[route]]\n\
+             start = {{ lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = 45.0 }}\n\
+             motion = {motion}\n[navigator]\nmode = \"integrated\"\n[aiding]\nrfid = true\n\
+             [imu]\nrate_hz = {rate}\n[planner]\ncandidate_spacing_m = {spacing}\n"
+        );
+        std::fs::write(dir.path().join(name), text).unwrap();
+        name.to_string()
+    };
+    // 3000 s at 10 kHz: 3e7 truth samples, over the 1e7 limit.
+    let scn = plan_scn(
+        "samples.toml",
+        "10000",
+        "[ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 3000 } ]",
+        "20",
+    );
+    let out = run(&["plan", &scn, "--out", "p"], dir.path());
+    fails_with(&out, &["samples.toml", "truth samples", "10000000"]);
+    // 300 km every metre: 3e5 candidate sites, over the 2e5 limit.
+    let scn = plan_scn(
+        "sites.toml",
+        "100",
+        "[ { kind = \"accelerate\", to_kmh = 100 }, { kind = \"cruise\", distance_m = 300000 } ]",
+        "1",
+    );
+    let out = run(&["plan", &scn, "--out", "p"], dir.path());
+    fails_with(
+        &out,
+        &[
+            "sites.toml",
+            "candidate sites",
+            "200000",
+            "candidate_spacing_m",
+        ],
+    );
+    assert!(!dir.path().join("p").exists());
+}
+
+#[test]
+fn an_imu_rate_beyond_the_limit_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn = motion_scenario(
+        dir.path(),
+        "rate.toml",
+        "[ { kind = \"stay\", duration_s = 10 } ]",
+        "[imu]\nrate_hz = 1e9",
+    );
+    let out = run(&["simulate", &scn], dir.path());
+    fails_with(&out, &["rate.toml", "imu.rate_hz", "10000"]);
+}
+
+#[test]
+fn files_beyond_their_size_limit_are_refused_unread() {
+    let dir = tempfile::tempdir().unwrap();
+    // Sparse files: their size costs no disk space.
+    let sparse = |name: &str, head: &[u8], len: u64| {
+        std::fs::write(dir.path().join(name), head).unwrap();
+        let f = std::fs::OpenOptions::new()
+            .write(true)
+            .open(dir.path().join(name))
+            .unwrap();
+        f.set_len(len).unwrap();
+    };
+    sparse("big.toml", b"name = \"x\"\n", (16 << 20) + 1);
+    let out = run(&["simulate", "big.toml"], dir.path());
+    fails_with(&out, &["big.toml", "larger than the limit of 16 MiB"]);
+    sparse("big.geojson", b"{", (1 << 30) + 1);
+    let out = run(&["network", "inspect", "big.geojson"], dir.path());
+    fails_with(&out, &["big.geojson", "larger than the limit of 1 GiB"]);
+    sparse("tags.csv", b"tag_id,lat,lon,mounting\n", (256 << 20) + 1);
+    let out = run(
+        &[
+            "simulate",
+            &scenario("dr-straight-10km.toml"),
+            "--tags",
+            "tags.csv",
+        ],
+        dir.path(),
+    );
+    fails_with(&out, &["tags.csv", "larger than the limit of 256 MiB"]);
+}
+
+#[test]
+fn an_endless_map_stops_at_its_first_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let t0 = std::time::Instant::now();
+    let out = run(&["network", "inspect", "/dev/zero"], dir.path());
+    fails_with(&out, &["/dev/zero", "unrecognised map format"]);
+    // Not read to the limit (1 GiB): decided from the first 64 KiB.
+    assert!(t0.elapsed().as_secs_f64() < 20.0);
+}
+
+// --- 2. No silent non-finite results -------------------------------------------
+
+#[test]
+fn an_empty_motion_list_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn = motion_scenario(dir.path(), "empty.toml", "[]", "");
+    let out = run(&["simulate", &scn, "--out", "o"], dir.path());
+    fails_with(&out, &["empty.toml", "route[0].motion is empty"]);
+    assert!(!dir.path().join("o").exists());
+}
+
+#[test]
+fn a_zero_length_map_route_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = root().join("maps/helsinki.osm.pbf");
+    std::fs::write(
+        dir.path().join("zero.toml"),
+        format!(
+            "name = \"z\"\n[map]\npath = \"{}\"\n[[route]]\n\
+             waypoints = [[60.1660, 24.9380], [60.1660, 24.9380]]\n[navigator]\nmode = \"dead_reckoning\"\n",
+            map.display()
+        ),
+    )
+    .unwrap();
+    let out = run(&["simulate", "zero.toml", "--out", "o"], dir.path());
+    fails_with(&out, &["zero.toml", "route[0]", "shorter than 1 cm"]);
+}
+
+#[test]
+fn absurd_imu_biases_are_refused_not_turned_into_nan() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn = motion_scenario(
+        dir.path(),
+        "bias.toml",
+        "[ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 100 } ]",
+        "[imu]\ngyro_bias_dph = [1e300, 0, 0]",
+    );
+    let out = run(&["simulate", &scn, "--out", "o"], dir.path());
+    fails_with(&out, &["bias.toml", "imu.gyro_bias_dph[0]", "3600000"]);
+    assert!(!dir.path().join("o").exists());
+    // Within the limit the run stays finite: no NaN in the summary.
+    let scn = motion_scenario(
+        dir.path(),
+        "bias2.toml",
+        "[ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 100 } ]",
+        "[imu]\ngyro_bias_dph = [3.6e6, 3.6e6, 3.6e6]\naccel_bias_ug = [1e7, 1e7, 1e7]",
+    );
+    let out = run(
+        &["simulate", &scn, "--out", "o", "--json", "-q"],
+        dir.path(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for k in [
+        "max_horizontal_error_m",
+        "rms_horizontal_error_m",
+        "p95_horizontal_error_m",
+    ] {
+        let x = v[k].as_f64().unwrap_or(f64::NAN);
+        assert!(x.is_finite() && x > 0.0, "{k} = {}", v[k]);
+    }
+    // serde_json writes NaN as null: the file's figures are numbers.
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("o/summary.json")).unwrap()).unwrap();
+    for k in [
+        "max_horizontal_error_m",
+        "rms_horizontal_error_m",
+        "distance_m",
+    ] {
+        assert!(summary[k].is_number(), "{k} = {}", summary[k]);
+    }
+    for x in summary["final_error_enu_m"].as_array().unwrap() {
+        assert!(x.is_number(), "final_error_enu_m holds {x}");
+    }
+}
+
+// --- 4. Messages and exit codes --------------------------------------------------
+
+/// A two-road polyline shapefile (`roads.shp`, `.shx`, `.dbf`).
+fn write_shapefile(dir: &Path) -> PathBuf {
+    use shapefile::dbase::{FieldName, FieldValue, Record, TableWriterBuilder};
+    use shapefile::{Point, Polyline};
+    let path = dir.join("roads.shp");
+    let fields = TableWriterBuilder::new()
+        .add_character_field(FieldName::try_from("highway").unwrap(), 40)
+        .add_numeric_field(FieldName::try_from("lanes").unwrap(), 9, 0);
+    let mut w = shapefile::Writer::from_path(&path, fields).unwrap();
+    for (i, pts) in [
+        vec![Point::new(18.0, 59.0), Point::new(18.001, 59.0)],
+        vec![Point::new(18.001, 59.0), Point::new(18.002, 59.001)],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut r = Record::default();
+        r.insert(
+            "highway".into(),
+            FieldValue::Character(Some("primary".into())),
+        );
+        r.insert("lanes".into(), FieldValue::Numeric(Some(i as f64 + 1.0)));
+        w.write_shape_and_record(&Polyline::new(pts), &r).unwrap();
+    }
+    drop(w);
+    path
+}
+
+#[test]
+fn a_shapefile_names_its_failing_component_in_words() {
+    let dir = tempfile::tempdir().unwrap();
+    let shp = write_shapefile(dir.path());
+    let inspect = |d: &Path| run(&["network", "inspect", "roads.shp"], d);
+    assert_eq!(inspect(dir.path()).status.code(), Some(0));
+    let dbf = dir.path().join("roads.dbf");
+    let good_dbf = std::fs::read(&dbf).unwrap();
+    // A damaged table header: the field descriptors end too early.
+    std::fs::write(&dbf, &good_dbf[..40]).unwrap();
+    let e = fails_with(
+        &inspect(dir.path()),
+        &["roads.dbf", "attribute table (.dbf)"],
+    );
+    assert!(
+        !e.contains("kind:") && !e.contains('{'),
+        "debug structure: {e}"
+    );
+    // Records cut short.
+    std::fs::write(&dbf, &good_dbf[..good_dbf.len() - 20]).unwrap();
+    let e = fails_with(&inspect(dir.path()), &["roads.dbf"]);
+    assert!(!e.contains("kind:"), "{e}");
+    // Missing.
+    std::fs::remove_file(&dbf).unwrap();
+    fails_with(&inspect(dir.path()), &["roads.dbf", "missing", "roads.shp"]);
+    std::fs::write(&dbf, &good_dbf).unwrap();
+    // A projected .prj, then one that is not text.
+    let prj = dir.path().join("roads.prj");
+    std::fs::write(&prj, "PROJCS[\"SWEREF99_TM\"]").unwrap();
+    fails_with(&inspect(dir.path()), &["roads.prj", "projected", "WGS-84"]);
+    std::fs::write(&prj, b"\xff\xfe\x00garbage").unwrap();
+    fails_with(&inspect(dir.path()), &["roads.prj", "not text"]);
+    std::fs::remove_file(&prj).unwrap();
+    // A truncated .shp (its header is intact, the last record cut) and a
+    // damaged .shx, which the reader does not need.
+    let good_shp = std::fs::read(&shp).unwrap();
+    std::fs::write(&shp, &good_shp[..good_shp.len() - 10]).unwrap();
+    fails_with(&inspect(dir.path()), &["roads.shp", "(.shp)"]);
+    // A record declaring 800 million parts (found by fuzzing: the reader
+    // reserved 3.2 GB for them before failing): refused from its size.
+    let mut huge = good_shp.clone();
+    huge[144..148].copy_from_slice(&800_000_000i32.to_le_bytes());
+    std::fs::write(&shp, &huge).unwrap();
+    fails_with(
+        &inspect(dir.path()),
+        &["roads.shp", "record 1", "800000000 part(s)", "corrupt"],
+    );
+    std::fs::write(&shp, &good_shp).unwrap();
+    std::fs::write(dir.path().join("roads.shx"), b"not an index").unwrap();
+    assert_eq!(inspect(dir.path()).status.code(), Some(0));
+}
+
+#[test]
+fn bad_option_values_exit_2_on_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = root().join("maps/helsinki.osm.pbf").display().to_string();
+    let scn = scenario("dr-straight-10km.toml");
+    for args in [
+        vec!["network", "inspect", &map, "--grid-n", "3"],
+        vec!["network", "inspect", &map, "--grid-n", "4096"],
+        vec!["network", "inspect", &map, "--tolerance=-1"],
+        vec!["network", "inspect", &map, "--tolerance", "NaN"],
+        vec!["simulate", &scn, "--runs", "0"],
+        vec!["simulate", &scn, "--runs", "100001"],
+        vec!["simulate", &scn, "--seed=-1"],
+        vec!["plan", &scn, "--runs", "100001"],
+        vec!["match", "--map", &map, "--track", "t.csv", "--method", "x"],
+    ] {
+        let out = run(&args, dir.path());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains("invalid value"), "{args:?}: {stderr}");
+    }
+}
+
+// --- 5. Clean output folders -----------------------------------------------------
+
+#[test]
+fn a_simulation_never_leaves_an_earlier_runs_files_beside_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dir.path().join("o");
+    std::fs::create_dir_all(o.join("plots")).unwrap();
+    // An earlier integrated run's files, its report, and a file of the user's.
+    for f in [
+        "errors.csv",
+        "summary.json",
+        "tag_passes.csv",
+        "report.html",
+        "plots/error_vs_time.png",
+        "notes.txt",
+    ] {
+        std::fs::write(o.join(f), "earlier").unwrap();
+    }
+    let out = run(
+        &["simulate", &scenario("dr-straight-10km.toml"), "--out", "o"],
+        dir.path(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut left: Vec<String> = std::fs::read_dir(&o)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(
+        left,
+        [
+            "errors.csv",
+            "inputs.json",
+            "notes.txt",
+            "scenario.toml",
+            "summary.json"
+        ]
+    );
+    assert_ne!(
+        std::fs::read_to_string(o.join("summary.json")).unwrap(),
+        "earlier"
+    );
+    assert_eq!(
+        std::fs::read_to_string(o.join("notes.txt")).unwrap(),
+        "earlier"
+    );
+}
+
+#[test]
+fn a_simulation_keeps_a_plan_in_the_same_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dir.path().join("o");
+    std::fs::create_dir_all(&o).unwrap();
+    for f in ["plan.json", "tags.csv", "profile.csv"] {
+        std::fs::write(o.join(f), "plan").unwrap();
+    }
+    let out = run(
+        &["simulate", &scenario("dr-straight-10km.toml"), "--out", "o"],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(0));
+    for f in ["plan.json", "tags.csv", "profile.csv", "summary.json"] {
+        assert!(o.join(f).exists(), "{f}");
+    }
+}
+
+#[test]
+fn sigterm_while_writing_removes_the_temporary_file() {
+    // A large errors.csv (200,000 rows, ~15 MB) takes long enough to write
+    // and sync that its hidden temporary file can be seen; the command is
+    // stopped the moment it appears.
+    let dir = tempfile::tempdir().unwrap();
+    let text = "output_interval_s = 0.01\nname = \"w\"\n[[route]]\n\
+        start = { lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = 45.0 }\n\
+        motion = [ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 2000 } ]\n\
+        [navigator]\nmode = \"dead_reckoning\"\n";
+    std::fs::write(dir.path().join("w.toml"), text).unwrap();
+    let o = dir.path().join("o");
+    let temporaries = || -> Vec<String> {
+        std::fs::read_dir(&o)
+            .map(|r| {
+                r.flatten()
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .filter(|n| n.starts_with('.') && n.contains(".tmp"))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let mut caught = 0;
+    for _ in 0..5 {
+        let _ = std::fs::remove_dir_all(&o);
+        let mut child = Command::new(env!("CARGO_BIN_EXE_waymark"))
+            .args(["simulate", "w.toml", "--out", "o", "-q"])
+            .current_dir(dir.path())
+            .spawn()
+            .unwrap();
+        let t0 = std::time::Instant::now();
+        let mut seen = false;
+        while t0.elapsed().as_secs() < 60 {
+            if !temporaries().is_empty() {
+                seen = true;
+                let _ = Command::new("kill")
+                    .args(["-TERM", &child.id().to_string()])
+                    .status();
+                break;
+            }
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+        }
+        let status = child.wait().unwrap();
+        assert!(temporaries().is_empty(), "left behind: {:?}", temporaries());
+        if seen && status.code() == Some(130) {
+            caught += 1;
+        }
+    }
+    // At least once the signal came while the file was being written.
+    assert!(caught >= 1, "the write was never caught in progress");
+}
