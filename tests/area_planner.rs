@@ -157,6 +157,10 @@ fn trips_bad_input_gives_one_clear_error() {
         &["s.toml", "planner.violation_probability", "between 0 and 1"],
     );
     expect_error(
+        planner("violation_probability = 1e-7"),
+        &["s.toml", "planner.violation_probability", "limit 50000"],
+    );
+    expect_error(
         planner("confidence = 0"),
         &["s.toml", "planner.confidence", "between 0 and 1"],
     );
