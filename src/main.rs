@@ -100,19 +100,19 @@ enum Command {
         #[arg(long, value_name = "PATH.geojson")]
         path_geojson: Option<PathBuf>,
         /// Candidate search radius (m) [default: from the track, 100-300 m].
-        #[arg(long, value_name = "M", value_parser = match_range(1.0, 1000.0))]
+        #[arg(long, value_name = "M", value_parser = waymark::workflow::number_in(1.0, 1000.0))]
         radius_m: Option<f64>,
         /// σ of the position noise (m) [default: from the track, at least 5 m].
-        #[arg(long, value_name = "M", value_parser = match_range(0.1, 500.0))]
+        #[arg(long, value_name = "M", value_parser = waymark::workflow::number_in(0.1, 500.0))]
         sigma_m: Option<f64>,
         /// Highest plausible speed: a transition may route at most this speed × the time between points.
-        #[arg(long, value_name = "KMH", default_value_t = MatchOptions::default().max_speed_kmh, value_parser = match_range(1.0, 1000.0))]
+        #[arg(long, value_name = "KMH", default_value_t = MatchOptions::default().max_speed_kmh, value_parser = waymark::workflow::number_in(1.0, 1000.0))]
         max_speed_kmh: f64,
         /// Time between points that breaks the track (s).
-        #[arg(long, value_name = "S", default_value_t = MatchOptions::default().max_gap_s, value_parser = match_range(0.1, 86_400.0))]
+        #[arg(long, value_name = "S", default_value_t = MatchOptions::default().max_gap_s, value_parser = waymark::workflow::number_in(0.1, 86_400.0))]
         max_gap_s: f64,
         /// Distance between points that breaks the track (m).
-        #[arg(long, value_name = "M", default_value_t = MatchOptions::default().max_gap_m, value_parser = match_range(1.0, 100_000.0))]
+        #[arg(long, value_name = "M", default_value_t = MatchOptions::default().max_gap_m, value_parser = waymark::workflow::number_in(1.0, 100_000.0))]
         max_gap_m: f64,
         /// Print one JSON object (counts, breaks, timings, scores) on stdout.
         #[arg(long)]
@@ -723,20 +723,6 @@ fn print_report(files: &waymark::report::ReportFiles, dir: &Path, out: Out) {
 }
 
 /// A `match` option's number, from `lo` to `hi` (else clap's exit 2).
-fn match_range(lo: f64, hi: f64) -> impl Fn(&str) -> std::result::Result<f64, String> + Clone {
-    move |s: &str| {
-        let x: f64 = s
-            .trim()
-            .parse()
-            .map_err(|_| format!("'{s}' is not a number"))?;
-        if x.is_finite() && (lo..=hi).contains(&x) {
-            Ok(x)
-        } else {
-            Err(format!("{x} is outside {lo} to {hi}"))
-        }
-    }
-}
-
 use waymark::matching::options::MatchOptions;
 
 fn match_track(job: &MatchJob, out: Out) -> Result<serde_json::Value> {

@@ -36,3 +36,19 @@ pub use matching::{
 pub use plan::{plan_folder, NetworkPlanFile, PlanFiles, PlanJob, PlanOutcome, RoutePlanFile};
 pub use progress::{Progress, Silent};
 pub use simulate::{simulate_folder, SimulateJob, SimulateOutcome};
+
+/// A command-line value parser for a number within `lo..=hi` (the message
+/// names the value and the range; clap adds the option and exits 2).
+pub fn number_in(lo: f64, hi: f64) -> impl Fn(&str) -> std::result::Result<f64, String> + Clone {
+    move |s: &str| {
+        let x: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}' is not a number"))?;
+        if x.is_finite() && (lo..=hi).contains(&x) {
+            Ok(x)
+        } else {
+            Err(format!("{x} is outside {lo} to {hi}"))
+        }
+    }
+}
