@@ -99,7 +99,9 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
         assert!(p["reason"].as_str().is_some());
         if let Some(b) = p["bound_m"].as_f64() {
             assert!(p["budget_with_tags"].as_f64().unwrap() <= 1.0 + 1e-9, "{p}");
-            assert!(b > 0.0 && b.is_finite());
+            // Within the requirement up to the profile's 10 m sampling
+            // (interpolation next to the reach): 2 %.
+            assert!(b > 0.0 && b <= 20.0 * 1.02, "{p}");
         }
         if p["budget_without_tags"].as_f64().unwrap() > 1.0 {
             over_without += 1;

@@ -86,15 +86,16 @@ pub struct MatchedReach {
     /// A drive ended before the bound reached the requirement (the reach
     /// is at least the figure given).
     pub capped: bool,
-    /// The bound after the turn: (distance after the turn m, bound m), every
-    /// ~10 m, to [`PROFILE_TO`] × the requirement or the drive's end.
+    /// The bound after a reset: (distance m, bound m), every ~10 m, to
+    /// [`PROFILE_TO`] × the requirement or the drive's end — after the turn
+    /// where turns reset, else from the prior.
     #[serde(skip)]
     pub profile: Vec<(f64, f64)>,
 }
 
 impl MatchedReach {
-    /// The predicted bound (m) after `d` metres without a reset: the turn
-    /// drive's profile, held at its last value beyond it.
+    /// The predicted bound (m) after `d` metres without a reset: the
+    /// profile, held at its last value beyond it.
     pub fn bound_after(&self, d: f64) -> f64 {
         profile_bound(&self.profile, d)
     }
@@ -310,7 +311,7 @@ pub fn matched_reach(
     let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
     // Start: straight from the prior.
     let (truth, _) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &[(0.0, total)])?;
-    let start = run(scn, &truth, 0.0, req, p, None, false, true)?;
+    let start = run(scn, &truth, 0.0, req, p, None, true, true)?;
     let start_capped = start.first_exceed_m.is_none();
     let start_reach = start.first_exceed_m.unwrap_or(start.end_m);
     // Turn: a warm-up, a weak turn, straight on.
@@ -353,7 +354,14 @@ pub fn matched_reach(
             bound_after_fix_m: tag.bound_after_fix,
             turns_reset,
             capped: start_capped || turn_capped || tag_capped,
-            profile: turn.profile.clone(),
+            // Where turns reset, the bound after a reset follows the turn
+            // drive; where they do not, the budget is the start reach's and
+            // the bound follows the drive from the prior.
+            profile: if turns_reset {
+                turn.profile.clone()
+            } else {
+                start.profile.clone()
+            },
         });
     }
     Ok(out)
