@@ -112,6 +112,20 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
         stdout.contains("rule:") && stdout.contains("Clopper"),
         "{stdout}"
     );
+    // The report draws the area plan from its folder (roads no sampled chain
+    // drives have a null bound and stay grey).
+    let rep = run(&["report", "out"], dir.path());
+    assert!(
+        rep.status.success(),
+        "{}",
+        String::from_utf8_lossy(&rep.stderr)
+    );
+    let html = std::fs::read_to_string(o.join("report.html")).unwrap();
+    assert!(
+        html.contains(&format!("{n} new tag")),
+        "the verdict names the plan"
+    );
+    assert!(!html.contains("NaN"));
 }
 
 /// Runs `plan` on the scenario edited by `edit`; expects one clean error
