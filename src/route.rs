@@ -361,24 +361,7 @@ pub fn plan_route_with(net: &Network, waypoints: &[[f64; 2]], tolerance_m: f64) 
             chainage_m: 0.0,
         });
     }
-    let mut all: Pieces = Vec::new();
-    let mut arrive_dir: Option<bool> = None;
-    for i in 0..snapped.len() - 1 {
-        let (a, b) = (snapped[i].point, snapped[i + 1].point);
-        let leg = shortest_path(net, a, b, arrive_dir)
-            .or_else(|| arrive_dir.and_then(|_| shortest_path(net, a, b, None)))
-            .ok_or_else(|| {
-                Error::InvalidParameter(format!(
-                    "no route from waypoint {} to waypoint {} honouring one-way roads",
-                    i + 1,
-                    i + 2
-                ))
-            })?;
-        arrive_dir = leg.0.last().map(|p| p.0.forward);
-        snapped[i + 1].chainage_m = snapped[i].chainage_m + leg.1;
-        all.extend(leg.0);
-    }
-    Ok(assemble(net, &all, snapped))
+    route_legs(net, snapped, "waypoint")
 }
 
 /// A route through points already on the network, leg by leg as
@@ -412,19 +395,36 @@ pub fn plan_route_points(net: &Network, points: &[SectionPoint]) -> Result<Route
             chainage_m: 0.0,
         });
     }
+    route_legs(net, snapped, "point")
+}
+
+/// The next leg of a route from `a` to `b` after arriving in direction
+/// `arrive_dir`: on in that direction when a route exists, else turning back
+/// (the rule for intermediate waypoints and trip ends).
+pub fn next_leg(
+    net: &Network,
+    a: SectionPoint,
+    b: SectionPoint,
+    arrive_dir: Option<bool>,
+) -> Option<(Pieces, f64)> {
+    shortest_path(net, a, b, arrive_dir)
+        .or_else(|| arrive_dir.and_then(|_| shortest_path(net, a, b, None)))
+}
+
+/// Joins the legs between consecutive snapped points (`what` names them in
+/// errors) into a route.
+fn route_legs(net: &Network, mut snapped: Vec<SnappedWaypoint>, what: &str) -> Result<Route> {
     let mut all: Pieces = Vec::new();
     let mut arrive_dir: Option<bool> = None;
     for i in 0..snapped.len() - 1 {
         let (a, b) = (snapped[i].point, snapped[i + 1].point);
-        let leg = shortest_path(net, a, b, arrive_dir)
-            .or_else(|| arrive_dir.and_then(|_| shortest_path(net, a, b, None)))
-            .ok_or_else(|| {
-                Error::InvalidParameter(format!(
-                    "no route from point {} to point {} honouring one-way roads",
-                    i + 1,
-                    i + 2
-                ))
-            })?;
+        let leg = next_leg(net, a, b, arrive_dir).ok_or_else(|| {
+            Error::InvalidParameter(format!(
+                "no route from {what} {} to {what} {} honouring one-way roads",
+                i + 1,
+                i + 2
+            ))
+        })?;
         arrive_dir = leg.0.last().map(|p| p.0.forward);
         snapped[i + 1].chainage_m = snapped[i].chainage_m + leg.1;
         all.extend(leg.0);

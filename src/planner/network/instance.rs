@@ -32,6 +32,34 @@ pub(super) struct Built {
     pub(super) edge_scale: Vec<f64>,
 }
 
+/// The key of a speed class: its speed in (km/h)/100, an integer.
+pub(super) fn speed_key(v_mps: f64) -> u64 {
+    (v_mps * 3.6 * 100.0).round() as u64
+}
+
+/// Speed class keys, mountings, and their (speed m/s, mounting) pairs.
+pub(super) type ClassesInUse = (BTreeSet<u64>, Vec<Mounting>, Vec<(f64, Mounting)>);
+
+/// The speed classes (keys) and mountings in use on a built instance, and
+/// their pairs (speed m/s, mounting); an error when no site can take any
+/// mounting.
+pub(super) fn classes_in_use(built: &Built) -> Result<ClassesInUse> {
+    let speeds: BTreeSet<u64> = built.edge_speed.iter().map(|&v| speed_key(v)).collect();
+    let names: BTreeSet<&'static str> = built.site_mounting.iter().map(|m| m.as_str()).collect();
+    let mountings: Vec<Mounting> = names.iter().filter_map(|m| Mounting::parse(m)).collect();
+    let classes: Vec<(f64, Mounting)> = speeds
+        .iter()
+        .flat_map(|&s| mountings.iter().map(move |&m| (s as f64 / 360.0, m)))
+        .collect();
+    if classes.is_empty() {
+        return Err(Error::InvalidParameter(
+            "no candidate site: none of planner.mountings is allowed on any road (ceiling only in tunnels)"
+                .into(),
+        ));
+    }
+    Ok((speeds, mountings, classes))
+}
+
 /// Typical speed of a road class where the map gives no `maxspeed` (km/h):
 /// urban figures, the slower end of common national defaults (slower is
 /// the worse case for the error budget).

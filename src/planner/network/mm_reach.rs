@@ -40,6 +40,7 @@ use crate::sim::tags::Mounting;
 use crate::sim::TruthSource;
 use crate::trajectory::{ideal_imu, RoutePlan, SpeedProfile};
 use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 /// The weakest turn that resets the along-road error (degrees): sin 45° =
@@ -403,4 +404,60 @@ pub fn profile_bound(p: &[(f64, f64)], d: f64) -> f64 {
         0.0
     };
     a.1 + t * (b.1 - a.1)
+}
+
+/// The matched reaches of every speed class in `speeds` (keys in
+/// (km/h)/100) for `mountings`, run in parallel, and per class: the reach
+/// (smallest over the mountings), whether turns reset (for every mounting)
+/// and the bound's profile.
+pub(crate) struct MatchedClasses {
+    pub all: Vec<MatchedReach>,
+    pub reach: BTreeMap<u64, f64>,
+    pub turns: BTreeMap<u64, bool>,
+    pub profiles: BTreeMap<u64, Vec<(f64, f64)>>,
+}
+
+/// [`MatchedClasses`] at the network's origin (degrees).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn matched_classes(
+    scn: &Scenario,
+    lat_deg: f64,
+    lon_deg: f64,
+    height_m: f64,
+    speeds: &BTreeSet<u64>,
+    mountings: &[Mounting],
+    req: f64,
+    p: f64,
+) -> Result<MatchedClasses> {
+    use rayon::prelude::*;
+    let per: Vec<Vec<MatchedReach>> = speeds
+        .par_iter()
+        .map(|&s| {
+            matched_reach(
+                scn,
+                lat_deg,
+                lon_deg,
+                height_m,
+                s as f64 / 360.0,
+                mountings,
+                req,
+                p,
+            )
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut out = MatchedClasses {
+        all: per.into_iter().flatten().collect(),
+        reach: BTreeMap::new(),
+        turns: BTreeMap::new(),
+        profiles: BTreeMap::new(),
+    };
+    for c in &out.all {
+        let k = (c.speed_kmh * 100.0).round() as u64;
+        let r = out.reach.entry(k).or_insert(f64::INFINITY);
+        *r = r.min(c.reach_m);
+        let t = out.turns.entry(k).or_insert(true);
+        *t = *t && c.turns_reset;
+        out.profiles.entry(k).or_insert_with(|| c.profile.clone());
+    }
+    Ok(out)
 }

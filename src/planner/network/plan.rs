@@ -4,7 +4,7 @@
 
 use super::cover::{self, Solved, Walk};
 use super::ilp::{self, IlpLimits, IlpOutcome};
-use super::instance::{build, describe_walk};
+use super::instance::{build, classes_in_use, describe_walk, speed_key};
 use super::reach::{reach_class, ReachClass};
 use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::NetworkPlan;
@@ -13,9 +13,8 @@ use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::planner::settings::PlannerSettings;
 use crate::scenario::Scenario;
-use crate::sim::tags::Mounting;
 use rayon::prelude::*;
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 /// Plans network coverage for a scenario: loads its map, computes the
@@ -91,29 +90,9 @@ pub fn plan_network_on(
     }
     // Reach per (speed, mounting) class in use.
     let t = Instant::now();
-    let speeds: BTreeSet<u64> = built
-        .edge_speed
-        .iter()
-        .map(|v| (v * 3.6 * 100.0).round() as u64)
-        .collect();
-    let mountings: BTreeSet<&'static str> =
-        built.site_mounting.iter().map(|m| m.as_str()).collect();
-    let classes: Vec<(f64, Mounting)> = speeds
-        .iter()
-        .flat_map(|&s| {
-            mountings
-                .iter()
-                .filter_map(move |m| Mounting::parse(m).map(|m| (s as f64 / 360.0, m)))
-        })
-        .collect();
-    if classes.is_empty() {
-        return Err(Error::InvalidParameter(
-            "no candidate site: none of planner.mountings is allowed on any road (ceiling only in tunnels)"
-                .into(),
-        ));
-    }
+    let (speeds, mountings, classes) = classes_in_use(&built)?;
     let origin = net.frame.origin();
-    let key = |v: f64| (v * 3.6 * 100.0).round() as u64;
+    let key = speed_key;
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
     let mm =
         scn.aiding().map_matching && scn.navigator().mode == crate::scenario::NavMode::Integrated;
@@ -123,37 +102,19 @@ pub fn plan_network_on(
     if mm {
         // Map matching credited (docs/DESIGN.md §3.4): the matched reach per
         // speed class, and walks that end at every turn map matching observes.
-        let ms: Vec<Mounting> = mountings
-            .iter()
-            .filter_map(|m| Mounting::parse(m))
-            .collect();
-        let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
-        let conf = scn.planner().requirement_confidence;
-        let per: Vec<Vec<super::mm_reach::MatchedReach>> = speeds
-            .par_iter()
-            .map(|&s| {
-                super::mm_reach::matched_reach(
-                    scn,
-                    lat0,
-                    lon0,
-                    height_m,
-                    s as f64 / 360.0,
-                    &ms,
-                    req,
-                    conf,
-                )
-            })
-            .collect::<Result<Vec<_>>>()?;
-        matched = per.into_iter().flatten().collect();
-        let mut turns: BTreeMap<u64, bool> = BTreeMap::new();
-        for c in &matched {
-            let r = class_reach
-                .entry(key(c.speed_kmh / 3.6))
-                .or_insert(f64::INFINITY);
-            *r = r.min(c.reach_m);
-            let t = turns.entry(key(c.speed_kmh / 3.6)).or_insert(true);
-            *t = *t && c.turns_reset;
-        }
+        let mc = super::mm_reach::matched_classes(
+            scn,
+            origin.lat.to_degrees(),
+            origin.lon.to_degrees(),
+            height_m,
+            &speeds,
+            &mountings,
+            req,
+            scn.planner().requirement_confidence,
+        )?;
+        matched = mc.all;
+        class_reach = mc.reach;
+        let turns = mc.turns;
         steady = matched
             .iter()
             .map(|c| c.tag_reach_m)

@@ -4,8 +4,8 @@
 //! guarantee, the tags with their reasons and the per-edge coverage.
 
 use super::coverage::edge_budgets;
-use super::instance::Built;
-use super::mm_reach::{matched_reach, profile_bound, straight_profile, MatchedReach, TURN_DEG};
+use super::instance::{classes_in_use, speed_key, Built};
+use super::mm_reach::{matched_classes, profile_bound, straight_profile, MatchedReach, TURN_DEG};
 use super::reach::{reach_class, ReachClass};
 use super::tag_sites::tags_of;
 use super::traffic::{Destinations, EdgeModel, WindowInfo};
@@ -16,7 +16,6 @@ use crate::network::Network;
 use crate::planner::settings::PlannerSettings;
 use crate::route::{snap, SectionPoint};
 use crate::scenario::{NavMode, Scenario};
-use crate::sim::tags::Mounting;
 use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
@@ -82,11 +81,6 @@ fn read_destinations(
     Ok((pts, w))
 }
 
-/// The class key of a speed (cm/s).
-fn key(v: f64) -> u64 {
-    (v * 3.6 * 100.0).round() as u64
-}
-
 /// Plans `trips` traffic on a built instance (module doc).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn plan_network_trips(
@@ -107,59 +101,27 @@ pub(super) fn plan_network_trips(
     let physical = built.physical_edges;
     // Reach per (speed class, mounting in use).
     let t = Instant::now();
-    let speeds: BTreeSet<u64> = built.edge_speed[..physical]
-        .iter()
-        .map(|&v| key(v))
-        .collect();
-    let mountings: BTreeSet<&'static str> =
-        built.site_mounting.iter().map(|m| m.as_str()).collect();
-    let classes: Vec<(f64, Mounting)> = speeds
-        .iter()
-        .flat_map(|&s| {
-            mountings
-                .iter()
-                .filter_map(move |m| Mounting::parse(m).map(|m| (s as f64 / 360.0, m)))
-        })
-        .collect();
-    if classes.is_empty() {
-        return Err(Error::InvalidParameter(
-            "no candidate site: none of planner.mountings is allowed on any road (ceiling only in tunnels)"
-                .into(),
-        ));
-    }
+    let (speeds, mountings, classes) = classes_in_use(&built)?;
     let origin = net.frame.origin();
     let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
-
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
     let mut profiles: BTreeMap<u64, Vec<(f64, f64)>> = BTreeMap::new();
     let mut matched: Vec<MatchedReach> = Vec::new();
     let mut class_turns: BTreeMap<u64, bool> = BTreeMap::new();
     let mut reach_classes: Vec<ReachClass> = Vec::new();
     if mm {
-        let ms: Vec<Mounting> = mountings
-            .iter()
-            .filter_map(|m| Mounting::parse(m))
-            .collect();
-        let per_speed: Vec<Vec<MatchedReach>> = speeds
-            .par_iter()
-            .map(|&s| matched_reach(scn, lat0, lon0, height_m, s as f64 / 360.0, &ms, req, conf))
-            .collect::<Result<Vec<_>>>()?;
-        matched = per_speed.into_iter().flatten().collect();
-        for c in &matched {
-            let v = c.speed_kmh / 3.6;
-            let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
-            *r = r.min(c.reach_m);
-            profiles.entry(key(v)).or_insert_with(|| c.profile.clone());
-            let t = class_turns.entry(key(v)).or_insert(true);
-            *t = *t && c.turns_reset;
-        }
+        let mc = matched_classes(scn, lat0, lon0, height_m, &speeds, &mountings, req, conf)?;
+        matched = mc.all;
+        class_reach = mc.reach;
+        class_turns = mc.turns;
+        profiles = mc.profiles;
     } else {
         reach_classes = classes
             .par_iter()
             .map(|&(v, m)| reach_class(scn, origin.lat, origin.lon, height_m, v, m, req))
             .collect::<Result<Vec<_>>>()?;
         for (c, &(v, _)) in reach_classes.iter().zip(&classes) {
-            let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
+            let r = class_reach.entry(speed_key(v)).or_insert(f64::INFINITY);
             *r = r.min(c.steady_reach_m.min(c.start_reach_m));
         }
         let sp: Vec<(u64, Vec<(f64, f64)>)> = speeds
@@ -193,11 +155,11 @@ pub(super) fn plan_network_trips(
     }
     let rate: Vec<f64> = built.edge_speed[..physical]
         .iter()
-        .map(|&v| 1.0 / class_reach.get(&key(v)).copied().unwrap_or(reach_m))
+        .map(|&v| 1.0 / class_reach.get(&speed_key(v)).copied().unwrap_or(reach_m))
         .collect();
     let turn_resets: Vec<bool> = built.edge_speed[..physical]
         .iter()
-        .map(|&v| mm && class_turns.get(&key(v)).copied().unwrap_or(false))
+        .map(|&v| mm && class_turns.get(&speed_key(v)).copied().unwrap_or(false))
         .collect();
     let model = EdgeModel::new(
         net,
@@ -292,16 +254,16 @@ pub(super) fn plan_network_trips(
             Some(w) if mm && w.at_start => format!(
                 "{tunnel}{:.1} km from a chain's start without a turn of ≥ {TURN_DEG:.0}° (reach with map matching {:.0} m at {v:.0} km/h)",
                 w.stretch_m / 1000.0,
-                class_reach.get(&key(v / 3.6)).copied().unwrap_or(reach_m)
+                class_reach.get(&speed_key(v / 3.6)).copied().unwrap_or(reach_m)
             ),
             Some(w) if mm => format!(
                 "{tunnel}{:.1} km without a turn of ≥ {TURN_DEG:.0}° (reach with map matching {:.0} m at {v:.0} km/h)",
                 w.stretch_m / 1000.0,
-                class_reach.get(&key(v / 3.6)).copied().unwrap_or(reach_m)
+                class_reach.get(&speed_key(v / 3.6)).copied().unwrap_or(reach_m)
             ),
             Some(_) => format!(
                 "{tunnel}no map matching: every {:.0} m of driving at {v:.0} km/h needs {} read(s)",
-                class_reach.get(&key(v / 3.6)).copied().unwrap_or(reach_m),
+                class_reach.get(&speed_key(v / 3.6)).copied().unwrap_or(reach_m),
                 k + 1
             ),
             None => "kept by the multicover".to_string(),
@@ -313,8 +275,11 @@ pub(super) fn plan_network_trips(
     for c in &mut coverage {
         let e = c.edge as usize;
         let v = built.edge_speed[e];
-        let r = class_reach.get(&key(v)).copied().unwrap_or(reach_m);
-        let prof = profiles.get(&key(v)).map(Vec::as_slice).unwrap_or(&[]);
+        let r = class_reach.get(&speed_key(v)).copied().unwrap_or(reach_m);
+        let prof = profiles
+            .get(&speed_key(v))
+            .map(Vec::as_slice)
+            .unwrap_or(&[]);
         c.speed_kmh = v * 3.6;
         if c.passes > 0 {
             c.bound_with_tags_m =

@@ -29,7 +29,7 @@
 use super::mm_reach::TURN_DEG;
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
-use crate::route::{section_points, shortest_path, SectionPoint};
+use crate::route::{next_leg, section_points, SectionPoint};
 use rand::Rng;
 use std::collections::HashMap;
 
@@ -351,9 +351,7 @@ pub(crate) fn sample_chain<R: Rng>(
         let next = dest.draw(net, rng);
         if next == cur {
             failures += 1;
-        } else if let Some((pieces, _)) = shortest_path(net, cur, next, arrive)
-            .or_else(|| arrive.and_then(|_| shortest_path(net, cur, next, None)))
-        {
+        } else if let Some((pieces, _)) = next_leg(net, cur, next, arrive) {
             trips += 1;
             for (ds, from, to) in pieces {
                 let Some(&e) = model.index.get(&(ds.section, ds.forward)) else {
