@@ -17,11 +17,13 @@
 //!
 //! * **start**: from the scenario's prior, a straight road until the bound
 //!   reaches the requirement (`start_reach_m`);
-//! * **turn**: the same road for `min(start reach, 3 km)`, a turn of exactly
-//!   [`TURN_DEG`] (the weakest turn that counts), then straight: the distance
-//!   after the turn until the bound reaches the requirement
-//!   (`turn_reach_m`) and the bound's profile after the turn (for the
-//!   predicted bound of a road piece);
+//! * **turn**: the same road for `min(start reach, 3 km)`, a warm-up of
+//!   right-angle legs, then a turn of exactly [`TURN_DEG`] (the weakest
+//!   that counts), either sharp or spread over [`CURVE_M`] as on a winding
+//!   road, then straight: the distance from where the turn's reset zone
+//!   ends (`super::turns`) until the bound reaches the requirement
+//!   (`turn_reach_m`, the weaker of the two turns) and the bound's profile
+//!   from there (for the predicted bound of a road piece);
 //! * **tag**: the turn drive fixed by a tag of the mounting each time the
 //!   bound reaches the requirement, until the distances between fixes
 //!   settle (`tag_reach_m`, their minimum).
@@ -31,6 +33,7 @@
 //! allows; real chains turn more often and fare better. Checked by the
 //! Monte Carlo validation on sampled chains.
 
+use super::turns::CURVE_M;
 use crate::error::{Error, Result};
 use crate::network::{model_from_polylines, Network, Oneway, RoadAttributes};
 use crate::route::plan_route;
@@ -55,6 +58,15 @@ const FIRST_LEG_MAX_M: f64 = 3_000.0;
 pub const WARM_UP_LEGS: usize = 6;
 /// Length of each warm-up leg (m).
 pub const WARM_UP_LEG_M: f64 = 500.0;
+/// Corners of the calibration's slow curve.
+const CURVE_CORNERS: usize = 8;
+/// The curve distance where only quick turns reset (m): a junction's
+/// corner or a hairpin.
+pub const SHARP_CURVE_M: f64 = 30.0;
+/// Turns get credit when the reach after one is at least this share of the
+/// start reach (a turn that leaves the bound near the requirement would
+/// shorten every stretch's budget more than its resets gain).
+const MIN_TURN_SHARE: f64 = 0.5;
 /// The bound profile after a turn is kept to this multiple of the
 /// requirement (m/m).
 const PROFILE_TO: f64 = 4.0;
@@ -81,9 +93,15 @@ pub struct MatchedReach {
     pub bound_after_turn_m: f64,
     /// Bound right after a tag fix in steady state (m).
     pub bound_after_fix_m: f64,
-    /// Whether a turn resets the error (the bound after the turn falls
-    /// below the requirement). Without, only tags do.
+    /// Whether turns reset the error: the bound after the turn falls below
+    /// the requirement and stays there for at least half the start reach.
+    /// Without, only tags do.
     pub turns_reset: bool,
+    /// The distance within which a heading change of [`TURN_DEG`] counts as
+    /// a turn at this speed (m; `super::turns`): [`CURVE_M`], or
+    /// [`SHARP_CURVE_M`] where a slow curve does not reset, 0 without turn
+    /// credit.
+    pub curve_m: f64,
     /// A drive ended before the bound reached the requirement (the reach
     /// is at least the figure given).
     pub capped: bool,
@@ -104,7 +122,7 @@ impl MatchedReach {
 
 /// A road of straight legs (heading clockwise from north in degrees,
 /// length m) as a network with one two-way road; returns its truth at
-/// `speed_mps` and the chainage of the last corner (0 for a single leg).
+/// `speed_mps` and the chainages of its corners, in order.
 fn synthetic_drive(
     scn: &Scenario,
     lat_deg: f64,
@@ -112,7 +130,7 @@ fn synthetic_drive(
     height_m: f64,
     speed_mps: f64,
     legs: &[(f64, f64)],
-) -> Result<(TruthSource, f64)> {
+) -> Result<(TruthSource, Vec<f64>)> {
     let m_per_deg_lat = 111_320.0;
     let m_per_deg_lon = 111_320.0 * lat_deg.to_radians().cos();
     let mut pts = vec![[lat_deg, lon_deg]];
@@ -140,11 +158,9 @@ fn synthetic_drive(
     let corners = pts.len() - 2;
     let net = Network::from_model(model_from_polylines(vec![(attrs, vec![pts])])?, None)?;
     let route = plan_route(&net, &ends)?;
-    let turn_at = if corners > 0 && route.vertices.len() > corners {
-        route.vertices[corners].chainage_m
-    } else {
-        0.0
-    };
+    let turns: Vec<f64> = (1..=corners)
+        .filter_map(|i| route.vertices.get(i).map(|v| v.chainage_m))
+        .collect();
     let profile = SpeedProfile {
         speed_mps,
         // Corners taken at speed: the analysis is about distance and time.
@@ -152,7 +168,7 @@ fn synthetic_drive(
         ..Default::default()
     };
     let plan = RoutePlan::new(&net, &route, &profile, &[], height_m, scn.dt)?;
-    Ok((TruthSource::from_route(Arc::new(net), route, plan), turn_at))
+    Ok((TruthSource::from_route(Arc::new(net), route, plan), turns))
 }
 
 /// The warm-up before the weak turn: [`WARM_UP_LEGS`] legs of
@@ -171,6 +187,46 @@ fn warm_up(first: f64) -> Vec<(f64, f64)> {
             )
         })
         .collect()
+}
+
+/// The calibration's turn drives at curve distance `w`: sharp and spread
+/// over `w`, each run from where its reset zone ends; the weaker (shorter
+/// reach) with its start and truth.
+#[allow(clippy::too_many_arguments)]
+fn turn_drive(
+    scn: &Scenario,
+    at: [f64; 3],
+    speed_mps: f64,
+    first: f64,
+    total: f64,
+    w: f64,
+    req: f64,
+    p: f64,
+) -> Result<(Drive, f64, TruthSource)> {
+    let base = warm_up(first);
+    let last = base.last().map_or(0.0, |l| l.0);
+    let mut sharp = base.clone();
+    sharp.push((last + TURN_DEG, total));
+    let mut gradual = base;
+    let step = w / CURVE_CORNERS as f64;
+    for i in 1..CURVE_CORNERS {
+        gradual.push((last + TURN_DEG * i as f64 / CURVE_CORNERS as f64, step));
+    }
+    gradual.push((last + TURN_DEG, total));
+    let mut best: Option<(Drive, f64, TruthSource)> = None;
+    for legs in [sharp, gradual] {
+        let (truth, corners) = synthetic_drive(scn, at[0], at[1], at[2], speed_mps, &legs)?;
+        let from = corners.get(WARM_UP_LEGS - 1).copied().unwrap_or(0.0) + w;
+        let d = run(scn, &truth, from, req, p, None, true, true)?;
+        let reach = d.first_exceed_m.unwrap_or(d.end_m) - from;
+        if best
+            .as_ref()
+            .is_none_or(|b| reach < b.0.first_exceed_m.unwrap_or(b.0.end_m) - b.1)
+        {
+            best = Some((d, from, truth));
+        }
+    }
+    best.ok_or_else(|| Error::InvalidParameter("no calibration turn drive".into()))
 }
 
 /// What one drive measured.
@@ -315,14 +371,39 @@ pub fn matched_reach(
     let start = run(scn, &truth, 0.0, req, p, None, true, true)?;
     let start_capped = start.first_exceed_m.is_none();
     let start_reach = start.first_exceed_m.unwrap_or(start.end_m);
-    // Turn: a warm-up, a weak turn, straight on.
+    // Turn: a warm-up, then a turn of TURN_DEG, sharp or spread over the
+    // curve distance W, then straight on; each measured from where its reset
+    // zone ends (`super::turns`: W after the sharp corner or after the
+    // curve's first corner), the weaker of the two kept. W is CURVE_M if
+    // that turn's reach is at least half the start reach, else SHARP_CURVE_M
+    // (only quick turns count at this speed), else turns get no credit.
     let first = start_reach.clamp(200.0, FIRST_LEG_MAX_M);
-    let mut legs = warm_up(first);
-    let last = legs.last().map_or(0.0, |l| l.0);
-    legs.push((last + TURN_DEG, total));
-    let (truth, turn_at) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &legs)?;
-    let turn = run(scn, &truth, turn_at, req, p, None, true, true)?;
-    let turns_reset = turn.min_after_turn < req;
+    let mut chosen: Option<(Drive, f64, TruthSource, f64)> = None;
+    for w in [CURVE_M, SHARP_CURVE_M] {
+        let t = turn_drive(
+            scn,
+            [lat_deg, lon_deg, height_m],
+            speed_mps,
+            first,
+            total,
+            w,
+            req,
+            p,
+        )?;
+        let reach = t.0.first_exceed_m.unwrap_or(t.0.end_m) - t.1;
+        let ok = t.0.min_after_turn < req && reach >= MIN_TURN_SHARE * start_reach;
+        let keep = ok || chosen.is_none();
+        if keep {
+            chosen = Some((t.0, t.1, t.2, if ok { w } else { 0.0 }));
+        }
+        if ok {
+            break;
+        }
+    }
+    let Some((turn, turn_at, truth, curve_m)) = chosen else {
+        return Err(Error::InvalidParameter("no calibration turn drive".into()));
+    };
+    let turns_reset = curve_m > 0.0;
     let (turn_reach, turn_capped) = match turn.first_exceed_m {
         Some(x) => ((x - turn_at).max(0.0), false),
         None => (turn.end_m - turn_at, true),
@@ -354,6 +435,7 @@ pub fn matched_reach(
             bound_after_turn_m: turn.min_after_turn,
             bound_after_fix_m: tag.bound_after_fix,
             turns_reset,
+            curve_m,
             capped: start_capped || turn_capped || tag_capped,
             // Where turns reset, the bound after a reset follows the turn
             // drive; where they do not, the budget is the start reach's and
@@ -414,6 +496,9 @@ pub(crate) struct MatchedClasses {
     pub all: Vec<MatchedReach>,
     pub reach: BTreeMap<u64, f64>,
     pub turns: BTreeMap<u64, bool>,
+    /// The curve distance per class (m; 0: no turn credit), the smallest
+    /// over the mountings.
+    pub curve: BTreeMap<u64, f64>,
     pub profiles: BTreeMap<u64, Vec<(f64, f64)>>,
 }
 
@@ -449,6 +534,7 @@ pub(crate) fn matched_classes(
         all: per.into_iter().flatten().collect(),
         reach: BTreeMap::new(),
         turns: BTreeMap::new(),
+        curve: BTreeMap::new(),
         profiles: BTreeMap::new(),
     };
     for c in &out.all {
@@ -457,6 +543,8 @@ pub(crate) fn matched_classes(
         *r = r.min(c.reach_m);
         let t = out.turns.entry(k).or_insert(true);
         *t = *t && c.turns_reset;
+        let w = out.curve.entry(k).or_insert(f64::INFINITY);
+        *w = w.min(c.curve_m);
         out.profiles.entry(k).or_insert_with(|| c.profile.clone());
     }
     Ok(out)

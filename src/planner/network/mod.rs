@@ -86,6 +86,7 @@ pub(crate) mod settings;
 pub(crate) mod tag_sites;
 pub(crate) mod traffic;
 pub(crate) mod trips;
+pub(crate) mod turns;
 pub(crate) mod types;
 pub(crate) mod validation;
 

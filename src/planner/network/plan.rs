@@ -282,7 +282,7 @@ pub fn plan_network_on(
         built.edge_speed[..physical].to_vec(),
         vec![0.0; physical],
         vec![Vec::new(); physical],
-        vec![false; physical],
+        vec![0.0; physical],
     );
     let main = super::traffic::main_component(net, &model);
     let dest = super::traffic::Destinations::by_length(net, &model, &main)?;

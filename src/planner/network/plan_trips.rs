@@ -107,13 +107,13 @@ pub(super) fn plan_network_trips(
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
     let mut profiles: BTreeMap<u64, Vec<(f64, f64)>> = BTreeMap::new();
     let mut matched: Vec<MatchedReach> = Vec::new();
-    let mut class_turns: BTreeMap<u64, bool> = BTreeMap::new();
+    let mut class_curve: BTreeMap<u64, f64> = BTreeMap::new();
     let mut reach_classes: Vec<ReachClass> = Vec::new();
     if mm {
         let mc = matched_classes(scn, lat0, lon0, height_m, &speeds, &mountings, req, conf)?;
         matched = mc.all;
         class_reach = mc.reach;
-        class_turns = mc.turns;
+        class_curve = mc.curve;
         profiles = mc.profiles;
     } else {
         reach_classes = classes
@@ -157,9 +157,15 @@ pub(super) fn plan_network_trips(
         .iter()
         .map(|&v| 1.0 / class_reach.get(&speed_key(v)).copied().unwrap_or(reach_m))
         .collect();
-    let turn_resets: Vec<bool> = built.edge_speed[..physical]
+    let curve: Vec<f64> = built.edge_speed[..physical]
         .iter()
-        .map(|&v| mm && class_turns.get(&speed_key(v)).copied().unwrap_or(false))
+        .map(|&v| {
+            if mm {
+                class_curve.get(&speed_key(v)).copied().unwrap_or(0.0)
+            } else {
+                0.0
+            }
+        })
         .collect();
     let model = EdgeModel::new(
         net,
@@ -167,7 +173,7 @@ pub(super) fn plan_network_trips(
         built.edge_speed[..physical].to_vec(),
         rate,
         sites,
-        turn_resets,
+        curve,
     );
     let main = super::traffic::main_component(net, &model);
     let dest = match &p.destinations {
@@ -243,6 +249,17 @@ pub(super) fn plan_network_trips(
     timings.insert("solve".into(), t.elapsed().as_secs_f64() * 1e3);
     let sel = tp.selected.clone();
     // Tags with their reasons.
+    // "a turn of ≥ 45° within 200 m" at the class's curve distance.
+    let turn_words = |v_kmh: f64| -> String {
+        match class_curve
+            .get(&speed_key(v_kmh / 3.6))
+            .copied()
+            .unwrap_or(0.0)
+        {
+            w if w > 0.0 => format!("a turn of ≥ {TURN_DEG:.0}° within {w:.0} m"),
+            _ => "a tag (turns give no credit at this speed)".to_string(),
+        }
+    };
     let reason = |i: usize| -> String {
         let site = &prob.sites[i];
         let (sec, _) = built.edge_dir[site.edge as usize];
@@ -252,13 +269,15 @@ pub(super) fn plan_network_trips(
         match &tp.site_reason[i] {
             _ if site.existing => "installed already".to_string(),
             Some(w) if mm && w.at_start => format!(
-                "{tunnel}{:.1} km from a chain's start without a turn of ≥ {TURN_DEG:.0}° (reach with map matching {:.0} m at {v:.0} km/h)",
+                "{tunnel}{:.1} km from a chain's start without {} (reach with map matching {:.0} m at {v:.0} km/h)",
                 w.stretch_m / 1000.0,
+                turn_words(v),
                 class_reach.get(&speed_key(v / 3.6)).copied().unwrap_or(reach_m)
             ),
             Some(w) if mm => format!(
-                "{tunnel}{:.1} km without a turn of ≥ {TURN_DEG:.0}° (reach with map matching {:.0} m at {v:.0} km/h)",
+                "{tunnel}{:.1} km without {} (reach with map matching {:.0} m at {v:.0} km/h)",
                 w.stretch_m / 1000.0,
+                turn_words(v),
                 class_reach.get(&speed_key(v / 3.6)).copied().unwrap_or(reach_m)
             ),
             Some(_) => format!(
@@ -302,8 +321,9 @@ pub(super) fn plan_network_trips(
             }
         } else if mm {
             format!(
-                "{tunnel}up to {:.0} m driven without a turn of ≥ {TURN_DEG:.0}° (reach {r:.0} m at {:.0} km/h)",
+                "{tunnel}up to {:.0} m driven without {} (reach {r:.0} m at {:.0} km/h)",
                 c.budget_without_tags * r,
+                turn_words(v * 3.6),
                 v * 3.6
             )
         } else {
@@ -363,7 +383,7 @@ pub(super) fn plan_network_trips(
             } else {
                 "greedy set multicover with reverse deletion"
             },
-            if mm { " (turns of ≥ 45° reset)" } else { " the traffic used" },
+            if mm { " (a heading change of ≥ 45° within the class's curve distance resets)" } else { " the traffic used" },
             p.planning_chains + g.added_chains,
             tp.windows,
             g.rounds

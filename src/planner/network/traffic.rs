@@ -27,6 +27,7 @@
 //!   `k + 1` tags before the stretch ends.
 
 use super::mm_reach::TURN_DEG;
+use super::turns::{heading_samples, intrinsic_resets, walk_edge, TurnWindow};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::route::{next_leg, section_points, SectionPoint};
@@ -35,8 +36,6 @@ use std::collections::HashMap;
 
 /// Length of the chords whose headings define a turn (m).
 pub const CHORD_M: f64 = 15.0;
-/// Bends closer than this count as one (m).
-const BEND_MERGE_M: f64 = 30.0;
 /// Most trips in one chain (a guard against a shift far longer than the
 /// network's trips).
 pub const MAX_TRIPS_PER_CHAIN: usize = 200_000;
@@ -59,14 +58,23 @@ pub(crate) struct EdgeModel {
     pub start_heading: Vec<f64>,
     /// Heading of the last chord.
     pub end_heading: Vec<f64>,
-    /// Positions along the edge of bends that reset (m).
+    /// Where a stretch starts after the edge's own turns (m): the ends of
+    /// its reset zones, scanned from its start without history
+    /// ([`super::turns`]).
     pub bends: Vec<Vec<f64>>,
+    /// Heading samples (position m, heading rad), [`super::turns`].
+    pub headings: Vec<Vec<(f32, f32)>>,
+    /// Reset positions independent of the drive before the edge.
+    pub intrinsic: Vec<Vec<f64>>,
     /// Edge length (m).
     pub length: Vec<f64>,
     /// Turns onto (and bends along) the edge reset the along-road error:
     /// map matching on, and its speed class's turn drive brought the bound
     /// back within the requirement.
     pub turn_resets: Vec<bool>,
+    /// The class's curve distance (m; 0: turns give no credit), see
+    /// [`super::turns`].
+    pub curve: Vec<f64>,
 }
 
 fn heading(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -131,8 +139,9 @@ impl EdgeModel {
         speed: Vec<f64>,
         rate: Vec<f64>,
         sites: Vec<Vec<(f64, u32)>>,
-        turn_resets: Vec<bool>,
+        curve: Vec<f64>,
     ) -> Self {
+        let turn_resets: Vec<bool> = curve.iter().map(|&w| w > 0.0).collect();
         let n = dir.len();
         let mut index = HashMap::with_capacity(n);
         let (mut sh, mut eh, mut bends, mut length) = (
@@ -141,6 +150,7 @@ impl EdgeModel {
             Vec::with_capacity(n),
             Vec::with_capacity(n),
         );
+        let (mut headings, mut intrinsic) = (Vec::with_capacity(n), Vec::with_capacity(n));
         for (e, &(sec, fwd)) in dir.iter().enumerate() {
             index.insert((sec, fwd), e as u32);
             let len = net.sections[sec as usize].length_m;
@@ -155,17 +165,19 @@ impl EdgeModel {
             let ch = CHORD_M.min(total);
             sh.push(heading(pts[0], at(&pts, &cum, ch)));
             eh.push(heading(at(&pts, &cum, total - ch), pts[pts.len() - 1]));
-            let mut b: Vec<f64> = Vec::new();
-            for (i, &c) in cum.iter().enumerate().take(pts.len() - 1).skip(1) {
-                if c < CHORD_M || c > total - CHORD_M {
-                    continue;
-                }
-                let h0 = heading(at(&pts, &cum, c - CHORD_M), pts[i]);
-                let h1 = heading(pts[i], at(&pts, &cum, c + CHORD_M));
-                if resets(turn_deg(h0, h1)) && b.last().is_none_or(|&l| c - l > BEND_MERGE_M) {
-                    b.push(c * len / total.max(1e-9));
-                }
-            }
+            let samples = heading_samples(&pts, len / total.max(1e-9));
+            let mut w = TurnWindow::default();
+            let flags: Vec<bool> = samples
+                .iter()
+                .map(|&(x, h)| w.push(x as f64, h, curve[e]))
+                .collect();
+            // Zone ends: a resetting sample followed by one that does not.
+            let b: Vec<f64> = (0..samples.len())
+                .filter(|&i| flags[i] && !flags.get(i + 1).copied().unwrap_or(false))
+                .map(|i| samples[i].0 as f64)
+                .collect();
+            intrinsic.push(intrinsic_resets(&samples, curve[e]));
+            headings.push(samples);
             bends.push(b);
             length.push(len);
         }
@@ -178,8 +190,11 @@ impl EdgeModel {
             start_heading: sh,
             end_heading: eh,
             bends,
+            headings,
+            intrinsic,
             length,
             turn_resets,
+            curve,
         }
     }
 }
@@ -418,43 +433,32 @@ pub(crate) struct ChainBudget {
     pub straight: Vec<(u32, u32)>,
 }
 
-/// The budget view of a chain (resets at turns when `map_matching`).
+/// The budget view of a chain (resets at turns when `map_matching`,
+/// [`super::turns`]).
 pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool) -> ChainBudget {
     let mut out = ChainBudget::default();
     let (mut b, mut c) = (0.0, 0.0);
     out.resets.push((0.0, 0.0));
     let mut prev: Option<Piece> = None;
+    let mut win = TurnWindow::default();
     for p in &chain.pieces {
         let e = p.edge as usize;
         let rate = model.rate[e];
-        if let Some(q) = prev.filter(|_| !map_matching) {
+        if let Some(q) = prev {
             let qe = q.edge as usize;
-            if (q.a1 - model.length[qe]).abs() < 1e-6 && p.a0.abs() < 1e-6 {
-                out.straight.push((q.edge, p.edge));
+            let joined = (q.a1 - model.length[qe]).abs() < 1e-6 && p.a0.abs() < 1e-6;
+            let u_turn = model.dir[qe].0 == model.dir[e].0;
+            if !joined || u_turn {
+                // Turning back on the spot observes nothing.
+                win.clear();
             }
-        }
-        if map_matching {
-            if let Some(q) = prev {
-                // A junction turn: the previous piece ended at its edge's end
-                // and this one starts at its edge's start.
-                let qe = q.edge as usize;
-                let h0 = if (q.a1 - model.length[qe]).abs() < 1e-6 {
-                    model.end_heading[qe]
-                } else {
-                    f64::NAN
-                };
-                let h1 = if p.a0.abs() < 1e-6 {
-                    model.start_heading[e]
-                } else {
-                    f64::NAN
-                };
-                if model.turn_resets[e]
-                    && h0.is_finite()
-                    && h1.is_finite()
-                    && resets(turn_deg(h0, h1))
-                {
-                    out.resets.push((b, c));
-                } else if h0.is_finite() && h1.is_finite() {
+            if joined {
+                // A junction transition the straight walks may follow: not
+                // a sharp resetting turn (chords at the junction).
+                let sharp = map_matching
+                    && model.turn_resets[e]
+                    && resets(turn_deg(model.end_heading[qe], model.start_heading[e]));
+                if !sharp {
                     out.straight.push((q.edge, p.edge));
                 }
             }
@@ -464,14 +468,22 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
                 out.sites.push((b + (at - p.a0) * rate, site));
             }
         }
-        if map_matching && model.turn_resets[e] {
-            for &x in &model.bends[e] {
-                if x > p.a0 && x < p.a1 {
-                    out.resets.push((b + (x - p.a0) * rate, c + x - p.a0));
-                }
-            }
+        if map_matching {
+            let resets = &mut out.resets;
+            walk_edge(
+                &model.headings[e],
+                &model.intrinsic[e],
+                p.a0,
+                p.a1,
+                c,
+                &mut win,
+                model.curve[e],
+                |x| {
+                    resets.push((b + (x - p.a0) * rate, c + x - p.a0));
+                    false
+                },
+            );
         }
-        // Sites and bends of one piece are each in order; merge by position.
         out.pieces.push((p.edge, b, b + (p.a1 - p.a0) * rate));
         b += (p.a1 - p.a0) * rate;
         c += p.a1 - p.a0;
@@ -580,6 +592,23 @@ pub const MAX_UTURNS: u8 = 1;
 /// Most paths followed from one window start (a guard against forks).
 const MAX_PATHS: usize = 256;
 
+/// A straight walk's state at an edge.
+struct Step {
+    edge: u32,
+    /// Position along the edge (m).
+    x: f64,
+    /// Budget used so far.
+    u: f64,
+    /// Sites passed.
+    ids: Vec<u32>,
+    /// Junction U-turns made.
+    turned: u8,
+    /// The walk's headings of the last `CURVE_M`.
+    win: TurnWindow,
+    /// The walk's chainage at `x` (m).
+    c: f64,
+}
+
 /// Windows of every straight walk the traffic makes possible: from each
 /// edge start and each candidate site of the edges `used`, forward along
 /// the junction transitions without a reset in `straight`, stopping at
@@ -615,18 +644,44 @@ pub(crate) fn straight_windows(
         for (x0, inclusive) in starts {
             let mut paths = 0usize;
             // Stack of (edge, position along it, budget so far, sites so far,
-            // a U-turn made).
-            let mut stack: Vec<(u32, f64, f64, Vec<u32>, u8)> =
-                vec![(e as u32, x0, 0.0, Vec::new(), 0)];
-            while let Some((ed, x, u, mut ids, turned)) = stack.pop() {
+            // a U-turn made, the headings of the last CURVE_M, chainage).
+            let mut stack: Vec<Step> = vec![Step {
+                edge: e as u32,
+                x: x0,
+                u: 0.0,
+                ids: Vec::new(),
+                turned: 0,
+                win: TurnWindow::default(),
+                c: 0.0,
+            }];
+            while let Some(st) = stack.pop() {
+                let Step {
+                    edge: ed,
+                    x,
+                    u,
+                    mut ids,
+                    turned,
+                    mut win,
+                    c,
+                } = st;
                 let ei = ed as usize;
                 let rate = model.rate[ei];
                 let len = model.length[ei];
-                let bend = if model.turn_resets[ei] {
-                    model.bends[ei].iter().copied().find(|&b| b > x + 1e-9)
-                } else {
-                    None
-                };
+                // The first reset on this edge from x, with the walk's history.
+                let mut bend = None;
+                walk_edge(
+                    &model.headings[ei],
+                    &model.intrinsic[ei],
+                    x,
+                    len + 1.0,
+                    c,
+                    &mut win,
+                    model.curve[ei],
+                    |r| {
+                        bend = Some(r);
+                        true
+                    },
+                );
                 let stop = bend.unwrap_or(len);
                 // Where the budget reaches 1 on this edge, if it does.
                 let reach_at = if rate > 0.0 {
@@ -664,13 +719,19 @@ pub(crate) fn straight_windows(
                     if is_u && turned >= MAX_UTURNS {
                         continue;
                     }
-                    stack.push((
-                        nx & !UTURN_FLAG,
-                        0.0,
-                        u + (len - x) * rate,
-                        ids.clone(),
-                        turned + u8::from(is_u),
-                    ));
+                    let mut w = win.clone();
+                    if is_u {
+                        w.clear();
+                    }
+                    stack.push(Step {
+                        edge: nx & !UTURN_FLAG,
+                        x: 0.0,
+                        u: u + (len - x) * rate,
+                        ids: ids.clone(),
+                        turned: turned + u8::from(is_u),
+                        win: w,
+                        c: c + len - x,
+                    });
                 }
             }
         }
