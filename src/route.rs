@@ -182,7 +182,6 @@ pub fn shortest_path(
     start_dir: Option<bool>,
 ) -> Option<(Pieces, f64)> {
     let sf = &net.sections[from.section as usize];
-    let st = &net.sections[to.section as usize];
     let mut best: Option<(Pieces, f64)> = None;
     let dir_ok = |fwd: bool| start_dir.is_none_or(|d| d == fwd);
 
@@ -214,10 +213,79 @@ pub fn shortest_path(
     // target section plus the rest from there (consistent: a section is
     // never shorter than its chord), so the search stops as soon as no
     // queued node can improve on the best arrival, with Dijkstra's result.
-    let nn = net.nodes.len();
-    let mut dist = vec![f64::INFINITY; nn];
-    let mut pred: Vec<Option<DirectedSection>> = vec![None; nn];
-    let mut heap = BinaryHeap::new();
+    SCRATCH.with(|cell| {
+        let mut scratch = cell.borrow_mut();
+        scratch.reset(net.nodes.len());
+        a_star(net, from, to, start_dir, best, &mut scratch)
+    })
+}
+
+/// Search state reused between the queries of a thread: a chain of trips
+/// routes tens of thousands of paths, and filling three node-sized arrays
+/// per query cost more than the search itself on a city map. A node's
+/// entries are valid when its stamp equals the current query's.
+#[derive(Default)]
+struct Scratch {
+    stamp: Vec<u32>,
+    query: u32,
+    dist: Vec<f64>,
+    pred: Vec<Option<DirectedSection>>,
+    closed: Vec<bool>,
+    heap: BinaryHeap<HeapItem>,
+}
+
+impl Scratch {
+    fn reset(&mut self, nn: usize) {
+        if self.stamp.len() != nn || self.query == u32::MAX {
+            self.stamp = vec![0; nn];
+            self.dist = vec![f64::INFINITY; nn];
+            self.pred = vec![None; nn];
+            self.closed = vec![false; nn];
+            self.query = 0;
+        }
+        self.query += 1;
+        self.heap.clear();
+    }
+    fn touch(&mut self, n: usize) {
+        if self.stamp[n] != self.query {
+            self.stamp[n] = self.query;
+            self.dist[n] = f64::INFINITY;
+            self.pred[n] = None;
+            self.closed[n] = false;
+        }
+    }
+    fn dist(&self, n: usize) -> f64 {
+        if self.stamp[n] == self.query {
+            self.dist[n]
+        } else {
+            f64::INFINITY
+        }
+    }
+    fn pred(&self, n: usize) -> Option<DirectedSection> {
+        if self.stamp[n] == self.query {
+            self.pred[n]
+        } else {
+            None
+        }
+    }
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// The A* part of [`shortest_path`], with `best` the same-section answer.
+fn a_star(
+    net: &Network,
+    from: SectionPoint,
+    to: SectionPoint,
+    start_dir: Option<bool>,
+    mut best: Option<(Pieces, f64)>,
+    sc: &mut Scratch,
+) -> Option<(Pieces, f64)> {
+    let sf = &net.sections[from.section as usize];
+    let st = &net.sections[to.section as usize];
+    let dir_ok = |fwd: bool| start_dir.is_none_or(|d| d == fwd);
     // Entry nodes of the target section and the remaining cost from each.
     let mut targets: Vec<(NodeId, bool, f64)> = Vec::with_capacity(2);
     if st.oneway.allows_forward() || to.offset_m <= 0.0 {
@@ -232,7 +300,9 @@ pub fn shortest_path(
             .iter()
             .map(|&(tn, _, rest)| {
                 let q = net.nodes[tn as usize].enu;
-                (p[0] - q[0]).hypot(p[1] - q[1]) + rest
+                // sqrt of the squares: `hypot`'s overflow care is not needed
+                // for map coordinates and costs several times more.
+                ((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1])).sqrt() + rest
             })
             .fold(f64::INFINITY, f64::min)
     };
@@ -241,9 +311,10 @@ pub fn shortest_path(
     let at_end = from.offset_m >= sf.length_m;
     if (sf.oneway.allows_forward() && dir_ok(true)) || at_end {
         let c = (sf.length_m - from.offset_m).max(0.0);
-        if c < dist[sf.end as usize] {
-            dist[sf.end as usize] = c;
-            heap.push(HeapItem {
+        if c < sc.dist(sf.end as usize) {
+            sc.touch(sf.end as usize);
+            sc.dist[sf.end as usize] = c;
+            sc.heap.push(HeapItem {
                 cost: c + h(sf.end),
                 node: sf.end,
             });
@@ -251,9 +322,10 @@ pub fn shortest_path(
     }
     if (sf.oneway.allows_backward() && dir_ok(false)) || at_start {
         let c = from.offset_m.max(0.0);
-        if c < dist[sf.start as usize] {
-            dist[sf.start as usize] = c;
-            heap.push(HeapItem {
+        if c < sc.dist(sf.start as usize) {
+            sc.touch(sf.start as usize);
+            sc.dist[sf.start as usize] = c;
+            sc.heap.push(HeapItem {
                 cost: c + h(sf.start),
                 node: sf.start,
             });
@@ -261,13 +333,12 @@ pub fn shortest_path(
     }
     let bound = |best: &Option<(Pieces, f64)>| best.as_ref().map_or(f64::INFINITY, |b| b.1);
     let mut best_target: Option<(NodeId, bool, f64)> = None;
-    let mut closed = vec![false; nn];
-    while let Some(HeapItem { cost: f, node }) = heap.pop() {
-        if closed[node as usize] {
+    while let Some(HeapItem { cost: f, node }) = sc.heap.pop() {
+        if sc.closed[node as usize] {
             continue;
         }
-        closed[node as usize] = true;
-        let cost = dist[node as usize];
+        sc.closed[node as usize] = true;
+        let cost = sc.dist[node as usize];
         let current_best = best_target.map_or(bound(&best), |t| t.2);
         if f >= current_best {
             break;
@@ -281,10 +352,11 @@ pub fn shortest_path(
             let s = &net.sections[d.section as usize];
             let next = if d.forward { s.end } else { s.start };
             let c = cost + s.length_m;
-            if c < dist[next as usize] {
-                dist[next as usize] = c;
-                pred[next as usize] = Some(d);
-                heap.push(HeapItem {
+            if c < sc.dist(next as usize) {
+                sc.touch(next as usize);
+                sc.dist[next as usize] = c;
+                sc.pred[next as usize] = Some(d);
+                sc.heap.push(HeapItem {
                     cost: c + h(next),
                     node: next,
                 });
@@ -295,7 +367,7 @@ pub fn shortest_path(
         // Walk back from the target's entry node to one of `from`'s section ends.
         let mut middle: Vec<DirectedSection> = Vec::new();
         let mut node = tn;
-        while let Some(d) = pred[node as usize] {
+        while let Some(d) = sc.pred(node as usize) {
             middle.push(d);
             let s = &net.sections[d.section as usize];
             node = if d.forward { s.start } else { s.end };
@@ -303,7 +375,7 @@ pub fn shortest_path(
         middle.reverse();
         // The walk ends at the section end the path left `from`'s section by.
         let first_fwd = if sf.start == sf.end {
-            (dist[node as usize] - (sf.length_m - from.offset_m)).abs() < 1e-9
+            (sc.dist(node as usize) - (sf.length_m - from.offset_m)).abs() < 1e-9
         } else {
             node == sf.end
         };

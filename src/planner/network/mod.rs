@@ -97,7 +97,10 @@ pub use reach::{reach_class, ReachClass};
 pub use settings::{
     scenario_network, UTurns, DEFAULT_NETWORK_SPACING_M, EXISTING_SNAP_M, ILP_MAX_CANDIDATES,
 };
-pub use trips::{chains_needed, clopper_pearson_lower, clopper_pearson_upper, TripsGuarantee};
+pub use trips::{
+    chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper, TripsGuarantee,
+    ALLOWED_VIOLATIONS,
+};
 pub use types::{NetworkPlan, NetworkTag, NetworkValidation};
 pub use validation::validate_network_plan;
 

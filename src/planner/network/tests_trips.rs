@@ -4,8 +4,8 @@
 
 use super::cover;
 use super::trips::{
-    chains_needed, clopper_pearson_lower, clopper_pearson_upper, exact_multicover, multicover,
-    packing_bound,
+    chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper, exact_multicover,
+    multicover, packing_bound,
 };
 use super::*;
 use crate::network::{model_from_polylines, Network, Oneway, RoadAttributes};
@@ -32,6 +32,15 @@ fn guarantee_statistics_match_their_closed_forms() {
     assert_eq!(chains_needed(0.01, 0.01), 459);
     assert!(0.99f64.powi(459) <= 0.01 && 0.99f64.powi(458) > 0.01);
     assert_eq!(chains_needed(0.01, 0.005), 528);
+    // A round allowing v failures: the smallest N whose binomial tail
+    // P(X ≤ v | N, ε) is at most β (checked directly on the tail).
+    assert_eq!(chains_allowing(0.01, 0.005, 0), 528);
+    for (v, beta) in [(1usize, 0.005), (2, 0.005), (2, 0.01 / 64.0)] {
+        let n = chains_allowing(0.01, beta, v);
+        assert!(binom_cdf(v, n, 0.01) <= beta * (1.0 + 1e-9), "{v}: {n}");
+        assert!(binom_cdf(v, n - 1, 0.01) > beta, "{v}: {n}");
+        eprintln!("chains_allowing(0.01, {beta}, {v}) = {n}");
+    }
     // No failure: the upper bound solves (1 − p)^n = β.
     let u = clopper_pearson_upper(0, 300, 0.05);
     assert!((u - (1.0 - 0.05f64.powf(1.0 / 300.0))).abs() < 1e-9, "{u}");

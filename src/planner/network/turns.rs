@@ -24,7 +24,7 @@
 //! The rule is written here rather than taken from a crate: it is the
 //! planner's own model of its map matcher.
 
-use super::traffic::{resets, turn_deg, CHORD_M};
+use super::traffic::CHORD_M;
 use std::collections::VecDeque;
 
 /// Spacing of the heading samples along a road (m).
@@ -75,7 +75,17 @@ fn point_at(pts: &[[f64; 2]], cum: &[f64], c: f64) -> [f64; 2] {
 /// chainage m, heading rad).
 #[derive(Debug, Clone, Default)]
 pub(crate) struct TurnWindow {
-    buf: VecDeque<(f64, f32)>,
+    /// (chainage m, cos, sin of the heading).
+    buf: VecDeque<(f64, f32, f32)>,
+}
+
+/// |cos| of the heading change at the edges of the resetting range: a turn
+/// θ resets when [`TURN_DEG`](super::mm_reach::TURN_DEG) ≤ θ ≤ 180° − it,
+/// i.e. when |cos θ| ≤ cos [`TURN_DEG`](super::mm_reach::TURN_DEG) (a dot
+/// product of unit vectors instead of an angle difference: this test runs
+/// for every sample pair of every chain).
+fn reset_cos() -> f32 {
+    super::mm_reach::TURN_DEG.to_radians().cos() as f32 + 1e-6
 }
 
 impl TurnWindow {
@@ -93,14 +103,16 @@ impl TurnWindow {
         while self.buf.front().is_some_and(|f| f.0 < c - CURVE_M) {
             self.buf.pop_front();
         }
+        let (s, co) = h.sin_cos();
+        let lim = reset_cos();
         let hit = curve_m > 0.0
             && self
                 .buf
                 .iter()
                 .rev()
                 .take_while(|f| f.0 >= c - curve_m)
-                .any(|&(_, h0)| resets(turn_deg(h0 as f64, h as f64)));
-        self.buf.push_back((c, h));
+                .any(|&(_, c0, s0)| (c0 * co + s0 * s).abs() <= lim);
+        self.buf.push_back((c, co, s));
         hit
     }
 }
