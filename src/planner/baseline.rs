@@ -135,6 +135,7 @@ pub fn uniform_baseline(
             profile_with_tags: vec![],
             validation: None,
             uniform_baseline: None,
+            filter_passes: 0.0,
         };
         let res = simulate_with(scn, truth, &tags, runs.max(1), seed, None)?;
         let v = validation_of(&res, &p, runs.max(1), seed);
