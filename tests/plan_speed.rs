@@ -129,3 +129,24 @@ fn small_route_plans_stay_within_their_pass_budget() {
         assert!(p.predicted_max_bound95_missed_m.is_some(), "{name}");
     }
 }
+
+/// The uniform baseline's search (issue 14, point 2): at most 20 filter
+/// passes for its covariance checks (before: the first check alone, 204
+/// tags every 20 m, ran each of its 204 one-tag-missed windows to the
+/// route's end, about 100 passes), its Monte Carlo runs apart.
+#[test]
+fn uniform_baseline_search_within_twenty_passes() {
+    use waymark::planner::{uniform_baseline, PlannerSettings};
+    let scn = scenario("demo.toml");
+    let truth = TruthSource::new(&scn).expect("truth");
+    let settings = PlannerSettings::from_scenario(&scn).expect("settings");
+    let b = uniform_baseline(&scn, &truth, &settings, 1, 1, 0.99)
+        .expect("baseline")
+        .expect("a uniform spacing passes");
+    assert!(
+        b.filter_passes >= 1.0 && b.filter_passes <= 20.0,
+        "{} passes",
+        b.filter_passes
+    );
+    assert!(b.tried.len() >= 3, "{:?}", b.tried);
+}

@@ -166,6 +166,11 @@ pub fn uniform_baseline(
         }
     }
     tried.sort_by(|a, b| a.0.total_cmp(&b.0));
+    tracing::info!(
+        spacings_tried = tried.len(),
+        filter_passes = budget.passes(),
+        "uniform baseline searched"
+    );
     Ok(best_v.map(|validation| UniformBaseline {
         spacing_m: lo as f64 * step,
         tag_count: best_c,
@@ -173,5 +178,6 @@ pub fn uniform_baseline(
         tolerate_missed_reads: k,
         validation,
         tried,
+        filter_passes: budget.passes(),
     }))
 }

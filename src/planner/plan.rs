@@ -148,6 +148,9 @@ pub struct UniformBaseline {
     /// Spacings tried (m) and their fractions within the requirement (NaN:
     /// failed the covariance check, not simulated).
     pub tried: Vec<(f64, f64)>,
+    /// The search's covariance checks in filter passes over the route
+    /// ([`Plan::filter_passes`]; its Monte Carlo runs not counted).
+    pub filter_passes: f64,
 }
 
 impl Plan {
