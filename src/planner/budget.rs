@@ -616,6 +616,9 @@ pub fn generalized_lambda_max(p: &crate::nav::ekf::Mat, u: &crate::nav::ekf::Mat
     };
     let m = (m + m.transpose()) * 0.5;
     let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
+    if e.iter().any(|x| x.is_nan()) {
+        return f64::INFINITY;
+    }
     let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     if top.is_finite() {
         top
