@@ -20,8 +20,11 @@ use waymark::planner::{plan_with, PlannerSettings};
 use waymark::sim::{Scenario, TruthSource};
 
 /// One route plan and one filter pass of the same route, for the small
-/// bundled planning scenarios (the Helsinki and Monaco 20 m routes and the
-/// paper's drive take minutes a plan: see BENCHMARKS.md for their ratios).
+/// bundled planning scenarios; their ratio is the plan's cost in filter
+/// passes, which the planner also counts itself (`Plan::filter_passes`,
+/// asserted by tests/plan_speed.rs). The Helsinki and Monaco 20 m routes
+/// and the paper's drive take too long a plan for ten samples: their
+/// counted passes are in BENCHMARKS.md ("Planning speed (issue 14)").
 fn route_plan(c: &mut Criterion) {
     let mut g = c.benchmark_group("route");
     g.sample_size(10).measurement_time(Duration::from_secs(20));

@@ -135,6 +135,7 @@ pub fn uniform_baseline(
             profile_with_tags: vec![],
             validation: None,
             uniform_baseline: None,
+            filter_passes: 0.0,
         };
         let res = simulate_with(scn, truth, &tags, runs.max(1), seed, None)?;
         let v = validation_of(&res, &p, runs.max(1), seed);
@@ -165,6 +166,11 @@ pub fn uniform_baseline(
         }
     }
     tried.sort_by(|a, b| a.0.total_cmp(&b.0));
+    tracing::info!(
+        spacings_tried = tried.len(),
+        filter_passes = budget.passes(),
+        "uniform baseline searched"
+    );
     Ok(best_v.map(|validation| UniformBaseline {
         spacing_m: lo as f64 * step,
         tag_count: best_c,
@@ -172,5 +178,6 @@ pub fn uniform_baseline(
         tolerate_missed_reads: k,
         validation,
         tried,
+        filter_passes: budget.passes(),
     }))
 }

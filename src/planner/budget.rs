@@ -283,15 +283,43 @@ impl<'a> Budget<'a> {
             .zip(mountings.par_iter())
             .map(|(s, &m)| {
                 tick();
-                let mut f = s.filter.clone();
-                self.apply_fix(s.sample, &mut f, m);
-                let b0 = bound95(&f.position_cov_enu());
-                if b0 > requirement_m {
-                    return (b0, s.distance_m);
-                }
-                (b0, self.reach_from(s.sample, &mut f, requirement_m))
+                self.reach_of(s, m, requirement_m)
             })
             .collect()
+    }
+
+    /// The bound right after a fix of `mounting` at `site`, and the reach.
+    fn reach_of(&self, site: &Site, mounting: Mounting, requirement_m: f64) -> (f64, f64) {
+        let mut f = site.filter.clone();
+        self.apply_fix(site.sample, &mut f, mounting);
+        let b0 = bound95(&f.position_cov_enu());
+        if b0 > requirement_m {
+            return (b0, site.distance_m);
+        }
+        (b0, self.reach_from(site.sample, &mut f, requirement_m))
+    }
+
+    /// [`Budget::reaches_with_progress`] computed on demand
+    /// ([`LazyReaches::get`]): each site's reach is a filter run, and the
+    /// placement's search needs only the reaches of the sites it gets to.
+    pub fn lazy_reaches<'s>(
+        &'s self,
+        sites: &'s [Site],
+        mountings: &'s [Mounting],
+        requirement_m: f64,
+        progress: Option<&'s (dyn Fn(usize, usize) + Sync)>,
+    ) -> LazyReaches<'s, 'a> {
+        LazyReaches {
+            budget: self,
+            sites,
+            mountings,
+            requirement_m,
+            progress,
+            done: std::cell::Cell::new(0),
+            cells: (0..sites.len())
+                .map(|_| std::cell::OnceCell::new())
+                .collect(),
+        }
     }
 
     /// The largest bound from sample `from` on, starting with filter `f`
@@ -322,6 +350,68 @@ impl<'a> Budget<'a> {
         worst
     }
 
+    /// [`Budget::worst_bound_from`] with `reference`'s fixes from index
+    /// `offset` on (stopping early once the bound exceeds `stop_above_m`),
+    /// also stopped as soon as the rest of the route provably cannot raise
+    /// the result above `max(worst so far, settle_at_m)`, by comparison
+    /// with `reference`, the all-read filter of the same fix list. Returns
+    /// the worst bound when it exceeds `settle_at_m` (exactly as
+    /// [`Budget::worst_bound_from`] would, up to the early stop above
+    /// `stop_above_m`), and some value `≤ settle_at_m` otherwise.
+    ///
+    /// Why the stop is exact: on perfect data the covariance follows a
+    /// Riccati map that is the same for both filters after a fix they both
+    /// read (same truth, same measurement rows), and a Riccati map `M` is
+    /// monotone (`P ≤ U ⇒ M(P) ≤ M(U)`) and sub-homogeneous
+    /// (`M(αU) ≤ α M(U)` for `α ≥ 1`: `Φ αU Φᵀ + Q ≤ α(Φ U Φᵀ + Q)`, and
+    /// `((αU)⁻¹ + HᵀR⁻¹H)⁻¹ ≤ α (U⁻¹ + HᵀR⁻¹H)⁻¹`). So after a fix where
+    /// `P ≤ αU` (`α` the largest generalized eigenvalue of `P` and the
+    /// reference's `U`, at least 1), every later covariance is at most `α`
+    /// times the reference's, and every later bound at most `√α` times the
+    /// reference's largest bound from there on (the bound scales with the
+    /// square root of the covariance and grows with it in the PSD order).
+    /// A relative margin of 1e-9 covers round-off.
+    pub fn worst_bound_settled(
+        &self,
+        from: usize,
+        mut f: Filter,
+        reference: &AllRead,
+        offset: usize,
+        stop_above_m: f64,
+        settle_at_m: f64,
+    ) -> f64 {
+        let fixes = &reference.fixes[offset.min(reference.fixes.len())..];
+        let mut k = 0;
+        let mut worst = bound95(&f.position_cov_enu());
+        while k < fixes.len() && fixes[k].0 <= from {
+            self.apply_fix(from, &mut f, fixes[k].1);
+            k += 1;
+        }
+        let settled = |k: usize, f: &Filter, worst: f64| {
+            let j = offset + k - 1;
+            let rest = reference.after_max[j];
+            let alpha = generalized_lambda_max(f.covariance(), &reference.after[j]).max(1.0);
+            (alpha * (1.0 + 1e-9)).sqrt() * rest <= worst.max(settle_at_m)
+        };
+        if k > 0 && settled(k, &f, worst) {
+            return worst;
+        }
+        self.run(from, &mut f, |i, f| {
+            worst = worst.max(bound95(&f.position_cov_enu()));
+            let mut fixed = false;
+            while k < fixes.len() && fixes[k].0 <= i {
+                self.apply_fix(i, f, fixes[k].1);
+                k += 1;
+                fixed = true;
+            }
+            if fixed && settled(k, f, worst) {
+                return false;
+            }
+            worst <= stop_above_m
+        });
+        worst
+    }
+
     /// The bound profile with fixes at the given sites (sample index,
     /// mounting; increasing), all read: the predicted error with a plan.
     pub fn with_fixes(&self, fixes: &[(usize, Mounting)], every_m: f64) -> Vec<BudgetPoint> {
@@ -337,60 +427,203 @@ impl<'a> Budget<'a> {
         every_m: f64,
         sites_m: &[f64],
     ) -> (Vec<BudgetPoint>, Vec<Site>) {
-        let Some(mut f) = self.initial_filter() else {
-            return (vec![], vec![]);
+        let a = self.all_read(fixes, every_m, sites_m);
+        (a.profile, a.sites)
+    }
+
+    /// The all-read pass of `fixes` (sample index, mounting; increasing):
+    /// [`Budget::with_fixes_and_snapshots`]'s profile and snapshots and,
+    /// for [`Budget::worst_bound_settled`], the covariance right after
+    /// each fix's sample and the largest bound at any later sample.
+    pub fn all_read(&self, fixes: &[(usize, Mounting)], every_m: f64, sites_m: &[f64]) -> AllRead {
+        let mut out = AllRead {
+            fixes: fixes.to_vec(),
+            profile: vec![],
+            sites: Vec::with_capacity(sites_m.len()),
+            after: Vec::with_capacity(fixes.len()),
+            after_max: vec![0.0; fixes.len()],
         };
-        let mut sites = Vec::with_capacity(sites_m.len());
+        let Some(mut f) = self.initial_filter() else {
+            return out;
+        };
         let mut next_site = 0;
         take_sites(
-            &mut sites,
+            &mut out.sites,
             &mut next_site,
             sites_m,
             0.0,
             (0, self.samples[0].avp.distance_m),
             &f,
         );
-        let mut prof = vec![BudgetPoint {
+        out.profile.push(BudgetPoint {
             t_s: self.samples[0].avp.t,
             distance_m: self.samples[0].avp.distance_m,
             bound95_m: bound95(&f.position_cov_enu()),
-        }];
+        });
         let mut next_prof = every_m;
+        // Largest bound over the samples after the j-th fix's sample up to
+        // the next fix's, then turned into suffix maxima.
+        let mut seg_max = vec![0.0f64; fixes.len()];
         let mut k = 0;
+        let apply = |i: usize, f: &mut Filter, after: &mut Vec<_>, k: &mut usize| {
+            let start = *k;
+            while *k < fixes.len() && fixes[*k].0 <= i {
+                self.apply_fix(i, f, fixes[*k].1);
+                *k += 1;
+            }
+            for _ in start..*k {
+                after.push(*f.covariance());
+            }
+        };
         while k < fixes.len() && fixes[k].0 == 0 {
-            self.apply_fix(0, &mut f, fixes[k].1);
-            k += 1;
+            apply(0, &mut f, &mut out.after, &mut k);
         }
         self.run(0, &mut f, |i, f| {
             let a = &self.samples[i].avp;
+            let b = bound95(&f.position_cov_enu());
+            if k > 0 {
+                seg_max[k - 1] = seg_max[k - 1].max(b);
+            }
             let at_fix = k < fixes.len() && fixes[k].0 == i;
             let at_end = i + 1 == self.samples.len();
             if a.distance_m >= next_prof || at_fix || at_end {
                 // Recorded before a fix at this sample: the peak just before it.
-                prof.push(BudgetPoint {
+                out.profile.push(BudgetPoint {
                     t_s: a.t,
                     distance_m: a.distance_m,
-                    bound95_m: bound95(&f.position_cov_enu()),
+                    bound95_m: b,
                 });
                 if a.distance_m >= next_prof {
                     next_prof += every_m;
                 }
             }
             take_sites(
-                &mut sites,
+                &mut out.sites,
                 &mut next_site,
                 sites_m,
                 a.distance_m,
                 (i, a.distance_m),
                 f,
             );
-            while k < fixes.len() && fixes[k].0 <= i {
-                self.apply_fix(i, f, fixes[k].1);
-                k += 1;
-            }
+            apply(i, f, &mut out.after, &mut k);
             true
         });
-        (prof, sites)
+        let mut m = 0.0f64;
+        for j in (0..fixes.len()).rev() {
+            m = m.max(seg_max[j]);
+            out.after_max[j] = m;
+        }
+        out
+    }
+}
+
+/// Site reaches computed on first demand ([`Budget::lazy_reaches`]).
+pub struct LazyReaches<'s, 'a> {
+    budget: &'s Budget<'a>,
+    sites: &'s [Site],
+    mountings: &'s [Mounting],
+    requirement_m: f64,
+    progress: Option<&'s (dyn Fn(usize, usize) + Sync)>,
+    done: std::cell::Cell<usize>,
+    cells: Vec<std::cell::OnceCell<(f64, f64)>>,
+}
+
+impl std::fmt::Debug for LazyReaches<'_, '_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LazyReaches")
+            .field("sites", &self.sites.len())
+            .field("computed", &self.done.get())
+            .finish()
+    }
+}
+
+impl LazyReaches<'_, '_> {
+    /// The bound right after a fix at site `i` and its reach (as
+    /// [`Budget::reaches`]). A site not yet computed is computed with the
+    /// next few not yet computed after it, one per worker thread, in
+    /// parallel (the search asks for sites mostly in route order).
+    pub fn get(&self, i: usize) -> (f64, f64) {
+        if let Some(&r) = self.cells[i].get() {
+            return r;
+        }
+        let batch: Vec<usize> = (i..self.sites.len())
+            .filter(|&j| self.cells[j].get().is_none())
+            .take(rayon::current_num_threads().max(1))
+            .collect();
+        let (b, sites, mountings, req) =
+            (self.budget, self.sites, self.mountings, self.requirement_m);
+        let out: Vec<(f64, f64)> = batch
+            .par_iter()
+            .map(|&j| b.reach_of(&sites[j], mountings[j], req))
+            .collect();
+        for (&j, r) in batch.iter().zip(out) {
+            let _ = self.cells[j].set(r);
+            self.done.set(self.done.get() + 1);
+            if let Some(p) = self.progress {
+                p(self.done.get(), self.sites.len());
+            }
+        }
+        self.cells[i].get().copied().unwrap_or((f64::NAN, f64::NAN))
+    }
+
+    /// Sites whose reach was computed.
+    pub fn computed(&self) -> usize {
+        self.done.get()
+    }
+}
+
+/// The all-read pass of a fix list ([`Budget::all_read`]).
+#[derive(Debug, Clone)]
+pub struct AllRead {
+    /// The fixes (sample index, mounting).
+    pub fixes: Vec<(usize, Mounting)>,
+    /// The bound profile (every `every_m`, before each fix, at the end).
+    pub profile: Vec<BudgetPoint>,
+    /// The snapshots at the distances asked for.
+    pub sites: Vec<Site>,
+    /// The covariance just after each fix's sample (all its fixes applied).
+    pub after: Vec<crate::nav::ekf::Mat>,
+    /// The largest bound at any sample after each fix's sample (m).
+    pub after_max: Vec<f64>,
+}
+
+/// The largest `α` with `P − αU` not negative definite: the largest
+/// eigenvalue of `U⁻¹P` (both symmetric positive definite), on the
+/// diagonally scaled matrices (the error state mixes radians of latitude
+/// with metres per second). Infinite when `U` is not positive definite.
+pub fn generalized_lambda_max(p: &crate::nav::ekf::Mat, u: &crate::nav::ekf::Mat) -> f64 {
+    use crate::nav::ekf::N;
+    let d: [f64; N] = std::array::from_fn(|i| {
+        let x = u[(i, i)];
+        if x > 0.0 {
+            1.0 / x.sqrt()
+        } else {
+            1.0
+        }
+    });
+    let us = crate::nav::ekf::Mat::from_fn(|i, j| u[(i, j)] * d[i] * d[j]);
+    let ps = crate::nav::ekf::Mat::from_fn(|i, j| p[(i, j)] * d[i] * d[j]);
+    let Some(c) = nalgebra::Cholesky::new(us) else {
+        return f64::INFINITY;
+    };
+    let l = c.l();
+    // M = L⁻¹ P L⁻ᵀ, symmetric with the eigenvalues of U⁻¹P.
+    let Some(x) = l.solve_lower_triangular(&ps) else {
+        return f64::INFINITY;
+    };
+    let Some(m) = l.solve_lower_triangular(&x.transpose()) else {
+        return f64::INFINITY;
+    };
+    let m = (m + m.transpose()) * 0.5;
+    let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
+    if e.iter().any(|x| x.is_nan()) {
+        return f64::INFINITY;
+    }
+    let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if top.is_finite() {
+        top
+    } else {
+        f64::INFINITY
     }
 }
 

@@ -23,7 +23,7 @@ pub(crate) mod settings;
 pub(crate) mod validation;
 
 pub use baseline::{uniform_baseline, uniform_tags};
-pub use budget::{Budget, BudgetPoint, Site};
+pub use budget::{generalized_lambda_max, AllRead, Budget, BudgetPoint, LazyReaches, Site};
 pub use plan::{Plan, PlannedTag, UniformBaseline, Validation};
 pub use route::{plan, plan_with, plan_with_progress, plan_with_stages, PlanStage};
 pub use settings::{

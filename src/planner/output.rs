@@ -18,11 +18,12 @@ impl Plan {
     /// for each window of `k` consecutive tags, the filter just before its
     /// first tag run to the end of the route without them and with every
     /// later tag read (the covariance check the plan was made to pass, here
-    /// run to the end rather than stopped at the requirement), and the
+    /// run to the end rather than stopped at the requirement — or stopped
+    /// once it provably cannot raise the worst bound,
+    /// [`Budget::worst_bound_settled`]), and the
     /// all-read bound. `None` when no read is tolerated or there are no tags.
     /// The tags are matched to the truth samples by their pass time.
     pub fn missed_bound(&self, scn: &Scenario, truth: &TruthSource) -> Option<f64> {
-        use rayon::prelude::*;
         let k = self.tolerate_missed_reads;
         if k == 0 || self.tags.is_empty() {
             return None;
@@ -32,6 +33,17 @@ impl Plan {
             _ => None,
         };
         let budget = Budget::new(scn, truth, network);
+        self.missed_bound_on(&budget)
+    }
+
+    /// [`Plan::missed_bound`] on the route's covariance analysis `budget`
+    /// (the planner's own, so that its filter passes are counted).
+    pub fn missed_bound_on(&self, budget: &Budget<'_>) -> Option<f64> {
+        use rayon::prelude::*;
+        let k = self.tolerate_missed_reads;
+        if k == 0 || self.tags.is_empty() {
+            return None;
+        }
         let samples = budget.samples();
         if samples.is_empty() {
             return None;
@@ -49,17 +61,25 @@ impl Plan {
             .map(|&(i, _)| samples[i].avp.distance_m)
             .collect();
         let every = 50.0;
-        let (profile, snaps) = budget.with_fixes_and_snapshots(&fixes, every, &at);
-        let all_read = profile.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
+        let all = budget.all_read(&fixes, every, &at);
+        let all_read = all.profile.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
         let n = fixes.len();
-        if snaps.len() != n {
+        if all.sites.len() != n {
             return None;
         }
+        // Each window's exact worst bound, its pass stopped once the rest of
+        // the route cannot raise it (Budget::worst_bound_settled).
         let worst = (0..n.saturating_sub(k - 1).max(1))
             .into_par_iter()
             .map(|d| {
-                let rest = &fixes[(d + k).min(n)..];
-                budget.worst_bound_from(fixes[d].0, snaps[d].filter.clone(), rest, f64::INFINITY)
+                budget.worst_bound_settled(
+                    fixes[d].0,
+                    all.sites[d].filter.clone(),
+                    &all,
+                    d + k,
+                    f64::INFINITY,
+                    0.0,
+                )
             })
             .reduce(|| 0.0, f64::max);
         Some(all_read.max(worst))

@@ -66,27 +66,54 @@ pub fn place_with(
     k: usize,
     min_spacing_m: f64,
 ) -> Placement {
+    let at: Vec<f64> = candidates.iter().map(|c| c.at_m).collect();
+    place_lazy(
+        length_m,
+        start_reach_m,
+        &at,
+        &|i| candidates[i].reach_m,
+        existing,
+        k,
+        min_spacing_m,
+    )
+}
+
+/// [`place_with`] on candidate sites at `at_m` whose reaches come from
+/// `reach(i)`, asked for only when the search needs them (in search
+/// order): the route planner computes a site's reach, a filter run, on
+/// first demand, and the search never looks at the reaches of sites it
+/// does not reach. Same result as [`place_with`] on the same reaches.
+pub fn place_lazy(
+    length_m: f64,
+    start_reach_m: f64,
+    at_m: &[f64],
+    reach: &dyn Fn(usize) -> f64,
+    existing: &[bool],
+    k: usize,
+    min_spacing_m: f64,
+) -> Placement {
     const START: usize = usize::MAX;
     let is_existing = |i: usize| i != START && existing.get(i).copied().unwrap_or(false);
     let reach = |i: usize| {
         if i == START {
             start_reach_m
         } else {
-            candidates[i].reach_m
+            reach(i)
         }
     };
+    let n_candidates = at_m.len();
     // Index of the first existing tag after candidate `i` (or after the start).
-    let mut next_existing = vec![usize::MAX; candidates.len() + 1];
-    for i in (0..candidates.len()).rev() {
-        next_existing[i] = if i + 1 < candidates.len() && is_existing(i + 1) {
+    let mut next_existing = vec![usize::MAX; n_candidates + 1];
+    for i in (0..n_candidates).rev() {
+        next_existing[i] = if i + 1 < n_candidates && is_existing(i + 1) {
             i + 1
-        } else if i + 1 < candidates.len() {
+        } else if i + 1 < n_candidates {
             next_existing[i + 1]
         } else {
             usize::MAX
         };
     }
-    let first_existing = (0..candidates.len())
+    let first_existing = (0..n_candidates)
         .find(|&i| is_existing(i))
         .unwrap_or(usize::MAX);
     let start = vec![START; k + 1];
@@ -97,7 +124,6 @@ pub fn place_with(
     dist.insert(start.clone(), (0, None));
     let mut deque = std::collections::VecDeque::new();
     deque.push_back(start);
-    let mut covered = start_reach_m;
     let mut done = rustc_hash::FxHashSet::default();
     while let Some(w) = deque.pop_front() {
         if !done.insert(w.clone()) {
@@ -129,17 +155,17 @@ pub fn place_with(
         }
         let limit = reach(w[0]);
         let lo = if last == START { 0 } else { last + 1 };
-        for (j, c) in candidates.iter().enumerate().skip(lo) {
-            if c.at_m > limit || j > must {
+        for (j, &c_at) in at_m.iter().enumerate().skip(lo) {
+            if c_at > limit || j > must {
                 break;
             }
-            if last != START && c.at_m <= candidates[last].at_m {
+            if last != START && c_at <= at_m[last] {
                 continue;
             }
             if last != START
                 && !is_existing(j)
                 && !is_existing(last)
-                && c.at_m - candidates[last].at_m < min_spacing_m
+                && c_at - at_m[last] < min_spacing_m
             {
                 continue;
             }
@@ -150,7 +176,6 @@ pub fn place_with(
             if dist.get(&nw).is_some_and(|e| e.0 <= nd) {
                 continue;
             }
-            covered = covered.max(reach(nw[0]));
             dist.insert(nw.clone(), (nd, Some(w.clone())));
             if cost == 0 {
                 deque.push_front(nw);
@@ -160,7 +185,12 @@ pub fn place_with(
         }
     }
     // The furthest distance up to which some choice holds the bound even
-    // with k missed reads.
+    // with k missed reads: the furthest reach of the oldest tag of any
+    // window the search got to (the start's included).
+    let covered = dist
+        .keys()
+        .map(|w| reach(w[0]))
+        .fold(start_reach_m, f64::max);
     Placement::Infeasible {
         covered_to_m: covered.min(length_m),
     }

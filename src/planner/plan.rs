@@ -122,6 +122,11 @@ pub struct Plan {
     pub validation: Option<Validation>,
     /// The uniform-spacing baseline, when computed.
     pub uniform_baseline: Option<UniformBaseline>,
+    /// What the planning cost, in perfect-data filter passes over the
+    /// route (all filter steps on every thread over the route's samples,
+    /// [`super::Budget::passes`]): a figure that does not depend on the
+    /// machine or its load.
+    pub filter_passes: f64,
 }
 
 /// Tags at a uniform spacing along the route: the largest spacing (a
@@ -143,6 +148,9 @@ pub struct UniformBaseline {
     /// Spacings tried (m) and their fractions within the requirement (NaN:
     /// failed the covariance check, not simulated).
     pub tried: Vec<(f64, f64)>,
+    /// The search's covariance checks in filter passes over the route
+    /// ([`Plan::filter_passes`]; its Monte Carlo runs not counted).
+    pub filter_passes: f64,
 }
 
 impl Plan {

@@ -6,7 +6,7 @@
 
 use super::budget::{bound95, Budget};
 use super::forward;
-use super::placement::{place_with, Candidate, Placement};
+use super::placement::{place_lazy, place_with, Candidate, Placement};
 use super::plan::{Plan, PlannedTag};
 use super::settings::{site_speed_mps, Coverage, PlannerSettings};
 use super::validation::{robust_with_progress, validate_plan};
@@ -292,17 +292,11 @@ pub fn plan_with_stages(
         .filter(|(_, k)| **k)
         .map(|(s, _)| s)
         .collect();
-    let reaches = budget.reaches_with_progress(&sites, &mountings, req, Some(&tag_free_tick));
+    // The tag-free reaches, each computed when the placement's search first
+    // needs it (a filter run per site).
+    let tag_free = budget.lazy_reaches(&sites, &mountings, req, Some(&tag_free_tick));
     let start_reach = budget.start_reach(req);
-    phase("tag-free reaches");
-    let cands: Vec<Candidate> = sites
-        .iter()
-        .zip(&reaches)
-        .map(|(s, &(_, r))| Candidate {
-            at_m: s.distance_m,
-            reach_m: r,
-        })
-        .collect();
+    let at_m: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
     let k = settings.tolerate_missed_reads;
     if start_reach <= 0.0 {
         let b0 = budget
@@ -314,14 +308,22 @@ pub fn plan_with_stages(
              requirement at the start of the route"
         )));
     }
-    let chosen = match place_with(
+    let placed = place_lazy(
         length,
         start_reach,
-        &cands,
+        &at_m,
+        &|i| tag_free.get(i).1,
         &is_existing,
         k,
         settings.min_spacing_m,
-    ) {
+    );
+    phase("tag-free reaches and placement");
+    tracing::debug!(
+        computed = tag_free.computed(),
+        sites = sites.len(),
+        "tag-free reaches computed"
+    );
+    let chosen = match placed {
         Placement::Feasible(c) => c,
         Placement::Infeasible { covered_to_m } => {
             let road = ctx
@@ -338,10 +340,11 @@ pub fn plan_with_stages(
                     )
                 })
                 .unwrap_or_default();
-            let next = cands
+            let next = at_m
                 .iter()
-                .find(|c| c.at_m > covered_to_m)
-                .map_or(length, |c| c.at_m);
+                .copied()
+                .find(|&a| a > covered_to_m)
+                .unwrap_or(length);
             return Err(Error::Infeasible(format!(
                 "the {req} m requirement cannot be held with {k} missed read(s) tolerated \
                  beyond route distance {covered_to_m:.0} m{road}; the stretch {covered_to_m:.0}–{next:.0} m \
@@ -356,7 +359,8 @@ pub fn plan_with_stages(
     // covariance analysis confirms it: the bound holds with every tag read
     // and with any k consecutive tags missed.
     let mut chosen = chosen;
-    let mut reaches = reaches;
+    // Reaches from a refined filter, when a refinement was kept.
+    let mut refined_reaches: Option<Vec<(f64, f64)>> = None;
     let mut refined = 0;
     // The plan whose filter the snapshots come from (accepted or not).
     let mut basis = chosen.clone();
@@ -407,7 +411,7 @@ pub fn plan_with_stages(
             )
         {
             chosen = c2.clone();
-            reaches = reaches2;
+            refined_reaches = Some(reaches2);
             refined += 1;
         }
         basis = c2;
@@ -472,20 +476,13 @@ pub fn plan_with_stages(
         let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
         let (_, opt_sites) = budget.snapshots(&all, settings.candidate_spacing_m, &at);
         if opt_sites.len() == sites.len() {
-            let r =
-                budget.reaches_with_progress(&opt_sites, &mountings, req, Some(&optimistic_tick));
-            let c: Vec<Candidate> = opt_sites
-                .iter()
-                .zip(&r)
-                .map(|(s, &(_, r))| Candidate {
-                    at_m: s.distance_m,
-                    reach_m: r,
-                })
-                .collect();
-            match place_with(
+            let r = budget.lazy_reaches(&opt_sites, &mountings, req, Some(&optimistic_tick));
+            let opt_at: Vec<f64> = opt_sites.iter().map(|s| s.distance_m).collect();
+            match place_lazy(
                 length,
                 start_reach,
-                &c,
+                &opt_at,
+                &|i| r.get(i).1,
                 &is_existing,
                 k,
                 settings.min_spacing_m,
@@ -500,6 +497,14 @@ pub fn plan_with_stages(
     phase("lower bound");
     // Each chosen tag's bound after its fix and reach, from the plan's own
     // filter (every planned tag read).
+    let mut chosen_reach: Vec<(f64, f64)> = chosen
+        .iter()
+        .map(|&i| {
+            refined_reaches
+                .as_ref()
+                .map_or_else(|| tag_free.get(i), |r| r[i])
+        })
+        .collect();
     {
         let fixes: Vec<(usize, Mounting)> = chosen
             .iter()
@@ -510,14 +515,12 @@ pub fn plan_with_stages(
         if own.len() == chosen.len() {
             let m: Vec<Mounting> = chosen.iter().map(|&i| mountings[i]).collect();
             let r = budget.reaches(&own, &m, req);
-            for (n, &i) in chosen.iter().enumerate() {
-                reaches[i] = r[n];
-            }
+            chosen_reach = r;
         }
     }
     let mut tags = Vec::with_capacity(chosen.len());
     let mut n_new = 0;
-    for &i in &chosen {
+    for (n, &i) in chosen.iter().enumerate() {
         let s = &sites[i];
         let a = &samples[s.sample].avp;
         let existing = site_existing[i].map(|ti| &settings.existing_tags[ti]);
@@ -549,8 +552,8 @@ pub fn plan_with_stages(
                 let sp = c.route.span_at(s.distance_m * c.scale.get());
                 sp.to_offset_m >= sp.from_offset_m
             }),
-            bound_after_fix_m: reaches[i].0,
-            reach_m: reaches[i].1,
+            bound_after_fix_m: chosen_reach[n].0,
+            reach_m: chosen_reach[n].1,
         });
     }
     let mut max_gap: f64 = 0.0;
@@ -578,7 +581,7 @@ pub fn plan_with_stages(
                 .map_or(1.0, |o| o.cost)
         })
         .fold(0.0, |a, c| a + c);
-    let n_cands = cands.len();
+    let n_cands = sites.len();
     let mut plan = Plan {
         scenario: scn.name().to_string(),
         requirement_m: req,
@@ -608,7 +611,13 @@ pub fn plan_with_stages(
         profile_with_tags: with,
         validation: None,
         uniform_baseline: None,
+        filter_passes: 0.0,
     };
+    // The largest bound with any k consecutive tags missed, on the same
+    // covariance analysis.
+    plan.predicted_max_bound95_missed_m = plan.missed_bound_on(&budget);
+    phase("missed-tag bound");
+    plan.filter_passes = budget.passes();
     if validate {
         plan.validation = Some(validate_plan(
             scn,

@@ -89,21 +89,21 @@ pub fn robust_with_progress(
 ) -> bool {
     use rayon::prelude::*;
     // One all-read pass: its worst bound and, for the missed-tag windows,
-    // the filter just before each tag.
+    // the filter just before each tag and the covariance just after.
     let at: Vec<f64> = fixes
         .iter()
         .map(|&(i, _)| budget.samples()[i].avp.distance_m)
         .collect();
     let want = if k == 0 { &[][..] } else { &at[..] };
-    let (prof, snaps) = budget.with_fixes_and_snapshots(fixes, every_m, want);
-    if prof.iter().map(|p| p.bound95_m).fold(0.0, f64::max) > requirement_m {
+    let all = budget.all_read(fixes, every_m, want);
+    if all.profile.iter().map(|p| p.bound95_m).fold(0.0, f64::max) > requirement_m {
         return false;
     }
     if k == 0 || fixes.is_empty() {
         return true;
     }
     let n = fixes.len();
-    if snaps.len() != n {
+    if all.sites.len() != n {
         return false;
     }
     let drops: Vec<usize> = (0..n.saturating_sub(k - 1).max(1)).collect();
@@ -113,8 +113,15 @@ pub fn robust_with_progress(
         if let Some(p) = progress {
             p(n_done, drops.len());
         }
-        let rest = &fixes[(d + k).min(n)..];
-        budget.worst_bound_from(fixes[d].0, snaps[d].filter.clone(), rest, requirement_m)
-            <= requirement_m
+        // Each window stops once its filter has provably settled back
+        // within the requirement (Budget::worst_bound_settled).
+        budget.worst_bound_settled(
+            fixes[d].0,
+            all.sites[d].filter.clone(),
+            &all,
+            d + k,
+            requirement_m,
+            requirement_m,
+        ) <= requirement_m
     })
 }

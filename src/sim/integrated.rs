@@ -21,7 +21,7 @@ const RFID_STREAM: u64 = ids::RFID;
 const FIX_STREAM: u64 = ids::FIX;
 
 /// Tags and their passes, found once for all runs; the road network when
-/// map matching aids the navigator.
+/// map matching aids the navigator; the truth samples of a short drive.
 #[derive(Debug, Clone, Default)]
 pub struct Prepared {
     /// All tags (scenario entries, then extra ones).
@@ -33,6 +33,10 @@ pub struct Prepared {
     /// The truth drives in its lane (a map route): the lateral place over a
     /// tag is the truth's own.
     pub lane_truth: bool,
+    /// The truth samples with their ideal IMU increments, computed once and
+    /// shared by every run (`None`: each run computes them as it goes, so
+    /// that a long drive is never held in memory).
+    pub truth_samples: Option<std::sync::Arc<Vec<crate::trajectory::TruthSample>>>,
 }
 
 impl Prepared {
@@ -62,6 +66,7 @@ impl Prepared {
             passes,
             network,
             lane_truth: truth.route().is_some(),
+            truth_samples: None,
         })
     }
 }
@@ -228,7 +233,12 @@ pub fn run_integrated(
     run: u64,
 ) -> RunResult {
     let dt = scn.dt;
-    let (mut samples, mut rec) = start_run(scn, truth, None);
+    let (generated, mut rec) = start_run(scn, truth, None);
+    let mut samples: Box<dyn Iterator<Item = crate::trajectory::TruthSample> + '_> =
+        match prep.truth_samples.as_deref() {
+            Some(v) => Box::new(v.iter().copied()),
+            None => Box::new(generated),
+        };
     let Some(first) = samples.next() else {
         return RunResult::empty(run);
     };

@@ -256,7 +256,9 @@ pub(super) fn route_plan(
         progress.finish();
     }
     let mut p = planned?;
-    p.predicted_max_bound95_missed_m = p.missed_bound(scn, truth);
+    if p.predicted_max_bound95_missed_m.is_none() {
+        p.predicted_max_bound95_missed_m = p.missed_bound(scn, truth);
+    }
     let t_plan = t0.elapsed().as_secs_f64();
     if settings.validation_runs > 0 {
         progress.note(&format!(
