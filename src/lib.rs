@@ -148,6 +148,7 @@
 #![warn(unnameable_types)]
 
 pub mod attitude;
+pub mod elevation;
 pub mod error;
 pub mod export;
 pub mod fsio;
@@ -166,6 +167,7 @@ pub mod trajectory;
 pub mod units;
 pub mod workflow;
 
+pub use elevation::{Dem, HeightProfile};
 pub use error::{Error, Result};
 pub use export::{tags_csv, tags_geojson, tags_gpx, tags_kml, write_atomic};
 pub use matching::{

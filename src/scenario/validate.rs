@@ -3,6 +3,7 @@
 //! converted to SI here, once; every error names the file and the field.
 
 use super::check::Check;
+use super::limits::MAX_ELEVATION_FILES;
 use super::route::route;
 use super::schema::*;
 use super::sections::*;
@@ -13,7 +14,7 @@ use crate::sensors::{
 };
 use crate::tags::{Mounting, RfidModel};
 use crate::units::{ARCMIN, ARCSEC, DPH, G0};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// One-line description of a TOML parse error with its line number and,
 /// where the error is about a value, the field holding it (e.g.
@@ -520,6 +521,7 @@ impl Scenario {
         let route = route(&c, path, &file, planner.coverage)?;
         super::limits::check(&c, &file)?;
         let map_error = map_error(&c, file.map.as_ref())?;
+        let elevation = elevation(&c, path, &file)?;
         let filter = filter(&file, &odometer, dt);
         let a = file.aiding;
         let n = &file.navigator;
@@ -536,6 +538,7 @@ impl Scenario {
             output_interval_s,
             rfid,
             map_error,
+            elevation,
             lanes: LaneModel {
                 drive_side: file.vehicle.drive_side.unwrap_or_default(),
                 wander_m: c.non_negative(
@@ -574,6 +577,35 @@ impl Scenario {
             accel_bias_random: file.imu.accel_bias_random_ug * 1e-6 * G0,
         })
     }
+}
+
+/// `[map] elevation`: the DEM files resolved against the scenario's folder
+/// (the files are read where the map is: in the truth and the planner).
+fn elevation(c: &Check, path: &Path, file: &ScenarioFile) -> Result<Vec<PathBuf>> {
+    let Some(e) = file.map.as_ref().and_then(|m| m.elevation.as_ref()) else {
+        return Ok(Vec::new());
+    };
+    let files = match e {
+        OneOrMany::One(f) => vec![f.clone()],
+        OneOrMany::Many(v) => v.clone(),
+    };
+    if files.is_empty() {
+        return Err(c.err("map.elevation is an empty list: give one GeoTIFF or a list of tiles"));
+    }
+    if files.len() > MAX_ELEVATION_FILES {
+        return Err(c.err(format!(
+            "map.elevation lists {} files, above the limit of {MAX_ELEVATION_FILES}",
+            files.len()
+        )));
+    }
+    if file.route.first().is_some_and(|r| r.height_m.is_some()) {
+        return Err(c.err(
+            "route[0].height_m is the constant height of a map without an elevation model; \
+             with map.elevation the heights come from the terrain (remove one of them)",
+        ));
+    }
+    let base = path.parent().unwrap_or(Path::new("."));
+    Ok(files.iter().map(|f| base.join(f)).collect())
 }
 
 /// `[map] geometry_error_m` and `geometry_error_correlation_m`, checked, with

@@ -3,9 +3,11 @@
 //! (`motion`) or from a road route, and the ideal IMU increments that
 //! reproduce it ([`ideal_imu`], by inverse strapdown).
 
+mod heights;
 pub(crate) mod motion;
 pub(crate) mod route;
 
+pub use heights::route_heights;
 pub use motion::{Extent, Motion, MotionPlan, MotionTrajectory, Start};
 pub use route::{RoutePlan, RouteTrajectory, SpeedProfile};
 

@@ -20,6 +20,13 @@
 //!    and attitude are consistent for the inverse strapdown. The integrated
 //!    path follows the map's path to within the tangent-plane distortion
 //!    (relative 1e-6 of the distance from the map's origin).
+//! 5. Heights: constant (`height_m`), or a terrain profile along the route's
+//!    chainage ([`RoutePlan::with_heights`], from [`super::route_heights`]):
+//!    the vertical velocity is the horizontal speed times the profile's
+//!    grade (per metre of path: the grade per metre of chainage times the
+//!    element's chainage per path metre), the pitch its arctangent, and the
+//!    height is integrated with the position, so it follows the profile to
+//!    the integration's rounding.
 
 use super::Avp;
 use crate::attitude::{wrap_pi, Quat, QuatExt, V3};
@@ -120,6 +127,7 @@ pub struct RoutePlan {
     dt: f64,
     frame: EnuFrame,
     height_m: f64,
+    heights: Option<crate::elevation::HeightProfile>,
     elems: Vec<Elem>,
     nodes: Vec<Node>,
     /// Convergence correction (local heading − map heading, rad) every `conv_step` m.
@@ -406,6 +414,7 @@ impl RoutePlan {
             dt,
             frame,
             height_m,
+            heights: None,
             elems,
             nodes,
             conv,
@@ -473,21 +482,52 @@ impl RoutePlan {
         }
     }
 
+    /// Drives the terrain's heights: `profile` along the route's chainage
+    /// replaces the constant height.
+    pub fn with_heights(mut self, profile: crate::elevation::HeightProfile) -> RoutePlan {
+        self.heights = Some(profile);
+        self
+    }
+
+    /// The terrain height profile driven, if any.
+    pub fn heights(&self) -> Option<&crate::elevation::HeightProfile> {
+        self.heights.as_ref()
+    }
+
+    /// Height (m) and grade (rise per metre of path) at path distance `s`
+    /// in element `e`.
+    #[inline]
+    fn height_grade(&self, e: &Elem, s: f64) -> (f64, f64) {
+        match &self.heights {
+            None => (self.height_m, 0.0),
+            Some(h) => {
+                let (c, dc_ds) = if e.len > 0.0 {
+                    let r = (e.c1 - e.c0) / e.len;
+                    (e.c0 + r * (s - e.s0).clamp(0.0, e.len), r)
+                } else {
+                    (e.c0, 0.0)
+                };
+                (h.height_at(c), h.grade_at(c) * dc_ds)
+            }
+        }
+    }
+
     /// The truth samples, the initial one first.
     pub fn trajectory(&self) -> RouteTrajectory<'_> {
         let (p, psi) = self.elems[0].eval(0.0);
+        let (h0, grade) = self.height_grade(&self.elems[0], 0.0);
         let g = self.frame.to_geodetic([
             p[0],
             p[1],
-            self.height_m - (p[0] * p[0] + p[1] * p[1]) / (2.0 * crate::geodesy::WGS84_A),
+            h0 - (p[0] * p[0] + p[1] * p[1]) / (2.0 * crate::geodesy::WGS84_A),
         ]);
         let heading = psi + self.conv[0];
         let state = NavState {
-            q: Quat::from_heading_pitch_roll(heading, 0.0, 0.0),
+            q: Quat::from_heading_pitch_roll(heading, grade.atan(), 0.0),
             v: V3::zeros(),
             lat: g.lat,
             lon: g.lon,
-            h: self.height_m,
+            h: h0,
         };
         RouteTrajectory {
             plan: self,
@@ -557,13 +597,14 @@ impl Iterator for RouteTrajectory<'_> {
         let f = ci - i0 as f64;
         let heading = psi + p.conv[i0] * (1.0 - f) + p.conv[i1] * f;
         let (sh, ch) = heading.sin_cos();
-        let v1 = V3::new(v * sh, v * ch, 0.0);
+        let (_, grade) = p.height_grade(e, s);
+        let v1 = V3::new(v * sh, v * ch, v * grade);
         let s0 = self.state;
         let (lat, lon, h) = self.integ.advance(&s0, v1, p.dt);
         self.distance += s - self.last_s;
         self.last_s = s;
         self.state = NavState {
-            q: Quat::from_heading_pitch_roll(heading, 0.0, 0.0),
+            q: Quat::from_heading_pitch_roll(heading, grade.atan(), 0.0),
             v: v1,
             lat,
             lon,

@@ -1,0 +1,110 @@
+//! The height profile of a road route on an elevation model
+//! ([`crate::elevation::Dem`]).
+//!
+//! Along the route, every [`PROFILE_STEP_M`], the road's raw height is the
+//! DEM's bilinear height at the road's centre line, except on tunnels and
+//! bridges (OSM `tunnel=*` other than `no`, `covered=yes`, `bridge=*`; a
+//! run of consecutive tunnel or bridge spans counts as one structure):
+//! there it is interpolated linearly in chainage between the terrain
+//! heights at the structure's two ends (the portals, the abutments), not
+//! the mountain above or the valley below. A structure where the route
+//! starts or ends has one end off the route: it keeps the height of the end
+//! the route passes, level; a route entirely on one structure interpolates
+//! between the DEM heights at the ends of its first and last roads. The
+//! raw heights are then smoothed into a [`HeightProfile`] (see there for the
+//! window and why).
+
+use crate::elevation::{Dem, HeightProfile, PROFILE_HALF_WINDOW_M, PROFILE_STEP_M};
+use crate::error::Result;
+use crate::network::Network;
+use crate::route::{Route, RouteSpan};
+
+/// Whether a span is on a tunnel or a bridge.
+fn on_structure(net: &Network, span: &RouteSpan) -> bool {
+    let a = &net.model.roads[span.road as usize].attributes;
+    a.tunnel || a.bridge
+}
+
+/// The DEM height at a route chainage.
+fn dem_at(net: &Network, route: &Route, dem: &Dem, chainage_m: f64) -> Result<f64> {
+    let p = route.position_at(chainage_m);
+    let g = net.model.frame.to_geodetic([p[0], p[1], 0.0]);
+    dem.height(g.lat_deg(), g.lon_deg())
+}
+
+/// The DEM height at one end of a span's road: behind the span (`ahead`
+/// false) or ahead of it, in the direction of travel.
+fn road_end(net: &Network, dem: &Dem, span: &RouteSpan, ahead: bool) -> Result<f64> {
+    let road = &net.model.roads[span.road as usize];
+    let first = &net.model.sections[road.sections[0] as usize];
+    let last = &net.model.sections[road.sections[road.sections.len() - 1] as usize];
+    let node = if span.section.forward == ahead {
+        last.end
+    } else {
+        first.start
+    };
+    let [lat, lon] = net.model.nodes[node as usize].lat_lon;
+    dem.height(lat, lon)
+}
+
+/// Tunnel and bridge runs along the route: (first span, last span).
+fn structure_runs(net: &Network, route: &Route) -> Vec<(usize, usize)> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (i, sp) in route.spans.iter().enumerate() {
+        if !on_structure(net, sp) {
+            continue;
+        }
+        match runs.last_mut() {
+            Some(r) if r.1 + 1 == i => r.1 = i,
+            _ => runs.push((i, i)),
+        }
+    }
+    runs
+}
+
+/// The smoothed height profile of `route` on `dem`; an error names the DEM
+/// file when a point the route needs is outside it or on no data.
+pub fn route_heights(net: &Network, route: &Route, dem: &Dem) -> Result<HeightProfile> {
+    let length = route.length_m.max(1e-3);
+    let n = (length / PROFILE_STEP_M).ceil().max(1.0) as usize;
+    let step = length / n as f64;
+    let runs: Vec<(f64, f64, f64, f64)> = structure_runs(net, route)
+        .into_iter()
+        .map(|(i, j)| {
+            let (ca, cb) = (
+                route.spans[i].start_chainage_m,
+                route.spans[j].end_chainage_m,
+            );
+            let a = (ca > 1e-6)
+                .then(|| dem_at(net, route, dem, ca))
+                .transpose()?;
+            let b = (cb < route.length_m - 1e-6)
+                .then(|| dem_at(net, route, dem, cb))
+                .transpose()?;
+            let (ha, hb) = match (a, b) {
+                (Some(a), Some(b)) => (a, b),
+                (Some(a), None) => (a, a),
+                (None, Some(b)) => (b, b),
+                (None, None) => (
+                    road_end(net, dem, &route.spans[i], false)?,
+                    road_end(net, dem, &route.spans[j], true)?,
+                ),
+            };
+            Ok((ca, cb, ha, hb))
+        })
+        .collect::<Result<_>>()?;
+    let mut raw = Vec::with_capacity(n + 1);
+    let mut r = 0;
+    for i in 0..=n {
+        let c = i as f64 * step;
+        while r < runs.len() && runs[r].1 < c {
+            r += 1;
+        }
+        let h = match runs.get(r) {
+            Some(&(ca, cb, ha, hb)) if c >= ca && cb > ca => ha + (hb - ha) * (c - ca) / (cb - ca),
+            _ => dem_at(net, route, dem, c)?,
+        };
+        raw.push(h);
+    }
+    Ok(HeightProfile::smoothed(step, &raw, PROFILE_HALF_WINDOW_M))
+}
