@@ -102,7 +102,7 @@ impl TruthSource {
                 } else {
                     let dem = crate::elevation::Dem::open(&scn.elevation)?;
                     let h = crate::trajectory::route_heights(&network, &route, &dem)?;
-                    centre = centre.with_heights(h.clone());
+                    centre = centre.with_heights(&h);
                     Some(h)
                 };
                 // The truth drives in its lane (issue 12): the centre path
@@ -120,7 +120,7 @@ impl TruthSource {
                 )
                 .map_err(err)?;
                 let plan = match heights {
-                    Some(h) => plan.with_heights(h),
+                    Some(h) => plan.with_heights(&h),
                     None => plan,
                 };
                 Ok(Self::from_route(network, route, plan))

@@ -1,0 +1,462 @@
+//! `[map] elevation`: GeoTIFF elevation models written by the tests with the
+//! `tiff` crate's encoder (a plane tilted 5 % over the bundled Helsinki
+//! map), read back, driven by the truth trajectory, carried into the tag
+//! files, tunnels interpolated between their portals, and bad input refused
+//! through the binary.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use tiff::encoder::{colortype, TiffEncoder};
+use tiff::tags::Tag;
+use waymark::elevation::{HeightProfile, MAX_DEM_PIXELS};
+use waymark::{Dem, Network, Scenario, TruthSource};
+
+fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+/// Centre of the plane's tilt (the Helsinki map's middle).
+const LAT_C: f64 = 60.1716;
+const LON_C: f64 = 24.944;
+/// Metres per degree of latitude and of longitude at `LAT_C` (spherical,
+/// R = 6371 km: the plane only has to be a plane in latitude/longitude,
+/// which bilinear interpolation reproduces exactly).
+const M_PER_DEG_LAT: f64 = 6_371_000.0 * std::f64::consts::PI / 180.0;
+fn m_per_deg_lon() -> f64 {
+    M_PER_DEG_LAT * LAT_C.to_radians().cos()
+}
+/// Grades east and north: 3 % and 4 %, 5 % up the steepest direction.
+const GRADE_E: f64 = 0.03;
+const GRADE_N: f64 = 0.04;
+
+/// The tilted plane: 50 m at the centre.
+fn plane(lat: f64, lon: f64) -> f64 {
+    50.0 + GRADE_E * (lon - LON_C) * m_per_deg_lon() + GRADE_N * (lat - LAT_C) * M_PER_DEG_LAT
+}
+
+#[derive(Clone, Copy)]
+enum Georef {
+    /// ModelTiepoint + ModelPixelScale, PixelIsArea.
+    Area,
+    /// ModelTiepoint + ModelPixelScale, PixelIsPoint.
+    Point,
+    /// ModelTransformation, PixelIsArea.
+    Transform,
+}
+
+#[derive(Clone, Copy)]
+struct Spec {
+    south: f64,
+    north: f64,
+    west: f64,
+    east: f64,
+    width: u32,
+    height: u32,
+    georef: Georef,
+    /// GeoKeys: (model type, CRS key, CRS code).
+    crs: (u16, u16, u16),
+    int16: bool,
+    nodata: Option<&'static str>,
+}
+
+/// A DEM over the Helsinki map (60.1642..60.1791 N, 24.9352..24.9534 E)
+/// with 0.00025° pixels.
+fn helsinki() -> Spec {
+    Spec {
+        south: 60.160,
+        north: 60.185,
+        west: 24.930,
+        east: 24.960,
+        width: 120,
+        height: 100,
+        georef: Georef::Area,
+        crs: (2, 2048, 4326),
+        int16: false,
+        nodata: None,
+    }
+}
+
+/// Writes a single-band GeoTIFF whose pixel centres hold `h(lat, lon)`.
+fn write_dem(path: &Path, s: Spec, h: impl Fn(f64, f64) -> f64) {
+    let point = matches!(s.georef, Georef::Point);
+    let (dx, dy) = if point {
+        (
+            (s.east - s.west) / f64::from(s.width - 1),
+            (s.north - s.south) / f64::from(s.height - 1),
+        )
+    } else {
+        (
+            (s.east - s.west) / f64::from(s.width),
+            (s.north - s.south) / f64::from(s.height),
+        )
+    };
+    let off = if point { 0.0 } else { 0.5 };
+    let mut values = Vec::with_capacity((s.width * s.height) as usize);
+    for r in 0..s.height {
+        for c in 0..s.width {
+            let lat = s.north - (f64::from(r) + off) * dy;
+            let lon = s.west + (f64::from(c) + off) * dx;
+            values.push(h(lat, lon));
+        }
+    }
+    let file = std::fs::File::create(path).unwrap();
+    let mut enc = TiffEncoder::new(file).unwrap();
+    let keys: Vec<u16> = vec![
+        1,
+        1,
+        0,
+        3,
+        1024,
+        0,
+        1,
+        s.crs.0,
+        1025,
+        0,
+        1,
+        if point { 2 } else { 1 },
+        s.crs.1,
+        0,
+        1,
+        s.crs.2,
+    ];
+    macro_rules! tags {
+        ($img:expr) => {{
+            let d = $img.encoder();
+            d.write_tag(Tag::GeoKeyDirectoryTag, &keys[..]).unwrap();
+            match s.georef {
+                Georef::Area | Georef::Point => {
+                    d.write_tag(Tag::ModelPixelScaleTag, &[dx, dy, 0.0][..])
+                        .unwrap();
+                    d.write_tag(
+                        Tag::ModelTiepointTag,
+                        &[0.0, 0.0, 0.0, s.west, s.north, 0.0][..],
+                    )
+                    .unwrap();
+                }
+                Georef::Transform => {
+                    let m = [
+                        dx, 0.0, 0.0, s.west, 0.0, -dy, 0.0, s.north, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                        0.0, 1.0,
+                    ];
+                    d.write_tag(Tag::ModelTransformationTag, &m[..]).unwrap();
+                }
+            }
+            if let Some(n) = s.nodata {
+                d.write_tag(Tag::GdalNodata, n).unwrap();
+            }
+        }};
+    }
+    if s.int16 {
+        let mut img = enc
+            .new_image::<colortype::GrayI16>(s.width, s.height)
+            .unwrap();
+        tags!(img);
+        let v: Vec<i16> = values.iter().map(|x| x.round() as i16).collect();
+        img.write_data(&v).unwrap();
+    } else {
+        let mut img = enc
+            .new_image::<colortype::Gray32Float>(s.width, s.height)
+            .unwrap();
+        tags!(img);
+        let v: Vec<f32> = values.iter().map(|&x| x as f32).collect();
+        img.write_data(&v).unwrap();
+    }
+}
+
+/// Seeded points inside the map's extent.
+fn points(n: usize) -> Vec<(f64, f64)> {
+    let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..n)
+        .map(|_| (60.1642 + 0.0149 * next(), 24.9352 + 0.0182 * next()))
+        .collect()
+}
+
+/// Every georeferencing form reads the plane back: a linear function of
+/// latitude and longitude, which bilinear interpolation reproduces
+/// exactly; the tolerance is the f32 storage (heights ≤ 200 m: a relative
+/// 6e-8, 1.2e-5 m) with margin.
+#[test]
+fn every_georeferencing_reads_the_plane_back() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, georef) in [
+        ("area", Georef::Area),
+        ("point", Georef::Point),
+        ("transform", Georef::Transform),
+    ] {
+        let path = dir.path().join(format!("{name}.tif"));
+        write_dem(
+            &path,
+            Spec {
+                georef,
+                ..helsinki()
+            },
+            plane,
+        );
+        let dem = Dem::open(&[path]).unwrap();
+        for (lat, lon) in points(500) {
+            let h = dem.height(lat, lon).unwrap();
+            assert!(
+                (h - plane(lat, lon)).abs() < 1e-3,
+                "{name}: {lat} {lon}: {h}"
+            );
+        }
+    }
+    // Two tiles side by side (west and east halves), each PixelIsArea:
+    // points between the tiles' outermost pixel centres use the clamped
+    // neighbourhood, exact along the border for a plane only to half a
+    // pixel's height change (0.00025° / 2 ≈ 7 m east at 3 %: 0.21 m).
+    let west = dir.path().join("west.tif");
+    let east = dir.path().join("east.tif");
+    let half = Spec {
+        east: 24.945,
+        width: 60,
+        ..helsinki()
+    };
+    write_dem(&west, half, plane);
+    write_dem(
+        &east,
+        Spec {
+            west: 24.945,
+            east: 24.960,
+            ..half
+        },
+        plane,
+    );
+    let dem = Dem::open(&[west, east]).unwrap();
+    for (lat, lon) in points(500) {
+        let h = dem.height(lat, lon).unwrap();
+        let tol = if (lon - 24.945).abs() < 0.000125 {
+            0.25
+        } else {
+            1e-3
+        };
+        assert!((h - plane(lat, lon)).abs() < tol, "{lat} {lon}: {h}");
+    }
+}
+
+/// No data: Int16 with GDAL_NODATA = -32768 in one pixel; points whose
+/// bilinear neighbourhood uses it are an error naming the file, the rest
+/// read (to the Int16 rounding, 0.5 m).
+#[test]
+fn no_data_pixels_are_an_error_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("voids.tif");
+    let s = Spec {
+        int16: true,
+        nodata: Some("-32768"),
+        ..helsinki()
+    };
+    // The void: the pixel whose centre is at row 50, column 60.
+    let (void_lat, void_lon) = (s.north - 50.5 * 0.00025, s.west + 60.5 * 0.00025);
+    write_dem(&path, s, |lat, lon| {
+        if (lat - void_lat).abs() < 1e-9 && (lon - void_lon).abs() < 1e-9 {
+            -32768.0
+        } else {
+            plane(lat, lon)
+        }
+    });
+    let dem = Dem::open(std::slice::from_ref(&path)).unwrap();
+    let e = dem
+        .height(void_lat + 0.0001, void_lon - 0.0001)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("voids.tif") && e.contains("no data"), "{e}");
+    let h = dem.height(void_lat + 0.002, void_lon + 0.002).unwrap();
+    assert!((h - plane(void_lat + 0.002, void_lon + 0.002)).abs() <= 0.5 + 1e-9);
+}
+
+/// Smoothing keeps a linear profile and removes pixel noise: ±2 m uniform
+/// noise (σ = 4/√12 = 1.155 m) on every 5 m node of a 3 % ramp gives
+/// node-to-node grades of σ = 1.155·√2/5 = 33 %. Twice a 17-node box is
+/// a triangular kernel w_j = (17 − |j|)/17²; the grade, a central
+/// difference over 10 m, weighs the noise by (w_{j−1} − w_{j+1})/10 m, whose
+/// squares sum to (32·(2/289)² + 2·(1/289)²)/100 → σ = 1.155 × 0.0395/10 =
+/// 0.46 %. The worst of 360 correlated grades stays below 4σ = 1.8 %.
+#[test]
+fn the_profile_keeps_ramps_and_smooths_noise() {
+    let ramp: Vec<f64> = (0..400).map(|i| 10.0 + 0.03 * 5.0 * i as f64).collect();
+    let p = HeightProfile::smoothed(5.0, &ramp, 40.0);
+    for c in [0.0, 2.5, 100.0, 1234.5, 1995.0] {
+        assert!((p.height_at(c) - (10.0 + 0.03 * c)).abs() < 1e-9, "{c}");
+        assert!((p.grade_at(c) - 0.03).abs() < 1e-9, "{c}");
+    }
+    let mut x: u64 = 12345;
+    let noisy: Vec<f64> = ramp
+        .iter()
+        .map(|h| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            h + 4.0 * ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5)
+        })
+        .collect();
+    let p = HeightProfile::smoothed(5.0, &noisy, 40.0);
+    let worst = (20..380)
+        .map(|i| (p.grade_at(i as f64 * 5.0) - 0.03).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 0.018, "worst grade error {worst}");
+}
+
+/// A scenario file in `dir` on the bundled map with `extra` TOML lines
+/// appended after `[map]`'s path.
+fn scenario(dir: &Path, map_extra: &str, route: &str) -> PathBuf {
+    let text = format!(
+        r#"name = "elevation"
+requirement_m = 20.0
+seed = 3
+[map]
+path = "{map}"
+{map_extra}
+[[route]]
+{route}
+[navigator]
+mode = "integrated"
+[imu]
+rate_hz = 100
+gyro_bias_dph = [0.01, 0.01, 0.01]
+accel_bias_ug = [25, 25, 25]
+gyro_arw_dprh = 0.002
+accel_vrw_ugprhz = 5
+[odometer]
+scale_factor_error = 0.001
+noise_mps = 0.02
+pulse_m = 0.02
+[aiding]
+odometer = true
+baro = true
+rfid = true
+[planner]
+candidate_spacing_m = 100
+validation_runs = 4
+"#,
+        map = repo("maps/helsinki.osm.pbf").display()
+    );
+    let p = dir.join("scenario.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+const ROUTE: &str = "waypoints = [[60.1660, 24.9380], [60.1770, 24.9510]]\nspeed_kmh = 40";
+
+/// Chainage intervals of the route's tunnels and bridges.
+fn structures(net: &Network, route: &waymark::Route) -> Vec<(f64, f64)> {
+    route
+        .spans
+        .iter()
+        .filter(|s| {
+            let a = &net.roads[s.road as usize].attributes;
+            a.tunnel || a.bridge
+        })
+        .map(|s| (s.start_chainage_m, s.end_chainage_m))
+        .collect()
+}
+
+/// Total heading change (rad) of the route's polyline within ±`half` m
+/// of chainage `c`.
+fn turning_near(route: &waymark::Route, c: f64, half: f64) -> f64 {
+    let v = &route.vertices;
+    let mut total = 0.0;
+    for w in v.windows(3) {
+        if w[1].chainage_m < c - half || w[1].chainage_m > c + half {
+            continue;
+        }
+        let h = |a: &waymark::route::RouteVertex, b: &waymark::route::RouteVertex| {
+            (b.enu[0] - a.enu[0]).atan2(b.enu[1] - a.enu[1])
+        };
+        let mut d = h(&w[1], &w[2]) - h(&w[0], &w[1]);
+        d = (d + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
+            - std::f64::consts::PI;
+        total += d.abs();
+    }
+    total
+}
+
+/// The truth drives the plane: its height at its own latitude/longitude
+/// is the plane's, away from tunnels and bridges, and its pitch is the
+/// plane's grade along its heading.
+#[test]
+fn the_truth_trajectory_follows_the_terrain() {
+    let dir = tempfile::tempdir().unwrap();
+    write_dem(&dir.path().join("dem.tif"), helsinki(), plane);
+    let scn = Scenario::load(&scenario(dir.path(), "elevation = \"dem.tif\"", ROUTE)).unwrap();
+    let truth = TruthSource::new(&scn).unwrap();
+    let net = truth.network().unwrap();
+    let route = truth.route().unwrap();
+    let structures = structures(net, route);
+    let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+    // Worst height and pitch errors on straight stretches and anywhere.
+    let (mut straight, mut anywhere) = ([0.0f64; 2], [0.0f64; 2]);
+    let mut n_straight = 0;
+    for a in truth.samples().step_by(10) {
+        let s = a.state;
+        let (lat, lon) = (s.lat.to_degrees(), s.lon.to_degrees());
+        lo = lo.min(s.h);
+        hi = hi.max(s.h);
+        let c = truth.chainage_at(a.distance_m).unwrap();
+        // Smoothing reaches ±80 m: farther from every structure than that
+        // (with a 20 m margin) the terrain alone sets the height.
+        if structures
+            .iter()
+            .any(|&(a, b)| c > a - 100.0 && c < b + 100.0)
+        {
+            continue;
+        }
+        let dh = (s.h - plane(lat, lon)).abs();
+        let speed = s.v[0].hypot(s.v[1]);
+        let dp = if speed > 1.0 {
+            // The plane's rise per metre along the direction of travel.
+            let along = (GRADE_E * s.v[0] + GRADE_N * s.v[1]) / speed;
+            let (pitch, _, _) = waymark::attitude::QuatExt::to_euler(&s.q);
+            (pitch - along.atan()).abs()
+        } else {
+            0.0
+        };
+        anywhere = [anywhere[0].max(dh), anywhere[1].max(dp)];
+        if turning_near(route, c, 90.0) < 5f64.to_radians() {
+            n_straight += 1;
+            straight = [straight[0].max(dh), straight[1].max(dp)];
+        }
+    }
+    eprintln!(
+        "heights {lo:.2}..{hi:.2} m; straight ({n_straight} samples): {:.3} m, {:.4} rad; \
+         anywhere: {:.3} m, {:.4} rad",
+        straight[0], straight[1], anywhere[0], anywhere[1]
+    );
+    // The route climbs the plane: a real test of following it.
+    assert!(hi - lo > 30.0, "{lo}..{hi}");
+    assert!(
+        n_straight > 50,
+        "{n_straight} samples on straight stretches"
+    );
+    // Straight (< 5° of turning within the ±80 m smoothing reach): the
+    // smoothed heights are the plane's along the centre line; the truth
+    // drives its lane, ≤ ~5 m beside it (5 % × 5 m = 0.25 m). Pitch: the
+    // grade seen across 5° of turning changes by ≤ 5 % × sin 5° = 0.4 %.
+    assert!(
+        straight[0] < 0.3,
+        "straight: height error {} m",
+        straight[0]
+    );
+    assert!(
+        straight[1] < 0.005,
+        "straight: pitch error {} rad",
+        straight[1]
+    );
+    // At a bend the road's height is not linear in chainage: turning by θ
+    // kinks the grade by up to Δg = 2 × 5 % × sin(θ/2) (10 % for a U-turn),
+    // and the triangular ±80 m kernel rounds the kink by Δg/2 × E|x| =
+    // Δg/2 × 80/3 m (1.33 m at 10 %), the plan's ±20 m one along its path
+    // by Δg/2 × 20/3 m (0.33 m), and the grade by up to Δg/2 (5 %).
+    assert!(
+        anywhere[0] < 1.33 + 0.33 + 0.25,
+        "height error {} m",
+        anywhere[0]
+    );
+    assert!(anywhere[1] < 0.05, "pitch error {} rad", anywhere[1]);
+}
