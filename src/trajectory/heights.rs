@@ -65,6 +65,17 @@ fn structure_runs(net: &Network, route: &Route) -> Vec<(usize, usize)> {
 /// The smoothed height profile of `route` on `dem`; an error names the DEM
 /// file when a point the route needs is outside it or on no data.
 pub fn route_heights(net: &Network, route: &Route, dem: &Dem) -> Result<HeightProfile> {
+    route_heights_with(net, route, dem, PROFILE_HALF_WINDOW_M)
+}
+
+/// [`route_heights`] with the smoothing's half-window (m; 0: the raw
+/// heights, the DEM's and the structures' interpolation).
+pub fn route_heights_with(
+    net: &Network,
+    route: &Route,
+    dem: &Dem,
+    half_window_m: f64,
+) -> Result<HeightProfile> {
     let length = route.length_m.max(1e-3);
     let n = (length / PROFILE_STEP_M).ceil().max(1.0) as usize;
     let step = length / n as f64;
@@ -106,5 +117,5 @@ pub fn route_heights(net: &Network, route: &Route, dem: &Dem) -> Result<HeightPr
         };
         raw.push(h);
     }
-    Ok(HeightProfile::smoothed(step, &raw, PROFILE_HALF_WINDOW_M))
+    Ok(HeightProfile::smoothed(step, &raw, half_window_m))
 }
