@@ -256,8 +256,8 @@ fn heights_on_map(scn: &Scenario, network: bool) -> String {
                 .join(", ")
         ),
         (false, true) => format!(
-            "none: [map] elevation is not applied to network plans yet; every tag carries \
-             {constant} m"
+            "none: these tags were not given the terrain's heights (the plan command gives \
+             them from [map] elevation); every tag carries {constant} m"
         ),
     }
 }

@@ -119,3 +119,150 @@ pub fn route_heights_with(
     }
     Ok(HeightProfile::smoothed(step, &raw, half_window_m))
 }
+
+/// Heights of a network's roads on an elevation model, for points anywhere
+/// on the network (area plans): the DEM's bilinear height on ordinary
+/// roads (not smoothed: a point, not a drive); on tunnels and bridges the
+/// linear interpolation between the structure's ends. A structure is a
+/// connected set of tunnel or bridge sections; its portals are its nodes
+/// that also touch an ordinary road or end the network (dead ends, extract
+/// edges), at the DEM's height; its inner nodes take the harmonic
+/// interpolation (each the length-weighted mean of its neighbours, 1/length
+/// weights), which along a chain of sections is linear in distance between
+/// the portals, and a point on a structure section is linear between its
+/// two nodes. A structure without any portal (a closed loop) follows the
+/// DEM at its nodes.
+#[derive(Debug, Clone)]
+pub struct NetworkHeights<'a> {
+    net: &'a Network,
+    dem: &'a Dem,
+    /// Heights of the nodes of structure sections.
+    nodes: std::collections::BTreeMap<crate::network::NodeId, f64>,
+}
+
+impl<'a> NetworkHeights<'a> {
+    /// Solves the structures' node heights.
+    pub fn new(net: &'a Network, dem: &'a Dem) -> Result<NetworkHeights<'a>> {
+        use crate::network::SectionEnd;
+        use std::collections::{BTreeMap, BTreeSet};
+        let m = &net.model;
+        let structure = |s: u32| {
+            let a = &m.roads[m.sections[s as usize].road as usize].attributes;
+            a.tunnel || a.bridge
+        };
+        let dem_at = |n: u32| {
+            let [lat, lon] = m.nodes[n as usize].lat_lon;
+            dem.height(lat, lon)
+        };
+        // Structure nodes: portals at the DEM's height, free nodes with
+        // their structure neighbours and 1/length weights (ordered maps:
+        // the same sweep order, the same heights, on every run).
+        let mut portals: BTreeMap<u32, f64> = BTreeMap::new();
+        let mut free: BTreeMap<u32, Vec<(u32, f64)>> = BTreeMap::new();
+        for (s, sec) in m.sections.iter().enumerate() {
+            if !structure(s as u32) {
+                continue;
+            }
+            for n in [sec.start, sec.end] {
+                if portals.contains_key(&n) || free.contains_key(&n) {
+                    continue;
+                }
+                let inc = net.topology.incidences(n);
+                if inc.len() < 2 || inc.iter().any(|i| !structure(i.section)) {
+                    portals.insert(n, dem_at(n)?);
+                    continue;
+                }
+                let edges = inc
+                    .iter()
+                    .map(|i| {
+                        let t = &m.sections[i.section as usize];
+                        let other = match i.end {
+                            SectionEnd::Start => t.end,
+                            SectionEnd::End => t.start,
+                        };
+                        (other, 1.0 / t.length_m.max(0.01))
+                    })
+                    .filter(|&(o, _)| o != n)
+                    .collect();
+                free.insert(n, edges);
+            }
+        }
+        // Free nodes with no portal reachable through structure sections
+        // (a closed structure): the DEM's height, fixed.
+        let mut linked: BTreeSet<u32> = BTreeSet::new();
+        let mut stack: Vec<u32> = Vec::new();
+        for (n, e) in &free {
+            if e.iter().any(|(o, _)| portals.contains_key(o)) && linked.insert(*n) {
+                stack.push(*n);
+            }
+        }
+        while let Some(x) = stack.pop() {
+            for &(o, _) in &free[&x] {
+                if free.contains_key(&o) && linked.insert(o) {
+                    stack.push(o);
+                }
+            }
+        }
+        let closed: Vec<u32> = free
+            .keys()
+            .copied()
+            .filter(|n| !linked.contains(n))
+            .collect();
+        for n in closed {
+            free.remove(&n);
+            portals.insert(n, dem_at(n)?);
+        }
+        // Gauss–Seidel from the mean portal height; structures are a few
+        // sections each, so this converges in a few hundred sweeps.
+        let start = portals.values().sum::<f64>() / portals.len().max(1) as f64;
+        let mut heights = portals;
+        for n in free.keys() {
+            heights.insert(*n, start);
+        }
+        for _ in 0..100_000 {
+            let mut change = 0.0f64;
+            for (n, edges) in &free {
+                let (mut num, mut den) = (0.0, 0.0);
+                for &(o, w) in edges {
+                    num += w * heights[&o];
+                    den += w;
+                }
+                let h = num / den;
+                change = change.max((h - heights[n]).abs());
+                heights.insert(*n, h);
+            }
+            if change < 1e-7 {
+                break;
+            }
+        }
+        Ok(NetworkHeights {
+            net,
+            dem,
+            nodes: heights,
+        })
+    }
+
+    /// The road's height (m) at `offset_m` along `section` (digitised
+    /// direction), whose centre line is at `lat_lon` (degrees) there.
+    pub fn at(
+        &self,
+        section: crate::network::SectionId,
+        offset_m: f64,
+        lat_lon: [f64; 2],
+    ) -> Result<f64> {
+        let m = &self.net.model;
+        let sec = &m.sections[section as usize];
+        match (self.nodes.get(&sec.start), self.nodes.get(&sec.end)) {
+            (Some(&a), Some(&b))
+                if {
+                    let r = &m.roads[sec.road as usize].attributes;
+                    r.tunnel || r.bridge
+                } =>
+            {
+                let f = (offset_m / sec.length_m.max(1e-9)).clamp(0.0, 1.0);
+                Ok(a + (b - a) * f)
+            }
+            _ => self.dem.height(lat_lon[0], lat_lon[1]),
+        }
+    }
+}

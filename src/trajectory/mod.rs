@@ -7,7 +7,7 @@ mod heights;
 pub(crate) mod motion;
 pub(crate) mod route;
 
-pub use heights::{route_heights, route_heights_with};
+pub use heights::{route_heights, route_heights_with, NetworkHeights};
 pub use motion::{Extent, Motion, MotionPlan, MotionTrajectory, Start};
 pub use route::{RoutePlan, RouteTrajectory, SpeedProfile};
 
