@@ -3,8 +3,7 @@
 //! converted to SI here, once; every error names the file and the field.
 
 use super::check::Check;
-use super::limits::MAX_ELEVATION_FILES;
-use super::route::route;
+use super::route::{elevation, route};
 use super::schema::*;
 use super::sections::*;
 use crate::error::{Error, Result};
@@ -14,7 +13,7 @@ use crate::sensors::{
 };
 use crate::tags::{Mounting, RfidModel};
 use crate::units::{ARCMIN, ARCSEC, DPH, G0};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// One-line description of a TOML parse error with its line number and,
 /// where the error is about a value, the field holding it (e.g.
@@ -577,35 +576,6 @@ impl Scenario {
             accel_bias_random: file.imu.accel_bias_random_ug * 1e-6 * G0,
         })
     }
-}
-
-/// `[map] elevation`: the DEM files resolved against the scenario's folder
-/// (the files are read where the map is: in the truth and the planner).
-fn elevation(c: &Check, path: &Path, file: &ScenarioFile) -> Result<Vec<PathBuf>> {
-    let Some(e) = file.map.as_ref().and_then(|m| m.elevation.as_ref()) else {
-        return Ok(Vec::new());
-    };
-    let files = match e {
-        OneOrMany::One(f) => vec![f.clone()],
-        OneOrMany::Many(v) => v.clone(),
-    };
-    if files.is_empty() {
-        return Err(c.err("map.elevation is an empty list: give one GeoTIFF or a list of tiles"));
-    }
-    if files.len() > MAX_ELEVATION_FILES {
-        return Err(c.err(format!(
-            "map.elevation lists {} files, above the limit of {MAX_ELEVATION_FILES}",
-            files.len()
-        )));
-    }
-    if file.route.first().is_some_and(|r| r.height_m.is_some()) {
-        return Err(c.err(
-            "route[0].height_m is the constant height of a map without an elevation model; \
-             with map.elevation the heights come from the terrain (remove one of them)",
-        ));
-    }
-    let base = path.parent().unwrap_or(Path::new("."));
-    Ok(files.iter().map(|f| base.join(f)).collect())
 }
 
 /// `[map] geometry_error_m` and `geometry_error_correlation_m`, checked, with
