@@ -17,6 +17,7 @@
 //! | Read and validate a scenario (TOML) | [`Scenario::load`], [`Scenario::parse`] |
 //! | Simulate navigation (Monte Carlo) | [`TruthSource::new`], [`simulate`], [`simulate_with`] → [`SimResult`] ([`Summary`]); [`write_output`] |
 //! | Plan tags along a route or over a network | [`PlannerSettings::from_scenario`], [`plan`], [`plan_with`] → [`Plan`] ([`PlannedTag`]); [`plan_network`] → [`NetworkPlan`] |
+//! | Terrain heights from a GeoTIFF elevation model (`[map] elevation`) | [`Dem::open`], [`Dem::height`]; along a route [`trajectory::route_heights`] → [`HeightProfile`], driven by [`trajectory::RoutePlan::with_heights`]; over a network [`trajectory::NetworkHeights`] |
 //! | Export tag lists | [`tags_csv`], [`tags_geojson`], [`tags_kml`], [`tags_gpx`] of [`TagRecord`]s with [`ExportMetadata`]; [`write_atomic`] |
 //! | Write the HTML report of an output folder | [`write_report`] → [`ReportFiles`] |
 //! | Run a whole command's job into an output folder (what the binary calls) | [`workflow::plan_folder`], [`workflow::simulate_folder`], [`workflow::match_file`], [`workflow::inspect_map`], [`workflow::demo_folder`], reporting through a [`workflow::Progress`] |
@@ -148,6 +149,7 @@
 #![warn(unnameable_types)]
 
 pub mod attitude;
+pub mod elevation;
 pub mod error;
 pub mod export;
 pub mod fsio;
@@ -166,6 +168,7 @@ pub mod trajectory;
 pub mod units;
 pub mod workflow;
 
+pub use elevation::{Dem, HeightProfile};
 pub use error::{Error, Result};
 pub use export::{tags_csv, tags_geojson, tags_gpx, tags_kml, write_atomic};
 pub use matching::{

@@ -269,7 +269,7 @@ fn report_of_a_plan_folder_shows_the_map_profile_summary_and_verdict() {
     let table = &html[html.find("id=\"tag-table\"").unwrap()..];
     let body = &table[table.find("<tbody>").unwrap()..table.find("</tbody>").unwrap()];
     assert_eq!(body.matches("<tr").count() as u64, n);
-    assert!(html.contains("Heights: no elevation model"));
+    assert!(html.contains("Heights: none (no [map] elevation)"));
     assert!(!html.contains("<h2>Summary</h2>"), "no simulation here");
     assert!(out.join("plots/plan_profile.png").exists());
 }

@@ -161,8 +161,8 @@ impl Plan {
             "tags within one window of k+1 consecutive tags along the route".into(),
         );
         // Motion-command routes carry the trajectory's heights; map routes
-        // a constant height (no elevation model).
-        meta.heights_known = !on_map;
+        // the terrain's with `[map] elevation`, else a constant height.
+        meta.heights_known = !on_map || !scn.elevation.is_empty();
         if on_map {
             meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
         }
@@ -247,8 +247,38 @@ impl NetworkPlan {
             "directed road section (section and direction) the tag serves".into(),
         );
         meta.heights_known = false;
+        meta.parameters
+            .insert("height_m".into(), heights_on_map(scn, true));
         meta.attribution = Some("© OpenStreetMap contributors, ODbL".into());
         Ok((recs, meta))
+    }
+}
+
+/// Where a map plan's heights come from (`height_m` in the tag files'
+/// metadata and the report's "Heights:" line).
+fn heights_on_map(scn: &Scenario, network: bool) -> String {
+    let constant = match scn.route {
+        RouteKind::Map { height_m, .. } => height_m,
+        RouteKind::Motion { .. } => 0.0,
+    };
+    match (scn.elevation.is_empty(), network) {
+        (true, _) => format!(
+            "none (no [map] elevation): every tag carries the route's constant height, \
+             {constant} m, not the terrain's"
+        ),
+        (false, false) => format!(
+            "the terrain's, from the elevation model {} (bilinear, smoothed along the road; \
+             tunnels and bridges interpolated between their ends)",
+            scn.elevation
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        (false, true) => format!(
+            "none: these tags were not given the terrain's heights (the plan command gives \
+             them from [map] elevation); every tag carries {constant} m"
+        ),
     }
 }
 
@@ -305,7 +335,7 @@ fn common_metadata(
     p.insert(
         "height_m".into(),
         if matches!(scn.route, RouteKind::Map { .. }) {
-            "no elevation model: heights are the scenario's constant route height, not the terrain's".into()
+            heights_on_map(scn, false)
         } else {
             "the trajectory's height (from the start height and the motion commands)".into()
         },

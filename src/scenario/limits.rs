@@ -28,6 +28,11 @@ pub const MAX_TOLERATED_MISSED_READS: u64 = 3;
 /// each is a covariance pass and a placement).
 pub const MAX_REFINE_ITERATIONS: u64 = 100;
 
+/// Most `[map] elevation` files (tiles). Their pixels together are limited
+/// by [`crate::elevation::MAX_DEM_PIXELS`], checked from each file's header
+/// before its raster is decoded.
+pub const MAX_ELEVATION_FILES: usize = 64;
+
 /// Largest gyro error term (°/h: `gyro_bias_dph`, `gyro_bias_instability_dph`,
 /// `gyro_bias_random_dph`): 1000 °/s, beyond any gyro's measurement range.
 /// At this limit the simulation and the planner's covariance analysis stay

@@ -122,7 +122,10 @@ pub fn starter_scenario(s: &Starter) -> String {
             t.push_str(&format!(
                 "[map]\n\
                  # OpenStreetMap PBF or XML, GeoJSON or shapefile; relative to this file.\n\
-                 path = \"{}\"\n\n\
+                 path = \"{}\"\n\
+                 # Terrain heights: a GeoTIFF elevation model (SRTM or Copernicus GLO-30,\n\
+                 # WGS-84 degrees) or a list of tiles; without one, heights are 0 m.\n\
+                 # elevation = \"dem.tif\"\n\n\
                  [[route]]\n\
                  # Waypoints [lat, lon] (degrees) the route is planned through on the map{}.\n\
                  waypoints = [{}]\n\

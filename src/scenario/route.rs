@@ -1,12 +1,14 @@
 //! Validation of the first `[[route]]`: waypoints on a map or a start with
-//! motion commands, checked and converted to SI.
+//! motion commands, checked and converted to SI; and `[map] elevation`, the
+//! terrain the map route is driven on.
 
 use super::check::Check;
-use super::schema::{Coverage, MotionKind, MotionSpec, ScenarioFile};
+use super::limits::MAX_ELEVATION_FILES;
+use super::schema::{Coverage, MotionKind, MotionSpec, OneOrMany, ScenarioFile};
 use super::sections::RouteKind;
 use crate::error::{Error, Result};
 use crate::trajectory::{Extent, Motion, Start};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The first route of `file`, validated.
 pub(super) fn route(
@@ -119,6 +121,35 @@ pub(super) fn route(
             })
         }
     }
+}
+
+/// `[map] elevation`: the DEM files resolved against the scenario's folder
+/// (the files are read where the map is: in the truth and the planner).
+pub(super) fn elevation(c: &Check, path: &Path, file: &ScenarioFile) -> Result<Vec<PathBuf>> {
+    let Some(e) = file.map.as_ref().and_then(|m| m.elevation.as_ref()) else {
+        return Ok(Vec::new());
+    };
+    let files = match e {
+        OneOrMany::One(f) => vec![f.clone()],
+        OneOrMany::Many(v) => v.clone(),
+    };
+    if files.is_empty() {
+        return Err(c.err("map.elevation is an empty list: give one GeoTIFF or a list of tiles"));
+    }
+    if files.len() > MAX_ELEVATION_FILES {
+        return Err(c.err(format!(
+            "map.elevation lists {} files, above the limit of {MAX_ELEVATION_FILES}",
+            files.len()
+        )));
+    }
+    if file.route.first().is_some_and(|r| r.height_m.is_some()) {
+        return Err(c.err(
+            "route[0].height_m is the constant height of a map without an elevation model; \
+             with map.elevation the heights come from the terrain (remove one of them)",
+        ));
+    }
+    let base = path.parent().unwrap_or(Path::new("."));
+    Ok(files.iter().map(|f| base.join(f)).collect())
 }
 
 fn strip_invalid(e: Error) -> String {

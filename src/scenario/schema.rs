@@ -188,6 +188,20 @@ pub struct MapSection {
     /// scale L of its Gaussian covariance σ² exp(−d²/2L²).
     #[serde(default)]
     pub geometry_error_correlation_m: Option<f64>,
+    /// Digital elevation model(s): one GeoTIFF or a list of tiles, relative
+    /// to the scenario file (WGS-84 latitude/longitude, one band of heights).
+    #[serde(default)]
+    pub elevation: Option<OneOrMany>,
+}
+
+/// One file or a list of files.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum OneOrMany {
+    /// One file.
+    One(PathBuf),
+    /// Several files.
+    Many(Vec<PathBuf>),
 }
 
 /// `[[route]]`: waypoints on the map, or a start and motion commands.

@@ -328,6 +328,10 @@ pub struct Scenario {
     pub map_error: MapErrorModel,
     /// The vehicle in its lane (`[vehicle] drive_side`, `lane_wander_m`).
     pub lanes: LaneModel,
+    /// `[map] elevation`: the elevation model's GeoTIFF files (resolved
+    /// against the scenario's folder); empty without one (heights are then
+    /// the route's constant `height_m`).
+    pub elevation: Vec<PathBuf>,
     pub(super) name: String,
     pub(super) requirement_m: Option<f64>,
     pub(super) duration_cap_s: f64,

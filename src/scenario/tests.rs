@@ -239,3 +239,43 @@ fn map_geometry_error_is_validated() {
         assert_eq!(e.lines().count(), 1, "{e}");
     }
 }
+
+/// `[map] elevation`: one file or a list, resolved against the scenario's
+/// folder; an empty list and a constant `route[0].height_m` beside it are
+/// errors naming the field.
+#[test]
+fn map_elevation_is_one_file_or_a_list() {
+    let base = |map: &str, route: &str| {
+        format!(
+            "name = \"e\"\n[map]\npath = \"m.osm.pbf\"\n{map}\n[[route]]\n\
+             waypoints = [[60.17, 24.94], [60.175, 24.95]]\n{route}\n"
+        )
+    };
+    let load = |t: &str| Scenario::parse(Path::new("/data/scn/s.toml"), t);
+    let s = load(&base("", "")).unwrap();
+    assert!(s.elevation.is_empty());
+    let s = load(&base("elevation = \"dem.tif\"", "")).unwrap();
+    assert_eq!(
+        s.elevation,
+        vec![Path::new("/data/scn/dem.tif").to_path_buf()]
+    );
+    let s = load(&base("elevation = [\"a.tif\", \"../b.tif\"]", "")).unwrap();
+    assert_eq!(
+        s.elevation,
+        vec![
+            Path::new("/data/scn/a.tif").to_path_buf(),
+            Path::new("/data/scn/../b.tif").to_path_buf()
+        ]
+    );
+    let e = load(&base("elevation = []", "")).unwrap_err().to_string();
+    assert!(e.contains("map.elevation is an empty list"), "{e}");
+    let e = load(&base("elevation = \"dem.tif\"", "height_m = 5"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("route[0].height_m") && e.contains("map.elevation"),
+        "{e}"
+    );
+    let e = load(&base("elevation = 3", "")).unwrap_err().to_string();
+    assert!(e.contains("elevation"), "{e}");
+}

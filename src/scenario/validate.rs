@@ -3,7 +3,7 @@
 //! converted to SI here, once; every error names the file and the field.
 
 use super::check::Check;
-use super::route::route;
+use super::route::{elevation, route};
 use super::schema::*;
 use super::sections::*;
 use crate::error::{Error, Result};
@@ -520,6 +520,7 @@ impl Scenario {
         let route = route(&c, path, &file, planner.coverage)?;
         super::limits::check(&c, &file)?;
         let map_error = map_error(&c, file.map.as_ref())?;
+        let elevation = elevation(&c, path, &file)?;
         let filter = filter(&file, &odometer, dt);
         let a = file.aiding;
         let n = &file.navigator;
@@ -536,6 +537,7 @@ impl Scenario {
             output_interval_s,
             rfid,
             map_error,
+            elevation,
             lanes: LaneModel {
                 drive_side: file.vehicle.drive_side.unwrap_or_default(),
                 wander_m: c.non_negative(

@@ -92,8 +92,19 @@ impl TruthSource {
                 let err = |e: crate::error::Error| {
                     crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
                 };
-                let centre = RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
-                    .map_err(err)?;
+                let mut centre =
+                    RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
+                        .map_err(err)?;
+                // Terrain heights (`[map] elevation`): one profile along the
+                // route's chainage, which the centre and lane paths share.
+                let heights = if scn.elevation.is_empty() {
+                    None
+                } else {
+                    let dem = crate::elevation::Dem::open(&scn.elevation)?;
+                    let h = crate::trajectory::route_heights(&network, &route, &dem)?;
+                    centre = centre.with_heights(&h);
+                    Some(h)
+                };
                 // The truth drives in its lane (issue 12): the centre path
                 // moved to a lane of its direction, with wander and lane changes.
                 let plan = super::lanes::lane_plan(
@@ -108,6 +119,10 @@ impl TruthSource {
                     scn.dt,
                 )
                 .map_err(err)?;
+                let plan = match heights {
+                    Some(h) => plan.with_heights(&h),
+                    None => plan,
+                };
                 Ok(Self::from_route(network, route, plan))
             }
         }

@@ -3,11 +3,13 @@
 //! (`motion`) or from a road route, and the ideal IMU increments that
 //! reproduce it ([`ideal_imu`], by inverse strapdown).
 
+mod heights;
 pub(crate) mod motion;
 pub(crate) mod route;
 
+pub use heights::{route_heights, route_heights_with, NetworkHeights};
 pub use motion::{Extent, Motion, MotionPlan, MotionTrajectory, Start};
-pub use route::{RoutePlan, RouteTrajectory, SpeedProfile};
+pub use route::{RoutePlan, RouteTrajectory, SpeedProfile, PATH_HALF_WINDOW_M};
 
 use crate::attitude::V3;
 use crate::nav::strapdown::{ImuIncrement, InverseStrapdown, NavState};

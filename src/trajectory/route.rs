@@ -20,6 +20,12 @@
 //!    and attitude are consistent for the inverse strapdown. The integrated
 //!    path follows the map's path to within the tangent-plane distortion
 //!    (relative 1e-6 of the distance from the map's origin).
+//! 5. Heights: constant (`height_m`), or a terrain profile along the route's
+//!    chainage ([`RoutePlan::with_heights`], from [`super::route_heights`],
+//!    resampled along the plan's own path): the vertical velocity is the
+//!    horizontal speed times the grade, the pitch its arctangent, and the
+//!    height is integrated with the position, so it follows the profile to
+//!    the integration's rounding.
 
 use super::Avp;
 use crate::attitude::{wrap_pi, Quat, QuatExt, V3};
@@ -59,6 +65,9 @@ pub const PIVOT_ANGLE: f64 = 150.0 * std::f64::consts::PI / 180.0;
 pub const PIVOT_RATE: f64 = 0.5;
 /// Largest arc radius used at a vertex (m).
 pub const MAX_ARC_RADIUS_M: f64 = 5000.0;
+/// Half-width of the moving averages (applied twice) smoothing a height
+/// profile along a plan's own path (m): see [`RoutePlan::with_heights`].
+pub const PATH_HALF_WINDOW_M: f64 = 10.0;
 /// Lowest speed limit anywhere except at stops (m/s).
 pub const MIN_SPEED_MPS: f64 = 0.5;
 
@@ -120,6 +129,7 @@ pub struct RoutePlan {
     dt: f64,
     frame: EnuFrame,
     height_m: f64,
+    heights: Option<crate::elevation::HeightProfile>,
     elems: Vec<Elem>,
     nodes: Vec<Node>,
     /// Convergence correction (local heading − map heading, rad) every `conv_step` m.
@@ -406,6 +416,7 @@ impl RoutePlan {
             dt,
             frame,
             height_m,
+            heights: None,
             elems,
             nodes,
             conv,
@@ -473,21 +484,60 @@ impl RoutePlan {
         }
     }
 
+    /// Drives the terrain's heights: `profile` (heights along the route's
+    /// chainage, from [`super::route_heights`]) replaces the constant
+    /// height. The plan resamples it along its own path every
+    /// [`crate::elevation::PROFILE_STEP_M`] and smooths it over
+    /// ±[`PATH_HALF_WINDOW_M`] (twice): a lane path's chainage advances
+    /// unevenly (on the inside of a sharp corner several metres of chainage
+    /// pass in a metre of path), which would otherwise show as steps of grade.
+    pub fn with_heights(mut self, profile: &crate::elevation::HeightProfile) -> RoutePlan {
+        let n = (self.distance_m / crate::elevation::PROFILE_STEP_M)
+            .ceil()
+            .max(1.0) as usize;
+        let step = self.distance_m / n as f64;
+        let raw: Vec<f64> = (0..=n)
+            .map(|i| profile.height_at(self.chainage_at(i as f64 * step)))
+            .collect();
+        self.heights = Some(crate::elevation::HeightProfile::smoothed(
+            step,
+            &raw,
+            PATH_HALF_WINDOW_M,
+        ));
+        self
+    }
+
+    /// The terrain height profile driven, along the plan's path distance
+    /// (not the route's chainage), if any.
+    pub fn heights(&self) -> Option<&crate::elevation::HeightProfile> {
+        self.heights.as_ref()
+    }
+
+    /// Height (m) and grade (rise per metre of path) at path distance `s`.
+    #[inline]
+    fn height_grade(&self, s: f64) -> (f64, f64) {
+        match &self.heights {
+            None => (self.height_m, 0.0),
+            Some(h) => (h.height_at(s), h.grade_at(s)),
+        }
+    }
+
     /// The truth samples, the initial one first.
     pub fn trajectory(&self) -> RouteTrajectory<'_> {
         let (p, psi) = self.elems[0].eval(0.0);
+        let (h0, grade) = self.height_grade(0.0);
         let g = self.frame.to_geodetic([
             p[0],
             p[1],
-            self.height_m - (p[0] * p[0] + p[1] * p[1]) / (2.0 * crate::geodesy::WGS84_A),
+            h0 - (p[0] * p[0] + p[1] * p[1]) / (2.0 * crate::geodesy::WGS84_A),
         ]);
         let heading = psi + self.conv[0];
         let state = NavState {
-            q: Quat::from_heading_pitch_roll(heading, 0.0, 0.0),
+            q: Quat::from_heading_pitch_roll(heading, grade.atan(), 0.0),
             v: V3::zeros(),
             lat: g.lat,
             lon: g.lon,
-            h: self.height_m,
+            h: h0,
         };
         RouteTrajectory {
             plan: self,
@@ -557,13 +607,14 @@ impl Iterator for RouteTrajectory<'_> {
         let f = ci - i0 as f64;
         let heading = psi + p.conv[i0] * (1.0 - f) + p.conv[i1] * f;
         let (sh, ch) = heading.sin_cos();
-        let v1 = V3::new(v * sh, v * ch, 0.0);
+        let (_, grade) = p.height_grade(s);
+        let v1 = V3::new(v * sh, v * ch, v * grade);
         let s0 = self.state;
         let (lat, lon, h) = self.integ.advance(&s0, v1, p.dt);
         self.distance += s - self.last_s;
         self.last_s = s;
         self.state = NavState {
-            q: Quat::from_heading_pitch_roll(heading, 0.0, 0.0),
+            q: Quat::from_heading_pitch_roll(heading, grade.atan(), 0.0),
             v: v1,
             lat,
             lon,

@@ -2,6 +2,7 @@
 
 use super::inputs::{check_out_dir, clear_outputs, keep_inputs, PLAN_OUTPUTS};
 use super::progress::Progress;
+use crate::elevation::Dem;
 use crate::error::{Error, Result};
 use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml, tags_meta_json};
 use crate::fsio::write_atomic;
@@ -12,6 +13,7 @@ use crate::planner::{
 use crate::scenario::Scenario;
 use crate::sim::TruthSource;
 use crate::tags::{ExportMetadata, TagRecord};
+use crate::trajectory::NetworkHeights;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -362,7 +364,12 @@ fn network_plan_folder(
         )?);
     }
     super::finite::check_network_plan(job.scenario, &plan)?;
-    let (recs, meta) = plan.export(scn)?;
+    let terrain = terrain_heights(scn, &net, &mut plan)?;
+    let (recs, mut meta) = plan.export(scn)?;
+    if let Some(why) = terrain {
+        meta.heights_known = true;
+        meta.parameters.insert("height_m".into(), why);
+    }
     clear_outputs(job.out_dir, PLAN_OUTPUTS, true)?;
     write_tag_files(job.out_dir, &recs, &meta)?;
     let mut files = NETWORK_FILES.to_vec();
@@ -394,6 +401,42 @@ fn network_plan_folder(
         files,
         elapsed_s: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// `[map] elevation` on an area plan: every new tag's height is the
+/// road's at the tag's section and offset (the DEM's there, tunnels and
+/// bridges interpolated between their ends: [`NetworkHeights`]); returns
+/// what the metadata says of it, `None` without an elevation model. The
+/// plan's validation runs before, on level roads as the planner's reach
+/// analysis does: tags and truth then agree in height, which the filter's
+/// tag fixes need.
+fn terrain_heights(
+    scn: &Scenario,
+    net: &crate::network::Network,
+    plan: &mut NetworkPlan,
+) -> Result<Option<String>> {
+    if scn.elevation.is_empty() {
+        return Ok(None);
+    }
+    let dem = Dem::open(&scn.elevation)?;
+    let heights = NetworkHeights::new(net, &dem)?;
+    for t in plan.tags.iter_mut().filter(|t| !t.existing) {
+        let road_offset = net
+            .section_segments(t.section)
+            .first()
+            .map_or(0.0, |s| s.road_offset_m);
+        t.height_m = heights.at(
+            t.section,
+            t.chainage_m - road_offset,
+            [t.centre_lat, t.centre_lon],
+        )?;
+    }
+    Ok(Some(format!(
+        "the terrain's, from the elevation model {} (bilinear at the road's centre line \
+         beside each tag; tunnels and bridges interpolated between their ends); the plan's \
+         validation drove level roads",
+        dem.describe()
+    )))
 }
 
 /// The installer files, in a folder created if missing.
