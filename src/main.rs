@@ -553,11 +553,13 @@ fn print_plan(o: &PlanOutcome, baseline: bool, out: Out) {
             if let Some(v) = &p.validation {
                 text!(
                     out,
-                    "validation: {} run(s), seed {}: {:.2} % of distance within {} m; max horizontal error {:.2} m (run {}, t = {:.0} s, {:.0} m along the route)",
+                    "validation: {} run(s), seed {}: {:.2} % of distance within {} m; {}; {} run(s) with a maximum above it; max horizontal error {:.2} m (run {}, t = {:.0} s, {:.0} m along the route)",
                     v.runs,
                     v.seed,
                     100.0 * v.fraction_within_requirement,
                     p.requirement_m,
+                    v.rule,
+                    v.runs_exceeding_requirement,
                     v.max_horizontal_error_m,
                     v.worst_run,
                     v.worst_t_s,

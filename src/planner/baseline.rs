@@ -138,7 +138,13 @@ pub fn uniform_baseline(
             filter_passes: 0.0,
         };
         let res = simulate_with(scn, truth, &tags, runs.max(1), seed, None)?;
-        let v = validation_of(&res, &p, runs.max(1), seed);
+        let v = validation_of(
+            &res,
+            &p,
+            runs.max(1),
+            seed,
+            scn.planner().requirement_confidence,
+        );
         tried.push((spacing, v.fraction_within_requirement));
         Ok((
             v.fraction_within_requirement >= min_fraction,

@@ -55,6 +55,8 @@ pub struct Budget<'a> {
     /// Filter steps taken so far (all threads): the planner's cost in
     /// filter passes is `steps / samples`.
     steps: std::sync::atomic::AtomicU64,
+    /// The probability the bound holds with (`planner.requirement_confidence`).
+    p: f64,
 }
 
 impl std::fmt::Debug for Budget<'_> {
@@ -96,6 +98,20 @@ impl<'a> Budget<'a> {
             samples,
             lane_width,
             steps: std::sync::atomic::AtomicU64::new(0),
+            p: scn.planner().requirement_confidence,
+        }
+    }
+
+    /// The horizontal bound (m) of a filter's covariance at the
+    /// requirement's confidence (`planner.requirement_confidence`): the
+    /// circle holding the 2-D covariance's ellipse of that probability
+    /// ([`bound95`] at the default 0.95, computed by it so that plans stay
+    /// bit-identical).
+    pub fn bound(&self, c: &[[f64; 3]; 3]) -> f64 {
+        if self.p == 0.95 {
+            bound95(c)
+        } else {
+            crate::sim::covariance::bound_at(c, self.p)
         }
     }
 
@@ -177,7 +193,7 @@ impl<'a> Budget<'a> {
         let mut prof = vec![BudgetPoint {
             t_s: self.samples[0].avp.t,
             distance_m: self.samples[0].avp.distance_m,
-            bound95_m: bound95(&f.position_cov_enu()),
+            bound95_m: self.bound(&f.position_cov_enu()),
         }];
         let mut next_prof = every_m;
         let mut sites = Vec::with_capacity(sites_m.len());
@@ -196,7 +212,7 @@ impl<'a> Budget<'a> {
                 prof.push(BudgetPoint {
                     t_s: a.t,
                     distance_m: a.distance_m,
-                    bound95_m: bound95(&f.position_cov_enu()),
+                    bound95_m: self.bound(&f.position_cov_enu()),
                 });
                 next_prof += every_m;
             }
@@ -223,7 +239,7 @@ impl<'a> Budget<'a> {
         let Some(mut f) = self.initial_filter() else {
             return 0.0;
         };
-        if bound95(&f.position_cov_enu()) > requirement_m {
+        if self.bound(&f.position_cov_enu()) > requirement_m {
             return 0.0;
         }
         self.reach_from(0, &mut f, requirement_m)
@@ -233,7 +249,7 @@ impl<'a> Budget<'a> {
         let mut reach = self.length_m();
         let mut prev = self.samples[from].avp.distance_m;
         self.run(from, f, |i, f| {
-            if bound95(&f.position_cov_enu()) > requirement_m {
+            if self.bound(&f.position_cov_enu()) > requirement_m {
                 reach = prev;
                 return false;
             }
@@ -292,7 +308,7 @@ impl<'a> Budget<'a> {
     fn reach_of(&self, site: &Site, mounting: Mounting, requirement_m: f64) -> (f64, f64) {
         let mut f = site.filter.clone();
         self.apply_fix(site.sample, &mut f, mounting);
-        let b0 = bound95(&f.position_cov_enu());
+        let b0 = self.bound(&f.position_cov_enu());
         if b0 > requirement_m {
             return (b0, site.distance_m);
         }
@@ -334,13 +350,13 @@ impl<'a> Budget<'a> {
         stop_above_m: f64,
     ) -> f64 {
         let mut k = 0;
-        let mut worst = bound95(&f.position_cov_enu());
+        let mut worst = self.bound(&f.position_cov_enu());
         while k < fixes.len() && fixes[k].0 <= from {
             self.apply_fix(from, &mut f, fixes[k].1);
             k += 1;
         }
         self.run(from, &mut f, |i, f| {
-            worst = worst.max(bound95(&f.position_cov_enu()));
+            worst = worst.max(self.bound(&f.position_cov_enu()));
             while k < fixes.len() && fixes[k].0 <= i {
                 self.apply_fix(i, f, fixes[k].1);
                 k += 1;
@@ -382,7 +398,7 @@ impl<'a> Budget<'a> {
     ) -> f64 {
         let fixes = &reference.fixes[offset.min(reference.fixes.len())..];
         let mut k = 0;
-        let mut worst = bound95(&f.position_cov_enu());
+        let mut worst = self.bound(&f.position_cov_enu());
         while k < fixes.len() && fixes[k].0 <= from {
             self.apply_fix(from, &mut f, fixes[k].1);
             k += 1;
@@ -397,7 +413,7 @@ impl<'a> Budget<'a> {
             return worst;
         }
         self.run(from, &mut f, |i, f| {
-            worst = worst.max(bound95(&f.position_cov_enu()));
+            worst = worst.max(self.bound(&f.position_cov_enu()));
             let mut fixed = false;
             while k < fixes.len() && fixes[k].0 <= i {
                 self.apply_fix(i, f, fixes[k].1);
@@ -458,7 +474,7 @@ impl<'a> Budget<'a> {
         out.profile.push(BudgetPoint {
             t_s: self.samples[0].avp.t,
             distance_m: self.samples[0].avp.distance_m,
-            bound95_m: bound95(&f.position_cov_enu()),
+            bound95_m: self.bound(&f.position_cov_enu()),
         });
         let mut next_prof = every_m;
         // Largest bound over the samples after the j-th fix's sample up to
@@ -480,7 +496,7 @@ impl<'a> Budget<'a> {
         }
         self.run(0, &mut f, |i, f| {
             let a = &self.samples[i].avp;
-            let b = bound95(&f.position_cov_enu());
+            let b = self.bound(&f.position_cov_enu());
             if k > 0 {
                 seg_max[k - 1] = seg_max[k - 1].max(b);
             }

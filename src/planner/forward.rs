@@ -30,7 +30,7 @@
 //! caller therefore also brackets the count with a lower bound from the most
 //! optimistic reaches and reports whether the plan meets it.
 
-use super::budget::{bound95, Budget};
+use super::budget::Budget;
 use super::placement::Placement;
 use crate::nav::Filter;
 use crate::sim::tags::Mounting;
@@ -88,14 +88,14 @@ pub fn forward_greedy(
             let mut f = f0.clone();
             let mut mine = Vec::new();
             let mut ptr = next_site;
-            if bound95(&f.position_cov_enu()) > requirement_m {
+            if budget.bound(&f.position_cov_enu()) > requirement_m {
                 limit = limit.min(cur);
             } else {
                 budget.run(cur, &mut f, |i, f| {
                     if i >= limit {
                         return false;
                     }
-                    if bound95(&f.position_cov_enu()) > requirement_m {
+                    if budget.bound(&f.position_cov_enu()) > requirement_m {
                         limit = i;
                         return false;
                     }
@@ -211,12 +211,12 @@ fn viable(
         .map(|s| s.sample);
     states.iter().all(|(_, f0)| {
         let mut f = f0.clone();
-        if bound95(&f.position_cov_enu()) > requirement_m {
+        if budget.bound(&f.position_cov_enu()) > requirement_m {
             return false;
         }
         let mut ok = true;
         budget.run(from, &mut f, |i, f| {
-            if bound95(&f.position_cov_enu()) > requirement_m {
+            if budget.bound(&f.position_cov_enu()) > requirement_m {
                 ok = false;
                 return false;
             }

@@ -72,6 +72,21 @@ pub struct Validation {
     pub worst_distance_m: f64,
     /// Runs whose horizontal error exceeds the requirement somewhere.
     pub runs_exceeding_requirement: u64,
+    /// The rule of the area planner, applied to the route (docs/DESIGN.md
+    /// §3.4): the share of run time within the requirement, one sample
+    /// per 30 s per run, must have its one-sided 95 % Clopper–Pearson
+    /// lower bound at least `requirement_confidence`.
+    pub requirement_confidence: f64,
+    /// Thinned samples, and those within the requirement.
+    pub thinned_samples: u64,
+    /// Thinned samples within the requirement.
+    pub thinned_within: u64,
+    /// One-sided 95 % Clopper–Pearson lower bound of the share within.
+    pub share_lower_95: f64,
+    /// The rule held.
+    pub passed: bool,
+    /// The rule in words, with its figures.
+    pub rule: String,
 }
 
 /// A plan for one route.

@@ -4,7 +4,7 @@
 //! on one route; refined and forward variants kept when the covariance
 //! analysis confirms them) → the plan, validated on request.
 
-use super::budget::{bound95, Budget};
+use super::budget::Budget;
 use super::forward;
 use super::placement::{place_lazy, place_with, Candidate, Placement};
 use super::plan::{Plan, PlannedTag};
@@ -301,9 +301,9 @@ pub fn plan_with_stages(
     if start_reach <= 0.0 {
         let b0 = budget
             .initial_filter()
-            .map_or(f64::NAN, |f| bound95(&f.position_cov_enu()));
+            .map_or(f64::NAN, |f| budget.bound(&f.position_cov_enu()));
         return Err(Error::Infeasible(format!(
-            "the navigator's initial position uncertainty (95 % bound {b0:.2} m, from \
+            "the navigator's initial position uncertainty (bound {b0:.2} m at the requirement's confidence, from \
              navigator.initial_position_sigma_m / filter.position_sigma_m) already exceeds the {req} m \
              requirement at the start of the route"
         )));

@@ -20,16 +20,39 @@ pub fn validate_plan(
     seed: u64,
 ) -> Result<Validation> {
     let res = simulate_with(scn, truth, &plan.sim_tags(), runs.max(1), seed, None)?;
-    Ok(validation_of(&res, plan, runs.max(1), seed))
+    Ok(validation_of(
+        &res,
+        plan,
+        runs.max(1),
+        seed,
+        scn.planner().requirement_confidence,
+    ))
 }
 
+/// The validation figures of simulated runs, with the rule of the
+/// requirement's confidence `conf` (`planner.requirement_confidence`).
 pub(super) fn validation_of(
     res: &crate::sim::SimResult,
     plan: &Plan,
     runs: u64,
     seed: u64,
+    conf: f64,
 ) -> Validation {
+    use super::network::{clopper_pearson_lower, THINNING_S};
     let req = plan.requirement_m;
+    let (mut n_thin, mut n_within) = (0u64, 0u64);
+    for r in &res.runs {
+        let mut next = 0.0;
+        for row in &r.rows {
+            if row.t_s >= next {
+                n_thin += 1;
+                n_within += u64::from(row.horizontal_m <= req);
+                next += THINNING_S;
+            }
+        }
+    }
+    let lower = clopper_pearson_lower(n_within as usize, n_thin as usize, 0.05);
+    let passed = lower >= conf;
     let (mut within, mut total) = (0.0, 0.0);
     let mut worst = (0.0f64, 0u64, 0.0, 0.0);
     let mut exceeding = 0u64;
@@ -57,6 +80,17 @@ pub(super) fn validation_of(
         worst_t_s: worst.2,
         worst_distance_m: worst.3,
         runs_exceeding_requirement: exceeding,
+        requirement_confidence: conf,
+        thinned_samples: n_thin,
+        thinned_within: n_within,
+        share_lower_95: lower,
+        passed,
+        rule: format!(
+            "share of run time within {req} m (one sample per {THINNING_S:.0} s per run) with its \
+             one-sided 95 % Clopper–Pearson lower bound at least {conf}: {n_within} of {n_thin} \
+             samples, lower bound {lower:.4} → {}",
+            if passed { "passed" } else { "FAILED" }
+        ),
     }
 }
 

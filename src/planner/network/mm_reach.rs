@@ -34,6 +34,7 @@
 //! Monte Carlo validation on sampled chains.
 
 use super::turns::CURVE_M;
+pub use super::turns::TURN_DEG;
 use crate::error::{Error, Result};
 use crate::network::{model_from_polylines, Network, Oneway, RoadAttributes};
 use crate::route::plan_route;
@@ -46,9 +47,6 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
-/// The weakest turn that resets the along-road error (degrees): sin 45° =
-/// 0.71 of the along-road error is observed.
-pub const TURN_DEG: f64 = 45.0;
 /// Longest drive of the analysis (m), and its time cap (s).
 const DRIVE_MAX_M: f64 = 30_000.0;
 const DRIVE_MAX_S: f64 = 5_400.0;

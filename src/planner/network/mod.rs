@@ -91,7 +91,7 @@ pub(crate) mod types;
 pub(crate) mod validation;
 
 pub use coverage::{coverage_geojson, EdgeCoverage};
-pub use mm_reach::{matched_reach, MatchedReach, TURN_DEG};
+pub use mm_reach::{matched_reach, MatchedReach};
 pub use plan::{plan_network, plan_network_loaded, plan_network_on};
 pub use reach::{reach_class, ReachClass};
 pub use settings::{
@@ -101,8 +101,9 @@ pub use trips::{
     chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper, TripsGuarantee,
     ALLOWED_VIOLATIONS,
 };
+pub use turns::TURN_DEG;
 pub use types::{NetworkPlan, NetworkTag, NetworkValidation};
-pub use validation::validate_network_plan;
+pub use validation::{validate_network_plan, THINNING_S};
 
 #[cfg(test)]
 mod tests {

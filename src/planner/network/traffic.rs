@@ -26,16 +26,14 @@
 //!   budget 1 that starts at the stretch's start or at a tag must hold
 //!   `k + 1` tags before the stretch ends.
 
-use super::mm_reach::TURN_DEG;
-use super::turns::{heading_samples, intrinsic_resets, walk_edge, TurnWindow};
+pub use super::turns::CHORD_M;
+use super::turns::{heading_samples, intrinsic_resets, walk_edge, TurnWindow, TURN_DEG};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::route::{next_leg, section_points, SectionPoint};
 use rand::Rng;
 use std::collections::HashMap;
 
-/// Length of the chords whose headings define a turn (m).
-pub const CHORD_M: f64 = 15.0;
 /// Most trips in one chain (a guard against a shift far longer than the
 /// network's trips).
 pub const MAX_TRIPS_PER_CHAIN: usize = 200_000;

@@ -8,7 +8,7 @@
 //! corner) or along a winding road (a hairpin, a curve of a mountain road)
 //! does not matter to the filter, only that it happens within a short
 //! distance: so a **reset** is any point of a drive whose heading differs by
-//! [`TURN_DEG`](super::mm_reach::TURN_DEG)–(180° − [`TURN_DEG`](super::mm_reach::TURN_DEG)) from the heading somewhere within the
+//! [`TURN_DEG`]–(180° − [`TURN_DEG`]) from the heading somewhere within the
 //! last [`CURVE_M`] driven. A U-turn on the spot (a junction U-turn, turning
 //! back at a trip end) passes through no intermediate heading and observes
 //! nothing; a hairpin curve does.
@@ -24,12 +24,16 @@
 //! The rule is written here rather than taken from a crate: it is the
 //! planner's own model of its map matcher.
 
-use super::traffic::CHORD_M;
 use std::collections::VecDeque;
 
+/// The weakest turn that resets the along-road error (degrees): sin 45° =
+/// 0.71 of the along-road error is observed.
+pub const TURN_DEG: f64 = 45.0;
+/// Length of the chords whose headings define a turn (m).
+pub const CHORD_M: f64 = 15.0;
 /// Spacing of the heading samples along a road (m).
 pub const HEADING_STEP_M: f64 = 10.0;
-/// The distance within which a heading change of [`TURN_DEG`](super::mm_reach::TURN_DEG) counts as a
+/// The distance within which a heading change of [`TURN_DEG`] counts as a
 /// turn (m): a curve of a mountain road or a roundabout's exit, not a slow
 /// drift of a coast road.
 pub const CURVE_M: f64 = 200.0;
@@ -80,12 +84,12 @@ pub(crate) struct TurnWindow {
 }
 
 /// |cos| of the heading change at the edges of the resetting range: a turn
-/// θ resets when [`TURN_DEG`](super::mm_reach::TURN_DEG) ≤ θ ≤ 180° − it,
-/// i.e. when |cos θ| ≤ cos [`TURN_DEG`](super::mm_reach::TURN_DEG) (a dot
+/// θ resets when [`TURN_DEG`] ≤ θ ≤ 180° − it,
+/// i.e. when |cos θ| ≤ cos [`TURN_DEG`] (a dot
 /// product of unit vectors instead of an angle difference: this test runs
 /// for every sample pair of every chain).
 fn reset_cos() -> f32 {
-    super::mm_reach::TURN_DEG.to_radians().cos() as f32 + 1e-6
+    TURN_DEG.to_radians().cos() as f32 + 1e-6
 }
 
 impl TurnWindow {
