@@ -427,12 +427,28 @@ pub fn match_rows(
     rows: &[TrackRow],
     opts: &super::options::MatchOptions,
 ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
-    use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
-    let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
-    let mut outcomes = Vec::new();
     // One cache of network searches for the whole file: fleet files hold
     // many tracks on the same roads.
     let mut distances = Some(super::NetworkDistances::new(net));
+    match_rows_with(net, rows, opts, &mut distances)
+}
+
+/// [`match_rows`] with a cache of network searches kept by the caller
+/// (e.g. between files on one map, as a peer's precomputed table is);
+/// `None` starts one. Results may differ from a cold cache's only where a
+/// transition's route lies at its search bound.
+pub fn match_rows_with<'a>(
+    net: &'a Network,
+    rows: &[TrackRow],
+    opts: &super::options::MatchOptions,
+    distances: &mut Option<super::NetworkDistances<'a>>,
+) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
+    use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
+    let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
+    let mut outcomes = Vec::new();
+    if distances.is_none() {
+        *distances = Some(super::NetworkDistances::new(net));
+    }
     for (track_id, idx) in group_tracks(rows) {
         let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
         let params = opts.hmm_params(net, &fixes);
@@ -460,7 +476,7 @@ pub fn match_rows(
                 let b = m.breaks().to_vec();
                 let path =
                     super::cpath::complete_path_with(m.distances_mut(), net, &p, &b, &params);
-                distances = Some(m.into_distances());
+                *distances = Some(m.into_distances());
                 (p, b, path)
             }
         };
