@@ -76,8 +76,25 @@ pub fn sniff_file(path: &Path) -> Result<TrackFormat> {
     }
 }
 
+/// The largest track file read whole (GPX, GeoJSON, a CSV interleaving its
+/// tracks): bytes. A CSV of contiguous tracks is streamed without a limit.
+pub const WHOLE_FILE_LIMIT_BYTES: u64 = 512 << 20;
+
 /// Reads a track file of any supported format.
 pub fn read_track_file(path: &Path) -> Result<(Vec<TrackRow>, TrackFormat)> {
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    if len > WHOLE_FILE_LIMIT_BYTES {
+        return Err(Error::format(
+            path,
+            format!(
+                "{} MB: over the {} MB limit of a track read whole (GPX, GeoJSON, or a CSV interleaving its tracks); write it as a CSV with each track's rows together to stream it",
+                len >> 20,
+                WHOLE_FILE_LIMIT_BYTES >> 20
+            ),
+        ));
+    }
     let text = read_text(path)?;
     let format = sniff(&text);
     let rows = match format {

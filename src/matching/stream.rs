@@ -31,11 +31,13 @@ use crate::error::{Error, Result};
 use crate::network::Network;
 use rustc_hash::{FxHashMap, FxHashSet};
 use std::collections::VecDeque;
-use std::io::{BufRead, Write};
+use std::io::{BufRead, Read, Write};
 use std::path::{Path, PathBuf};
 
 /// Bytes read at a time (whole records).
 pub const CHUNK_BYTES: usize = 1 << 20;
+/// The longest line read (bytes): a track row is some 30-100 bytes.
+pub const MAX_LINE_BYTES: usize = 1 << 16;
 /// Fixes of a track held to estimate its defaults before matching starts.
 pub const PREFIX_FIXES: usize = 4000;
 
@@ -79,13 +81,24 @@ impl TrackCsvStream {
         let mut quotes = 0usize;
         loop {
             let before = self.buf.len();
-            let n = self
-                .reader
+            let n = (&mut self.reader)
+                .take(MAX_LINE_BYTES as u64 + 1)
                 .read_until(b'\n', &mut self.buf)
                 .map_err(|e| Error::io(&self.path, e))?;
             if n == 0 {
                 self.eof = true;
                 return Ok(());
+            }
+            if n > MAX_LINE_BYTES {
+                // Endless input (/dev/zero) or not a track CSV: stop before
+                // holding it.
+                let line =
+                    self.lines + 1 + self.buf[..before].iter().filter(|&&b| b == b'\n').count();
+                return Err(Error::table(
+                    &self.path,
+                    line,
+                    format!("a line longer than {MAX_LINE_BYTES} bytes: not a track CSV"),
+                ));
             }
             quotes += self.buf[before..].iter().filter(|&&b| b == b'"').count();
             let blank = self.cols.is_none() && self.buf.iter().all(u8::is_ascii_whitespace);
@@ -462,4 +475,61 @@ pub fn match_csv_stream<W: Write>(
         s.finish(a)?;
     }
     Ok(Some(s.result))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_endless_line_is_an_error_not_a_memory_sink() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.csv");
+        let mut text = String::from("t_s,lat,lon\n0,60.1,24.9\n");
+        text.push_str(&"0".repeat(MAX_LINE_BYTES + 10));
+        std::fs::write(&p, text).unwrap();
+        let mut r = TrackCsvStream::open(&p).unwrap();
+        let mut rows = Vec::new();
+        let e = r.next_rows(&mut rows).unwrap_err().to_string();
+        assert!(
+            e.contains("t.csv:3") && e.contains("not a track CSV"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn chunks_keep_line_numbers_and_checks() {
+        // Rows across several chunks: the time-order check and the line
+        // numbers carry over.
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.csv");
+        let mut text = String::from("\nt_s,lat,lon\n");
+        let n = 2 * CHUNK_BYTES / 20;
+        for i in 0..n {
+            text.push_str(&format!("{i},60.1000000,24.9\n"));
+        }
+        text.push_str("1,60.1,24.9\n");
+        std::fs::write(&p, text).unwrap();
+        let mut r = TrackCsvStream::open(&p).unwrap();
+        let mut rows = Vec::new();
+        let mut seen = 0;
+        let e = loop {
+            match r.next_rows(&mut rows) {
+                Ok(true) => {
+                    for row in &rows {
+                        assert_eq!(row.line, seen + 3);
+                        seen += 1;
+                    }
+                }
+                Ok(false) => panic!("no error"),
+                Err(e) => break e.to_string(),
+            }
+        };
+        assert!(seen > CHUNK_BYTES / 20, "{seen}");
+        let line = n + 3;
+        assert!(
+            e.contains(&format!("t.csv:{line}")) && e.contains("not in time order"),
+            "{e}"
+        );
+    }
 }
