@@ -68,51 +68,152 @@ pub fn complete_path_with(
     breaks: &[Break],
     params: &HmmParams,
 ) -> Vec<PathStep> {
-    let mut raw: Vec<(u32, SectionId, f64, f64)> = Vec::new();
-    let mut piece = 0u32;
-    // The last point on the path: its position and time.
-    let mut cur: Option<(OnSection, [f64; 2], f64)> = None;
-    let mut breaks_at: Vec<u64> = breaks.iter().map(|b| b.after.0).collect();
-    breaks_at.sort_unstable();
-    for (i, p) in points.iter().enumerate() {
+    let mut sorted = breaks.to_vec();
+    sorted.sort_by_key(|b| b.after.0);
+    let mut b = PathBuilder::default();
+    for p in points {
+        b.push(paths, net, p, &sorted, params);
+    }
+    b.finish(paths, net, &sorted, params);
+    b.steps
+}
+
+/// The complete path built point by point as the matcher emits them (a
+/// streamed track): memory of one point and one stretch, plus the steps
+/// not yet taken from [`PathBuilder::steps`].
+#[derive(Debug, Default)]
+pub struct PathBuilder {
+    /// Finished steps, in driving order (the caller may drain them).
+    pub steps: Vec<PathStep>,
+    /// The point waiting for its successor (whether it ends a piece).
+    held: Option<MatchedPoint>,
+    piece: u32,
+    /// The last point on the path: its position and time.
+    cur: Option<(OnSection, [f64; 2], f64)>,
+    /// The stretch being merged.
+    open: Option<Stretch>,
+    number: u32,
+    last_piece: Option<u32>,
+}
+
+/// Whether the matcher broke the track before point `index` (`breaks`
+/// sorted by that index, as the matchers record them).
+fn broke_at(breaks: &[Break], index: u64) -> bool {
+    breaks.binary_search_by_key(&index, |b| b.after.0).is_ok()
+}
+
+impl PathBuilder {
+    /// The next point of the track, in order; `breaks`: the matcher's
+    /// breaks so far (a point's break is recorded before it is emitted).
+    pub fn push(
+        &mut self,
+        paths: &mut NetworkDistances,
+        net: &Network,
+        p: &MatchedPoint,
+        breaks: &[Break],
+        params: &HmmParams,
+    ) {
+        if let Some(h) = self.held.take() {
+            self.point(paths, net, &h, Some(p), breaks, params);
+        }
+        self.held = Some(*p);
+    }
+
+    /// The track ended: the last point and the last stretch.
+    pub fn finish(
+        &mut self,
+        paths: &mut NetworkDistances,
+        net: &Network,
+        breaks: &[Break],
+        params: &HmmParams,
+    ) {
+        if let Some(h) = self.held.take() {
+            self.point(paths, net, &h, None, breaks, params);
+        }
+        if let Some(st) = self.open.take() {
+            self.close(st);
+        }
+    }
+
+    fn point(
+        &mut self,
+        paths: &mut NetworkDistances,
+        net: &Network,
+        p: &MatchedPoint,
+        next: Option<&MatchedPoint>,
+        breaks: &[Break],
+        params: &HmmParams,
+    ) {
         let Some(mut at) = on_section(net, p) else {
-            if cur.take().is_some() {
-                piece += 1;
+            if self.cur.take().is_some() {
+                self.piece += 1;
             }
-            continue;
+            return;
         };
-        let broke = breaks_at.binary_search(&p.index).is_ok();
-        let first = cur.is_none() || broke;
-        let last = points
-            .get(i + 1)
-            .is_none_or(|q| q.segment.is_none() || breaks_at.binary_search(&q.index).is_ok());
+        let broke = broke_at(breaks, p.index);
+        let first = self.cur.is_none() || broke;
+        let last = next.is_none_or(|q| q.segment.is_none() || broke_at(breaks, q.index));
         if first || last {
             at.offset_m = raw_offset(net, p, at.section);
         }
-        let Some((a, a_pt, a_t)) = cur else {
-            cur = Some((at, p.point, p.t_s));
-            continue;
+        let Some((a, a_pt, a_t)) = self.cur else {
+            self.cur = Some((at, p.point, p.t_s));
+            return;
         };
         if broke {
-            piece += 1;
-            cur = Some((at, p.point, p.t_s));
-            continue;
+            self.piece += 1;
+            self.cur = Some((at, p.point, p.t_s));
+            return;
         }
         match join(paths, net, a, at, a_pt, p.point, p.t_s - a_t, params) {
             Join::Stay => {}
             Join::Pieces(pieces) => {
                 for (s, f, t) in pieces {
-                    raw.push((piece, s, f, t));
+                    self.raw(net, self.piece, s, f, t);
                 }
-                cur = Some((at, p.point, p.t_s));
+                self.cur = Some((at, p.point, p.t_s));
             }
             Join::None => {
-                piece += 1;
-                cur = Some((at, p.point, p.t_s));
+                self.piece += 1;
+                self.cur = Some((at, p.point, p.t_s));
             }
         }
     }
-    merge(net, &raw)
+
+    /// Merges a driven piece into the open stretch when it continues it on
+    /// the same road, else closes that stretch and opens another.
+    fn raw(&mut self, net: &Network, piece: u32, sec: SectionId, f: f64, t: f64) {
+        let road = net.sections[sec as usize].road;
+        let base = section_road_offset(net, sec);
+        let (rf, rt) = (base + f, base + t);
+        if let Some(last) = self.open.as_mut() {
+            let same_dir = (last.3 - last.2) * (rt - rf) >= 0.0;
+            if last.0 == piece && last.1 == road && (last.3 - rf).abs() < 1e-6 && same_dir {
+                last.3 = rt;
+                last.4.push((sec, f, t));
+                return;
+            }
+        }
+        if let Some(st) = self.open.replace((piece, road, rf, rt, vec![(sec, f, t)])) {
+            self.close(st);
+        }
+    }
+
+    /// A finished stretch as a step; pieces numbered 0, 1, ... (a piece of
+    /// one point has no step).
+    fn close(&mut self, (piece, road, f, t, secs): Stretch) {
+        if self.last_piece.is_some_and(|l| l != piece) {
+            self.number += 1;
+        }
+        self.last_piece = Some(piece);
+        self.steps.push(PathStep {
+            piece: self.number,
+            road,
+            from_offset_m: f,
+            to_offset_m: t,
+            sections: secs,
+        });
+    }
 }
 
 enum Join {
@@ -214,41 +315,3 @@ fn section_road_offset(net: &Network, sec: SectionId) -> f64 {
 
 /// A stretch being merged: piece, road, road offsets, sections.
 type Stretch = (u32, RoadId, f64, f64, Vec<(SectionId, f64, f64)>);
-
-/// Merges consecutive pieces on one road that continue each other.
-fn merge(net: &Network, raw: &[(u32, SectionId, f64, f64)]) -> Vec<PathStep> {
-    let mut out: Vec<Stretch> = Vec::new();
-    for &(piece, sec, f, t) in raw {
-        let road = net.sections[sec as usize].road;
-        let base = section_road_offset(net, sec);
-        let (rf, rt) = (base + f, base + t);
-        if let Some(last) = out.last_mut() {
-            let same_dir = (last.3 - last.2) * (rt - rf) >= 0.0;
-            if last.0 == piece && last.1 == road && (last.3 - rf).abs() < 1e-6 && same_dir {
-                last.3 = rt;
-                last.4.push((sec, f, t));
-                continue;
-            }
-        }
-        out.push((piece, road, rf, rt, vec![(sec, f, t)]));
-    }
-    // Pieces numbered 0, 1, ... (a piece of one point has no step).
-    let mut number = 0u32;
-    let mut last_piece = None;
-    out.into_iter()
-        .map(|(piece, road, f, t, secs)| {
-            if last_piece.is_some_and(|l| l != piece) {
-                number += 1;
-            }
-            last_piece = Some(piece);
-            (number, road, f, t, secs)
-        })
-        .map(|(piece, road, f, t, secs)| PathStep {
-            piece,
-            road,
-            from_offset_m: f,
-            to_offset_m: t,
-            sections: secs,
-        })
-        .collect()
-}

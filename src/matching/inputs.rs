@@ -51,8 +51,50 @@ pub fn sniff(text: &str) -> TrackFormat {
     }
 }
 
+/// The format of a track file, by its first non-blank character (read
+/// without reading the whole file).
+pub fn sniff_file(path: &Path) -> Result<TrackFormat> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut buf = [0u8; 4096];
+    loop {
+        let n = f.read(&mut buf).map_err(|e| Error::io(path, e))?;
+        if n == 0 {
+            return Ok(TrackFormat::Csv);
+        }
+        // Blanks and a byte-order mark's bytes come before the content.
+        if let Some(&b) = buf[..n]
+            .iter()
+            .find(|b| !b.is_ascii_whitespace() && ![0xef, 0xbb, 0xbf].contains(*b))
+        {
+            return Ok(match b {
+                b'<' => TrackFormat::Gpx,
+                b'{' => TrackFormat::GeoJson,
+                _ => TrackFormat::Csv,
+            });
+        }
+    }
+}
+
+/// The largest track file read whole (GPX, GeoJSON, a CSV interleaving its
+/// tracks): bytes. A CSV of contiguous tracks is streamed without a limit.
+pub const WHOLE_FILE_LIMIT_BYTES: u64 = 512 << 20;
+
 /// Reads a track file of any supported format.
 pub fn read_track_file(path: &Path) -> Result<(Vec<TrackRow>, TrackFormat)> {
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    if len > WHOLE_FILE_LIMIT_BYTES {
+        return Err(Error::format(
+            path,
+            format!(
+                "{} MB: over the {} MB limit of a track read whole (GPX, GeoJSON, or a CSV interleaving its tracks); write it as a CSV with each track's rows together to stream it",
+                len >> 20,
+                WHOLE_FILE_LIMIT_BYTES >> 20
+            ),
+        ));
+    }
     let text = read_text(path)?;
     let format = sniff(&text);
     let rows = match format {

@@ -25,6 +25,7 @@ pub mod inputs;
 pub mod options;
 pub mod path_out;
 mod paths;
+pub mod stream;
 pub(crate) mod synthetic;
 pub mod track;
 

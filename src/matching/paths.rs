@@ -143,13 +143,11 @@ impl<'a> NetworkDistances<'a> {
             cost: 0.0,
             node: from,
         });
-        let mut reached = FxHashMap::with_capacity_and_hasher(256, Default::default());
         while let Some(Item { cost, node }) = self.heap.pop() {
             if cost > self.dist[node as usize] {
                 continue;
             }
             let first = self.first[node as usize];
-            reached.insert(node, (cost, self.pred[node as usize], first));
             for d in net.topology.departures(&net.model, node) {
                 let s = &net.sections[d.section as usize];
                 let next = if d.forward { s.end } else { s.start };
@@ -168,7 +166,14 @@ impl<'a> NetworkDistances<'a> {
                 }
             }
         }
+        // Every node touched was settled (within the bound): the tree, in a
+        // table of exactly its size (small searches on small networks must
+        // not pay for a large table each).
+        let mut reached =
+            FxHashMap::with_capacity_and_hasher(self.touched.len(), Default::default());
         for &n in &self.touched {
+            let i = n as usize;
+            reached.insert(n, (self.dist[i], self.pred[i], self.first[i]));
             self.dist[n as usize] = f64::INFINITY;
             self.pred[n as usize] = NO_PRED;
             self.first[n as usize] = NO_PRED;

@@ -46,6 +46,8 @@ pub(crate) struct CsvTable<'a> {
     text: &'a str,
     reader: csv::Reader<&'a [u8]>,
     record: csv::StringRecord,
+    /// Lines of the file before `text` (a chunk of a streamed file).
+    line_offset: usize,
 }
 
 /// Reads a file as UTF-8 text without a byte-order mark.
@@ -75,6 +77,7 @@ impl<'a> CsvTable<'a> {
             text,
             reader,
             record: csv::StringRecord::new(),
+            line_offset: 0,
         };
         let Some((line, start)) = t.advance(path)? else {
             return Ok(None);
@@ -89,12 +92,31 @@ impl<'a> CsvTable<'a> {
         Ok(Some(t))
     }
 
+    /// Continues a table whose header was read: the data records of `text`,
+    /// the part of the file after its first `line_offset` lines.
+    pub(crate) fn continued(text: &'a str, names: Vec<String>, line_offset: usize) -> Self {
+        let reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        CsvTable {
+            header_line: 0,
+            header_text: "",
+            names,
+            text,
+            reader,
+            record: csv::StringRecord::new(),
+            line_offset,
+        }
+    }
+
     /// Reads the next non-blank record; its line number and the byte offset
     /// where it starts, or `None` at the end.
     fn advance(&mut self, path: &Path) -> Result<Option<(usize, usize)>> {
         loop {
             let more = self.reader.read_record(&mut self.record).map_err(|e| {
-                let line = e.position().map_or(0, |p| p.line() as usize);
+                let line = e.position().map_or(0, |p| p.line() as usize) + self.line_offset;
                 Error::table(path, line, format!("not readable as CSV ({e})"))
             })?;
             if !more {
@@ -124,7 +146,7 @@ impl<'a> CsvTable<'a> {
             {
                 continue;
             }
-            return Ok(Some((line, start)));
+            return Ok(Some((line + self.line_offset, start)));
         }
     }
 
@@ -181,6 +203,24 @@ pub(crate) fn read_track_text(path: &Path, text: &str) -> Result<Vec<TrackRow>> 
             "empty file: expected a header row t_s,lat,lon",
         ));
     };
+    let cols = columns(path, &table)?;
+    let hline = table.header_line;
+    let mut rows = Vec::with_capacity(text.len() / 32); // a guess: rows are ~30 bytes
+    let mut last_t: FxHashMap<String, (f64, usize)> = FxHashMap::default();
+    while let Some((line, f)) = table.next_record(path)? {
+        rows.push(parse_row(path, line, f, &cols, &mut last_t)?);
+    }
+    if rows.is_empty() {
+        return Err(Error::table(path, hline, "no data rows after the header"));
+    }
+    Ok(rows)
+}
+
+/// The columns of TRACK.csv: t_s, lat, lon, heading_deg, speed_mps, track_id.
+pub(crate) struct Columns([Option<usize>; 6]);
+
+/// Finds TRACK.csv's columns in a table's header.
+pub(crate) fn columns(path: &Path, table: &CsvTable) -> Result<Columns> {
     let col = |n: &str| table.names.iter().position(|h| h == n);
     let (Some(ct), Some(clat), Some(clon)) = (col("t_s"), col("lat"), col("lon")) else {
         let missing: Vec<&str> = ["t_s", "lat", "lon"]
@@ -197,66 +237,78 @@ pub(crate) fn read_track_text(path: &Path, text: &str) -> Result<Vec<TrackRow>> 
             ),
         ));
     };
-    let (ch, cs, cid) = (col("heading_deg"), col("speed_mps"), col("track_id"));
-    let hline = table.header_line;
-    let mut rows = Vec::with_capacity(text.len() / 32); // a guess: rows are ~30 bytes
-    let mut last_t: FxHashMap<String, (f64, usize)> = FxHashMap::default();
-    while let Some((line, f)) = table.next_record(path)? {
-        let t_s = number(path, line, "t_s", &f[ct])?;
-        let lat = number(path, line, "lat", &f[clat])?;
-        let lon = number(path, line, "lon", &f[clon])?;
-        if !(-90.0..=90.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) {
-            return Err(Error::table(
-                path,
-                line,
-                format!("coordinate out of range (lat {lat}, lon {lon})"),
-            ));
-        }
-        let opt = |c: Option<usize>, name: &str| -> Result<Option<f64>> {
-            match c {
-                Some(c) if !f[c].is_empty() => number(path, line, name, &f[c]).map(Some),
-                _ => Ok(None),
-            }
-        };
-        let heading_deg = opt(ch, "heading_deg")?;
-        let speed_mps = opt(cs, "speed_mps")?;
-        let track_id = cid.map(|c| f[c].to_owned()).unwrap_or_default();
-        match last_t.get_mut(&track_id) {
-            Some((prev, pline)) => {
-                if t_s < *prev {
-                    return Err(Error::table(
-                        path,
-                        line,
-                        format!(
-                            "not in time order: t_s {t_s} is earlier than {prev} on line {pline}{}",
-                            if track_id.is_empty() {
-                                String::new()
-                            } else {
-                                format!(" (track '{track_id}')")
-                            }
-                        ),
-                    ));
-                }
-                (*prev, *pline) = (t_s, line);
-            }
-            None => {
-                last_t.insert(track_id.clone(), (t_s, line));
-            }
-        }
-        rows.push(TrackRow {
+    Ok(Columns([
+        Some(ct),
+        Some(clat),
+        Some(clon),
+        col("heading_deg"),
+        col("speed_mps"),
+        col("track_id"),
+    ]))
+}
+
+/// Checks one data record of TRACK.csv (`last_t`: each track's last time
+/// and line, for the time-order check).
+pub(crate) fn parse_row(
+    path: &Path,
+    line: usize,
+    f: &csv::StringRecord,
+    cols: &Columns,
+    last_t: &mut FxHashMap<String, (f64, usize)>,
+) -> Result<TrackRow> {
+    let [Some(ct), Some(clat), Some(clon), ch, cs, cid] = cols.0 else {
+        unreachable!("columns() finds t_s, lat and lon")
+    };
+    let t_s = number(path, line, "t_s", &f[ct])?;
+    let lat = number(path, line, "lat", &f[clat])?;
+    let lon = number(path, line, "lon", &f[clon])?;
+    if !(-90.0..=90.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) {
+        return Err(Error::table(
+            path,
             line,
-            track_id,
-            t_s,
-            lat,
-            lon,
-            heading_deg,
-            speed_mps,
-        });
+            format!("coordinate out of range (lat {lat}, lon {lon})"),
+        ));
     }
-    if rows.is_empty() {
-        return Err(Error::table(path, hline, "no data rows after the header"));
+    let opt = |c: Option<usize>, name: &str| -> Result<Option<f64>> {
+        match c {
+            Some(c) if !f[c].is_empty() => number(path, line, name, &f[c]).map(Some),
+            _ => Ok(None),
+        }
+    };
+    let heading_deg = opt(ch, "heading_deg")?;
+    let speed_mps = opt(cs, "speed_mps")?;
+    let track_id = cid.map(|c| f[c].to_owned()).unwrap_or_default();
+    match last_t.get_mut(&track_id) {
+        Some((prev, pline)) => {
+            if t_s < *prev {
+                return Err(Error::table(
+                    path,
+                    line,
+                    format!(
+                        "not in time order: t_s {t_s} is earlier than {prev} on line {pline}{}",
+                        if track_id.is_empty() {
+                            String::new()
+                        } else {
+                            format!(" (track '{track_id}')")
+                        }
+                    ),
+                ));
+            }
+            (*prev, *pline) = (t_s, line);
+        }
+        None => {
+            last_t.insert(track_id.clone(), (t_s, line));
+        }
     }
-    Ok(rows)
+    Ok(TrackRow {
+        line,
+        track_id,
+        t_s,
+        lat,
+        lon,
+        heading_deg,
+        speed_mps,
+    })
 }
 
 /// Row indices of each track, in order of first appearance.
@@ -306,34 +358,43 @@ fn csv_field(s: &str) -> String {
     }
 }
 
+/// The header of MATCHED.csv.
+pub const MATCHED_HEADER: &str =
+    "track_id,t_s,lat,lon,road_id,offset_m,distance_m,state,confidence\n";
+
+/// Appends MATCHED.csv's row for input row `r` matched as `m`.
+pub fn matched_row(s: &mut String, net: &Network, r: &TrackRow, m: &MatchedPoint) {
+    let _ = write!(s, "{},", csv_field(&r.track_id));
+    if r.t_s.is_finite() {
+        let _ = write!(s, "{}", r.t_s);
+    }
+    s.push(',');
+    match matched_lat_lon(net, m) {
+        Some([lat, lon]) => {
+            let road = &net.roads[m.road.unwrap_or(0) as usize].attributes.id;
+            let _ = writeln!(
+                s,
+                "{lat:.7},{lon:.7},{},{:.2},{:.2},{},{:.3}",
+                csv_field(road),
+                m.road_offset_m,
+                m.distance_m,
+                m.state.as_str(),
+                m.confidence
+            );
+        }
+        None => {
+            let _ = writeln!(s, ",,,,,{},0", m.state.as_str());
+        }
+    }
+}
+
 /// MATCHED.csv text: one row per input row, in input order. `matched[i]` is
 /// the match of `rows[i]`.
 pub fn matched_csv(net: &Network, rows: &[TrackRow], matched: &[MatchedPoint]) -> String {
     let mut s = String::with_capacity(rows.len() * 96);
-    s.push_str("track_id,t_s,lat,lon,road_id,offset_m,distance_m,state,confidence\n");
+    s.push_str(MATCHED_HEADER);
     for (r, m) in rows.iter().zip(matched) {
-        let _ = write!(s, "{},", csv_field(&r.track_id));
-        if r.t_s.is_finite() {
-            let _ = write!(s, "{}", r.t_s);
-        }
-        s.push(',');
-        match matched_lat_lon(net, m) {
-            Some([lat, lon]) => {
-                let road = &net.roads[m.road.unwrap_or(0) as usize].attributes.id;
-                let _ = writeln!(
-                    s,
-                    "{lat:.7},{lon:.7},{},{:.2},{:.2},{},{:.3}",
-                    csv_field(road),
-                    m.road_offset_m,
-                    m.distance_m,
-                    m.state.as_str(),
-                    m.confidence
-                );
-            }
-            None => {
-                let _ = writeln!(s, ",,,,,{},0", m.state.as_str());
-            }
-        }
+        matched_row(&mut s, net, r, m);
     }
     s
 }
@@ -366,12 +427,28 @@ pub fn match_rows(
     rows: &[TrackRow],
     opts: &super::options::MatchOptions,
 ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
-    use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
-    let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
-    let mut outcomes = Vec::new();
     // One cache of network searches for the whole file: fleet files hold
     // many tracks on the same roads.
     let mut distances = Some(super::NetworkDistances::new(net));
+    match_rows_with(net, rows, opts, &mut distances)
+}
+
+/// [`match_rows`] with a cache of network searches kept by the caller
+/// (e.g. between files on one map, as a peer's precomputed table is);
+/// `None` starts one. Results may differ from a cold cache's only where a
+/// transition's route lies at its search bound.
+pub fn match_rows_with<'a>(
+    net: &'a Network,
+    rows: &[TrackRow],
+    opts: &super::options::MatchOptions,
+    distances: &mut Option<super::NetworkDistances<'a>>,
+) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
+    use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
+    let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
+    let mut outcomes = Vec::new();
+    if distances.is_none() {
+        *distances = Some(super::NetworkDistances::new(net));
+    }
     for (track_id, idx) in group_tracks(rows) {
         let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
         let params = opts.hmm_params(net, &fixes);
@@ -399,7 +476,7 @@ pub fn match_rows(
                 let b = m.breaks().to_vec();
                 let path =
                     super::cpath::complete_path_with(m.distances_mut(), net, &p, &b, &params);
-                distances = Some(m.into_distances());
+                *distances = Some(m.into_distances());
                 (p, b, path)
             }
         };

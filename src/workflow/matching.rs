@@ -3,10 +3,12 @@
 use super::inputs::check_out_dir;
 use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
+use crate::fsio::AtomicFile;
 use crate::matching::evaluate::{self, Score};
-use crate::matching::inputs::read_track_file;
+use crate::matching::inputs::{read_track_file, sniff_file, TrackFormat};
 use crate::matching::options::MatchOptions;
 use crate::matching::path_out;
+use crate::matching::stream::match_csv_stream;
 use crate::matching::track::{self as tr, Method};
 use crate::network::{LoadOptions, Network};
 use serde::Serialize;
@@ -155,6 +157,17 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
     for f in [job.path, job.path_geojson].into_iter().flatten() {
         check_out(f)?;
     }
+    if sniff_file(job.track)? == TrackFormat::Csv {
+        let net = Network::load(job.map, &LoadOptions::default())?;
+        let truth = job
+            .truth
+            .map(|p| evaluate::read_truth(p, &net))
+            .transpose()?;
+        let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+        if let Some(o) = streamed(job, &net, truth, load_ms)? {
+            return Ok(o);
+        }
+    }
     let (rows, format) = read_track_file(job.track)?;
     let net = Network::load(job.map, &LoadOptions::default())?;
     let truth = job
@@ -251,4 +264,115 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
         },
         unmatched_tracks,
     })
+}
+
+/// `match_file` on a CSV track, streamed (memory of the order of the
+/// matcher's window): `None` when the file interleaves its tracks.
+fn streamed(
+    job: &MatchJob,
+    net: &Network,
+    truth: Option<evaluate::RoadLengths>,
+    load_ms: f64,
+) -> Result<Option<MatchOutcome>> {
+    let t1 = Instant::now();
+    if let Some(parent) = job.out_file.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
+    }
+    let mut file = AtomicFile::create(job.out_file)?;
+    let keep_path = job.path.is_some() || job.path_geojson.is_some();
+    let Some(r) = match_csv_stream(
+        net,
+        job.track,
+        &job.options,
+        keep_path,
+        &mut file,
+        job.out_file,
+    )?
+    else {
+        return Ok(None);
+    };
+    let match_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let matched: usize = r.tracks.iter().map(|t| t.matched).sum();
+    if matched == 0 {
+        let radius = r
+            .tracks
+            .iter()
+            .map(|o| o.params.search_radius_m)
+            .fold(0.0, f64::max);
+        return Err(Error::format(
+            job.track,
+            format!(
+                "no point lies within {radius:.0} m of a road of {} (is the track on this map?)",
+                job.map.display()
+            ),
+        ));
+    }
+    file.commit()?;
+    let tracks: Vec<(&str, &[_])> = r
+        .tracks
+        .iter()
+        .map(|o| (o.track_id.as_str(), &o.path[..]))
+        .collect();
+    let mut path_files = Vec::new();
+    if let Some(f) = job.path {
+        write_out(f, &path_out::path_csv(net, &tracks))?;
+        path_files.push(f.display().to_string());
+    }
+    if let Some(f) = job.path_geojson {
+        write_out(f, &path_out::path_geojson(net, &tracks))?;
+        path_files.push(f.display().to_string());
+    }
+    let mut breaks = Vec::new();
+    let mut spans = Vec::new();
+    let mut unmatched_tracks = Vec::new();
+    for o in &r.tracks {
+        if o.matched == 0 {
+            unmatched_tracks.push(o.track_id.clone());
+            continue;
+        }
+        for (b, line) in &o.breaks {
+            breaks.push(MatchBreak {
+                track_id: o.track_id.clone(),
+                reason: b.reason.as_str(),
+                before_t_s: b.before.map(|(_, t)| t),
+                after_t_s: b.after.1,
+                line: *line,
+            });
+        }
+        for (lines, t_s, points) in &o.unmatched {
+            spans.push(UnmatchedSpan {
+                track_id: o.track_id.clone(),
+                first_line: lines[0],
+                last_line: lines[1],
+                t_s: *t_s,
+                points: *points,
+            });
+        }
+    }
+    let points: usize = r.tracks.iter().map(|t| t.points).sum();
+    let score = truth.map(|truth| evaluate::score(&r.lengths, &truth));
+    Ok(Some(MatchOutcome {
+        map: job.map.display().to_string(),
+        track: job.track.display().to_string(),
+        out: job.out_file.display().to_string(),
+        method: method_name(job.options.method),
+        format: TrackFormat::Csv.as_str(),
+        radius_m: r.tracks.iter().map(|o| o.params.search_radius_m).collect(),
+        sigma_m: r.tracks.iter().map(|o| o.params.sigma_m).collect(),
+        path_pieces: r.tracks.iter().map(|o| o.pieces).sum(),
+        path_length_m: r.lengths.values().sum::<f64>() + 0.0, // not -0 when empty
+        path_files,
+        points,
+        tracks: r.tracks.len(),
+        matched,
+        matched_share: matched as f64 / points as f64,
+        breaks,
+        unmatched_spans: spans,
+        score,
+        timings_ms: Timings {
+            load: load_ms,
+            r#match: match_ms,
+        },
+        unmatched_tracks,
+    }))
 }

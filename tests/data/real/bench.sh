@@ -23,7 +23,7 @@ w = json.load(open(sys.argv[1])); a = json.loads(sys.argv[4])
 s = w.get("score") or {}
 whole = w["points"] * 5 / (float(sys.argv[3]) - float(sys.argv[2]))
 print(f"{sys.argv[5]} | waymark | {s.get('precision_length', float('nan')):.3f} | {s.get('recall_length', float('nan')):.3f} | "
-      f"{w['matched_share']:.2f} | {w['path_length_m']:.0f} | {a['match_points_per_s']:.0f} | {whole:.0f}")
+      f"{w['matched_share']:.2f} | {w['path_length_m']:.0f} | {a['match_points_per_s']:.0f} (warm cache {a['warm_match_points_per_s']:.0f}) | {whole:.0f}")
 PY
   "$E/match_dump" "$map" "$track" "$tmp/dump.json"
   python3 "$D/fastmm_compare.py" "$tmp/dump.json" "$truth" "$r" "$g" 2000 2>/dev/null | grep '^{' | python3 -c "
