@@ -54,15 +54,15 @@ fn file_name(path: &Path) -> String {
     )
 }
 
-type FileReader =
-    shapefile::Reader<std::io::BufReader<std::fs::File>, std::io::BufReader<std::fs::File>>;
+type FileReader<'a> =
+    shapefile::Reader<std::io::Cursor<&'a [u8]>, std::io::BufReader<std::fs::File>>;
 
-/// Opens the `.shp` (read in sequence: the `.shx` index is not needed) and
-/// its `.dbf`, each error naming the component that fails.
-fn open(path: &Path) -> Result<FileReader> {
+/// Opens the `.shp` (its bytes `shp`, read once by the caller and read here
+/// in sequence: the `.shx` index is not needed) and its `.dbf`, each error
+/// naming the component that fails.
+fn open<'a>(path: &Path, shp: &'a [u8]) -> Result<FileReader<'a>> {
     use std::io::BufReader;
-    let shp = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let shapes = shapefile::ShapeReader::new(BufReader::new(shp))
+    let shapes = shapefile::ShapeReader::new(std::io::Cursor::new(shp))
         .map_err(|e| Error::format(path, format!("the shape file (.shp) {}", shp_problem(&e))))?;
     let dbf = path.with_extension("dbf");
     let f = std::fs::File::open(&dbf).map_err(|e| {
@@ -90,9 +90,8 @@ fn open(path: &Path) -> Result<FileReader> {
 /// Checks the `.shp`'s records against its size before the shapefile crate
 /// reads them: a record that declares more parts or points than its bytes
 /// hold would make the reader reserve memory for them (gigabytes for a
-/// corrupt count, found by fuzzing) before failing.
-fn check_shp_records(path: &Path) -> Result<()> {
-    let bytes = crate::fsio::read_limited(path, super::MAX_MAP_BYTES, "shape file (.shp)")?;
+/// corrupt count, found by fuzzing) before failing. `bytes` is the `.shp`.
+fn check_shp_records(path: &Path, bytes: &[u8]) -> Result<()> {
     let corrupt = |at: usize, what: String| {
         Error::format(
             path,
@@ -211,14 +210,16 @@ fn dbf_problem(e: &shapefile::dbase::Error) -> String {
     }
 }
 
-/// Reads a shapefile (`.shp` with its `.dbf`, and `.prj` when present).
+/// Reads a shapefile: the `.shp` at `path` (its bytes `shp`, as read by
+/// the map reader) with its `.dbf`, and `.prj` when present.
 pub(crate) fn load(
     path: &Path,
+    shp: &[u8],
     filter: DrivableFilter,
 ) -> Result<(Vec<RawRoad>, FxHashSet<u64>, LoadReport)> {
     check_prj(path)?;
-    check_shp_records(path)?;
-    let mut reader = open(path)?;
+    check_shp_records(path, shp)?;
+    let mut reader = open(path, shp)?;
     let mut report = LoadReport {
         format: "shapefile".into(),
         ..Default::default()
