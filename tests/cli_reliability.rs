@@ -189,6 +189,45 @@ fn a_route_plan_too_large_to_hold_is_refused_before_planning() {
     assert!(!dir.path().join("p").exists());
 }
 
+/// A network plan's candidate sites are counted on the loaded map, before
+/// the planner enumerates them: the Gothenburg map (2,162 km of directed
+/// road) cut every metre gives 2.2 M sites, over the 500,000 limit.
+#[test]
+fn a_network_plan_with_too_many_candidate_sites_is_refused_before_planning() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("scenarios/gothenburg-network-plan.toml"))
+        .unwrap()
+        .replace(
+            "../maps/gothenburg-roads.geojson",
+            &root()
+                .join("maps/gothenburg-roads.geojson")
+                .display()
+                .to_string(),
+        )
+        .replace("candidate_spacing_m = 50", "candidate_spacing_m = 1");
+    assert!(text.contains("candidate_spacing_m = 1\n"));
+    std::fs::write(dir.path().join("g.toml"), text).unwrap();
+    let out = run(&["plan", "g.toml", "--out", "p", "-q"], dir.path());
+    let err = fails_with(
+        &out,
+        &[
+            "g.toml",
+            "candidate sites",
+            "500000",
+            "planner.candidate_spacing_m = 1",
+        ],
+    );
+    // The count is the map's: about 2.2 million (1 m cuts of 2,162 km).
+    let sites: f64 = err
+        .split(" give ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!((2.1e6..2.3e6).contains(&sites), "{err}");
+    assert!(!dir.path().join("p").exists());
+}
+
 #[test]
 fn an_imu_rate_beyond_the_limit_is_named() {
     let dir = tempfile::tempdir().unwrap();
