@@ -592,3 +592,76 @@ fn sigterm_while_writing_removes_the_temporary_file() {
     // At least once the signal came while the file was being written.
     assert!(caught >= 1, "the write was never caught in progress");
 }
+
+#[test]
+fn sigterm_while_match_writes_removes_the_temporary_file() {
+    // 300,000 fixes shuttling along 56 m of Mannerheimintie (Helsinki):
+    // about 20 MB of matched rows, long enough to write that the hidden
+    // temporary file can be seen; `match` is stopped the moment it appears.
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = ([60.16987, 24.93838], [60.17036, 24.93800]);
+    let mut csv = String::from("t_s,lat,lon\n");
+    for i in 0..300_000u32 {
+        let u = f64::from(i % 112) / 56.0;
+        let u = if u <= 1.0 { u } else { 2.0 - u };
+        csv.push_str(&format!(
+            "{:.1},{:.7},{:.7}\n",
+            f64::from(i) * 0.1,
+            a[0] + u * (b[0] - a[0]),
+            a[1] + u * (b[1] - a[1])
+        ));
+    }
+    std::fs::write(dir.path().join("track.csv"), csv).unwrap();
+    let map = root().join("maps/helsinki.osm.pbf").display().to_string();
+    let o = dir.path().join("o");
+    let temporaries = || -> Vec<String> {
+        std::fs::read_dir(&o)
+            .map(|r| {
+                r.flatten()
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .filter(|n| n.starts_with('.') && n.contains(".tmp"))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let mut caught = 0;
+    for _ in 0..5 {
+        let _ = std::fs::remove_dir_all(&o);
+        let mut child = Command::new(env!("CARGO_BIN_EXE_waymark"))
+            .args([
+                "match",
+                "--map",
+                &map,
+                "--track",
+                "track.csv",
+                "--out",
+                "o/matched.csv",
+                "-q",
+            ])
+            .current_dir(dir.path())
+            .spawn()
+            .unwrap();
+        let t0 = std::time::Instant::now();
+        let mut seen = false;
+        while t0.elapsed().as_secs() < 120 {
+            if !temporaries().is_empty() {
+                seen = true;
+                let _ = Command::new("kill")
+                    .args(["-TERM", &child.id().to_string()])
+                    .status();
+                break;
+            }
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+        }
+        let status = child.wait().unwrap();
+        assert!(temporaries().is_empty(), "left behind: {:?}", temporaries());
+        if seen && status.code() == Some(130) {
+            caught += 1;
+            break;
+        }
+    }
+    // At least once the signal came while the file was being written.
+    assert!(caught >= 1, "the write was never caught in progress");
+}
