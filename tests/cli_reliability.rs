@@ -440,6 +440,20 @@ fn a_shapefile_names_its_failing_component_in_words() {
         &inspect(dir.path()),
         &["roads.shp", "record 1", "800000000 part(s)", "corrupt"],
     );
+    // A part starting at a negative point index (found by fuzzing: the
+    // reader sized the part as 3 − index points and reserved 2.1 GB).
+    let mut bad_part = good_shp.clone();
+    bad_part[152..156].copy_from_slice(&(-134_283_264i32).to_le_bytes());
+    std::fs::write(&shp, &bad_part).unwrap();
+    fails_with(
+        &inspect(dir.path()),
+        &[
+            "roads.shp",
+            "record 1",
+            "part 1 starts at point -134283264",
+            "corrupt",
+        ],
+    );
     std::fs::write(&shp, &good_shp).unwrap();
     std::fs::write(dir.path().join("roads.shx"), b"not an index").unwrap();
     assert_eq!(inspect(dir.path()).status.code(), Some(0));

@@ -89,8 +89,9 @@ fn open<'a>(path: &Path, shp: &'a [u8]) -> Result<FileReader<'a>> {
 
 /// Checks the `.shp`'s records against its size before the shapefile crate
 /// reads them: a record that declares more parts or points than its bytes
-/// hold would make the reader reserve memory for them (gigabytes for a
-/// corrupt count, found by fuzzing) before failing. `bytes` is the `.shp`.
+/// hold, or parts that do not start in ascending order within its points,
+/// would make the reader reserve memory for them (gigabytes for a corrupt
+/// count, found by fuzzing) before failing. `bytes` is the `.shp`.
 fn check_shp_records(path: &Path, bytes: &[u8]) -> Result<()> {
     let corrupt = |at: usize, what: String| {
         Error::format(
@@ -137,6 +138,25 @@ fn check_shp_records(path: &Path, bytes: &[u8]) -> Result<()> {
                             "declares {parts} part(s) and {points} point(s), more than its {len} bytes hold"
                         ),
                     ));
+                }
+                // Each part starts at an index into the record's points, in
+                // ascending order: the reader sizes a part as the next start
+                // minus its own, so an index out of order or beyond the points
+                // made it reserve gigabytes (found by fuzzing).
+                let mut previous = 0;
+                for k in 0..parts as usize {
+                    let start = le(content + 44 + 4 * k).unwrap_or(-1);
+                    if start < previous || start > points {
+                        return Err(corrupt(
+                            index,
+                            format!(
+                                "part {} starts at point {start}, outside 0..={points} or before \
+                                 the part before it",
+                                k + 1
+                            ),
+                        ));
+                    }
+                    previous = start;
                 }
             }
         }
