@@ -189,6 +189,45 @@ fn a_route_plan_too_large_to_hold_is_refused_before_planning() {
     assert!(!dir.path().join("p").exists());
 }
 
+/// A network plan's candidate sites are counted on the loaded map, before
+/// the planner enumerates them: the Gothenburg map (2,162 km of directed
+/// road) cut every metre gives 2.2 M sites, over the 500,000 limit.
+#[test]
+fn a_network_plan_with_too_many_candidate_sites_is_refused_before_planning() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("scenarios/gothenburg-network-plan.toml"))
+        .unwrap()
+        .replace(
+            "../maps/gothenburg-roads.geojson",
+            &root()
+                .join("maps/gothenburg-roads.geojson")
+                .display()
+                .to_string(),
+        )
+        .replace("candidate_spacing_m = 50", "candidate_spacing_m = 1");
+    assert!(text.contains("candidate_spacing_m = 1\n"));
+    std::fs::write(dir.path().join("g.toml"), text).unwrap();
+    let out = run(&["plan", "g.toml", "--out", "p", "-q"], dir.path());
+    let err = fails_with(
+        &out,
+        &[
+            "g.toml",
+            "candidate sites",
+            "500000",
+            "planner.candidate_spacing_m = 1",
+        ],
+    );
+    // The count is the map's: about 2.2 million (1 m cuts of 2,162 km).
+    let sites: f64 = err
+        .split(" give ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!((2.1e6..2.3e6).contains(&sites), "{err}");
+    assert!(!dir.path().join("p").exists());
+}
+
 #[test]
 fn an_imu_rate_beyond_the_limit_is_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -401,6 +440,20 @@ fn a_shapefile_names_its_failing_component_in_words() {
         &inspect(dir.path()),
         &["roads.shp", "record 1", "800000000 part(s)", "corrupt"],
     );
+    // A part starting at a negative point index (found by fuzzing: the
+    // reader sized the part as 3 − index points and reserved 2.1 GB).
+    let mut bad_part = good_shp.clone();
+    bad_part[152..156].copy_from_slice(&(-134_283_264i32).to_le_bytes());
+    std::fs::write(&shp, &bad_part).unwrap();
+    fails_with(
+        &inspect(dir.path()),
+        &[
+            "roads.shp",
+            "record 1",
+            "part 1 starts at point -134283264",
+            "corrupt",
+        ],
+    );
     std::fs::write(&shp, &good_shp).unwrap();
     std::fs::write(dir.path().join("roads.shx"), b"not an index").unwrap();
     assert_eq!(inspect(dir.path()).status.code(), Some(0));
@@ -548,6 +601,79 @@ fn sigterm_while_writing_removes_the_temporary_file() {
         assert!(temporaries().is_empty(), "left behind: {:?}", temporaries());
         if seen && status.code() == Some(130) {
             caught += 1;
+        }
+    }
+    // At least once the signal came while the file was being written.
+    assert!(caught >= 1, "the write was never caught in progress");
+}
+
+#[test]
+fn sigterm_while_match_writes_removes_the_temporary_file() {
+    // 300,000 fixes shuttling along 56 m of Mannerheimintie (Helsinki):
+    // about 20 MB of matched rows, long enough to write that the hidden
+    // temporary file can be seen; `match` is stopped the moment it appears.
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = ([60.16987, 24.93838], [60.17036, 24.93800]);
+    let mut csv = String::from("t_s,lat,lon\n");
+    for i in 0..300_000u32 {
+        let u = f64::from(i % 112) / 56.0;
+        let u = if u <= 1.0 { u } else { 2.0 - u };
+        csv.push_str(&format!(
+            "{:.1},{:.7},{:.7}\n",
+            f64::from(i) * 0.1,
+            a[0] + u * (b[0] - a[0]),
+            a[1] + u * (b[1] - a[1])
+        ));
+    }
+    std::fs::write(dir.path().join("track.csv"), csv).unwrap();
+    let map = root().join("maps/helsinki.osm.pbf").display().to_string();
+    let o = dir.path().join("o");
+    let temporaries = || -> Vec<String> {
+        std::fs::read_dir(&o)
+            .map(|r| {
+                r.flatten()
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .filter(|n| n.starts_with('.') && n.contains(".tmp"))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let mut caught = 0;
+    for _ in 0..5 {
+        let _ = std::fs::remove_dir_all(&o);
+        let mut child = Command::new(env!("CARGO_BIN_EXE_waymark"))
+            .args([
+                "match",
+                "--map",
+                &map,
+                "--track",
+                "track.csv",
+                "--out",
+                "o/matched.csv",
+                "-q",
+            ])
+            .current_dir(dir.path())
+            .spawn()
+            .unwrap();
+        let t0 = std::time::Instant::now();
+        let mut seen = false;
+        while t0.elapsed().as_secs() < 120 {
+            if !temporaries().is_empty() {
+                seen = true;
+                let _ = Command::new("kill")
+                    .args(["-TERM", &child.id().to_string()])
+                    .status();
+                break;
+            }
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+        }
+        let status = child.wait().unwrap();
+        assert!(temporaries().is_empty(), "left behind: {:?}", temporaries());
+        if seen && status.code() == Some(130) {
+            caught += 1;
+            break;
         }
     }
     // At least once the signal came while the file was being written.

@@ -101,3 +101,28 @@ fn grid_size_is_validated() {
         assert!(GridIndex::build(&net.segments, net.bbox, Some(bad)).is_err());
     }
 }
+
+/// The automatic N: ~100 m cells on the bundled maps (the segment cap leaves
+/// them alone), and at most eight cells per segment on a sparse map, so a
+/// few roads far apart do not build a 2048 × 2048 grid.
+#[test]
+fn automatic_grid_size_follows_the_box_and_the_segments() {
+    use waymark::network::{auto_grid_n, auto_grid_n_for, MAX_CELLS_PER_SEGMENT};
+    for net in [helsinki(), gothenburg()] {
+        assert_eq!(net.grid.n(), auto_grid_n(net.bbox));
+        assert_eq!(
+            auto_grid_n_for(net.bbox, net.segments.len()),
+            auto_grid_n(net.bbox)
+        );
+    }
+    // 1,000 km square: 2048 by the box alone.
+    let wide = [0.0, 0.0, 1e6, 1e6];
+    assert_eq!(auto_grid_n(wide), 2048);
+    for (segments, n) in [(0, 2), (1, 2), (2, 4), (7, 4), (8, 8), (1000, 64)] {
+        let got = auto_grid_n_for(wide, segments);
+        assert_eq!(got, n, "{segments} segment(s)");
+        let cells = (got as usize).pow(2);
+        assert!(cells <= MAX_CELLS_PER_SEGMENT * segments.max(1));
+        assert!(4 * cells > MAX_CELLS_PER_SEGMENT * segments.max(1));
+    }
+}

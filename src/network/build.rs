@@ -41,8 +41,14 @@ pub(crate) fn coordinate_key(lat: f64, lon: f64) -> u64 {
     (la << 32) | lo
 }
 
-/// Checks one coordinate pair.
-pub(crate) fn check_coordinate(path: &Path, what: &str, lat: f64, lon: f64) -> Result<()> {
+/// Checks one coordinate pair; `what` (a `&str`, or `format_args!` so that
+/// nothing is formatted per vertex unless it fails) names it in the error.
+pub(crate) fn check_coordinate(
+    path: &Path,
+    what: impl std::fmt::Display,
+    lat: f64,
+    lon: f64,
+) -> Result<()> {
     if !lat.is_finite() || !lon.is_finite() {
         return Err(Error::format(
             path,

@@ -25,7 +25,9 @@ pub use attributes::{
 };
 pub use defects::{check as check_defects, Defect, DefectReport, DEFAULT_NODE_TOLERANCE_M};
 pub use geometry::{point_segment_distance, segment_intersects_box};
-pub use grid::{auto_grid_n, GridIndex, AUTO_CELL_M, MAX_GRID_N};
+pub use grid::{
+    auto_grid_n, auto_grid_n_for, GridIndex, AUTO_CELL_M, MAX_CELLS_PER_SEGMENT, MAX_GRID_N,
+};
 pub use inspect::{inspect, Components, CountLength, GridFigures, Inspection};
 pub use lanes::{
     carriageway_lanes, lane_offset_m, lane_offset_moments, lane_width_m, lanes_per_direction,
@@ -189,7 +191,7 @@ pub fn load_model(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Ro
         MapFormat::OsmPbf => osm_pbf::load(path, bytes, filter)?,
         MapFormat::OsmXml => osm_xml::load(path, bytes, filter)?,
         MapFormat::GeoJson => geojson_loader::load(path, bytes, filter)?,
-        MapFormat::Shapefile => shapefile_loader::load(path, filter)?,
+        MapFormat::Shapefile => shapefile_loader::load(path, bytes, filter)?,
     };
     build::build(path, raw, edges, report)
 }
@@ -247,20 +249,25 @@ impl Network {
         Ok(net)
     }
 
-    /// Indexes and topologises a model. The grid and the R-tree are built in parallel.
+    /// Indexes and topologises a model. The grid and the R-tree are built in
+    /// parallel on maps of at least [`PARALLEL_INDEX_SEGMENTS`] segments.
     pub fn from_model(model: RoadNetwork, grid_n: Option<u32>) -> Result<Network> {
-        let ((grid, grid_ms), (rtree, rtree_ms)) = rayon::join(
-            || {
-                let t = Instant::now();
-                let g = GridIndex::build(&model.segments, model.bbox, grid_n);
-                (g, ms(t))
-            },
-            || {
-                let t = Instant::now();
-                let r = SegmentTree::build(&model.segments);
-                (r, ms(t))
-            },
-        );
+        let grid_job = || {
+            let t = Instant::now();
+            let g = GridIndex::build(&model.segments, model.bbox, grid_n);
+            (g, ms(t))
+        };
+        let rtree_job = || {
+            let t = Instant::now();
+            let r = SegmentTree::build(&model.segments);
+            (r, ms(t))
+        };
+        let ((grid, grid_ms), (rtree, rtree_ms)) =
+            if model.segments.len() >= PARALLEL_INDEX_SEGMENTS {
+                rayon::join(grid_job, rtree_job)
+            } else {
+                (grid_job(), rtree_job())
+            };
         let grid = grid?;
         let t = Instant::now();
         let topology = Topology::build(&model);
@@ -284,6 +291,12 @@ impl Network {
         check_defects(&self.model, &self.topology, &self.grid, tolerance_m)
     }
 }
+
+/// Fewest segments for which the grid and the R-tree are built on two
+/// threads: below it each takes at most about a millisecond (Stockholm's
+/// 3,477 segments: grid 0.2 ms, R-tree 0.7 ms), no more than handing work to
+/// another thread can cost on a busy machine.
+pub const PARALLEL_INDEX_SEGMENTS: usize = 4096;
 
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3

@@ -36,7 +36,7 @@ pub(crate) fn assemble_ways(
             match nodes.binary_search_by_key(&r, |n| n.0) {
                 Ok(i) => {
                     let (_, lat, lon) = nodes[i];
-                    check_coordinate(path, &format!("node {r}"), lat, lon)?;
+                    check_coordinate(path, format_args!("node {r}"), lat, lon)?;
                     current.push(RawVertex {
                         key: r as u64,
                         lat,

@@ -54,15 +54,15 @@ fn file_name(path: &Path) -> String {
     )
 }
 
-type FileReader =
-    shapefile::Reader<std::io::BufReader<std::fs::File>, std::io::BufReader<std::fs::File>>;
+type FileReader<'a> =
+    shapefile::Reader<std::io::Cursor<&'a [u8]>, std::io::BufReader<std::fs::File>>;
 
-/// Opens the `.shp` (read in sequence: the `.shx` index is not needed) and
-/// its `.dbf`, each error naming the component that fails.
-fn open(path: &Path) -> Result<FileReader> {
+/// Opens the `.shp` (its bytes `shp`, read once by the caller and read here
+/// in sequence: the `.shx` index is not needed) and its `.dbf`, each error
+/// naming the component that fails.
+fn open<'a>(path: &Path, shp: &'a [u8]) -> Result<FileReader<'a>> {
     use std::io::BufReader;
-    let shp = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let shapes = shapefile::ShapeReader::new(BufReader::new(shp))
+    let shapes = shapefile::ShapeReader::new(std::io::Cursor::new(shp))
         .map_err(|e| Error::format(path, format!("the shape file (.shp) {}", shp_problem(&e))))?;
     let dbf = path.with_extension("dbf");
     let f = std::fs::File::open(&dbf).map_err(|e| {
@@ -89,10 +89,10 @@ fn open(path: &Path) -> Result<FileReader> {
 
 /// Checks the `.shp`'s records against its size before the shapefile crate
 /// reads them: a record that declares more parts or points than its bytes
-/// hold would make the reader reserve memory for them (gigabytes for a
-/// corrupt count, found by fuzzing) before failing.
-fn check_shp_records(path: &Path) -> Result<()> {
-    let bytes = crate::fsio::read_limited(path, super::MAX_MAP_BYTES, "shape file (.shp)")?;
+/// hold, or parts that do not start in ascending order within its points,
+/// would make the reader reserve memory for them (gigabytes for a corrupt
+/// count, found by fuzzing) before failing. `bytes` is the `.shp`.
+fn check_shp_records(path: &Path, bytes: &[u8]) -> Result<()> {
     let corrupt = |at: usize, what: String| {
         Error::format(
             path,
@@ -138,6 +138,25 @@ fn check_shp_records(path: &Path) -> Result<()> {
                             "declares {parts} part(s) and {points} point(s), more than its {len} bytes hold"
                         ),
                     ));
+                }
+                // Each part starts at an index into the record's points, in
+                // ascending order: the reader sizes a part as the next start
+                // minus its own, so an index out of order or beyond the points
+                // made it reserve gigabytes (found by fuzzing).
+                let mut previous = 0;
+                for k in 0..parts as usize {
+                    let start = le(content + 44 + 4 * k).unwrap_or(-1);
+                    if start < previous || start > points {
+                        return Err(corrupt(
+                            index,
+                            format!(
+                                "part {} starts at point {start}, outside 0..={points} or before \
+                                 the part before it",
+                                k + 1
+                            ),
+                        ));
+                    }
+                    previous = start;
                 }
             }
         }
@@ -211,14 +230,16 @@ fn dbf_problem(e: &shapefile::dbase::Error) -> String {
     }
 }
 
-/// Reads a shapefile (`.shp` with its `.dbf`, and `.prj` when present).
+/// Reads a shapefile: the `.shp` at `path` (its bytes `shp`, as read by
+/// the map reader) with its `.dbf`, and `.prj` when present.
 pub(crate) fn load(
     path: &Path,
+    shp: &[u8],
     filter: DrivableFilter,
 ) -> Result<(Vec<RawRoad>, FxHashSet<u64>, LoadReport)> {
     check_prj(path)?;
-    check_shp_records(path)?;
-    let mut reader = open(path)?;
+    check_shp_records(path, shp)?;
+    let mut reader = open(path, shp)?;
     let mut report = LoadReport {
         format: "shapefile".into(),
         ..Default::default()

@@ -3,11 +3,14 @@
 //! (README, "Limits and reliability"). Durations, rates and the rows a
 //! simulation keeps are checked where they are known: the IMU rate and
 //! the motion commands' 30-day limit in validation and the motion compiler,
-//! the drive's length and the kept rows in `sim::limits`.
+//! the drive's length and the kept rows in `sim::limits`; a network plan's
+//! candidate sites once its map is loaded ([`check_network_candidates`]).
 
 use super::check::Check;
 use super::schema::ScenarioFile;
-use crate::error::Result;
+use super::Scenario;
+use crate::error::{Error, Result};
+use crate::network::RoadNetwork;
 
 /// Largest scenario file read (bytes): a scenario with thousands of
 /// `[[tag]]` entries is well under 1 MiB.
@@ -47,6 +50,50 @@ pub const MAX_ACCEL_ERROR_UG: f64 = 1e7;
 
 /// Largest gyro angle random walk (°/√h): 60 °/√h is 1 °/√s.
 pub const MAX_GYRO_ARW_DPRH: f64 = 3600.0;
+
+/// Most candidate sites of a network plan (`coverage = "network"`): the
+/// directed road pieces of the map, each cut every
+/// `planner.candidate_spacing_m` (at least one site each). At the default
+/// 50 m spacing that is about 25,000 km of directed road, 8 times the
+/// Gothenburg map (60,000 candidates: 0.2 GB and 6 s for the any-walk plan;
+/// the trips model's instance 0.25 GB, growing with the candidates, beside
+/// its chains). Measured at the limit: see BENCHMARKS.md, "Network plan
+/// candidate limit".
+pub const MAX_NETWORK_CANDIDATE_SITES: u64 = 500_000;
+
+/// Checks a network plan's candidate sites on the loaded map `net` against
+/// [`MAX_NETWORK_CANDIDATE_SITES`] before the planner enumerates them: for
+/// every section of positive length and every direction it may be driven
+/// in, `ceil(length / candidate_spacing_m)` sites, at least one (an upper
+/// bound: sections where no mounting is allowed get none). Returns that
+/// count.
+pub fn check_network_candidates(scn: &Scenario, net: &RoadNetwork) -> Result<u64> {
+    let spacing = scn.planner().candidate_spacing_m;
+    let (mut sites, mut pieces, mut length_m) = (0.0f64, 0u64, 0.0f64);
+    for s in &net.sections {
+        if s.length_m.is_nan() || s.length_m <= 0.0 {
+            continue;
+        }
+        let directions =
+            u64::from(s.oneway.allows_forward()) + u64::from(s.oneway.allows_backward());
+        pieces += directions;
+        length_m += directions as f64 * s.length_m;
+        sites += directions as f64 * (s.length_m / spacing).ceil().max(1.0);
+    }
+    if sites.is_nan() || sites > MAX_NETWORK_CANDIDATE_SITES as f64 {
+        return Err(Error::scenario(
+            &scn.path,
+            format!(
+                "the map's {pieces} directed road pieces ({:.1} km) at planner.candidate_spacing_m \
+                 = {spacing} give {sites:.0} candidate sites, above the limit of \
+                 {MAX_NETWORK_CANDIDATE_SITES} for coverage = \"network\": use a larger \
+                 candidate_spacing_m or a smaller map",
+                length_m / 1000.0
+            ),
+        ));
+    }
+    Ok(sites as u64)
+}
 
 /// Checks the counts of `file` against the limits above, and that a motion
 /// route has motion commands.

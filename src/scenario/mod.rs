@@ -29,8 +29,9 @@ mod sections;
 mod validate;
 
 pub use limits::{
-    MAX_ACCEL_ERROR_UG, MAX_GYRO_ARW_DPRH, MAX_GYRO_ERROR_DPH, MAX_REFINE_ITERATIONS, MAX_RUNS,
-    MAX_SCENARIO_BYTES, MAX_TOLERATED_MISSED_READS,
+    check_network_candidates, MAX_ACCEL_ERROR_UG, MAX_GYRO_ARW_DPRH, MAX_GYRO_ERROR_DPH,
+    MAX_NETWORK_CANDIDATE_SITES, MAX_REFINE_ITERATIONS, MAX_RUNS, MAX_SCENARIO_BYTES,
+    MAX_TOLERATED_MISSED_READS,
 };
 pub use presets::{starter_scenario, ImuGrade, Starter};
 pub use schema::{

@@ -240,6 +240,7 @@ fn map_geometry_error_is_validated() {
     }
 }
 
+<<<<<<< HEAD
 /// `[map] elevation`: one file or a list, resolved against the scenario's
 /// folder; an empty list and a constant `route[0].height_m` beside it are
 /// errors naming the field.
@@ -278,4 +279,47 @@ fn map_elevation_is_one_file_or_a_list() {
     );
     let e = load(&base("elevation = 3", "")).unwrap_err().to_string();
     assert!(e.contains("elevation"), "{e}");
+=======
+/// A network plan's candidate sites, counted on the map before planning:
+/// `ceil(length / spacing)` per permitted direction of each section, at
+/// least one.
+#[test]
+fn network_candidate_sites_are_counted_per_direction() {
+    use crate::network::{model_from_polylines, Oneway, RoadAttributes};
+    let road = |id: &str, oneway| RoadAttributes {
+        id: id.into(),
+        name: None,
+        highway: "residential".into(),
+        oneway,
+        lanes: None,
+        width_m: None,
+        maxspeed_kmh: None,
+        tunnel: false,
+        bridge: false,
+        layer: 0,
+    };
+    // 0.001° of latitude ≈ 111.4 m (two-way: 3 sites each way at 50 m),
+    // 0.0001° ≈ 11.1 m (one-way: 1 site), far apart (no shared node).
+    let net = model_from_polylines(vec![
+        (
+            road("a", Oneway::Both),
+            vec![vec![[60.0, 24.0], [60.001, 24.0]]],
+        ),
+        (
+            road("b", Oneway::Forward),
+            vec![vec![[60.0, 24.01], [60.0001, 24.01]]],
+        ),
+    ])
+    .unwrap();
+    let scn = |spacing: &str| {
+        Scenario::parse(
+            Path::new("a.toml"),
+            &format!("{ROUTE}[planner]\ncandidate_spacing_m = {spacing}\n"),
+        )
+        .unwrap()
+    };
+    assert_eq!(check_network_candidates(&scn("50"), &net).unwrap(), 7);
+    // Every metre: 112 per direction of the 111.4 m road, 12 on the other.
+    assert_eq!(check_network_candidates(&scn("1"), &net).unwrap(), 236);
+>>>>>>> s4-reliab
 }

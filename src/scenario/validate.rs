@@ -105,13 +105,18 @@ impl Scenario {
     pub fn parse(path: &Path, text: &str) -> Result<Scenario> {
         let file: ScenarioFile =
             toml::from_str(text).map_err(|e| Error::scenario(path, toml_error(text, &e)))?;
-        // An `[imu] grade` fills the fields the file leaves out.
-        let file = match super::presets::apply_imu_grade(text) {
-            Ok(Some(doc)) => {
-                use serde::Deserialize;
-                ScenarioFile::deserialize(doc).map_err(|e| Error::scenario(path, e.to_string()))?
-            }
-            _ => file,
+        // An `[imu] grade` fills the fields the file leaves out (the text is
+        // parsed a second time only then).
+        let file = match file.imu.grade {
+            Some(_) => match super::presets::apply_imu_grade(text) {
+                Ok(Some(doc)) => {
+                    use serde::Deserialize;
+                    ScenarioFile::deserialize(doc)
+                        .map_err(|e| Error::scenario(path, e.to_string()))?
+                }
+                _ => file,
+            },
+            None => file,
         };
         let c = Check { path };
         if let Some(r) = file.requirement_m {

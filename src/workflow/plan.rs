@@ -6,7 +6,9 @@ use crate::elevation::Dem;
 use crate::error::{Error, Result};
 use crate::export::{plan_profile_csv, tags_csv, tags_geojson, tags_gpx, tags_kml, tags_meta_json};
 use crate::fsio::write_atomic;
-use crate::planner::network::{plan_network_loaded, validate_network_plan, NetworkPlan};
+use crate::planner::network::{
+    plan_network_on, scenario_network, validate_network_plan, NetworkPlan,
+};
 use crate::planner::{
     plan_with_stages, uniform_baseline, validate_plan, Coverage, Plan, PlanStage, PlannerSettings,
 };
@@ -347,7 +349,13 @@ fn network_plan_folder(
         "waymark plan: {}: network coverage (reach from the filter, then placement on every directed road)",
         scn.name()
     ));
-    let (net, mut plan) = plan_network_loaded(scn, settings)?;
+    // The map, then its candidate sites against their limit, then the plan.
+    let t_load = Instant::now();
+    let net = std::sync::Arc::new(scenario_network(scn)?);
+    let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
+    crate::scenario::check_network_candidates(scn, &net)?;
+    let mut plan = plan_network_on(scn, settings, &net)?;
+    plan.timings_ms.insert("load".into(), load_ms);
     let plan_time_s = t0.elapsed().as_secs_f64();
     if settings.validation_runs > 0 {
         progress.note(&format!(
