@@ -67,13 +67,23 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
     let n = plan["tag_count"].as_u64().unwrap();
     assert!((1..=63).contains(&n), "{n} tags");
     assert!(plan["lower_bound"].as_u64().unwrap() <= n);
-    // The guarantee: all fresh certification chains hold, N ≥ ln β / ln(1 − ε).
+    // The guarantee: at most two of the fresh certification chains fail
+    // (the sample was sized for that), so the Clopper–Pearson upper bound
+    // on the violation probability is within ε; N ≥ ln β / ln(1 − ε) at
+    // least.
     let g = &plan["guarantee"];
     assert_eq!(g["holds"], true, "{g}");
-    assert_eq!(g["violations"], 0);
+    let bad = g["violations"].as_u64().unwrap();
+    assert!(bad <= 2, "{g}");
+    assert!(
+        g["violation_upper_bound"].as_f64().unwrap() <= 0.01 + 1e-12,
+        "{g}"
+    );
     let nc = g["certification_chains"].as_u64().unwrap() as f64;
     assert!(0.99f64.powf(nc) <= 0.01 / 2.0, "{nc}");
-    assert!(g["worst_chain_budget"].as_f64().unwrap() <= 1.0 + 1e-9);
+    if bad == 0 {
+        assert!(g["worst_chain_budget"].as_f64().unwrap() <= 1.0 + 1e-9);
+    }
     assert!(plan["rule"].as_str().unwrap().contains("0.95"));
     // Validation: 20 runs on 20 fresh chains of ~1 h, by the stated rule.
     let v = &plan["validation"];
@@ -94,20 +104,32 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
     let f = cov["features"].as_array().unwrap();
     assert_eq!(f.len() as u64, plan["directed_edges"].as_u64().unwrap());
     let mut over_without = 0;
+    // Over budget with the tags: none, unless a certification chain failed
+    // (at most two may, by the sample's size); then only the roads that
+    // chain over-ran, a handful (≤ 1 % of the directed roads).
+    let mut over_with = 0;
     for x in f {
         let p = &x["properties"];
         assert!(p["reason"].as_str().is_some());
         if let Some(b) = p["bound_m"].as_f64() {
-            assert!(p["budget_with_tags"].as_f64().unwrap() <= 1.0 + 1e-9, "{p}");
-            // Within the requirement up to the profile's 10 m sampling
-            // (interpolation next to the reach): 2 %.
-            assert!(b > 0.0 && b <= 20.0 * 1.02, "{p}");
+            if p["budget_with_tags"].as_f64().unwrap() > 1.0 + 1e-9 {
+                over_with += 1;
+            } else {
+                // Within the requirement up to the profile's 10 m sampling
+                // (interpolation next to the reach): 2 %.
+                assert!(b > 0.0 && b <= 20.0 * 1.02, "{p}");
+            }
         }
         if p["budget_without_tags"].as_f64().unwrap() > 1.0 {
             over_without += 1;
         }
     }
     assert!(over_without > 0, "no road needs tags, yet tags were placed");
+    if bad == 0 {
+        assert_eq!(over_with, 0);
+    } else {
+        assert!(over_with * 100 <= f.len(), "{over_with} of {}", f.len());
+    }
     assert!(
         stdout.contains("rule:") && stdout.contains("Clopper"),
         "{stdout}"

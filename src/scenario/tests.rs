@@ -240,7 +240,6 @@ fn map_geometry_error_is_validated() {
     }
 }
 
-<<<<<<< HEAD
 /// `[map] elevation`: one file or a list, resolved against the scenario's
 /// folder; an empty list and a constant `route[0].height_m` beside it are
 /// errors naming the field.
@@ -279,7 +278,8 @@ fn map_elevation_is_one_file_or_a_list() {
     );
     let e = load(&base("elevation = 3", "")).unwrap_err().to_string();
     assert!(e.contains("elevation"), "{e}");
-=======
+}
+
 /// A network plan's candidate sites, counted on the map before planning:
 /// `ceil(length / spacing)` per permitted direction of each section, at
 /// least one.
@@ -321,5 +321,4 @@ fn network_candidate_sites_are_counted_per_direction() {
     assert_eq!(check_network_candidates(&scn("50"), &net).unwrap(), 7);
     // Every metre: 112 per direction of the 111.4 m road, 12 on the other.
     assert_eq!(check_network_candidates(&scn("1"), &net).unwrap(), 236);
->>>>>>> s4-reliab
 }
