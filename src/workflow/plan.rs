@@ -349,11 +349,11 @@ fn network_plan_folder(
         "waymark plan: {}: network coverage (reach from the filter, then placement on every directed road)",
         scn.name()
     ));
-    // The map, then its candidate sites against their limit, then the plan.
+    // The map, then the plan (which checks its candidate sites against
+    // their limit first).
     let t_load = Instant::now();
     let net = std::sync::Arc::new(scenario_network(scn)?);
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
-    crate::scenario::check_network_candidates(scn, &net)?;
     let mut plan = plan_network_on(scn, settings, &net)?;
     plan.timings_ms.insert("load".into(), load_ms);
     let plan_time_s = t0.elapsed().as_secs_f64();

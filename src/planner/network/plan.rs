@@ -68,6 +68,9 @@ pub fn plan_network_on(
     let (_, _, height_m) = map_route(scn)?;
     let speed_mps = scn.planner().vehicle_speed_mps;
     let (spacing, u_turns) = check_settings(scn, settings)?;
+    // The candidate sites against their limit before anything is sized by
+    // them (every caller of the library, not only the command).
+    crate::scenario::check_network_candidates(scn, &net.model)?;
     let req = settings.requirement_m;
     let k = settings.tolerate_missed_reads;
     settings.check_best_fix(&scn.rfid)?;
