@@ -38,7 +38,7 @@ pub(super) fn validation_of(
     seed: u64,
     conf: f64,
 ) -> Validation {
-    use super::network::{clopper_pearson_lower, THINNING_S};
+    use super::network::{share_rule, THINNING_S};
     let req = plan.requirement_m;
     let (mut n_thin, mut n_within) = (0u64, 0u64);
     for r in &res.runs {
@@ -51,8 +51,7 @@ pub(super) fn validation_of(
             }
         }
     }
-    let lower = clopper_pearson_lower(n_within as usize, n_thin as usize, 0.05);
-    let passed = lower >= conf;
+    let (lower, passed, rule) = share_rule(n_within as usize, n_thin as usize, req, conf);
     let (mut within, mut total) = (0.0, 0.0);
     let mut worst = (0.0f64, 0u64, 0.0, 0.0);
     let mut exceeding = 0u64;
@@ -85,12 +84,7 @@ pub(super) fn validation_of(
         thinned_within: n_within,
         share_lower_95: lower,
         passed,
-        rule: format!(
-            "share of run time within {req} m (one sample per {THINNING_S:.0} s per run) with its \
-             one-sided 95 % Clopper–Pearson lower bound at least {conf}: {n_within} of {n_thin} \
-             samples, lower bound {lower:.4} → {}",
-            if passed { "passed" } else { "FAILED" }
-        ),
+        rule,
     }
 }
 

@@ -103,7 +103,7 @@ pub use trips::{
 };
 pub use turns::TURN_DEG;
 pub use types::{NetworkPlan, NetworkTag, NetworkValidation};
-pub use validation::{validate_network_plan, THINNING_S};
+pub use validation::{share_rule, validate_network_plan, THINNING_S};
 
 #[cfg(test)]
 mod tests {

@@ -27,7 +27,7 @@
 //!   `k + 1` tags before the stretch ends.
 
 pub use super::turns::CHORD_M;
-use super::turns::{heading_samples, intrinsic_resets, walk_edge, TurnWindow, TURN_DEG};
+use super::turns::{heading_samples, intrinsic_resets, point_at, walk_edge, TurnWindow, TURN_DEG};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::route::{next_leg, section_points, SectionPoint};
@@ -97,19 +97,6 @@ pub fn resets(turn: f64) -> bool {
     (TURN_DEG..=180.0 - TURN_DEG).contains(&turn)
 }
 
-/// A point at distance `c` along a polyline with cumulative distances.
-fn at(pts: &[[f64; 2]], cum: &[f64], c: f64) -> [f64; 2] {
-    let i = cum.partition_point(|&x| x < c).clamp(1, pts.len() - 1);
-    let (a, b) = (pts[i - 1], pts[i]);
-    let span = cum[i] - cum[i - 1];
-    let t = if span > 0.0 {
-        ((c - cum[i - 1]) / span).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
-}
-
 /// Chord headings (rad) at the start and the end of a directed section.
 pub(crate) fn end_headings(net: &Network, sec: SectionId, fwd: bool) -> (f64, f64) {
     let len = net.sections[sec as usize].length_m;
@@ -123,8 +110,8 @@ pub(crate) fn end_headings(net: &Network, sec: SectionId, fwd: bool) -> (f64, f6
     let total = cum[cum.len() - 1];
     let ch = CHORD_M.min(total);
     (
-        heading(pts[0], at(&pts, &cum, ch)),
-        heading(at(&pts, &cum, total - ch), pts[pts.len() - 1]),
+        heading(pts[0], point_at(&pts, &cum, ch)),
+        heading(point_at(&pts, &cum, total - ch), pts[pts.len() - 1]),
     )
 }
 
@@ -161,8 +148,11 @@ impl EdgeModel {
             }
             let total = cum[cum.len() - 1];
             let ch = CHORD_M.min(total);
-            sh.push(heading(pts[0], at(&pts, &cum, ch)));
-            eh.push(heading(at(&pts, &cum, total - ch), pts[pts.len() - 1]));
+            sh.push(heading(pts[0], point_at(&pts, &cum, ch)));
+            eh.push(heading(
+                point_at(&pts, &cum, total - ch),
+                pts[pts.len() - 1],
+            ));
             let samples = heading_samples(&pts, len / total.max(1e-9));
             let mut w = TurnWindow::default();
             let flags: Vec<bool> = samples

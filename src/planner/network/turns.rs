@@ -63,7 +63,9 @@ pub(crate) fn heading_samples(pts: &[[f64; 2]], scale: f64) -> Vec<(f32, f32)> {
         .collect()
 }
 
-fn point_at(pts: &[[f64; 2]], cum: &[f64], c: f64) -> [f64; 2] {
+/// A point at distance `c` along a polyline with cumulative distances
+/// `cum` (clamped to its ends).
+pub(crate) fn point_at(pts: &[[f64; 2]], cum: &[f64], c: f64) -> [f64; 2] {
     let i = cum.partition_point(|&x| x < c).clamp(1, pts.len() - 1);
     let (a, b) = (pts[i - 1], pts[i]);
     let span = cum[i] - cum[i - 1];

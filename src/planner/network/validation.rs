@@ -33,6 +33,22 @@ use std::collections::HashSet;
 /// One error sample per run every this many seconds for the share's
 /// confidence interval (s).
 pub const THINNING_S: f64 = 30.0;
+
+/// The validation's rule on thinned samples (`within` of `n` within
+/// `req` m): the one-sided 95 % Clopper–Pearson lower bound of the share
+/// within, whether it reaches `conf`, and the rule in words with its
+/// figures. Route and area plans state the same rule.
+pub fn share_rule(within: usize, n: usize, req: f64, conf: f64) -> (f64, bool, String) {
+    let lower = clopper_pearson_lower(within, n, 0.05);
+    let passed = lower >= conf;
+    let rule = format!(
+        "share of run time within {req} m (one sample per {THINNING_S:.0} s per run) with its \
+         one-sided 95 % Clopper–Pearson lower bound at least {conf}: {within} of {n} samples, \
+         lower bound {lower:.4} → {}",
+        if passed { "passed" } else { "FAILED" }
+    );
+    (lower, passed, rule)
+}
 /// Driving per validation chain (s), unless the shift is shorter.
 pub const VALIDATION_CHAIN_S: f64 = 3600.0;
 
@@ -160,12 +176,11 @@ pub fn validate_network_plan(
         }
     }
     let conf = p.requirement_confidence;
-    let lower = clopper_pearson_lower(n_within_thin, n_thin, 0.05);
+    let (lower, passed, rule) = share_rule(n_within_thin, n_thin, req, conf);
     let exceeding = run_max.iter().filter(|&&m| m > req).count();
     let mut sorted = run_max.clone();
     sorted.sort_by(f64::total_cmp);
     let median_max = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
-    let passed = lower >= conf;
     Ok(NetworkValidation {
         runs: per_chain * chains.len() as u64,
         paths: chains.len(),
@@ -173,7 +188,11 @@ pub fn validate_network_plan(
         paths_length_km: length / 1000.0,
         chain_hours: hours,
         seed,
-        fraction_within_requirement: if total_t > 0.0 { within_t / total_t } else { 1.0 },
+        fraction_within_requirement: if total_t > 0.0 {
+            within_t / total_t
+        } else {
+            1.0
+        },
         thinned_samples: n_thin,
         thinned_within: n_within_thin,
         share_lower_95: lower,
@@ -182,13 +201,12 @@ pub fn validate_network_plan(
         runs_exceeding: exceeding,
         median_run_max_m: median_max,
         map_matching_fed: fed,
-        map_matching_wrong_road_share: if fed > 0 { wrong as f64 / fed as f64 } else { 0.0 },
-        rule: format!(
-            "share of run time within {req} m (one sample per {THINNING_S:.0} s per run) with its \
-             one-sided 95 % Clopper–Pearson lower bound at least {conf}: {n_within_thin} of {n_thin} \
-             samples, lower bound {lower:.4} → {}",
-            if passed { "passed" } else { "FAILED" }
-        ),
+        map_matching_wrong_road_share: if fed > 0 {
+            wrong as f64 / fed as f64
+        } else {
+            0.0
+        },
+        rule,
         max_horizontal_error_m: worst.0,
         worst_path: worst.1,
         worst_run: worst.2,
