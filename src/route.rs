@@ -470,6 +470,34 @@ pub fn plan_route_points(net: &Network, points: &[SectionPoint]) -> Result<Route
     route_legs(net, snapped, "point")
 }
 
+/// A route along pieces already chosen (directed section, offsets from
+/// the section's start in its digitised direction, in driving order), with
+/// no waypoints: a walk planned elsewhere, driven as given.
+pub fn route_from_pieces(net: &Network, pieces: &[(DirectedSection, f64, f64)]) -> Result<Route> {
+    if pieces.is_empty() {
+        return Err(Error::InvalidParameter(
+            "a route needs at least one piece".into(),
+        ));
+    }
+    for (d, a, b) in pieces {
+        let sec = net.sections.get(d.section as usize).ok_or_else(|| {
+            Error::InvalidParameter(format!("section {} is not in the network", d.section))
+        })?;
+        let ok = |x: f64| x.is_finite() && (-1e-6..=sec.length_m + 1e-6).contains(&x);
+        if !(ok(*a) && ok(*b)) {
+            return Err(Error::InvalidParameter(format!(
+                "offsets {a}–{b} m are outside section {} ({} m)",
+                d.section, sec.length_m
+            )));
+        }
+    }
+    let route = assemble(net, &pieces.to_vec(), Vec::new());
+    if route.vertices.len() < 2 {
+        return Err(Error::InvalidParameter("the pieces have no length".into()));
+    }
+    Ok(route)
+}
+
 /// The next leg of a route from `a` to `b` after arriving in direction
 /// `arrive_dir`: on in that direction when a route exists, else turning back
 /// (the rule for intermediate waypoints and trip ends).

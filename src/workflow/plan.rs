@@ -150,6 +150,19 @@ impl NetworkPlanFile {
                     v.worst_lon,
                     v.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default()
                 ));
+            if let Some(d) = &v.design_walks {
+                lines.push(format!(
+                    "validation on the walk DP's {} worst walk(s), {} run(s) each, their tags missed and every other tag read: {}; \
+                     {} run(s) with a maximum above {} m; max horizontal error {:.2} m (walk {})",
+                    d.walks,
+                    d.runs_per_walk,
+                    d.rule,
+                    d.runs_exceeding,
+                    p.requirement_m,
+                    d.max_horizontal_error_m,
+                    d.worst_walk
+                ));
+            }
         }
         lines
     }

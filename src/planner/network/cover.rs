@@ -206,7 +206,7 @@ impl CoverProblem {
 }
 
 /// Dynamic-programme state over (a subset of) the graph.
-struct Dp<'a> {
+pub(super) struct Dp<'a> {
     p: &'a CoverProblem,
     /// Selected positions per edge.
     pos: Vec<Vec<f64>>,
@@ -214,11 +214,11 @@ struct Dp<'a> {
     l: Vec<f64>,
     queued: Vec<bool>,
     node_done: Vec<bool>,
-    cap: f64,
+    pub(super) cap: f64,
 }
 
 impl<'a> Dp<'a> {
-    fn new(p: &'a CoverProblem, selected: &[bool]) -> Self {
+    pub(super) fn new(p: &'a CoverProblem, selected: &[bool]) -> Self {
         Self {
             p,
             pos: p.selected_positions(selected),
@@ -239,7 +239,7 @@ impl<'a> Dp<'a> {
     }
 
     #[inline]
-    fn at(&self, v: u32, j: usize) -> f64 {
+    pub(super) fn at(&self, v: u32, j: usize) -> f64 {
         self.l[v as usize * (self.p.k + 1) + j]
     }
 
@@ -263,7 +263,7 @@ impl<'a> Dp<'a> {
     /// is seen to exceed R (at a node or just before a site), leaving the
     /// queue flags cleared; otherwise runs to the fixed point and returns
     /// `false`.
-    fn solve(&mut self, mask: Option<&[bool]>, start: &[u32], stop: bool) -> bool {
+    pub(super) fn solve(&mut self, mask: Option<&[bool]>, start: &[u32], stop: bool) -> bool {
         let k = self.p.k;
         let r = self.p.reach_m + EPS;
         let mut q: VecDeque<u32> = VecDeque::with_capacity(start.len());
@@ -360,7 +360,13 @@ impl<'a> Dp<'a> {
     /// A walk of length `need` ending on `e` at `at` (the head or just
     /// before a selected site) with at most `j` selected passes, from the
     /// fixed point. `None` if the fixed point does not support it (rounding).
-    fn witness(&self, mask: Option<&[bool]>, mut e: u32, mut at: f64, need: f64) -> Option<Walk> {
+    pub(super) fn witness(
+        &self,
+        mask: Option<&[bool]>,
+        mut e: u32,
+        mut at: f64,
+        need: f64,
+    ) -> Option<Walk> {
         let mut j = self.p.k;
         let mut need = need;
         let mut rev: Vec<(u32, f64, f64)> = Vec::new();
@@ -401,6 +407,26 @@ impl<'a> Dp<'a> {
             at = self.p.edges[pe as usize].length_m;
         }
         None
+    }
+
+    /// The longest walk with at most `j` selected passes ending anywhere on
+    /// edge `e` (its head, or just before one of its selected sites), and
+    /// where it ends (m along the edge).
+    pub(super) fn edge_max(&self, e: u32, j: usize) -> (f64, f64) {
+        let ed = &self.p.edges[e as usize];
+        let ps = &self.pos[e as usize];
+        let mut best = (self.offer(e, j), ed.length_m);
+        for (i, &pi) in ps.iter().enumerate() {
+            let v = if i <= j {
+                self.at(ed.tail, j - i) + pi
+            } else {
+                pi - ps[i - j - 1]
+            };
+            if v.min(self.cap) > best.0 {
+                best = (v.min(self.cap), pi);
+            }
+        }
+        best
     }
 
     fn finish(&self, mut rev: Vec<(u32, f64, f64)>) -> Walk {
@@ -446,10 +472,12 @@ pub fn check_with_witnesses(
     dp.solve(None, &all, false);
     let edges: Vec<u32> = (0..p.edges.len() as u32).collect();
     let violations = dp.violations(None, &edges);
+    // Nodes' values and those just before selected sites (walks end there too).
     let longest_m =
         dp.l.iter()
             .copied()
             .chain(violations.iter().map(|v| v.length_m))
+            .chain((0..p.edges.len() as u32).map(|e| dp.edge_max(e, p.k).0))
             .fold(0.0, f64::max);
     let walks = {
         use rayon::prelude::*;

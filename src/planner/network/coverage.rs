@@ -3,7 +3,9 @@
 //! all read and without any tag, as a predicted bound (the map-matching
 //! reach's profile after a reset, or the straight drive's from the prior
 //! without map matching), and why tags are needed there. Written as
-//! `coverage.geojson` by the plan command.
+//! `coverage.geojson` by the plan command. `any_walk` plans fill the same
+//! record from the walk DP (`super::walks`), with the budget of k tags
+//! missed beside it and no pass count.
 
 use super::traffic::ChainBudget;
 use serde::Serialize;
@@ -17,13 +19,19 @@ pub struct EdgeCoverage {
     pub section: u32,
     /// Driven in the section's digitised direction.
     pub forward: bool,
-    /// Chain passes sampled over it.
-    pub passes: u64,
+    /// Chain passes sampled over it (`trips`; `None` for `any_walk`,
+    /// whose walks are every walk).
+    pub passes: Option<u64>,
     /// Largest budget consumed since the last reset or read, tags all read
     /// (≤ 1: within the requirement under the model).
     pub budget_with_tags: f64,
     /// Largest budget consumed since the last reset, without tags.
     pub budget_without_tags: f64,
+    /// `any_walk`: the largest budget with up to k of the plan's tags
+    /// missed (the design case: ≤ 1 in a verified plan).
+    pub budget_missed: Option<f64>,
+    /// `any_walk`: the predicted bound with up to k tags missed (m).
+    pub bound_missed_m: Option<f64>,
     /// Predicted bound there with the tags (m; `None` where no chain passed).
     pub bound_with_tags_m: Option<f64>,
     /// Predicted bound without tags (m; held at the profile's end beyond it).
@@ -56,9 +64,11 @@ pub(crate) fn edge_budgets(
             edge: e as u32,
             section: 0,
             forward: true,
-            passes: 0,
+            passes: Some(0),
             budget_with_tags: 0.0,
             budget_without_tags: 0.0,
+            budget_missed: None,
+            bound_missed_m: None,
             bound_with_tags_m: None,
             bound_without_tags_m: None,
             speed_kmh: 0.0,
@@ -77,7 +87,7 @@ pub(crate) fn edge_budgets(
         with.sort_by(f64::total_cmp);
         for &(e, b0, b1) in &cb.pieces {
             let o = &mut out[e as usize];
-            o.passes += 1;
+            *o.passes.get_or_insert(0) += 1;
             // The largest value inside [b0, b1] is at b1 or just before an
             // event inside the piece.
             let mut w = since(&with, b1);
@@ -144,6 +154,8 @@ pub fn coverage_geojson(cov: &[EdgeCoverage], net: &crate::network::Network) -> 
                 "budget_without_tags": round(c.budget_without_tags, 3),
                 "bound_m": opt(c.bound_with_tags_m),
                 "bound_without_tags_m": opt(c.bound_without_tags_m),
+                "budget_missed": c.budget_missed.map(|b| round(b, 3)),
+                "bound_missed_m": opt(c.bound_missed_m),
                 "reason": c.reason,
             }
         }));

@@ -72,7 +72,8 @@
 //! verified from outside the crate), `ilp` (the exact
 //! integer programme), `plan` (the planning entry points), `validation`
 //! (Monte Carlo over sampled paths), `types` (the plan's types),
-//! `settings` (the network-specific settings).
+//! `settings` (the network-specific settings), `walks` (the walk DP's
+//! per-road budgets and worst walks of `any_walk` plans).
 
 pub mod cover;
 pub(crate) mod coverage;
@@ -89,6 +90,7 @@ pub(crate) mod trips;
 pub(crate) mod turns;
 pub(crate) mod types;
 pub(crate) mod validation;
+pub(crate) mod walks;
 
 pub use coverage::{coverage_geojson, EdgeCoverage};
 pub use mm_reach::{matched_reach, MatchedReach};
@@ -102,8 +104,9 @@ pub use trips::{
     ALLOWED_VIOLATIONS,
 };
 pub use turns::TURN_DEG;
-pub use types::{NetworkPlan, NetworkTag, NetworkValidation};
+pub use types::{DesignWalkValidation, NetworkPlan, NetworkTag, NetworkValidation};
 pub use validation::{share_rule, validate_network_plan, THINNING_S};
+pub use walks::DesignWalk;
 
 #[cfg(test)]
 mod tests {
@@ -236,6 +239,59 @@ mod tests {
         // Validated with the scenario: loading fails.
         let e = Scenario::parse(&path, &bad).unwrap_err().to_string();
         assert!(e.contains("not one of anywhere, dead_ends"), "{e}");
+    }
+
+    #[test]
+    fn any_walk_plan_explains_every_road_and_drives_its_worst_walks() {
+        let scn = scenario();
+        let s = PlannerSettings::from_scenario(&scn).unwrap();
+        let net = std::sync::Arc::new(block());
+        let p = plan_network_on(&scn, &s, &net).unwrap();
+        assert!(p.verified);
+        // Coverage: every directed road, the design case within the budget,
+        // fewer reads never better.
+        assert_eq!(p.edge_coverage.len(), p.directed_edges);
+        for c in &p.edge_coverage {
+            let m = c.budget_missed.unwrap();
+            assert!(m <= 1.0 + 1e-9, "{c:?}");
+            assert!(c.budget_with_tags <= m + 1e-9 && m <= c.budget_without_tags.max(m));
+            assert!(c.passes.is_none() && !c.reason.is_empty());
+            assert!(
+                c.bound_missed_m.is_some_and(|b| b <= s.requirement_m + 0.5),
+                "{c:?}"
+            );
+        }
+        // Every new tag says how long the tag-free walks through it are.
+        assert!(p
+            .tags
+            .iter()
+            .all(|t| t.reason.contains("km through here without a read")));
+        // The worst walks: the first is the DP's longest, each within the
+        // budget with at most k tags on it, drivable as given.
+        let w = &p.design_walks;
+        assert!(!w.is_empty());
+        assert!(
+            (w[0].budget - p.longest_walk_budget).abs() < 1e-6,
+            "{} vs {}",
+            w[0].budget,
+            p.longest_walk_budget
+        );
+        for d in w {
+            assert!(d.budget <= 1.0 + 1e-9 && d.missed_tags.len() <= s.tolerate_missed_reads);
+            let r = crate::route::route_from_pieces(&net, &d.pieces).unwrap();
+            assert!(
+                (r.length_m - d.length_m - d.lead_in_m).abs() < 1.0,
+                "{} vs {}",
+                r.length_m,
+                d.length_m
+            );
+        }
+        // Driven with their tags missed: the design case holds.
+        let v = validate_network_plan(&scn, &net, &p, 4, 7).unwrap();
+        let d = v.design_walks.unwrap();
+        assert_eq!(d.walks, w.len());
+        assert!(d.passed, "{}", d.rule);
+        assert_eq!(d.walk_max_m.len(), w.len());
     }
 
     #[test]

@@ -3,12 +3,15 @@
 //! the selected sites as tags.
 
 use super::cover::{self, Solved, Walk};
+use super::coverage::EdgeCoverage;
 use super::ilp::{self, IlpLimits, IlpOutcome};
 use super::instance::{build, classes_in_use, describe_walk, speed_key};
+use super::mm_reach::{profile_bound, straight_profile};
 use super::reach::{reach_class, ReachClass};
 use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::NetworkPlan;
 use super::validation::validate_network_plan;
+use super::walks::{through_budgets, walk_budgets, worst_walks, DESIGN_WALKS};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::planner::settings::PlannerSettings;
@@ -101,6 +104,7 @@ pub fn plan_network_on(
         scn.aiding().map_matching && scn.navigator().mode == crate::scenario::NavMode::Integrated;
     let mut matched: Vec<super::mm_reach::MatchedReach> = Vec::new();
     let mut reach_classes: Vec<ReachClass> = Vec::new();
+    let mut profiles: BTreeMap<u64, Vec<(f64, f64)>> = BTreeMap::new();
     let (steady, start);
     if mm {
         // Map matching credited (docs/DESIGN.md §3.4): the matched reach per
@@ -117,6 +121,7 @@ pub fn plan_network_on(
         )?;
         matched = mc.all;
         class_reach = mc.reach;
+        profiles = mc.profiles;
         let turns = mc.turns;
         steady = matched
             .iter()
@@ -162,6 +167,16 @@ pub fn plan_network_on(
             let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
             *r = r.min(c.steady_reach_m.min(c.start_reach_m));
         }
+        let conf = scn.planner().requirement_confidence;
+        let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
+        let sp: Vec<(u64, Vec<(f64, f64)>)> = speeds
+            .par_iter()
+            .map(|&s| {
+                straight_profile(scn, lat0, lon0, height_m, s as f64 / 360.0, req, conf)
+                    .map(|p| (s, p))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        profiles.extend(sp);
     }
     timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
     let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);
@@ -270,15 +285,108 @@ pub fn plan_network_on(
     } else {
         lb_pack
     };
+    // What the walk DP says per road: the budgets behind coverage.geojson
+    // and the tags' reasons.
+    let physical = built.physical_edges;
+    let wb = walk_budgets(p, &sel, physical);
+    let through = through_budgets(p, physical);
+    let class_of = |e: usize| -> (f64, f64) {
+        let v = built.edge_speed[e];
+        (
+            v * 3.6,
+            class_reach.get(&key(v)).copied().unwrap_or(reach_m),
+        )
+    };
+    let without_what = if mm {
+        "a turn map matching observes"
+    } else {
+        "a read"
+    };
+    let tunnel_of = |e: usize| -> &'static str {
+        let (sec, _) = built.edge_dir[e];
+        if net.roads[net.sections[sec as usize].road as usize]
+            .attributes
+            .tunnel
+        {
+            "tunnel; "
+        } else {
+            ""
+        }
+    };
+    let reason = |i: usize| -> String {
+        let site = &p.sites[i];
+        let e = site.edge as usize;
+        if site.existing {
+            return "installed already".to_string();
+        }
+        let (v, r) = class_of(e);
+        let (t, capped) = through[e];
+        format!(
+            "{}walks of {}{:.1} km through here without {without_what} (reach {}{r:.0} m at {v:.0} km/h; \
+             every walk longer than the reach needs {} read(s))",
+            tunnel_of(e),
+            if capped { "over " } else { "" },
+            t * r / 1000.0,
+            if mm { "with map matching " } else { "" },
+            k + 1
+        )
+    };
     let (tags, total_cost) =
-        super::tag_sites::tags_of(scn, settings, net, &built, &sel, height_m, |_| {
-            "any walk through the network consuming more than the error budget passes k + 1 tags"
-                .to_string()
-        });
+        super::tag_sites::tags_of(scn, settings, net, &built, &sel, height_m, reason);
     let existing_kept = tags.iter().filter(|t| t.existing).count();
+    let edge_coverage: Vec<EdgeCoverage> = (0..physical)
+        .map(|e| {
+            let (v, r) = class_of(e);
+            let prof = profiles.get(&key(v / 3.6)).map(Vec::as_slice).unwrap_or(&[]);
+            let bound = |b: f64| Some(profile_bound(prof, b * r)).filter(|x| x.is_finite());
+            let (sec, fwd) = built.edge_dir[e];
+            let without = wb.without[e];
+            let reason = if without <= 1.0 {
+                if mm {
+                    "turns and map matching hold the requirement without tags".to_string()
+                } else {
+                    "short enough from any start without tags".to_string()
+                }
+            } else {
+                format!(
+                    "{}walks of {}{:.0} m reach here without {without_what} (reach {r:.0} m at {v:.0} km/h)",
+                    tunnel_of(e),
+                    if without * p.reach_m >= p.reach_m + 1.0 - 1e-6 { "over " } else { "" },
+                    without * r
+                )
+            };
+            EdgeCoverage {
+                edge: e as u32,
+                section: sec,
+                forward: fwd,
+                passes: None,
+                budget_with_tags: wb.all_read[e],
+                budget_without_tags: without,
+                budget_missed: Some(wb.missed[e]),
+                bound_with_tags_m: bound(wb.all_read[e]),
+                bound_without_tags_m: bound(without),
+                bound_missed_m: bound(wb.missed[e]),
+                speed_kmh: v,
+                reason,
+            }
+        })
+        .collect();
+    // The DP's worst walks, which the validation drives with their tags
+    // missed.
+    let sel_sites: Vec<usize> = (0..sel.len()).filter(|&i| sel[i]).collect();
+    let design_walks = if res.feasible() {
+        worst_walks(net, &built, &sel, DESIGN_WALKS, |s| {
+            sel_sites
+                .binary_search(&(s as usize))
+                .ok()
+                .and_then(|i| tags.get(i))
+                .map(|t| t.tag_id.clone())
+        })
+    } else {
+        Vec::new()
+    };
     // The traffic the validation samples (chains of trips over every
     // permitted road): edges at their planning speeds.
-    let physical = built.physical_edges;
     let model = super::traffic::EdgeModel::new(
         net,
         built.edge_dir[..physical].to_vec(),
@@ -330,7 +438,8 @@ pub fn plan_network_on(
         windows: 0,
         planning_km: 0.0,
         planning_windows: Vec::new(),
-        edge_coverage: Vec::new(),
+        design_walks,
+        edge_coverage,
         chain_model: Some(std::sync::Arc::new(chain_model)),
         selected: sel,
         problem: Some(built.problem),

@@ -300,7 +300,7 @@ pub(super) fn plan_network_trips(
             .map(Vec::as_slice)
             .unwrap_or(&[]);
         c.speed_kmh = v * 3.6;
-        if c.passes > 0 {
+        if c.passes.unwrap_or(0) > 0 {
             c.bound_with_tags_m =
                 Some(profile_bound(prof, c.budget_with_tags * r)).filter(|x| x.is_finite());
             c.bound_without_tags_m =
@@ -311,7 +311,7 @@ pub(super) fn plan_network_trips(
         c.forward = fwd;
         let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
         let tunnel = if a.tunnel { "tunnel; " } else { "" };
-        c.reason = if c.passes == 0 {
+        c.reason = if c.passes.unwrap_or(0) == 0 {
             "no sampled chain drives here".into()
         } else if c.budget_without_tags <= 1.0 {
             if mm {
@@ -424,6 +424,7 @@ pub(super) fn plan_network_trips(
         windows: tp.windows,
         planning_km: tp.planning_km,
         planning_windows: tp.window_sets.clone(),
+        design_walks: Vec::new(),
         edge_coverage: coverage,
         chain_model: Some(std::sync::Arc::new(super::traffic::ChainModel { model, dest })),
         selected: sel,

@@ -231,7 +231,7 @@ fn a_trips_plan_on_a_small_network_is_the_brute_force_optimum_of_its_windows() {
         assert!(t.reason.contains("without a turn"), "{}", t.reason);
     }
     // The coverage: every directed edge driven, none over budget with tags.
-    assert!(p.edge_coverage.iter().all(|c| c.passes > 0));
+    assert!(p.edge_coverage.iter().all(|c| c.passes.unwrap_or(0) > 0));
     assert!(p
         .edge_coverage
         .iter()

@@ -109,6 +109,37 @@ pub struct NetworkValidation {
     pub worst_lon: f64,
     /// Road of the worst point (input id), when found.
     pub worst_road_id: Option<String>,
+    /// `any_walk`: the walk DP's worst walks driven with their tags missed.
+    pub design_walks: Option<DesignWalkValidation>,
+}
+
+/// `any_walk` plans: the validation on the walk DP's worst walks, each
+/// driven from its lead-in with the (at most k) tags on it missed on
+/// purpose and every other tag read: the design case itself.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DesignWalkValidation {
+    /// Walks driven.
+    pub walks: usize,
+    /// Runs per walk.
+    pub runs_per_walk: u64,
+    /// Error samples thinned (one per 30 s per run, and each run's end).
+    pub thinned_samples: usize,
+    /// Of which within the requirement.
+    pub thinned_within: usize,
+    /// One-sided 95 % Clopper–Pearson lower bound of the share within.
+    pub share_lower_95: f64,
+    /// The rule holds.
+    pub passed: bool,
+    /// The rule in words, with the figures.
+    pub rule: String,
+    /// Runs whose maximum error exceeds the requirement.
+    pub runs_exceeding: usize,
+    /// Largest horizontal error (m) and the walk where it happened.
+    pub max_horizontal_error_m: f64,
+    /// Index of that walk in `design_walks`.
+    pub worst_walk: usize,
+    /// Per walk: the largest error over its runs (m).
+    pub walk_max_m: Vec<f64>,
 }
 
 /// A network coverage plan.
@@ -191,6 +222,9 @@ pub struct NetworkPlan {
     pub windows: usize,
     /// `trips`: km of driving in the planning sample.
     pub planning_km: f64,
+    /// `any_walk`: the walk DP's worst walks (longest first), which the
+    /// validation drives with their tags missed.
+    pub design_walks: Vec<super::walks::DesignWalk>,
     /// `trips`: the planning windows (site ids that must hold k + 1 tags).
     #[serde(skip)]
     pub planning_windows: Vec<Vec<u32>>,

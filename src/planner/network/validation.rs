@@ -21,10 +21,10 @@
 
 use super::settings::map_route;
 use super::trips::{clopper_pearson_lower, sample_chains};
-use super::types::{NetworkPlan, NetworkValidation};
+use super::types::{DesignWalkValidation, NetworkPlan, NetworkValidation};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
-use crate::route::plan_route_points;
+use crate::route::{plan_route_points, route_from_pieces};
 use crate::scenario::Scenario;
 use crate::sim::{simulate_with, TruthSource};
 use crate::trajectory::{RoutePlan, SpeedProfile};
@@ -215,5 +215,113 @@ pub fn validate_network_plan(
         worst_lat: worst.5[0],
         worst_lon: worst.5[1],
         worst_road_id: worst.6,
+        design_walks: validate_design_walks(scn, net, plan, runs, seed)?,
     })
+}
+
+/// Fewest runs per design walk.
+const MIN_RUNS_PER_WALK: u64 = 20;
+
+/// `any_walk` plans: each of the walk DP's worst walks driven from its
+/// lead-in, the (at most k) tags on it missed on purpose and every other
+/// tag read (read probability 1): the case the plan is designed to. Error
+/// samples are taken from the walk's start, one per [`THINNING_S`] and at
+/// each run's end (where the walk's budget peaks), and judged by
+/// [`share_rule`]. `None` for plans without design walks.
+fn validate_design_walks(
+    scn: &Scenario,
+    net: &std::sync::Arc<Network>,
+    plan: &NetworkPlan,
+    runs: u64,
+    seed: u64,
+) -> Result<Option<DesignWalkValidation>> {
+    if plan.design_walks.is_empty() {
+        return Ok(None);
+    }
+    let (_, _, height_m) = map_route(scn)?;
+    let n = plan.design_walks.len();
+    let per_walk = runs.div_ceil(n as u64).max(MIN_RUNS_PER_WALK);
+    let profile = SpeedProfile {
+        speed_mps: scn.planner().vehicle_speed_mps,
+        ..Default::default()
+    };
+    let req = plan.requirement_m;
+    let (mut n_thin, mut n_within) = (0usize, 0usize);
+    let mut exceeding = 0usize;
+    let mut walk_max = vec![0.0f64; n];
+    for (wi, w) in plan.design_walks.iter().enumerate() {
+        let route = route_from_pieces(net, &w.pieces)?;
+        let mut located = scn.located_at(w.start_lat_lon);
+        located.rfid.read_probability = 1.0;
+        located.rfid.read_probability_by_mounting = [None; 3];
+        let rp = RoutePlan::new(net, &route, &profile, &[], height_m, scn.dt)?;
+        let dirs: HashSet<(SectionId, bool)> = route
+            .spans
+            .iter()
+            .map(|s| (s.section.section, s.section.forward))
+            .collect();
+        let tags: Vec<_> = plan
+            .sim_tags(Some(&dirs))
+            .into_iter()
+            .filter(|t| !w.missed_tags.contains(&t.id))
+            .collect();
+        let truth = TruthSource::from_route(std::sync::Arc::clone(net), route, rp);
+        let res = simulate_with(
+            &located,
+            &truth,
+            &tags,
+            per_walk,
+            seed.wrapping_add(0x7761_6c6b + 1000 * wi as u64),
+            None,
+        )?;
+        for r in &res.runs {
+            let mut next = f64::NEG_INFINITY;
+            let mut m = 0.0f64;
+            let walk_rows: Vec<_> = r
+                .rows
+                .iter()
+                .filter(|row| row.distance_m >= w.lead_in_m)
+                .collect();
+            for (i, row) in walk_rows.iter().enumerate() {
+                if !row.horizontal_m.is_finite() {
+                    return Err(Error::InvalidParameter(format!(
+                        "design walk {wi}, run {}: the navigation error is not finite at t = {:.0} s",
+                        r.run, row.t_s
+                    )));
+                }
+                m = m.max(row.horizontal_m);
+                if row.t_s >= next || i + 1 == walk_rows.len() {
+                    n_thin += 1;
+                    if row.horizontal_m <= req {
+                        n_within += 1;
+                    }
+                    next = row.t_s + THINNING_S;
+                }
+            }
+            if m > req {
+                exceeding += 1;
+            }
+            walk_max[wi] = walk_max[wi].max(m);
+        }
+    }
+    let (lower, passed, rule) =
+        share_rule(n_within, n_thin, req, scn.planner().requirement_confidence);
+    let (worst_walk, max_err) = walk_max
+        .iter()
+        .copied()
+        .enumerate()
+        .fold((0, 0.0), |a, (i, m)| if m > a.1 { (i, m) } else { a });
+    Ok(Some(DesignWalkValidation {
+        walks: n,
+        runs_per_walk: per_walk,
+        thinned_samples: n_thin,
+        thinned_within: n_within,
+        share_lower_95: lower,
+        passed,
+        rule,
+        runs_exceeding: exceeding,
+        max_horizontal_error_m: max_err,
+        worst_walk,
+        walk_max_m: walk_max,
+    }))
 }
