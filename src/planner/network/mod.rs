@@ -80,6 +80,7 @@ pub(crate) mod coverage;
 pub(crate) mod ilp;
 pub(crate) mod instance;
 pub(crate) mod mm_reach;
+pub(crate) mod parallel;
 pub(crate) mod plan;
 pub(crate) mod plan_trips;
 pub(crate) mod reach;

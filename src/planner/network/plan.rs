@@ -394,6 +394,7 @@ pub fn plan_network_on(
         vec![0.0; physical],
         vec![Vec::new(); physical],
         vec![0.0; physical],
+        (0.0, 0.0),
     );
     let main = super::traffic::main_component(net, &model);
     let dest = super::traffic::Destinations::by_length(net, &model, &main)?;

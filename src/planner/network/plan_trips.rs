@@ -174,6 +174,14 @@ pub(super) fn plan_network_trips(
         rate,
         sites,
         curve,
+        if mm {
+            (
+                super::parallel::PARALLEL_MIN_FACTOR * req,
+                super::parallel::PARALLEL_FACTOR * req,
+            )
+        } else {
+            (0.0, 0.0)
+        },
     );
     let main = super::traffic::main_component(net, &model);
     let dest = match &p.destinations {
@@ -260,11 +268,23 @@ pub(super) fn plan_network_trips(
             _ => "a tag (turns give no credit at this speed)".to_string(),
         }
     };
+    // "parallel road N m away": a warning where map matching may take the
+    // wrong road (`super::parallel`).
+    let parallel_words = |e: usize| -> String {
+        model.parallel[e]
+            .map(|d| format!("parallel road {d:.0} m away (map matching may take it); "))
+            .unwrap_or_default()
+    };
     let reason = |i: usize| -> String {
         let site = &prob.sites[i];
         let (sec, _) = built.edge_dir[site.edge as usize];
         let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
-        let tunnel = if a.tunnel { "tunnel; " } else { "" };
+        let par = parallel_words(site.edge as usize);
+        let tunnel = if a.tunnel {
+            format!("tunnel; {par}")
+        } else {
+            par
+        };
         let v = built.edge_speed[site.edge as usize] * 3.6;
         match &tp.site_reason[i] {
             _ if site.existing => "installed already".to_string(),
@@ -310,7 +330,12 @@ pub(super) fn plan_network_trips(
         c.section = sec;
         c.forward = fwd;
         let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
-        let tunnel = if a.tunnel { "tunnel; " } else { "" };
+        let par = parallel_words(e);
+        let tunnel = if a.tunnel {
+            format!("tunnel; {par}")
+        } else {
+            par
+        };
         c.reason = if c.passes.unwrap_or(0) == 0 {
             "no sampled chain drives here".into()
         } else if c.budget_without_tags <= 1.0 {

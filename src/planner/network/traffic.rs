@@ -73,6 +73,9 @@ pub(crate) struct EdgeModel {
     /// The class's curve distance (m; 0: turns give no credit), see
     /// [`super::turns`].
     pub curve: Vec<f64>,
+    /// The nearest parallel road beside the edge in the band that matters
+    /// (m), [`super::parallel`]: a warning in reasons, not in the model.
+    pub parallel: Vec<Option<f32>>,
 }
 
 fn heading(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -125,6 +128,7 @@ impl EdgeModel {
         rate: Vec<f64>,
         sites: Vec<Vec<(f64, u32)>>,
         curve: Vec<f64>,
+        parallel_m: (f64, f64),
     ) -> Self {
         let turn_resets: Vec<bool> = curve.iter().map(|&w| w > 0.0).collect();
         let n = dir.len();
@@ -136,6 +140,7 @@ impl EdgeModel {
             Vec::with_capacity(n),
         );
         let (mut headings, mut intrinsic) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        let mut parallel = Vec::with_capacity(n);
         for (e, &(sec, fwd)) in dir.iter().enumerate() {
             index.insert((sec, fwd), e as u32);
             let len = net.sections[sec as usize].length_m;
@@ -153,7 +158,15 @@ impl EdgeModel {
                 point_at(&pts, &cum, total - ch),
                 pts[pts.len() - 1],
             ));
-            let samples = heading_samples(&pts, len / total.max(1e-9));
+            let scale = len / total.max(1e-9);
+            let samples = heading_samples(&pts, scale);
+            // The nearest parallel road in the band that matters (a warning).
+            let at: Vec<([f64; 2], f32)> = samples
+                .iter()
+                .map(|&(x, h)| (point_at(&pts, &cum, x as f64 / scale), h))
+                .collect();
+            let par = super::parallel::parallel_roads(net, sec, &at, parallel_m.0, parallel_m.1);
+            parallel.push(par.into_iter().flatten().reduce(f32::min));
             let mut w = TurnWindow::default();
             let flags: Vec<bool> = samples
                 .iter()
@@ -183,6 +196,7 @@ impl EdgeModel {
             length,
             turn_resets,
             curve,
+            parallel,
         }
     }
 }
