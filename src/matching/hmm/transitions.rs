@@ -2,11 +2,11 @@
 //! and the forward–backward smoothing over the lag window.
 
 use super::drift::{emission, Emission};
-use crate::matching::paths::{MatrixScratch, OnSection};
 use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::{normalise, softmax_into};
 use super::state::{Step, ANCHOR_M};
+use crate::matching::paths::{MatrixScratch, OnSection};
 
 impl HmmMatcher<'_> {
     /// Viterbi recursion from the window's last step into `step`; false when
@@ -136,7 +136,12 @@ impl HmmMatcher<'_> {
             // Forward (sum-product) recursion on the same weights.
             let m = step.pair.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             for w in &mut step.pair {
-                *w = (*w - m).exp();
+                // exp(−∞) = 0 without the call (pairs out of reach).
+                *w = if *w == f64::NEG_INFINITY {
+                    0.0
+                } else {
+                    (*w - m).exp()
+                };
             }
             step.alpha.clear();
             step.alpha.resize(nc, 0.0);
