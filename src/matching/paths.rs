@@ -44,7 +44,42 @@ struct Tree {
     bound: f64,
     /// Distance, predecessor (directed section code) and the first section
     /// taken from the source, by node.
-    reached: FxHashMap<NodeId, (f64, u32, u32)>,
+    reached: Reached,
+}
+
+/// A search's reached nodes: a hash table, or, when the search reached at
+/// least a quarter of the network's nodes (small networks), a table indexed
+/// by node (a look-up without hashing; at most 4 entries per reached node,
+/// so memory stays within a few times the hash table's).
+#[derive(Debug)]
+enum Reached {
+    Sparse(FxHashMap<NodeId, (f64, u32, u32)>),
+    /// By node; an infinite distance: not reached.
+    Dense(Vec<(f64, u32, u32)>),
+}
+
+impl Default for Reached {
+    fn default() -> Self {
+        Reached::Sparse(FxHashMap::default())
+    }
+}
+
+impl Reached {
+    #[inline]
+    fn get(&self, n: &NodeId) -> Option<&(f64, u32, u32)> {
+        match self {
+            Reached::Sparse(m) => m.get(n),
+            Reached::Dense(v) => v.get(*n as usize).filter(|r| r.0.is_finite()),
+        }
+    }
+
+    /// Entries held (for the cache's size bound).
+    fn len(&self) -> usize {
+        match self {
+            Reached::Sparse(m) => m.len(),
+            Reached::Dense(v) => v.len(),
+        }
+    }
 }
 
 #[derive(Debug, Copy, Clone, PartialEq)]
@@ -196,11 +231,22 @@ impl<'a> NetworkDistances<'a> {
         // Every node touched was settled (within the bound): the tree, in a
         // table of exactly its size (small searches on small networks must
         // not pay for a large table each).
-        let mut reached =
-            FxHashMap::with_capacity_and_hasher(self.touched.len(), Default::default());
+        let reached = if 4 * self.touched.len() >= net.nodes.len() {
+            let mut v = vec![(f64::INFINITY, NO_PRED, NO_PRED); net.nodes.len()];
+            for &n in &self.touched {
+                let i = n as usize;
+                v[i] = (self.dist[i], self.pred[i], self.first[i]);
+            }
+            Reached::Dense(v)
+        } else {
+            let mut m = FxHashMap::with_capacity_and_hasher(self.touched.len(), Default::default());
+            for &n in &self.touched {
+                let i = n as usize;
+                m.insert(n, (self.dist[i], self.pred[i], self.first[i]));
+            }
+            Reached::Sparse(m)
+        };
         for &n in &self.touched {
-            let i = n as usize;
-            reached.insert(n, (self.dist[i], self.pred[i], self.first[i]));
             self.dist[n as usize] = f64::INFINITY;
             self.pred[n as usize] = NO_PRED;
             self.first[n as usize] = NO_PRED;

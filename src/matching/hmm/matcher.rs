@@ -36,7 +36,7 @@ pub struct HmmMatcher<'a> {
     pub(super) beta_bufs: [Vec<f64>; 2],
     pub(super) pred_buf: Vec<Drift>,
     pub(super) spare: Vec<Step>,
-    pub(super) trans_buf: super::transitions::TransBuf,
+    pub(super) trans_buf: super::state::TransBuf,
 }
 
 impl<'a> HmmMatcher<'a> {
@@ -75,7 +75,7 @@ impl<'a> HmmMatcher<'a> {
             ],
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
-            trans_buf: super::transitions::TransBuf::with_capacity(params.max_candidates),
+            trans_buf: super::state::TransBuf::with_capacity(params.max_candidates),
         }
     }
 

@@ -6,7 +6,6 @@ use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::{normalise, softmax_into};
 use super::state::{Step, ANCHOR_M};
-use crate::matching::paths::{MatrixScratch, OnSection};
 
 impl HmmMatcher<'_> {
     /// Viterbi recursion from the window's last step into `step`; false when
@@ -236,34 +235,5 @@ impl HmmMatcher<'_> {
             softmax_into(&front.score, out);
         }
         self.beta_bufs = [beta, next];
-    }
-}
-
-/// Buffers of the transition step, kept between steps (no allocation per step).
-#[derive(Debug, Default)]
-pub(super) struct TransBuf {
-    /// The predecessors' and the candidates' points.
-    from: Vec<OnSection>,
-    at: Vec<OnSection>,
-    scratch: MatrixScratch,
-    /// Route distances, predecessor-major.
-    dist: Vec<Option<f64>>,
-    /// For each candidate, an earlier one on the same segment (or `u32::MAX`).
-    twin: Vec<u32>,
-    /// Emissions computed, candidate-major.
-    em: Vec<Option<Emission>>,
-}
-
-impl TransBuf {
-    /// Buffers for up to `n` candidates per step.
-    pub(super) fn with_capacity(n: usize) -> Self {
-        Self {
-            from: Vec::with_capacity(n),
-            at: Vec::with_capacity(n),
-            scratch: MatrixScratch::with_capacity(n),
-            dist: Vec::with_capacity(n * n),
-            twin: Vec::with_capacity(n),
-            em: Vec::with_capacity(n * n),
-        }
     }
 }
