@@ -4,7 +4,9 @@
 //! and with one kept between repeats (warm); prints points per second
 //! (BENCHMARKS.md, "Matching").
 //!
-//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS
+//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M]
+//! (RADIUS_M: `--radius-m`, e.g. a peer's search radius, instead of the
+//! radius taken from the track).
 
 use std::time::Instant;
 use waymark::matching::inputs::read_track_file;
@@ -14,11 +16,18 @@ use waymark::network::{LoadOptions, Network};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    anyhow::ensure!(args.len() == 3, "usage: match_bench MAP TRACK REPEATS");
+    anyhow::ensure!(
+        args.len() == 3 || args.len() == 4,
+        "usage: match_bench MAP TRACK REPEATS [RADIUS_M]"
+    );
     let net = Network::load(std::path::Path::new(&args[0]), &LoadOptions::default())?;
     let (rows, _) = read_track_file(std::path::Path::new(&args[1]))?;
     let repeats: usize = args[2].parse()?;
-    let opts = MatchOptions::default();
+    let opts = MatchOptions {
+        radius_m: args.get(3).map(|r| r.parse()).transpose()?,
+        ..MatchOptions::default()
+    };
+    opts.validate()?;
     let mut matched = 0;
     // Cold: each repeat starts an empty cache of network searches (as
     // `waymark match` does for its one file).

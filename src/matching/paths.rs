@@ -44,7 +44,42 @@ struct Tree {
     bound: f64,
     /// Distance, predecessor (directed section code) and the first section
     /// taken from the source, by node.
-    reached: FxHashMap<NodeId, (f64, u32, u32)>,
+    reached: Reached,
+}
+
+/// A search's reached nodes: a hash table, or, when the search reached at
+/// least a quarter of the network's nodes (small networks), a table indexed
+/// by node (a look-up without hashing; at most 4 entries per reached node,
+/// so memory stays within a few times the hash table's).
+#[derive(Debug)]
+enum Reached {
+    Sparse(FxHashMap<NodeId, (f64, u32, u32)>),
+    /// By node; an infinite distance: not reached.
+    Dense(Vec<(f64, u32, u32)>),
+}
+
+impl Default for Reached {
+    fn default() -> Self {
+        Reached::Sparse(FxHashMap::default())
+    }
+}
+
+impl Reached {
+    #[inline]
+    fn get(&self, n: &NodeId) -> Option<&(f64, u32, u32)> {
+        match self {
+            Reached::Sparse(m) => m.get(n),
+            Reached::Dense(v) => v.get(*n as usize).filter(|r| r.0.is_finite()),
+        }
+    }
+
+    /// Entries held (for the cache's size bound).
+    fn len(&self) -> usize {
+        match self {
+            Reached::Sparse(m) => m.len(),
+            Reached::Dense(v) => v.len(),
+        }
+    }
 }
 
 #[derive(Debug, Copy, Clone, PartialEq)]
@@ -63,6 +98,33 @@ impl Ord for Item {
 impl PartialOrd for Item {
     fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
         Some(self.cmp(o))
+    }
+}
+
+/// Scratch space of [`NetworkDistances::point_distance_matrix`] (kept by
+/// the caller so that no step allocates).
+#[derive(Debug, Default)]
+pub struct MatrixScratch {
+    /// Distinct exit nodes of the sources, entry nodes of the targets.
+    xs: Vec<NodeId>,
+    es: Vec<NodeId>,
+    /// Distance and first section by exit node × entry node.
+    table: Vec<Option<(f64, u32)>>,
+    /// Each source's exits (node slot, cost), each target's entries.
+    exits: Vec<[Option<(u32, f64)>; 2]>,
+    entries: Vec<[Option<(u32, f64)>; 2]>,
+}
+
+impl MatrixScratch {
+    /// Space for `n` sources and `n` targets.
+    pub fn with_capacity(n: usize) -> Self {
+        Self {
+            xs: Vec::with_capacity(2 * n),
+            es: Vec::with_capacity(2 * n),
+            table: Vec::with_capacity(4 * n * n),
+            exits: Vec::with_capacity(n),
+            entries: Vec::with_capacity(n),
+        }
     }
 }
 
@@ -169,11 +231,22 @@ impl<'a> NetworkDistances<'a> {
         // Every node touched was settled (within the bound): the tree, in a
         // table of exactly its size (small searches on small networks must
         // not pay for a large table each).
-        let mut reached =
-            FxHashMap::with_capacity_and_hasher(self.touched.len(), Default::default());
+        let reached = if 4 * self.touched.len() >= net.nodes.len() {
+            let mut v = vec![(f64::INFINITY, NO_PRED, NO_PRED); net.nodes.len()];
+            for &n in &self.touched {
+                let i = n as usize;
+                v[i] = (self.dist[i], self.pred[i], self.first[i]);
+            }
+            Reached::Dense(v)
+        } else {
+            let mut m = FxHashMap::with_capacity_and_hasher(self.touched.len(), Default::default());
+            for &n in &self.touched {
+                let i = n as usize;
+                m.insert(n, (self.dist[i], self.pred[i], self.first[i]));
+            }
+            Reached::Sparse(m)
+        };
         for &n in &self.touched {
-            let i = n as usize;
-            reached.insert(n, (self.dist[i], self.pred[i], self.first[i]));
             self.dist[n as usize] = f64::INFINITY;
             self.pred[n as usize] = NO_PRED;
             self.first[n as usize] = NO_PRED;
@@ -281,6 +354,97 @@ impl<'a> NetworkDistances<'a> {
             }
         }
         best
+    }
+
+    /// [`Self::point_distance_cached`] from each of `from` to each of `to`
+    /// into `out` (row-major, `from.len()` × `to.len()`; the same values).
+    /// The network part is looked up once per distinct exit node × entry
+    /// node (the HMM's predecessors and candidates share a few nodes: on a
+    /// two-way road both directions' states have the same two), instead of
+    /// once per pair of points.
+    pub fn point_distance_matrix(
+        &self,
+        from: &[OnSection],
+        to: &[OnSection],
+        backtrack_m: f64,
+        scratch: &mut MatrixScratch,
+        out: &mut Vec<Option<f64>>,
+    ) {
+        let MatrixScratch {
+            xs,
+            es,
+            table,
+            exits,
+            entries,
+        } = scratch;
+        let slot = |v: &mut Vec<NodeId>, n: NodeId| match v.iter().position(|&m| m == n) {
+            Some(i) => i as u32,
+            None => {
+                v.push(n);
+                (v.len() - 1) as u32
+            }
+        };
+        xs.clear();
+        es.clear();
+        exits.clear();
+        entries.clear();
+        for &a in from {
+            exits.push(self.exits(a).map(|x| x.map(|(n, c)| (slot(xs, n), c))));
+        }
+        for &b in to {
+            entries.push(self.entries(b).map(|e| e.map(|(n, c, _)| (slot(es, n), c))));
+        }
+        table.clear();
+        for &xn in xs.iter() {
+            let tree = self.cache.get(&xn);
+            table.extend(es.iter().map(|en| {
+                tree.and_then(|t| t.reached.get(en))
+                    .map(|&(d, _, first)| (d, first))
+            }));
+        }
+        let ne = es.len();
+        out.clear();
+        if from.iter().chain(to).all(|p| p.forward.is_some()) {
+            // Directed points (the HMM's states): one exit and one entry each.
+            for (&a, ex) in from.iter().zip(exits.iter()) {
+                let ex = ex[0].or(ex[1]);
+                for (&b, en) in to.iter().zip(entries.iter()) {
+                    let mut best = if a.section == b.section {
+                        self.along_section(a, b, backtrack_m)
+                    } else {
+                        None
+                    };
+                    if let (Some((xi, xc)), Some((ei, ec))) = (ex, en[0].or(en[1])) {
+                        if let Some((d, first)) = table[xi as usize * ne + ei as usize] {
+                            let (xn, en) = (xs[xi as usize], es[ei as usize]);
+                            let total = xc + d + ec + self.uturn(a, b, xn, en, first);
+                            if best.is_none_or(|b| total < b) {
+                                best = Some(total);
+                            }
+                        }
+                    }
+                    out.push(best);
+                }
+            }
+            return;
+        }
+        for (&a, ex) in from.iter().zip(exits.iter()) {
+            for (&b, en) in to.iter().zip(entries.iter()) {
+                let mut best = self.along_section(a, b, backtrack_m);
+                for &(xi, xc) in ex.iter().flatten() {
+                    for &(ei, ec) in en.iter().flatten() {
+                        if let Some((d, first)) = table[xi as usize * ne + ei as usize] {
+                            let (xn, en) = (xs[xi as usize], es[ei as usize]);
+                            let total = xc + d + ec + self.uturn(a, b, xn, en, first);
+                            if best.is_none_or(|b| total < b) {
+                                best = Some(total);
+                            }
+                        }
+                    }
+                }
+                out.push(best);
+            }
+        }
     }
 
     /// The shortest permitted path from `a` to `b` within `bound_m`, as pieces

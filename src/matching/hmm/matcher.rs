@@ -32,8 +32,11 @@ pub struct HmmMatcher<'a> {
     pub(super) seg_buf: Vec<SegmentId>,
     pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
     pub(super) post_buf: Vec<f64>,
+    /// The backward pass's two vectors.
+    pub(super) beta_bufs: [Vec<f64>; 2],
     pub(super) pred_buf: Vec<Drift>,
     pub(super) spare: Vec<Step>,
+    pub(super) trans_buf: super::state::TransBuf,
 }
 
 impl<'a> HmmMatcher<'a> {
@@ -66,8 +69,13 @@ impl<'a> HmmMatcher<'a> {
             seg_buf: Vec::with_capacity(64),
             near_buf: Vec::with_capacity(64),
             post_buf: Vec::with_capacity(params.max_candidates),
+            beta_bufs: [
+                Vec::with_capacity(params.max_candidates),
+                Vec::with_capacity(params.max_candidates),
+            ],
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
+            trans_buf: super::state::TransBuf::with_capacity(params.max_candidates),
         }
     }
 

@@ -1,8 +1,8 @@
 //! The Viterbi state: a candidate (one section and direction of travel)
 //! and a step of the lag window.
 
-use super::drift::{Drift, Line};
-use crate::matching::paths::OnSection;
+use super::drift::{Drift, Emission, Line};
+use crate::matching::paths::{MatrixScratch, OnSection};
 use crate::matching::Fix;
 use crate::network::{RoadId, SegmentId};
 
@@ -49,4 +49,33 @@ pub(super) struct Step {
     pub(super) pair: Vec<f64>,
     /// Fixes after this step, before the next (index, fix).
     pub(super) pending: Vec<(u64, Fix)>,
+}
+
+/// Buffers of the transition step, kept between steps (no allocation per step).
+#[derive(Debug, Default)]
+pub(super) struct TransBuf {
+    /// The predecessors' and the candidates' points.
+    pub(super) from: Vec<OnSection>,
+    pub(super) at: Vec<OnSection>,
+    pub(super) scratch: MatrixScratch,
+    /// Route distances, predecessor-major.
+    pub(super) dist: Vec<Option<f64>>,
+    /// For each candidate, an earlier one on the same segment (or `u32::MAX`).
+    pub(super) twin: Vec<u32>,
+    /// Emissions computed, candidate-major.
+    pub(super) em: Vec<Option<Emission>>,
+}
+
+impl TransBuf {
+    /// Buffers for up to `n` candidates per step.
+    pub(super) fn with_capacity(n: usize) -> Self {
+        Self {
+            from: Vec::with_capacity(n),
+            at: Vec::with_capacity(n),
+            scratch: MatrixScratch::with_capacity(n),
+            dist: Vec::with_capacity(n * n),
+            twin: Vec::with_capacity(n),
+            em: Vec::with_capacity(n * n),
+        }
+    }
 }

@@ -34,19 +34,42 @@ impl HmmMatcher<'_> {
         let mut any = false;
         step.score.clear();
         step.back.clear();
-        let nc = step.cands.len();
+        let (np, nc) = (prev.cands.len(), step.cands.len());
         step.pair.clear();
-        step.pair.resize(prev.cands.len() * nc, f64::NEG_INFINITY);
+        step.pair.resize(np * nc, f64::NEG_INFINITY);
+        // Route distances of every predecessor × candidate pair.
+        let mut bufs = std::mem::take(&mut self.trans_buf);
+        bufs.from.clear();
+        bufs.from.extend(prev.cands.iter().map(|c| c.at));
+        bufs.at.clear();
+        bufs.at.extend(step.cands.iter().map(|c| c.at));
+        self.paths.point_distance_matrix(
+            &bufs.from,
+            &bufs.at,
+            backtrack,
+            &mut bufs.scratch,
+            &mut bufs.dist,
+        );
+        // The two directions of a section share its line, so their emissions
+        // under a predecessor's drift are equal: computed once per segment.
+        bufs.twin.clear();
+        for (k, c) in step.cands.iter().enumerate() {
+            let j = step.cands[..k].iter().position(|o| o.seg == c.seg);
+            bufs.twin.push(j.map_or(u32::MAX, |j| j as u32));
+        }
+        bufs.em.clear();
+        bufs.em.resize(nc * np, None);
         for (k, c) in step.cands.iter_mut().enumerate() {
             let mut best = f64::NEG_INFINITY;
             let mut arg = 0u32;
             let mut anchor = (c.dir, 0.0, c.road);
             let mut innovation: Option<Emission> = None;
+            let twin = bufs.twin[k];
             for (i, p) in prev.cands.iter().enumerate() {
                 if prev.score[i] == f64::NEG_INFINITY {
                     continue;
                 }
-                let Some(d) = self.paths.point_distance_cached(p.at, c.at, backtrack) else {
+                let Some(d) = bufs.dist[i * nc + k] else {
                     continue;
                 };
                 if d > bound {
@@ -64,7 +87,16 @@ impl HmmMatcher<'_> {
                 } else {
                     d
                 };
-                let e = emission(&c.line, step.fix.enu, &preds[i], r2);
+                let shared = if twin == u32::MAX {
+                    None
+                } else {
+                    bufs.em[twin as usize * np + i]
+                };
+                let e = match shared {
+                    Some(e) => e,
+                    None => emission(&c.line, step.fix.enu, &preds[i], r2),
+                };
+                bufs.em[k * np + i] = Some(e);
                 let psi = e.log_p + c.heading - (charged - gc).abs() * inv_beta;
                 step.pair[i * nc + k] = psi;
                 let s = prev.score[i] + psi;
@@ -92,6 +124,7 @@ impl HmmMatcher<'_> {
             step.score.push(best);
             step.back.push(arg);
         }
+        self.trans_buf = bufs;
         self.pred_buf = preds;
         if any {
             // Renormalise so scores stay near zero on long tracks.
@@ -102,7 +135,12 @@ impl HmmMatcher<'_> {
             // Forward (sum-product) recursion on the same weights.
             let m = step.pair.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             for w in &mut step.pair {
-                *w = (*w - m).exp();
+                // exp(−∞) = 0 without the call (pairs out of reach).
+                *w = if *w == f64::NEG_INFINITY {
+                    0.0
+                } else {
+                    (*w - m).exp()
+                };
             }
             step.alpha.clear();
             step.alpha.resize(nc, 0.0);
@@ -165,10 +203,11 @@ impl HmmMatcher<'_> {
 
     /// The smoothed posterior of the window's oldest step given every fix in
     /// the window (forward–backward over the lag window) into `out`.
-    pub(super) fn front_posterior(&self, out: &mut Vec<f64>) {
+    pub(super) fn front_posterior(&mut self, out: &mut Vec<f64>) {
         let len = self.window.len();
-        let mut beta = vec![1.0; self.window[len - 1].cands.len()];
-        let mut next = Vec::with_capacity(self.params.max_candidates);
+        let [mut beta, mut next] = std::mem::take(&mut self.beta_bufs);
+        beta.clear();
+        beta.resize(self.window[len - 1].cands.len(), 1.0);
         for t in (1..len).rev() {
             let (st, np) = (&self.window[t], self.window[t - 1].cands.len());
             let nc = st.cands.len();
@@ -195,5 +234,6 @@ impl HmmMatcher<'_> {
         if !normalise(out) {
             softmax_into(&front.score, out);
         }
+        self.beta_bufs = [beta, next];
     }
 }
