@@ -265,7 +265,7 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
     if input.plan.is_some() {
         html.push_str(&sections::plan_verdict(p));
         if p["validation"].is_object() {
-            html.push_str(&sections::rule());
+            html.push_str(&sections::rule(sections::confidence(p, s)));
         }
     }
     if input.summary.is_some() {
@@ -273,8 +273,8 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
         if let Some(n) = sections::nees(s) {
             html.push_str(&n);
         }
-        if input.plan.is_none() && s["requirement_m"].is_number() {
-            html.push_str(&sections::rule());
+        if !p["validation"].is_object() && s["requirement_m"].is_number() {
+            html.push_str(&sections::rule(sections::confidence(p, s)));
         }
         let mm = &s["map_matching"];
         if mm.is_object() {

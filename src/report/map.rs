@@ -452,7 +452,7 @@ pub fn map_legend(overlay: &MapOverlay, what: &str, view_width_m: Option<f64>) -
              <rect x=\"270\" y=\"4\" width=\"30\" height=\"14\" fill=\"{OVER_COLOUR}\"/>\
              <g font-size=\"11\" font-family=\"sans-serif\" fill=\"#333\">\
              <text x=\"5\" y=\"31\">0</text><text x=\"135\" y=\"31\" text-anchor=\"middle\">{:.3}</text>\
-             <text x=\"265\" y=\"31\" text-anchor=\"middle\">{:.3} m</text><text x=\"285\" y=\"31\" text-anchor=\"middle\">over</text>\
+             <text x=\"265\" y=\"31\" text-anchor=\"end\">{:.3} m</text><text x=\"285\" y=\"31\" text-anchor=\"middle\">over</text>\
              <text x=\"5\" y=\"44\">{}</text></g></svg>",
             trim(scale / 2.0),
             trim(scale),
