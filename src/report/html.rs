@@ -344,7 +344,7 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
             p["tag_files"]["parameters"]["height_m"].as_str(),
         ) {
             (Some(false), Some(why)) => format!(
-                "<p class=\"figures\">Heights: {} (the files say so: KML clamps the tags to the ground, GPX has no elevation).</p>",
+                "<p class=\"figures\">Heights: {} (the files say so: KML clamps the tags to the ground with no altitude, GPX has no elevation, GeoJSON points are 2-D, tags.meta.json has heights_source none).</p>",
                 escape(why)
             ),
             (Some(true), Some(why)) => format!("<p class=\"figures\">Heights: {}.</p>", escape(why)),

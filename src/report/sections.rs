@@ -39,20 +39,6 @@ fn share_of(v: &serde_json::Value) -> Option<Share> {
     })
 }
 
-/// The median of `xs` (not empty).
-fn median(mut xs: Vec<f64>) -> Option<f64> {
-    if xs.is_empty() {
-        return None;
-    }
-    xs.sort_by(f64::total_cmp);
-    let n = xs.len();
-    Some(if n % 2 == 1 {
-        xs[n / 2]
-    } else {
-        0.5 * (xs[n / 2 - 1] + xs[n / 2])
-    })
-}
-
 /// The headline of a verdict: `what` (e.g. "Simulation") and the share's
 /// figures.
 fn headline(l: Level, what: &str, e: &Evidence) -> String {
@@ -92,26 +78,20 @@ pub fn sim_verdict(s: &serde_json::Value) -> String {
         );
     };
     let runs = s["runs"].as_u64().unwrap_or(1);
-    let maxima: Vec<f64> = s["per_run"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|r| num(&r["max_horizontal_error_m"]))
-                .collect()
-        })
-        .unwrap_or_default();
+    // The median run's maximum, as the summary and the plots pick it.
+    let median_run = super::folder::example_runs(&super::folder::per_run_max(s)).map(|(m, _)| m.1);
     let e = Evidence {
         requirement_m: r,
         runs,
         runs_exceeding: s["runs_exceeding_requirement"].as_u64(),
         max_error_m: num(&s["max_horizontal_error_m"]).unwrap_or(0.0),
-        median_run_max_m: if runs > 1 { median(maxima) } else { None },
+        median_run_max_m: median_run.filter(|_| runs > 1),
         share_within: share,
         share: share_of(&s["requirement_rule"]),
     };
     let l = level(&e);
     let first = num(&s["time_to_exceed_requirement_s"])
-        .map(|t| format!(" First exceeded at {t:.0} s (run 0)."))
+        .map(|t| format!(" First exceeded at {t:.0} s (earliest over the runs)."))
         .unwrap_or_default();
     format!(
         "<p>{}</p><p class=\"figures\">Simulation, {runs} run(s): {} {}{first}</p>",
@@ -138,6 +118,10 @@ pub fn plan_verdict(p: &serde_json::Value) -> String {
                     p["tolerate_missed_reads"].as_u64().unwrap_or(0)
                 ))
                 .unwrap_or_default()
+        ),
+        (None, true) if p["guarantee"]["statement"].is_string() => format!(
+            " Planned for traffic (chains of trips): {}.",
+            p["guarantee"]["statement"].as_str().unwrap_or_default()
         ),
         (None, true) => {
             let verified = p["verified"].as_bool() == Some(true);
@@ -524,21 +508,42 @@ pub fn network_table(
         "missed reads tolerated",
         p["tolerate_missed_reads"].as_u64().map(|k| k.to_string()),
     );
-    push(
-        &mut rows,
-        "walk check",
-        p["verified"].as_bool().map(|v| {
-            format!(
-                "{}; the longest walk with at most k passes uses {:.0} % of the budget",
-                if v {
-                    "verified: no walk exceeds the budget"
-                } else {
-                    "not verified"
-                },
-                100.0 * num(&p["longest_walk_budget"]).unwrap_or(0.0)
-            )
-        }),
-    );
+    let g = &p["guarantee"];
+    if g.is_object() {
+        // Traffic plans: a statistical certification on fresh chains of
+        // trips, not a check of every walk.
+        push(
+            &mut rows,
+            "certification",
+            g["statement"].as_str().map(|st| {
+                format!(
+                    "{} {st}; the worst certification chain uses {:.0} % of the error budget",
+                    if g["holds"].as_bool() == Some(true) {
+                        "holds:"
+                    } else {
+                        "DOES NOT HOLD:"
+                    },
+                    100.0 * num(&g["worst_chain_budget"]).unwrap_or(0.0)
+                )
+            }),
+        );
+    } else {
+        push(
+            &mut rows,
+            "walk check",
+            p["verified"].as_bool().map(|v| {
+                format!(
+                    "{}; the longest walk with at most k passes uses {:.0} % of the budget",
+                    if v {
+                        "verified: no walk exceeds the budget"
+                    } else {
+                        "not verified"
+                    },
+                    100.0 * num(&p["longest_walk_budget"]).unwrap_or(0.0)
+                )
+            }),
+        );
+    }
     if !bounds.is_empty() {
         let max = bounds.iter().map(|b| b.0).fold(0.0, f64::max);
         let r = num(&p["requirement_m"]).unwrap_or(f64::INFINITY);
