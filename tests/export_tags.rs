@@ -271,6 +271,7 @@ fn without_known_heights_kml_clamps_to_ground_and_gpx_has_no_elevation() {
     for f in gj["features"].as_array().unwrap() {
         assert_eq!(f["geometry"]["coordinates"].as_array().unwrap().len(), 2);
     }
+    assert_eq!(gj["waymark"]["heights_source"], "none");
     // The sidecar and the KML document's metadata say so.
     let m: serde_json::Value = serde_json::from_str(&tags_meta_json(&meta)).unwrap();
     assert_eq!(m["heights_known"], false);

@@ -168,8 +168,9 @@ fn chromium() -> Option<PathBuf> {
 }
 
 /// Runs headless Chromium on `page`: the DOM after the page's script ran,
-/// and a screenshot at `shot`. Panics on console output (errors included).
-fn render(browser: &Path, page: &Path, shot: &Path, profile: &Path) -> String {
+/// and a screenshot at `shot` (1200 px wide, `height` tall). Panics on
+/// console output (errors included).
+fn render(browser: &Path, page: &Path, shot: &Path, profile: &Path, height: u32) -> String {
     let common = |extra: &[String]| {
         let mut args: Vec<String> = [
             "--headless",
@@ -200,7 +201,7 @@ fn render(browser: &Path, page: &Path, shot: &Path, profile: &Path) -> String {
     };
     common(&[
         format!("--screenshot={}", shot.display()),
-        "--window-size=1200,1800".into(),
+        format!("--window-size=1200,{height}"),
     ]);
     let ink = ink_share(&std::fs::read(shot).unwrap());
     assert!(ink > 0.02, "screenshot looks blank (ink share {ink})");
@@ -253,6 +254,7 @@ fn report_renders_in_headless_chromium() {
         &out.join("report.html"),
         &target.join("report-screenshot.png"),
         &dir.path().join("profile-a"),
+        1800,
     );
     check_rendered(&dom, &out.join("tags.csv"));
     assert!(dom.contains("data-info=\"start\"") && dom.contains("class=\"north\""));
@@ -265,9 +267,11 @@ fn report_renders_in_headless_chromium() {
         )
         .unwrap();
     }
-    // An area plan's report: the whole network, every tag.
+    // An area plan's report (for traffic, so with the planner's
+    // coverage.geojson): the whole network, every tag, the roads coloured
+    // by their predicted bound with a colour bar.
     let net = dir.path().join("net");
-    let scn = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/helsinki-network-plan.toml");
+    let scn = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/helsinki-network-trips.toml");
     let p = bin()
         .args([
             "plan",
@@ -290,9 +294,23 @@ fn report_renders_in_headless_chromium() {
         &net.join("report.html"),
         &target.join("report-network-screenshot.png"),
         &dir.path().join("profile-b"),
+        // Tall enough for the coloured map below the plan's tables.
+        4200,
     );
     check_rendered(&dom, &net.join("tags.csv"));
     assert!(dom.contains("lower bound on new tags") && dom.contains("reach between fixes"));
+    assert!(net.join("coverage.geojson").exists());
+    let cov = &dom[dom
+        .find("class=\"coverage\"")
+        .expect("roads coloured by their bound")..];
+    assert!(
+        cov[..cov.find("</g>").unwrap()]
+            .matches("<polyline")
+            .count()
+            > 100
+    );
+    assert!(dom.contains("class=\"colour-bar\""));
+    assert!(dom.contains("data-level=\"") && dom.contains("thinned samples within 20 m"));
 }
 
 #[test]

@@ -181,10 +181,9 @@ pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
         b.map(|x| printed(x, 7)).to_vec()
     });
     let mut foreign = JsonObject::new();
-    foreign.insert(
-        "waymark".to_owned(),
-        serde_json::to_value(meta).unwrap_or_default(),
-    );
+    let mut waymark = serde_json::to_value(meta).unwrap_or_default();
+    waymark["heights_source"] = heights_source(meta).into();
+    foreign.insert("waymark".to_owned(), waymark);
     let fc = FeatureCollection {
         bbox,
         features,

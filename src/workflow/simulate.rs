@@ -35,6 +35,9 @@ pub struct SimulateOutcome {
     pub files: Vec<&'static str>,
     /// Whole job time (s).
     pub elapsed_s: f64,
+    /// The planner's validation rule on these runs, as `summary.json`'s
+    /// `requirement_rule` records it (`None` without a requirement).
+    pub requirement_rule: Option<serde_json::Value>,
 }
 
 /// Simulates `job.runs` runs of the scenario and writes `errors.csv`,
@@ -80,11 +83,12 @@ pub(super) fn simulate_loaded(
     }
     clear_outputs(job.out_dir, SIMULATION_OUTPUTS, false)?;
     output::write(job.out_dir, &result)?;
-    if let Some(rule) = requirement_rule(&result, scn.planner().requirement_confidence) {
+    let rule = requirement_rule(&result, scn.planner().requirement_confidence);
+    if let Some(rule) = &rule {
         // summary.json again, with the rule the report's verdict applies.
         let mut v = serde_json::to_value(&result.summary)
             .map_err(|e| Error::InvalidParameter(format!("summary: {e}")))?;
-        v["requirement_rule"] = rule;
+        v["requirement_rule"] = rule.clone();
         let path = job.out_dir.join("summary.json");
         let json = serde_json::to_string_pretty(&v)
             .map_err(|e| Error::InvalidParameter(format!("summary: {e}")))?;
@@ -101,6 +105,7 @@ pub(super) fn simulate_loaded(
         out: job.out_dir.to_path_buf(),
         files,
         elapsed_s: t0.elapsed().as_secs_f64(),
+        requirement_rule: rule,
     })
 }
 
