@@ -619,6 +619,9 @@ fn simulate(job: &SimulateJob, out: Out) -> Result<serde_json::Value> {
         obj.insert("out".into(), serde_json::json!(o.out.display().to_string()));
         obj.insert("files".into(), serde_json::json!(o.files));
         obj.insert("elapsed_s".into(), serde_json::json!(o.elapsed_s));
+        if let Some(r) = &o.requirement_rule {
+            obj.insert("requirement_rule".into(), r.clone());
+        }
     }
     Ok(json)
 }
@@ -696,6 +699,9 @@ fn print_simulation(o: &SimulateOutcome, out: Out) {
             s.runs,
             100.0 * s.fraction_within_requirement.unwrap_or(0.0)
         );
+    }
+    if let Some(rule) = o.requirement_rule.as_ref().and_then(|r| r["rule"].as_str()) {
+        text!(out, "rule: {rule}");
     }
     text!(
         out,

@@ -259,9 +259,109 @@ fn without_known_heights_kml_clamps_to_ground_and_gpx_has_no_elevation() {
     assert!(text.contains("clampToGround"), "{text}");
     let g = gpx::read(tags_gpx(&tags, &meta).as_bytes()).unwrap();
     assert!(g.waypoints.iter().all(|w| w.elevation.is_none()));
-    // The sidecar says so.
+    // No altitude in any Point (KML's default altitude would be 0 m).
+    assert!(
+        text.matches("<coordinates>")
+            .zip(text.split("<coordinates>").skip(1))
+            .all(|(_, c)| c[..c.find('<').unwrap()].split(',').count() == 2),
+        "{text}"
+    );
+    // GeoJSON points are 2-D: a third coordinate would read as a real height.
+    let gj: serde_json::Value = serde_json::from_str(&tags_geojson(&tags, &meta)).unwrap();
+    for f in gj["features"].as_array().unwrap() {
+        assert_eq!(f["geometry"]["coordinates"].as_array().unwrap().len(), 2);
+    }
+    assert_eq!(gj["waymark"]["heights_source"], "none");
+    // The sidecar and the KML document's metadata say so.
     let m: serde_json::Value = serde_json::from_str(&tags_meta_json(&meta)).unwrap();
     assert_eq!(m["heights_known"], false);
+    assert_eq!(m["heights_source"], "none");
+    assert!(text.contains("<Data name=\"heights_source\"><value>none</value></Data>"));
+    // Known heights: 3-D GeoJSON; where they came from.
+    meta.heights_known = true;
+    let gj: serde_json::Value = serde_json::from_str(&tags_geojson(&tags, &meta)).unwrap();
+    assert_eq!(gj["features"][0]["geometry"]["coordinates"][2], 12.5);
+    let m: serde_json::Value = serde_json::from_str(&tags_meta_json(&meta)).unwrap();
+    assert_eq!(m["heights_source"], "trajectory");
+    meta.parameters.insert(
+        "height_m".into(),
+        "the terrain's, from the elevation model dem.tif".into(),
+    );
+    let m: serde_json::Value = serde_json::from_str(&tags_meta_json(&meta)).unwrap();
+    assert_eq!(m["heights_source"], "elevation_model");
+}
+
+/// The direct children of each element named `parent`, by local name.
+fn children_of(xml: &str, parent: &str) -> Vec<Vec<String>> {
+    use quick_xml::events::Event;
+    let mut r = quick_xml::Reader::from_str(xml);
+    let (mut stack, mut out): (Vec<String>, Vec<Vec<String>>) = (Vec::new(), Vec::new());
+    loop {
+        match r.read_event().unwrap() {
+            Event::Start(e) => {
+                let name = String::from_utf8(e.local_name().as_ref().to_vec()).unwrap();
+                if stack.last().is_some_and(|p| p == parent) {
+                    out.last_mut().unwrap().push(name.clone());
+                }
+                if name == parent {
+                    out.push(Vec::new());
+                }
+                stack.push(name);
+            }
+            Event::Empty(e) => {
+                let name = String::from_utf8(e.local_name().as_ref().to_vec()).unwrap();
+                if stack.last().is_some_and(|p| p == parent) {
+                    out.last_mut().unwrap().push(name);
+                }
+            }
+            Event::End(_) => {
+                stack.pop();
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    out
+}
+
+#[test]
+fn kml_elements_are_in_the_order_kml_2_2_prescribes() {
+    // The OGC KML 2.2 schema's sequences (ogckml22.xsd): a Feature's
+    // name, description, styleUrl, StyleSelector (Style), ExtendedData, then
+    // a Document's Features or a Placemark's Geometry; a Point's extrude,
+    // altitudeMode, coordinates. Schema-validating readers (fastkml with
+    // lxml) reject other orders; the `kml` crate does not check.
+    let rank = |order: &[&str], got: &[String]| -> Vec<usize> {
+        got.iter()
+            .map(|n| {
+                order
+                    .iter()
+                    .position(|o| o == n)
+                    .unwrap_or_else(|| panic!("unexpected <{n}>"))
+            })
+            .collect()
+    };
+    for known in [true, false] {
+        let (tags, mut meta) = sample();
+        meta.heights_known = known;
+        let text = tags_kml(&tags, &meta);
+        let doc = &children_of(&text, "Document")[0];
+        let r = rank(
+            &["name", "description", "Style", "ExtendedData", "Placemark"],
+            doc,
+        );
+        assert!(r.windows(2).all(|w| w[0] <= w[1]), "{doc:?}");
+        for pm in children_of(&text, "Placemark") {
+            let r = rank(
+                &["name", "description", "styleUrl", "ExtendedData", "Point"],
+                &pm,
+            );
+            assert!(r.windows(2).all(|w| w[0] < w[1]), "{pm:?}");
+        }
+        for pt in children_of(&text, "Point") {
+            assert_eq!(pt, ["extrude", "altitudeMode", "coordinates"]);
+        }
+    }
 }
 
 #[test]

@@ -227,7 +227,7 @@ fn report_of_a_plan_folder_shows_the_map_profile_summary_and_verdict() {
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("<h2>Verdict</h2>"));
     assert!(
-        html.contains("Plan validated") || html.contains("Plan not validated"),
+        html.contains(&format!("\">Plan of {n} new tag(s) ")),
         "plan verdict"
     );
     assert!(html.contains("4 Monte Carlo run(s)"));
@@ -272,4 +272,39 @@ fn report_of_a_plan_folder_shows_the_map_profile_summary_and_verdict() {
     assert!(html.contains("Heights: none (no [map] elevation)"));
     assert!(!html.contains("<h2>Summary</h2>"), "no simulation here");
     assert!(out.join("plots/plan_profile.png").exists());
+
+    // The verdict follows the planner's rule on the validation's thinned
+    // samples (plan.json), not a share of the distance: the same runs shown
+    // green, amber or red as their samples change.
+    let v = &plan["validation"];
+    assert_eq!(v["requirement_confidence"].as_f64(), Some(0.95));
+    let verdict_with = |samples: u64, within: u64| -> String {
+        let mut p = plan.clone();
+        p["validation"]["thinned_samples"] = samples.into();
+        p["validation"]["thinned_within"] = within.into();
+        std::fs::write(out.join("plan.json"), p.to_string()).unwrap();
+        ok(&bin(&["report", o]));
+        let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+        let i = html.find("class=\"verdict ").expect("a verdict badge");
+        let level = &html[html[i..].find("data-level=\"").unwrap() + i + 12..];
+        level[..level.find('"').unwrap()].to_string()
+    };
+    // 59 of 59: lower bound 0.05^(1/59) = 0.9505 ≥ 0.95; 58 of 58: 0.9497.
+    assert_eq!(verdict_with(59, 59), "green");
+    assert_eq!(verdict_with(58, 58), "amber");
+    // 96 % observed but a lower bound below 0.95 (1000 samples: 0.9482,
+    // the beta quantile Beta(960, 41) at 0.05).
+    assert_eq!(verdict_with(1000, 960), "amber");
+    assert_eq!(verdict_with(1000, 940), "red");
+    // Without the rule's figures (an older plan.json): never green.
+    let mut p = plan.clone();
+    p["validation"]
+        .as_object_mut()
+        .unwrap()
+        .retain(|k, _| !k.starts_with("thinned"));
+    std::fs::write(out.join("plan.json"), p.to_string()).unwrap();
+    ok(&bin(&["report", o]));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("data-level=\"amber\""));
+    assert!(html.contains("the rule cannot be applied"));
 }

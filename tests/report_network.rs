@@ -61,6 +61,44 @@ fn area_report_draws_every_tag_and_its_figures_and_the_coverage_when_given() {
     }
     assert!(html.contains("coverage.geojson is absent"));
     assert!(!html.contains("class=\"coverage\""));
+    // The verdict under the planner's rule, from the validation's figures
+    // (an area plan's runs exceeding are `runs_exceeding`).
+    let v = &plan["validation"];
+    let (n_thin, within) = (
+        v["thinned_samples"].as_u64().unwrap(),
+        v["thinned_within"].as_u64().unwrap(),
+    );
+    assert!(
+        html.contains(&format!("{within} of {n_thin} thinned samples within 20 m")),
+        "the rule's figures"
+    );
+    assert!(html.contains(&format!(
+        "{} of 2 run(s) exceed it somewhere",
+        v["runs_exceeding"].as_u64().unwrap()
+    )));
+    let level = if v["passed"].as_bool().unwrap() {
+        "green"
+    } else if within as f64 >= 0.95 * n_thin as f64 {
+        "amber"
+    } else {
+        "red"
+    };
+    assert!(html.contains(&format!("data-level=\"{level}\">Plan of {n} new tag(s)")));
+    assert!(html.contains("<th>walk check</th>") && !html.contains("<th>certification</th>"));
+    // A plan for traffic states its certification instead of a walk check.
+    let mut traffic = plan.clone();
+    traffic["guarantee"] = serde_json::json!({
+        "holds": true, "worst_chain_budget": 1.11,
+        "statement": "1007 of 1009 fresh chains hold it"
+    });
+    std::fs::write(out.join("plan.json"), traffic.to_string()).unwrap();
+    ok(&bin(&["report", o]));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains(
+        "<th>certification</th><td>holds: 1007 of 1009 fresh chains hold it; the worst certification chain uses 111 % of the error budget"
+    ));
+    assert!(!html.contains("<th>walk check</th>"));
+    std::fs::write(out.join("plan.json"), plan.to_string()).unwrap();
 
     // The area planner's coverage.geojson: three pieces along the first
     // tags, one above the requirement.

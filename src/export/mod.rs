@@ -8,7 +8,8 @@ mod tags;
 pub use crate::fsio::write_atomic;
 pub use crate::tags::{ExportMetadata, TagRecord};
 pub use tags::{
-    csv_row, tags_csv, tags_geojson, tags_gpx, tags_kml, tags_meta_json, CSV_COLUMNS, GPX_NAMESPACE,
+    csv_row, heights_source, tags_csv, tags_geojson, tags_gpx, tags_kml, tags_meta_json,
+    CSV_COLUMNS, GPX_NAMESPACE,
 };
 
 /// The defects as a GeoJSON FeatureCollection of points (RFC 7946, [lon, lat]).

@@ -10,8 +10,12 @@
 //! so its first line is its header (GIS tools take it as such).
 //! Coordinates are WGS-84 degrees with 7 decimals (1 cm); heights,
 //! chainages and offsets with 2 (cm), fix sigmas with 3 (mm). Heights are
-//! written as altitudes (KML `altitudeMode` absolute, GPX `ele`) only when
-//! [`ExportMetadata::heights_known`]; otherwise KML clamps to the ground.
+//! written as altitudes (KML `altitudeMode` absolute, GPX `ele`, GeoJSON's
+//! third coordinate) only when [`ExportMetadata::heights_known`]; otherwise
+//! KML clamps to the ground with no altitude, GPX has no `ele`, GeoJSON
+//! points are 2-D, and every file's metadata says so (`heights_known`
+//! false, `heights_source` "none", the `height_m` parameter why); the
+//! `height_m` column keeps the placeholder it was given.
 //!
 //! GeoJSON and KML are built as the `geojson` and `kml` crates' types and
 //! written by those crates; GPX with `quick-xml` (the `gpx` crate writes
@@ -69,6 +73,26 @@ pub fn csv_row(t: &TagRecord) -> [String; 13] {
     ]
 }
 
+/// Where the tags' heights come from, as the files' metadata states it
+/// (`heights_source`): `"none"` when they are not known (placeholders: the
+/// route's constant height, 0 m unless the scenario sets one; KML then
+/// clamps to the ground, GPX has no `ele`, GeoJSON points are 2-D),
+/// `"elevation_model"` when a DEM gave them (the plan's `height_m`
+/// parameter names it), else `"trajectory"` (a drive by motion commands).
+pub fn heights_source(meta: &ExportMetadata) -> &'static str {
+    if !meta.heights_known {
+        "none"
+    } else if meta
+        .parameters
+        .get("height_m")
+        .is_some_and(|h| h.contains("elevation model"))
+    {
+        "elevation_model"
+    } else {
+        "trajectory"
+    }
+}
+
 /// Writes `tags.meta.json`: the metadata of the tag files (version,
 /// requirement, parameters as the plan used them, attribution, whether
 /// heights are real) and the columns of `tags.csv`.
@@ -76,6 +100,7 @@ pub fn tags_meta_json(meta: &ExportMetadata) -> String {
     let mut v = serde_json::to_value(meta).unwrap_or_default();
     v["columns"] = CSV_COLUMNS.iter().map(|c| JsonValue::from(*c)).collect();
     v["crs"] = "WGS 84 (EPSG:4326), degrees; heights in metres".into();
+    v["heights_source"] = heights_source(meta).into();
     serde_json::to_string_pretty(&v).unwrap_or_default()
 }
 
@@ -100,7 +125,8 @@ fn printed(x: f64, decimals: usize) -> f64 {
     format!("{x:.decimals$}").parse().unwrap_or(x)
 }
 
-/// Writes `tags.geojson`: a FeatureCollection of Points `[lon, lat, height]`.
+/// Writes `tags.geojson`: a FeatureCollection of Points `[lon, lat, height]`
+/// (`[lon, lat]` when the heights are not known).
 pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
     let features: Vec<Feature> = tags
         .iter()
@@ -128,11 +154,14 @@ pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
             put("reason", t.reason.clone().into());
             Feature {
                 bbox: None,
-                geometry: Some(Geometry::new(geojson::Value::Point(vec![
-                    printed(t.lon, 7),
-                    printed(t.lat, 7),
-                    printed(t.height_m, 2),
-                ]))),
+                // A height only when known: a third coordinate of 0 m
+                // would read as a real (ellipsoidal) height in a GIS.
+                geometry: Some(Geometry::new(geojson::Value::Point(
+                    [printed(t.lon, 7), printed(t.lat, 7)]
+                        .into_iter()
+                        .chain(meta.heights_known.then(|| printed(t.height_m, 2)))
+                        .collect(),
+                ))),
                 id: Some(Id::String(t.tag_id.clone())),
                 properties: Some(properties),
                 foreign_members: None,
@@ -152,10 +181,9 @@ pub fn tags_geojson(tags: &[TagRecord], meta: &ExportMetadata) -> String {
         b.map(|x| printed(x, 7)).to_vec()
     });
     let mut foreign = JsonObject::new();
-    foreign.insert(
-        "waymark".to_owned(),
-        serde_json::to_value(meta).unwrap_or_default(),
-    );
+    let mut waymark = serde_json::to_value(meta).unwrap_or_default();
+    waymark["heights_source"] = heights_source(meta).into();
+    foreign.insert("waymark".to_owned(), waymark);
     let fc = FeatureCollection {
         bbox,
         features,
@@ -216,18 +244,12 @@ fn extended_data<'a>(pairs: impl IntoIterator<Item = (&'a str, String)>) -> Elem
 
 /// Writes `tags.kml` (KML 2.2): one Placemark per tag, a style per mounting.
 pub fn tags_kml(tags: &[TagRecord], meta: &ExportMetadata) -> String {
+    // KML 2.2's order for a Document: name, description, styles
+    // (StyleSelector), ExtendedData, then the features (schema-validating
+    // readers such as fastkml reject another order).
     let mut doc: Vec<Kml> = vec![
         Kml::Element(text_element("name", "Waymark RFID tags")),
         Kml::Element(text_element("description", meta.lines().join("; "))),
-        Kml::Element(extended_data(
-            std::iter::once(("waymark_version", meta.waymark_version.clone()))
-                .chain(meta.requirement_m.map(|r| ("requirement_m", r.to_string())))
-                .chain(std::iter::once((
-                    "heights_known",
-                    meta.heights_known.to_string(),
-                )))
-                .chain(meta.parameters.iter().map(|(k, v)| (k.as_str(), v.clone()))),
-        )),
     ];
     // Styles as plain elements: `kml::types::Style` always writes an empty
     // `<Icon>`, which hides the placemark's icon in Google Earth.
@@ -246,6 +268,15 @@ pub fn tags_kml(tags: &[TagRecord], meta: &ExportMetadata) -> String {
             )],
         )));
     }
+    doc.push(Kml::Element(extended_data(
+        std::iter::once(("waymark_version", meta.waymark_version.clone()))
+            .chain(meta.requirement_m.map(|r| ("requirement_m", r.to_string())))
+            .chain([
+                ("heights_known", meta.heights_known.to_string()),
+                ("heights_source", heights_source(meta).to_string()),
+            ])
+            .chain(meta.parameters.iter().map(|(k, v)| (k.as_str(), v.clone()))),
+    )));
     for t in tags {
         let data = CSV_COLUMNS.iter().copied().zip(csv_row(t));
         let mut point = Point::from(Coord::new(

@@ -265,7 +265,7 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
     if input.plan.is_some() {
         html.push_str(&sections::plan_verdict(p));
         if p["validation"].is_object() {
-            html.push_str(&sections::rule());
+            html.push_str(&sections::rule(sections::confidence(p, s)));
         }
     }
     if input.summary.is_some() {
@@ -273,8 +273,8 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
         if let Some(n) = sections::nees(s) {
             html.push_str(&n);
         }
-        if input.plan.is_none() && s["requirement_m"].is_number() {
-            html.push_str(&sections::rule());
+        if !p["validation"].is_object() && s["requirement_m"].is_number() {
+            html.push_str(&sections::rule(sections::confidence(p, s)));
         }
         let mm = &s["map_matching"];
         if mm.is_object() {
@@ -344,7 +344,7 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
             p["tag_files"]["parameters"]["height_m"].as_str(),
         ) {
             (Some(false), Some(why)) => format!(
-                "<p class=\"figures\">Heights: {} (the files say so: KML clamps the tags to the ground, GPX has no elevation).</p>",
+                "<p class=\"figures\">Heights: {} (the files say so: KML clamps the tags to the ground with no altitude, GPX has no elevation, GeoJSON points are 2-D, tags.meta.json has heights_source none).</p>",
                 escape(why)
             ),
             (Some(true), Some(why)) => format!("<p class=\"figures\">Heights: {}.</p>", escape(why)),

@@ -434,7 +434,7 @@ pub fn map_legend(overlay: &MapOverlay, what: &str, view_width_m: Option<f64>) -
     if scale > 0.0 && (!overlay.route.is_empty() || !overlay.coverage.is_empty()) {
         let _ = write!(
             s,
-            "<svg class=\"colour-bar\" width=\"330\" height=\"46\" viewBox=\"0 0 330 46\" role=\"img\" aria-label=\"colour bar\">\
+            "<svg class=\"colour-bar\" width=\"330\" height=\"36\" viewBox=\"0 0 330 36\" role=\"img\" aria-label=\"colour bar\">\
              <defs><linearGradient id=\"wm-grad\">"
         );
         for k in 0..=6 {
@@ -452,8 +452,8 @@ pub fn map_legend(overlay: &MapOverlay, what: &str, view_width_m: Option<f64>) -
              <rect x=\"270\" y=\"4\" width=\"30\" height=\"14\" fill=\"{OVER_COLOUR}\"/>\
              <g font-size=\"11\" font-family=\"sans-serif\" fill=\"#333\">\
              <text x=\"5\" y=\"31\">0</text><text x=\"135\" y=\"31\" text-anchor=\"middle\">{:.3}</text>\
-             <text x=\"265\" y=\"31\" text-anchor=\"middle\">{:.3} m</text><text x=\"285\" y=\"31\" text-anchor=\"middle\">over</text>\
-             <text x=\"5\" y=\"44\">{}</text></g></svg>",
+             <text x=\"265\" y=\"31\" text-anchor=\"end\">{:.3} m</text><text x=\"285\" y=\"31\" text-anchor=\"middle\">over</text>\
+             </g></svg><span class=\"bar-label\">{}</span>",
             trim(scale / 2.0),
             trim(scale),
             escape(what)

@@ -5,7 +5,9 @@
 //! dash or NaN.
 
 use super::folder::TagRow;
-use super::verdict::{figures_text, level, rule_text, upper_bound, Evidence, Level, CONFIDENCE};
+use super::verdict::{
+    figures_text, level, rule_text, share_text, upper_bound, Evidence, Level, Share, CONFIDENCE,
+};
 use quick_xml::escape::escape;
 use std::fmt::Write;
 
@@ -27,7 +29,41 @@ fn badge(level: Level, text: &str) -> String {
     )
 }
 
-/// The verdict of a simulation, under the stated rule.
+/// The rule's thinned samples as a file records them (`thinned_samples`,
+/// `thinned_within`, `requirement_confidence`), when it does.
+fn share_of(v: &serde_json::Value) -> Option<Share> {
+    Some(Share {
+        samples: v["thinned_samples"].as_u64()?,
+        within: v["thinned_within"].as_u64()?,
+        confidence: num(&v["requirement_confidence"])?,
+    })
+}
+
+/// The headline of a verdict: `what` (e.g. "Simulation") and the share's
+/// figures.
+fn headline(l: Level, what: &str, e: &Evidence) -> String {
+    let r = e.requirement_m;
+    match (l, e.share) {
+        (Level::Green, Some(s)) => format!(
+            "{what} meets the {r} m requirement with probability at least {} (95 % confidence)",
+            s.confidence
+        ),
+        (Level::Amber, Some(s)) if s.samples > 0 => format!(
+            "{what} keeps {:.2} % of the samples within {r} m, but that is not enough to be sure of {} (95 % confidence): run more",
+            100.0 * s.observed(),
+            s.confidence
+        ),
+        (Level::Red, Some(s)) => format!(
+            "{what} does not meet the {r} m requirement: {:.2} % of the samples within it, below {}",
+            100.0 * s.observed(),
+            s.confidence
+        ),
+        _ => format!("{what}: the rule cannot be applied to the {r} m requirement (figures missing)"),
+    }
+}
+
+/// The verdict of a simulation, under the stated rule (`summary.json`'s
+/// `requirement_rule`, written by `waymark simulate`).
 pub fn sim_verdict(s: &serde_json::Value) -> String {
     let (Some(r), Some(share)) = (
         num(&s["requirement_m"]),
@@ -42,31 +78,25 @@ pub fn sim_verdict(s: &serde_json::Value) -> String {
         );
     };
     let runs = s["runs"].as_u64().unwrap_or(1);
+    // The median run's maximum, as the summary and the plots pick it.
+    let median_run = super::folder::example_runs(&super::folder::per_run_max(s)).map(|(m, _)| m.1);
     let e = Evidence {
         requirement_m: r,
         runs,
         runs_exceeding: s["runs_exceeding_requirement"].as_u64(),
         max_error_m: num(&s["max_horizontal_error_m"]).unwrap_or(0.0),
+        median_run_max_m: median_run.filter(|_| runs > 1),
         share_within: share,
+        share: share_of(&s["requirement_rule"]),
     };
     let l = level(&e);
-    let head = match l {
-        Level::Green => format!("Simulation meets the {r} m requirement in every run"),
-        Level::Amber => format!(
-            "Simulation meets the {r} m requirement for {:.2} % of the time, but not in every run",
-            100.0 * share
-        ),
-        _ => format!(
-            "Simulation does not meet the {r} m requirement: {:.2} % of the time within it",
-            100.0 * share
-        ),
-    };
     let first = num(&s["time_to_exceed_requirement_s"])
-        .map(|t| format!(" First exceeded at {t:.0} s."))
+        .map(|t| format!(" First exceeded at {t:.0} s (earliest over the runs)."))
         .unwrap_or_default();
     format!(
-        "<p>{}</p><p class=\"figures\">Simulation: {}{first}</p>",
-        badge(l, &head),
+        "<p>{}</p><p class=\"figures\">Simulation, {runs} run(s): {} {}{first}</p>",
+        badge(l, &headline(l, "Simulation", &e)),
+        escape(share_text(&e)),
         escape(figures_text(&e, "time")),
     )
 }
@@ -88,6 +118,10 @@ pub fn plan_verdict(p: &serde_json::Value) -> String {
                     p["tolerate_missed_reads"].as_u64().unwrap_or(0)
                 ))
                 .unwrap_or_default()
+        ),
+        (None, true) if p["guarantee"]["statement"].is_string() => format!(
+            " Planned for traffic (chains of trips): {}.",
+            p["guarantee"]["statement"].as_str().unwrap_or_default()
         ),
         (None, true) => {
             let verified = p["verified"].as_bool() == Some(true);
@@ -112,30 +146,26 @@ pub fn plan_verdict(p: &serde_json::Value) -> String {
             let e = Evidence {
                 requirement_m: r,
                 runs,
-                runs_exceeding: v["runs_exceeding_requirement"].as_u64(),
+                // Route plans: runs_exceeding_requirement; area plans: runs_exceeding.
+                runs_exceeding: v["runs_exceeding_requirement"]
+                    .as_u64()
+                    .or(v["runs_exceeding"].as_u64()),
                 max_error_m: max,
+                median_run_max_m: num(&v["median_run_max_m"]),
                 share_within: share,
+                share: share_of(v),
             };
             let l = level(&e);
-            let head = match l {
-                Level::Green => format!("Plan validated: {n} new tag(s) keep every run within {r} m"),
-                Level::Amber => format!(
-                    "Plan validated for {:.2} % of the distance, but not in every run ({n} new tag(s), {r} m)",
-                    100.0 * share
-                ),
-                _ => format!(
-                    "Plan not validated: {:.2} % of the distance within {r} m ({n} new tag(s))",
-                    100.0 * share
-                ),
-            };
+            let head = headline(l, &format!("Plan of {n} new tag(s)"), &e);
             let paths = v["paths"]
                 .as_u64()
-                .map(|k| format!(" on {k} sampled path(s)"))
+                .map(|k| format!(" on {k} sampled chain(s) of trips"))
                 .unwrap_or_default();
             format!(
-                "<p>{}</p><p class=\"figures\">Validation by {runs} Monte Carlo run(s){paths}, seed {}: {}{}</p>",
+                "<p>{}</p><p class=\"figures\">Validation by {runs} Monte Carlo run(s){paths}, seed {}: {} {}{}</p>",
                 badge(l, &head),
                 v["seed"].as_u64().unwrap_or(0),
+                escape(share_text(&e)),
                 escape(figures_text(&e, "distance")),
                 escape(&predicted_text),
             )
@@ -154,7 +184,7 @@ pub fn plan_verdict(p: &serde_json::Value) -> String {
                 )
             };
             format!(
-                "<p>{}</p><p class=\"figures\">{}</p><p class=\"rule\">Rule: a plan is green only when a Monte Carlo validation keeps every run within the requirement; a prediction alone is amber at best (run waymark plan with --runs N).</p>",
+                "<p>{}</p><p class=\"figures\">{}</p><p class=\"rule\">Rule: a plan is green only when a Monte Carlo validation shows the requirement held with its confidence; a prediction alone is amber at best (run waymark plan with --runs N).</p>",
                 badge(l, &head),
                 escape(predicted_text.trim())
             )
@@ -162,13 +192,20 @@ pub fn plan_verdict(p: &serde_json::Value) -> String {
     }
 }
 
-/// The rule the verdicts follow, once for the page: of the distance (a
-/// plan's validation) and of the time (a simulation).
-pub fn rule() -> String {
+/// The rule the verdicts follow, once for the page, with the confidence
+/// `p` the verdicts used (from the files; the default 0.95 when none
+/// records it).
+pub fn rule(confidence: Option<f64>) -> String {
     format!(
         "<p class=\"rule\">{}</p>",
-        escape(rule_text("distance (plan validation) or time (simulation)"))
+        escape(rule_text(confidence.unwrap_or(0.95)))
     )
+}
+
+/// The confidence `p` a plan's validation or a simulation's rule used.
+pub fn confidence(plan: &serde_json::Value, summary: &serde_json::Value) -> Option<f64> {
+    num(&plan["validation"]["requirement_confidence"])
+        .or(num(&summary["requirement_rule"]["requirement_confidence"]))
 }
 
 /// Filter consistency: the run-averaged NEES against its band, and what it means.
@@ -370,14 +407,28 @@ fn validation_rows(
     push(
         rows,
         "runs exceeding the requirement",
-        v["runs_exceeding_requirement"].as_u64().or(none).map(|k| {
-            let n = v["runs"].as_u64().unwrap_or(0);
-            format!(
-                "{k} of {n} (chance per run ≤ {:.1} % at {:.0} % confidence)",
-                100.0 * upper_bound(k, n, CONFIDENCE),
-                100.0 * CONFIDENCE
-            )
-        }),
+        v["runs_exceeding_requirement"]
+            .as_u64()
+            .or(v["runs_exceeding"].as_u64())
+            .or(none)
+            .map(|k| {
+                let n = v["runs"].as_u64().unwrap_or(0);
+                format!(
+                    "{k} of {n} (chance per run ≤ {:.1} % at {:.0} % confidence)",
+                    100.0 * upper_bound(k, n, CONFIDENCE),
+                    100.0 * CONFIDENCE
+                )
+            }),
+    );
+    push(
+        rows,
+        "median of the per-run maxima",
+        num(&v["median_run_max_m"]).map(|m| format!("{m:.2} m")),
+    );
+    push(
+        rows,
+        "validation rule",
+        v["rule"].as_str().map(String::from),
     );
 }
 
@@ -457,21 +508,42 @@ pub fn network_table(
         "missed reads tolerated",
         p["tolerate_missed_reads"].as_u64().map(|k| k.to_string()),
     );
-    push(
-        &mut rows,
-        "walk check",
-        p["verified"].as_bool().map(|v| {
-            format!(
-                "{}; the longest walk with at most k passes uses {:.0} % of the budget",
-                if v {
-                    "verified: no walk exceeds the budget"
-                } else {
-                    "not verified"
-                },
-                100.0 * num(&p["longest_walk_budget"]).unwrap_or(0.0)
-            )
-        }),
-    );
+    let g = &p["guarantee"];
+    if g.is_object() {
+        // Traffic plans: a statistical certification on fresh chains of
+        // trips, not a check of every walk.
+        push(
+            &mut rows,
+            "certification",
+            g["statement"].as_str().map(|st| {
+                format!(
+                    "{} {st}; the worst certification chain uses {:.0} % of the error budget",
+                    if g["holds"].as_bool() == Some(true) {
+                        "holds:"
+                    } else {
+                        "DOES NOT HOLD:"
+                    },
+                    100.0 * num(&g["worst_chain_budget"]).unwrap_or(0.0)
+                )
+            }),
+        );
+    } else {
+        push(
+            &mut rows,
+            "walk check",
+            p["verified"].as_bool().map(|v| {
+                format!(
+                    "{}; the longest walk with at most k passes uses {:.0} % of the budget",
+                    if v {
+                        "verified: no walk exceeds the budget"
+                    } else {
+                        "not verified"
+                    },
+                    100.0 * num(&p["longest_walk_budget"]).unwrap_or(0.0)
+                )
+            }),
+        );
+    }
     if !bounds.is_empty() {
         let max = bounds.iter().map(|b| b.0).fold(0.0, f64::max);
         let r = num(&p["requirement_m"]).unwrap_or(f64::INFINITY);
@@ -513,26 +585,78 @@ pub fn network_table(
     );
     push(&mut rows, "method", p["method"].as_str().map(String::from));
     let mut html = table(&rows);
-    // Why tags are needed: the plan's reasons, counted.
-    let mut counts: std::collections::BTreeMap<&str, usize> = Default::default();
-    for r in tags
-        .iter()
-        .map(|t| t.reason.as_str())
-        .chain(reasons.iter().map(String::as_str))
-    {
-        if !r.is_empty() {
-            *counts.entry(r).or_default() += 1;
+    // Why tags are needed: the tags' reasons, and the road pieces' (from
+    // coverage.geojson), each grouped by their wording with the figures
+    // left out and counted.
+    let tag_reasons = group_reasons(tags.iter().map(|t| t.reason.as_str()));
+    if !tag_reasons.is_empty() {
+        let n = tags.iter().filter(|t| !t.reason.is_empty()).count();
+        let _ = write!(
+            html,
+            "<h3>Why tags are needed</h3><p class=\"figures\">{n} tag(s) by the plan's reason (figures such as lengths and speeds replaced by …; one example of each; every tag's own reason is in the tag table).</p>{}",
+            reasons_table(&tag_reasons)
+        );
+    }
+    let piece_reasons = group_reasons(reasons.iter().map(String::as_str));
+    if !piece_reasons.is_empty() {
+        let _ = write!(
+            html,
+            "<h3>Road pieces by reason</h3><p class=\"figures\">{} road piece(s) of <code>coverage.geojson</code>, by reason.</p>{}",
+            reasons.iter().filter(|r| !r.is_empty()).count(),
+            reasons_table(&piece_reasons)
+        );
+    }
+    html
+}
+
+/// Reasons grouped by their wording with each number replaced by "…":
+/// (the wording, count, one example), most frequent first.
+fn group_reasons<'a>(reasons: impl Iterator<Item = &'a str>) -> Vec<(String, usize, &'a str)> {
+    let mut groups: Vec<(String, usize, &'a str)> = Vec::new();
+    for r in reasons.filter(|r| !r.is_empty()) {
+        // Numbers out, except in arithmetic (the "k + 1" of a rule).
+        let mut key = String::with_capacity(r.len());
+        let mut number = String::new();
+        let flush = |key: &mut String, number: &mut String| {
+            if number.is_empty() {
+                return;
+            }
+            let arithmetic = key.trim_end().ends_with(['+', '-']);
+            key.push_str(if arithmetic { number.as_str() } else { "…" });
+            number.clear();
+        };
+        for c in r.chars() {
+            if c.is_ascii_digit() || (!number.is_empty() && c == '.') {
+                number.push(c);
+            } else {
+                flush(&mut key, &mut number);
+                key.push(c);
+            }
+        }
+        flush(&mut key, &mut number);
+        match groups.iter_mut().find(|g| g.0 == key) {
+            Some(g) => g.1 += 1,
+            None => groups.push((key, 1, r)),
         }
     }
-    if !counts.is_empty() {
-        html.push_str("<h3>Why tags are needed</h3><table class=\"kv\">");
-        let mut v: Vec<_> = counts.into_iter().collect();
-        v.sort_by_key(|b| std::cmp::Reverse(b.1));
-        for (reason, n) in v {
-            let _ = write!(html, "<tr><td>{n}</td><td>{}</td></tr>", escape(reason));
+    groups.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+    groups
+}
+
+fn reasons_table(groups: &[(String, usize, &str)]) -> String {
+    let mut html = String::from("<table class=\"kv reasons\">");
+    for (key, n, example) in groups {
+        let _ = write!(html, "<tr><td>{n}</td><td>{}", escape(key.as_str()));
+        if key != example {
+            let _ = write!(
+                html,
+                "<br><span class=\"figures\">e.g. {}</span>",
+                escape(*example)
+            );
         }
-        html.push_str("</table>");
+        html.push_str("</td></tr>");
     }
+    html.push_str("</table>");
     html
 }
 
@@ -591,4 +715,37 @@ pub fn notes(notes: &[String]) -> Option<String> {
     }
     html.push_str("</ul></section>");
     Some(html)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reasons_are_grouped_by_wording_without_their_figures() {
+        let g = group_reasons(
+            [
+                "tunnel; up to 1097 m driven without a tag (reach 1075 m at 10 km/h)",
+                "tunnel; up to 4619 m driven without a tag (reach 875 m at 5 km/h)",
+                "",
+                "any walk passes k + 1 tags",
+                "tunnel; 2.4 km without a tag",
+            ]
+            .into_iter(),
+        );
+        assert_eq!(g.len(), 3, "{g:?}");
+        assert_eq!(
+            g[0],
+            (
+                "tunnel; up to … m driven without a tag (reach … m at … km/h)".to_string(),
+                2,
+                "tunnel; up to 1097 m driven without a tag (reach 1075 m at 10 km/h)"
+            )
+        );
+        assert!(g.iter().any(|x| x.0 == "any walk passes k + 1 tags"));
+        assert!(g.iter().any(|x| x.0 == "tunnel; … km without a tag"));
+        let html = reasons_table(&g);
+        assert_eq!(html.matches("<tr>").count(), 3);
+        assert!(html.contains("e.g. tunnel; up to 1097 m"));
+    }
 }

@@ -35,6 +35,9 @@ pub struct SimulateOutcome {
     pub files: Vec<&'static str>,
     /// Whole job time (s).
     pub elapsed_s: f64,
+    /// The planner's validation rule on these runs, as `summary.json`'s
+    /// `requirement_rule` records it (`None` without a requirement).
+    pub requirement_rule: Option<serde_json::Value>,
 }
 
 /// Simulates `job.runs` runs of the scenario and writes `errors.csv`,
@@ -80,6 +83,17 @@ pub(super) fn simulate_loaded(
     }
     clear_outputs(job.out_dir, SIMULATION_OUTPUTS, false)?;
     output::write(job.out_dir, &result)?;
+    let rule = requirement_rule(&result, scn.planner().requirement_confidence);
+    if let Some(rule) = &rule {
+        // summary.json again, with the rule the report's verdict applies.
+        let mut v = serde_json::to_value(&result.summary)
+            .map_err(|e| Error::InvalidParameter(format!("summary: {e}")))?;
+        v["requirement_rule"] = rule.clone();
+        let path = job.out_dir.join("summary.json");
+        let json = serde_json::to_string_pretty(&v)
+            .map_err(|e| Error::InvalidParameter(format!("summary: {e}")))?;
+        crate::fsio::write_atomic(&path, json.as_bytes())?;
+    }
     keep_inputs(job.scenario, job.out_dir, job.tags)?;
     let mut files = vec!["errors.csv", "summary.json", "scenario.toml", "inputs.json"];
     files.extend(write_example_runs(job.out_dir, &result)?);
@@ -91,7 +105,40 @@ pub(super) fn simulate_loaded(
         out: job.out_dir.to_path_buf(),
         files,
         elapsed_s: t0.elapsed().as_secs_f64(),
+        requirement_rule: rule,
     })
+}
+
+/// The planner's validation rule applied to the simulated runs
+/// (`summary.json`'s `requirement_rule`): one horizontal error sample per
+/// [`THINNING_S`](crate::planner::network::THINNING_S) per run, as the
+/// route validation takes them, and the one-sided 95 % Clopper–Pearson
+/// lower bound of the share within the requirement against the
+/// requirement's confidence `conf`. `None` without a requirement.
+pub(super) fn requirement_rule(result: &SimResult, conf: f64) -> Option<serde_json::Value> {
+    use crate::planner::network::{share_rule, THINNING_S};
+    let req = result.summary.requirement_m?;
+    let (mut n, mut within) = (0usize, 0usize);
+    for r in &result.runs {
+        let mut next = 0.0;
+        for row in &r.rows {
+            if row.t_s >= next {
+                n += 1;
+                within += usize::from(row.horizontal_m <= req);
+                next += THINNING_S;
+            }
+        }
+    }
+    let (lower, passed, rule) = share_rule(within, n, req, conf);
+    Some(serde_json::json!({
+        "requirement_confidence": conf,
+        "thinning_s": THINNING_S,
+        "thinned_samples": n,
+        "thinned_within": within,
+        "share_lower_95": lower,
+        "passed": passed,
+        "rule": rule,
+    }))
 }
 
 /// With several runs, the runs the report plots: the median run by maximum
