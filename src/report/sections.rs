@@ -430,6 +430,23 @@ fn validation_rows(
         "validation rule",
         v["rule"].as_str().map(String::from),
     );
+    // any_walk plans: the walk DP's worst walks driven with their tags missed.
+    let d = &v["design_walks"];
+    push(
+        rows,
+        "worst walks (tags on them missed)",
+        (|| {
+            Some(format!(
+                "{} walk(s) × {} run(s): max horizontal error {:.2} m (walk {}); {} run(s) above the requirement; {}",
+                d["walks"].as_u64()?,
+                d["runs_per_walk"].as_u64()?,
+                num(&d["max_horizontal_error_m"])?,
+                d["worst_walk"].as_u64()?,
+                d["runs_exceeding"].as_u64()?,
+                d["rule"].as_str()?
+            ))
+        })(),
+    );
 }
 
 /// The area plan's table: tags, lower bound, reach, coverage, validation,
