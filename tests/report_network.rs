@@ -59,6 +59,22 @@ fn area_report_draws_every_tag_and_its_figures_and_the_coverage_when_given() {
     ] {
         assert!(html.contains(&format!("<th>{row}</th>")), "{row}");
     }
+    // An any_walk plan writes its coverage too (from the walk DP): one
+    // piece per directed road, the roads coloured.
+    let cov_file: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("coverage.geojson")).unwrap()).unwrap();
+    assert_eq!(
+        cov_file["features"].as_array().unwrap().len(),
+        plan["directed_edges"].as_u64().unwrap() as usize
+    );
+    assert!(!html.contains("coverage.geojson is absent"));
+    assert!(html.contains("class=\"coverage\""));
+    // Its worst walks, driven with their tags missed, are in the table.
+    assert!(html.contains("<th>worst walks (tags on them missed)</th>"));
+    // Without the file the page says the roads are grey.
+    std::fs::remove_file(out.join("coverage.geojson")).unwrap();
+    ok(&bin(&["report", o]));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("coverage.geojson is absent"));
     assert!(!html.contains("class=\"coverage\""));
     // The verdict under the planner's rule, from the validation's figures
