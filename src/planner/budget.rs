@@ -16,7 +16,6 @@ use crate::nav::Filter;
 use crate::network::Network;
 use crate::scenario::Scenario;
 use crate::sim::covariance::PerfectData;
-
 use crate::sim::tags::Mounting;
 use crate::sim::TruthSource;
 use crate::trajectory::{ideal_imu, TruthSample};
