@@ -305,9 +305,12 @@ impl Covariance {
                 .axpy(x, &self.p.column(k as usize), 1.0);
         }
         // Φ P Φ^T = Φ D = (D^T Φ^T)^T with D^T = Φ P (P symmetric); the
-        // result is symmetric, so E + E A^T with E = D^T.
-        let e = d.transpose();
-        let mut c = e;
+        // result is symmetric, so E + E A^T with E = D^T, accumulated in
+        // place in P (P is no longer needed: two matrix copies fewer than
+        // with a separate result, the same operations in the same order).
+        d.transpose_to(&mut self.p);
+        let e = self.p;
+        let c = &mut self.p;
         for &(i, k, x) in a {
             c.column_mut(i as usize).axpy(x, &e.column(k as usize), 1.0);
         }
@@ -322,7 +325,6 @@ impl Covariance {
                 c[(j, i)] = s;
             }
         }
-        self.p = c;
     }
 
     /// P H^T (skipping H's zero entries) and the innovation covariance

@@ -6,7 +6,7 @@
 
 use super::budget::Budget;
 use super::forward;
-use super::placement::{place_lazy, place_with, Candidate, Placement};
+use super::placement::{place_lazy_with_end, place_with, Candidate, Placement};
 use super::plan::{Plan, PlannedTag};
 use super::settings::{site_speed_mps, Coverage, PlannerSettings};
 use super::validation::{robust_with_progress, validate_plan};
@@ -294,7 +294,9 @@ pub fn plan_with_stages(
         .collect();
     // The tag-free reaches, each computed when the placement's search first
     // needs it (a filter run per site).
-    let tag_free = budget.lazy_reaches(&sites, &mountings, req, Some(&tag_free_tick));
+    let tag_free = budget
+        .lazy_reaches(&sites, &mountings, req, Some(&tag_free_tick))
+        .certifying();
     let start_reach = budget.start_reach(req);
     let at_m: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
     let k = settings.tolerate_missed_reads;
@@ -308,11 +310,12 @@ pub fn plan_with_stages(
              requirement at the start of the route"
         )));
     }
-    let placed = place_lazy(
+    let placed = place_lazy_with_end(
         length,
         start_reach,
         &at_m,
         &|i| tag_free.get(i).1,
+        &|i| tag_free.reaches_end(i),
         &is_existing,
         k,
         settings.min_spacing_m,
@@ -320,6 +323,7 @@ pub fn plan_with_stages(
     phase("tag-free reaches and placement");
     tracing::debug!(
         computed = tag_free.computed(),
+        shown_short = tag_free.certified(),
         sites = sites.len(),
         "tag-free reaches computed"
     );
@@ -432,7 +436,17 @@ pub fn plan_with_stages(
         })
         .collect();
     let mut forward_used = false;
-    let fw = forward::forward_greedy(&budget, &fwd_sites, k, req, settings.min_spacing_m, k + 1);
+    // Without installed tags, a route the start does not cover needs at
+    // least k + 1 new tags whatever the plan (see the lower bound below):
+    // a plan with that many cannot be bettered, so the forward walk, kept
+    // only when it needs fewer, is not run.
+    let trivial = if start_reach >= length { 0 } else { k + 1 };
+    let at_trivial = !is_existing.iter().any(|&e| e) && new_count(&chosen) == trivial;
+    let fw = if at_trivial {
+        Placement::Feasible(chosen.clone())
+    } else {
+        forward::forward_greedy(&budget, &fwd_sites, k, req, settings.min_spacing_m, k + 1)
+    };
     phase("forward placement");
     if let Placement::Feasible(c3) = fw {
         if new_count(&c3) < new_count(&chosen) {
@@ -464,7 +478,6 @@ pub fn plan_with_stages(
     // whatever is read. A plan with exactly that many is minimal, and the
     // placement on the optimistic reaches (below) finds the same count, as
     // it lies between this bound and any feasible plan's; so it is skipped.
-    let trivial = if start_reach >= length { 0 } else { k + 1 };
     let lower_bound = if !is_existing.iter().any(|&e| e) && new_count(&chosen) == trivial {
         trivial
     } else {
@@ -476,13 +489,17 @@ pub fn plan_with_stages(
         let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
         let (_, opt_sites) = budget.snapshots(&all, settings.candidate_spacing_m, &at);
         if opt_sites.len() == sites.len() {
-            let r = budget.lazy_reaches(&opt_sites, &mountings, req, Some(&optimistic_tick));
+            // Each site's snapshot has read a tag at every earlier site.
+            let r = budget
+                .lazy_reaches(&opt_sites, &mountings, req, Some(&optimistic_tick))
+                .certifying();
             let opt_at: Vec<f64> = opt_sites.iter().map(|s| s.distance_m).collect();
-            match place_lazy(
+            match place_lazy_with_end(
                 length,
                 start_reach,
                 &opt_at,
                 &|i| r.get(i).1,
+                &|i| r.reaches_end(i),
                 &is_existing,
                 k,
                 settings.min_spacing_m,
@@ -497,27 +514,38 @@ pub fn plan_with_stages(
     phase("lower bound");
     // Each chosen tag's bound after its fix and reach, from the plan's own
     // filter (every planned tag read).
-    let mut chosen_reach: Vec<(f64, f64)> = chosen
+    let fixes: Vec<(usize, Mounting)> = chosen
         .iter()
-        .map(|&i| {
-            refined_reaches
-                .as_ref()
-                .map_or_else(|| tag_free.get(i), |r| r[i])
-        })
+        .map(|&i| (sites[i].sample, mountings[i]))
         .collect();
-    {
-        let fixes: Vec<(usize, Mounting)> = chosen
+    // The plan's profile, and its filter at each chosen site (before the
+    // fix there), in one all-read pass; `Budget::snapshots` and
+    // `Budget::with_fixes` step and fix the filter the same way except for
+    // a fix at the first sample (applied before the first step by the
+    // latter, after it by the former), so that case keeps its own pass.
+    let at: Vec<f64> = chosen.iter().map(|&i| sites[i].distance_m).collect();
+    let all = budget.all_read(&fixes, settings.candidate_spacing_m, &at);
+    let own = if fixes.iter().all(|f| f.0 > 0) {
+        all.sites
+    } else {
+        budget
+            .snapshots(&fixes, settings.candidate_spacing_m, &at)
+            .1
+    };
+    let with = all.profile;
+    let chosen_reach: Vec<(f64, f64)> = if own.len() == chosen.len() {
+        let m: Vec<Mounting> = chosen.iter().map(|&i| mountings[i]).collect();
+        budget.reaches(&own, &m, req)
+    } else {
+        chosen
             .iter()
-            .map(|&i| (sites[i].sample, mountings[i]))
-            .collect();
-        let at: Vec<f64> = chosen.iter().map(|&i| sites[i].distance_m).collect();
-        let (_, own) = budget.snapshots(&fixes, settings.candidate_spacing_m, &at);
-        if own.len() == chosen.len() {
-            let m: Vec<Mounting> = chosen.iter().map(|&i| mountings[i]).collect();
-            let r = budget.reaches(&own, &m, req);
-            chosen_reach = r;
-        }
-    }
+            .map(|&i| {
+                refined_reaches
+                    .as_ref()
+                    .map_or_else(|| tag_free.get(i), |r| r[i])
+            })
+            .collect()
+    };
     let mut tags = Vec::with_capacity(chosen.len());
     let mut n_new = 0;
     for (n, &i) in chosen.iter().enumerate() {
@@ -563,11 +591,6 @@ pub fn plan_with_stages(
         prev = t.route_distance_m;
     }
     max_gap = max_gap.max(length - prev);
-    let fixes: Vec<(usize, Mounting)> = chosen
-        .iter()
-        .map(|&i| (sites[i].sample, mountings[i]))
-        .collect();
-    let with = budget.with_fixes(&fixes, settings.candidate_spacing_m);
     phase("plan's reaches and profile");
     let predicted = with.iter().map(|p| p.bound95_m).fold(0.0, f64::max);
     let total_cost = tags

@@ -135,6 +135,17 @@ impl<'a> PerfectData<'a> {
         self
     }
 
+    /// Whether a propagation started at a truth sample goes through the
+    /// very same updates as one started earlier and carried on through
+    /// that sample: true without a map-matching feed (which restarts with
+    /// each propagation) and without odometer readings (the first reading
+    /// after a start counts only the distance since the start, while the
+    /// filter compares it with its own interval). The constraints, the
+    /// barometer and the fixes are on the drive's own schedule.
+    pub fn restart_invariant(&self) -> bool {
+        self.network.is_none() && !self.aid_odometer
+    }
+
     /// A filter on the truth `avp` with the scenario's prior.
     pub fn filter_at(&self, avp: &Avp) -> Filter {
         Filter::new(avp.state, avp.t, self.dt, self.cfg)
