@@ -257,8 +257,11 @@ mod tests {
             assert!(m <= 1.0 + 1e-9, "{c:?}");
             assert!(c.budget_with_tags <= m + 1e-9 && m <= c.budget_without_tags.max(m));
             assert!(c.passes.is_none() && !c.reason.is_empty());
+            // A budget within 1 reads as a bound within the requirement
+            // (profile interpolation: 1 cm).
             assert!(
-                c.bound_missed_m.is_some_and(|b| b <= s.requirement_m + 0.5),
+                c.bound_missed_m
+                    .is_some_and(|b| b <= s.requirement_m + 0.01),
                 "{c:?}"
             );
         }

@@ -20,6 +20,22 @@ use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::time::Instant;
 
+/// Where a bound profile (distance m, bound m) first reaches `req`
+/// (interpolated), if it does.
+fn profile_crossing(prof: &[(f64, f64)], req: f64) -> Option<f64> {
+    let i = prof.iter().position(|x| x.1 >= req)?;
+    if i == 0 {
+        return Some(prof[0].0);
+    }
+    let (a, b) = (prof[i - 1], prof[i]);
+    let t = if b.1 > a.1 {
+        (req - a.1) / (b.1 - a.1)
+    } else {
+        0.0
+    };
+    Some(a.0 + t * (b.0 - a.0))
+}
+
 /// Plans network coverage for a scenario: loads its map, computes the
 /// reach, places tags, and validates with `validation_runs` Monte Carlo runs
 /// when `validate`.
@@ -338,7 +354,13 @@ pub fn plan_network_on(
         .map(|e| {
             let (v, r) = class_of(e);
             let prof = profiles.get(&key(v / 3.6)).map(Vec::as_slice).unwrap_or(&[]);
-            let bound = |b: f64| Some(profile_bound(prof, b * r)).filter(|x| x.is_finite());
+            // The budget is a fraction of the class's reach; read the bound
+            // at the same fraction of the profile's own crossing of the
+            // requirement (the profile's calibration drive can cross a few
+            // per cent from the reach's), so that a budget of 1 reads as the
+            // requirement.
+            let d_req = profile_crossing(prof, req).unwrap_or(r);
+            let bound = |b: f64| Some(profile_bound(prof, b * d_req)).filter(|x| x.is_finite());
             let (sec, fwd) = built.edge_dir[e];
             let without = wb.without[e];
             let reason = if without <= 1.0 {
