@@ -875,7 +875,7 @@ fn area_plans_take_terrain_heights() {
                 repo("maps/helsinki.osm.pbf").display()
             ),
         )
-        .replace("validation_runs = 100", "validation_runs = 0");
+        .replace("validation_runs = 100", "validation_runs = 2");
     std::fs::write(d.join("area.toml"), text).unwrap();
     let out = run(&["plan", "area.toml", "--out", "out", "-q"], d);
     assert!(
@@ -920,4 +920,10 @@ fn area_plans_take_terrain_heights() {
         .lines()
         .skip(1)
         .all(|l| l.split(',').nth(3) == Some("0.00")));
+    // The validation drove the terrain with the tags at these heights:
+    // its chains and the worst walks pass.
+    assert!(why.contains("validation drove the same terrain"), "{why}");
+    let v = &plan["validation"];
+    assert_eq!(v["passed"], true, "{v}");
+    assert_eq!(v["design_walks"]["passed"], true, "{v}");
 }

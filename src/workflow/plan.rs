@@ -370,6 +370,9 @@ fn network_plan_folder(
     let mut plan = plan_network_on(scn, settings, &net)?;
     plan.timings_ms.insert("load".into(), load_ms);
     let plan_time_s = t0.elapsed().as_secs_f64();
+    // Terrain heights first: the validation drives the same terrain and
+    // its tag fixes carry these heights.
+    let terrain = terrain_heights(scn, &net, &mut plan)?;
     if settings.validation_runs > 0 {
         progress.note(&format!(
             "waymark plan: validating {} tag(s) by {} Monte Carlo run(s) on fresh chains of trips",
@@ -385,7 +388,6 @@ fn network_plan_folder(
         )?);
     }
     super::finite::check_network_plan(job.scenario, &plan)?;
-    let terrain = terrain_heights(scn, &net, &mut plan)?;
     let (recs, mut meta) = plan.export(scn)?;
     if let Some(why) = terrain {
         meta.heights_known = true;
@@ -428,9 +430,10 @@ fn network_plan_folder(
 /// road's at the tag's section and offset (the DEM's there, tunnels and
 /// bridges interpolated between their ends: [`NetworkHeights`]); returns
 /// what the metadata says of it, `None` without an elevation model. The
-/// plan's validation runs before, on level roads as the planner's reach
-/// analysis does: tags and truth then agree in height, which the filter's
-/// tag fixes need.
+/// plan's validation runs after, on the same terrain (its drives follow
+/// the elevation model), so tags and truth agree in height, which the
+/// filter's tag fixes need; the planner's reach analysis drives level
+/// roads.
 fn terrain_heights(
     scn: &Scenario,
     net: &crate::network::Network,
@@ -455,7 +458,7 @@ fn terrain_heights(
     Ok(Some(format!(
         "the terrain's, from the elevation model {} (bilinear at the road's centre line \
          beside each tag; tunnels and bridges interpolated between their ends); the plan's \
-         validation drove level roads",
+         validation drove the same terrain",
         dem.describe()
     )))
 }

@@ -4,7 +4,9 @@
 //! (or the shift, when shorter), the runs shared between them, each run
 //! with the planned tags of the directions its chain drives, read with the
 //! scenario's read probability, and the scenario's map errors (a fresh map
-//! error field per run when map matching is on).
+//! error field per run when map matching is on), over the terrain of the
+//! scenario's elevation model when it has one (tags then carry its heights:
+//! the plan command assigns them before validating).
 //!
 //! # The rule (what "within the requirement" means)
 //!
@@ -22,12 +24,13 @@
 use super::settings::map_route;
 use super::trips::{clopper_pearson_lower, sample_chains};
 use super::types::{DesignWalkValidation, NetworkPlan, NetworkValidation};
+use crate::elevation::Dem;
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::route::{plan_route_points, route_from_pieces};
 use crate::scenario::Scenario;
 use crate::sim::{simulate_with, TruthSource};
-use crate::trajectory::{RoutePlan, SpeedProfile};
+use crate::trajectory::{route_heights, RoutePlan, SpeedProfile};
 use std::collections::HashSet;
 
 /// One error sample per run every this many seconds for the share's
@@ -49,6 +52,29 @@ pub fn share_rule(within: usize, n: usize, req: f64, conf: f64) -> (f64, bool, S
     );
     (lower, passed, rule)
 }
+/// The scenario's elevation model, if it has one.
+fn open_dem(scn: &Scenario) -> Result<Option<Dem>> {
+    if scn.elevation.is_empty() {
+        Ok(None)
+    } else {
+        Dem::open(&scn.elevation).map(Some)
+    }
+}
+
+/// A validation drive on the terrain (`[map] elevation`), as a route
+/// plan's simulation drives it; level at the map's height without one.
+fn terrain(
+    rp: RoutePlan,
+    net: &Network,
+    route: &crate::route::Route,
+    dem: Option<&Dem>,
+) -> Result<RoutePlan> {
+    match dem {
+        Some(d) => Ok(rp.with_heights(&route_heights(net, route, d)?)),
+        None => Ok(rp),
+    }
+}
+
 /// Driving per validation chain (s), unless the shift is shorter.
 pub const VALIDATION_CHAIN_S: f64 = 3600.0;
 
@@ -68,6 +94,7 @@ pub fn validate_network_plan(
         ));
     };
     let p = scn.planner();
+    let dem = open_dem(scn)?;
     let n_chains = p.validation_chains.min(runs.max(1) as usize).max(1);
     let per_chain = runs.max(1).div_ceil(n_chains as u64);
     let shift = p.shift_s.min(VALIDATION_CHAIN_S);
@@ -97,7 +124,12 @@ pub fn validate_network_plan(
         let route = plan_route_points(net, &chain.points)?;
         let start = route.vertices.first().map_or([0.0, 0.0], |v| v.lat_lon);
         let located = scn.located_at(start);
-        let rp = RoutePlan::new(net, &route, &profile, &[], height_m, scn.dt)?;
+        let rp = terrain(
+            RoutePlan::new(net, &route, &profile, &[], height_m, scn.dt)?,
+            net,
+            &route,
+            dem.as_ref(),
+        )?;
         let dirs: HashSet<(SectionId, bool)> = route
             .spans
             .iter()
@@ -239,6 +271,7 @@ fn validate_design_walks(
         return Ok(None);
     }
     let (_, _, height_m) = map_route(scn)?;
+    let dem = open_dem(scn)?;
     let n = plan.design_walks.len();
     let per_walk = runs.div_ceil(n as u64).max(MIN_RUNS_PER_WALK);
     let profile = SpeedProfile {
@@ -254,7 +287,12 @@ fn validate_design_walks(
         let mut located = scn.located_at(w.start_lat_lon);
         located.rfid.read_probability = 1.0;
         located.rfid.read_probability_by_mounting = [None; 3];
-        let rp = RoutePlan::new(net, &route, &profile, &[], height_m, scn.dt)?;
+        let rp = terrain(
+            RoutePlan::new(net, &route, &profile, &[], height_m, scn.dt)?,
+            net,
+            &route,
+            dem.as_ref(),
+        )?;
         let dirs: HashSet<(SectionId, bool)> = route
             .spans
             .iter()
