@@ -100,6 +100,7 @@ pub struct PerfectData<'a> {
     network: Option<&'a Network>,
     rfid: RfidModel,
     map_error: crate::scenario::MapErrorModel,
+    lanes: crate::scenario::LaneModel,
 }
 
 impl<'a> PerfectData<'a> {
@@ -119,6 +120,7 @@ impl<'a> PerfectData<'a> {
             network: None,
             rfid: scn.rfid,
             map_error: scn.map_error,
+            lanes: scn.lanes,
         }
     }
 
@@ -157,8 +159,10 @@ impl<'a> PerfectData<'a> {
         Propagation {
             data: self,
             // The truth drives on the map's geometry; the fixes carry the
-            // scenario's map-error noise model (issue 12), so the predicted
-            // covariance is the navigator's on an erroneous map.
+            // scenario's map-error noise model (issue 12) and its lanes'
+            // (the lane choice and wander as noise, as the simulator's
+            // navigator feeds them), so the predicted covariance is the
+            // navigator's on an erroneous map, driving in its lane.
             feed: self.network.map(|n| {
                 MapFeed::with_noise_model(
                     n,
@@ -166,6 +170,7 @@ impl<'a> PerfectData<'a> {
                     self.map_error.sigma_m,
                     self.map_error.correlation_m,
                 )
+                .with_lanes(self.lanes)
             }),
             odo_acc: 0.0,
             last_d: distance_m,
