@@ -115,7 +115,7 @@ pub(super) fn route_tag_reasons(
             };
             format!(
                 "{anchor} holds the {requirement_m:.0} m bound to {} (reach {:.0} m); \
-                 {misses} must stand within it: this is #{pos}, at {:.0} m, {within}; {own}",
+                 {misses} must stand within it: this is #{pos}, at {:.0} m along the route, {within}; {own}",
                 to(reach),
                 (reach.min(length_m) - at).max(0.0),
                 t.route_distance_m,
@@ -331,12 +331,12 @@ mod tests {
             r[0]
         );
         assert!(
-            r[0].contains("this is #1, at 1000 m, within it"),
+            r[0].contains("this is #1, at 1000 m along the route, within it"),
             "{}",
             r[0]
         );
         assert!(
-            r[1].contains("this is #2, at 1400 m, within it"),
+            r[1].contains("this is #2, at 1400 m along the route, within it"),
             "{}",
             r[1]
         );
@@ -348,7 +348,11 @@ mod tests {
             "{}",
             r[2]
         );
-        assert!(r[2].contains("#2, at 2500 m, within it"), "{}", r[2]);
+        assert!(
+            r[2].contains("#2, at 2500 m along the route, within it"),
+            "{}",
+            r[2]
+        );
         assert!(
             r[2].ends_with("holds the bound to the route's end (5000 m)"),
             "{}",
@@ -371,7 +375,9 @@ mod tests {
         assert!(
             tags[1].reason.starts_with(
                 "the fix at T1 (900 m, 72 km/h) holds the 10 m bound to 2000 m (reach 1100 m)"
-            ) && tags[1].reason.contains("at 2100 m, past it"),
+            ) && tags[1]
+                .reason
+                .contains("at 2100 m along the route, past it"),
             "{}",
             tags[1].reason
         );
