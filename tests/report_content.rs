@@ -269,6 +269,18 @@ fn report_of_a_plan_folder_shows_the_map_profile_summary_and_verdict() {
     let table = &html[html.find("id=\"tag-table\"").unwrap()..];
     let body = &table[table.find("<tbody>").unwrap()..table.find("</tbody>").unwrap()];
     assert_eq!(body.matches("<tr").count() as u64, n);
+    // Each tag's reason (plan.json, tags.csv), in its own column.
+    assert!(table[..table.find("</thead>").unwrap()].contains("<th>reason</th>"));
+    assert_eq!(
+        body.matches("m bound to ").count() as u64,
+        n,
+        "one reason per row"
+    );
+    for t in plan["tags"].as_array().unwrap() {
+        let reason = t["reason"].as_str().unwrap();
+        let figure = &reason[..reason.find(" (reach").unwrap()];
+        assert!(body.contains(figure), "{figure}");
+    }
     assert!(html.contains("Heights: none (no [map] elevation)"));
     assert!(!html.contains("<h2>Summary</h2>"), "no simulation here");
     assert!(out.join("plots/plan_profile.png").exists());

@@ -127,7 +127,7 @@ impl Plan {
                 // Tags within one window of k+1 consecutive tags back each other up.
                 redundancy_group: Some((i / (self.tolerate_missed_reads + 1)) as u32),
                 payload_hex: Some(payload),
-                reason: None,
+                reason: Some(t.reason.clone()),
             });
         }
         let on_map = matches!(scn.route, RouteKind::Map { .. });

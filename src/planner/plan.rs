@@ -44,6 +44,87 @@ pub struct PlannedTag {
     pub bound_after_fix_m: f64,
     /// Route distance up to which the bound holds after this fix (m).
     pub reach_m: f64,
+    /// Why the tag is there, with its figures ([`route_tag_reasons`]).
+    pub reason: String,
+}
+
+/// Each tag's reason, from the figures the placement worked with: the
+/// constraint of docs/DESIGN.md §3 (placement.rs) is that after any fix
+/// (or the start, on the prior) the next `k + 1` tags stand within its
+/// reach, so a tag's reason names the fix `k + 1` tags back (its anchor:
+/// the start for the first `k + 1` tags), that fix's reach, and where the
+/// tag stands in that reach; then what the tag's own fix gives. Installed
+/// tags say so. `speeds_mps[i]` is the vehicle's speed at tag `i`.
+pub(super) fn route_tag_reasons(
+    tags: &mut [PlannedTag],
+    speeds_mps: &[f64],
+    start_reach_m: f64,
+    length_m: f64,
+    requirement_m: f64,
+    k: usize,
+) {
+    let to = |e: f64| {
+        if e >= length_m - 1e-6 {
+            format!("the route's end ({length_m:.0} m)")
+        } else {
+            format!("{e:.0} m")
+        }
+    };
+    let reasons: Vec<String> = (0..tags.len())
+        .map(|j| {
+            let t = &tags[j];
+            let own = format!(
+                "its fix (bound {:.2} m) holds the bound to {}",
+                t.bound_after_fix_m,
+                to(t.reach_m)
+            );
+            if t.existing {
+                return format!("installed already; {own}");
+            }
+            let (anchor, at, reach, pos) = match j.checked_sub(k + 1) {
+                None => (
+                    "the start (the prior)".to_string(),
+                    0.0,
+                    start_reach_m,
+                    j + 1,
+                ),
+                Some(a) => (
+                    format!(
+                        "the fix at {} ({:.0} m, {:.0} km/h)",
+                        tags[a].tag_id,
+                        tags[a].route_distance_m,
+                        speeds_mps.get(a).copied().unwrap_or(f64::NAN) * 3.6
+                    ),
+                    tags[a].route_distance_m,
+                    tags[a].reach_m,
+                    k + 1,
+                ),
+            };
+            let within = if t.route_distance_m <= reach + 1e-6 {
+                "within it"
+            } else {
+                "past it"
+            };
+            let misses = if k == 0 {
+                "with no missed read tolerated, the next tag".to_string()
+            } else {
+                format!(
+                    "with {k} missed read(s) tolerated, each of the next {} tags",
+                    k + 1
+                )
+            };
+            format!(
+                "{anchor} holds the {requirement_m:.0} m bound to {} (reach {:.0} m); \
+                 {misses} must stand within it: this is #{pos}, at {:.0} m along the route, {within}; {own}",
+                to(reach),
+                (reach.min(length_m) - at).max(0.0),
+                t.route_distance_m,
+            )
+        })
+        .collect();
+    for (t, r) in tags.iter_mut().zip(reasons) {
+        t.reason = r;
+    }
 }
 
 pub(super) fn ser_mounting<S: serde::Serializer>(
@@ -202,5 +283,103 @@ impl Plan {
                 lane_width_m: t.lane_width_m,
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tag(id: &str, at: f64, reach: f64, existing: bool) -> PlannedTag {
+        PlannedTag {
+            tag_id: id.into(),
+            lat: 0.0,
+            lon: 0.0,
+            height_m: 0.0,
+            route_distance_m: at,
+            road_chainage_m: None,
+            t_s: 0.0,
+            mounting: Mounting::RoadSurface,
+            expected_fix_sigma_m: 0.5,
+            road_id: None,
+            existing,
+            tunnel: false,
+            lane_width_m: None,
+            digitised_forward: None,
+            bound_after_fix_m: 0.5,
+            reach_m: reach,
+            reason: String::new(),
+        }
+    }
+
+    #[test]
+    fn reasons_name_the_fix_k_plus_1_back_and_its_reach() {
+        // k = 1 on a 5000 m route, start reach 1500 m: T1 and T2 are the two
+        // tags within the start's reach; T3 is anchored on T1 (reach 2600 m
+        // = 1600 m past 1000 m), the installed X4 says so.
+        let mut tags = vec![
+            tag("T1", 1000.0, 2600.0, false),
+            tag("T2", 1400.0, 3000.0, false),
+            tag("T3", 2500.0, 5000.0, false),
+            tag("X4", 2900.0, 5000.0, true),
+        ];
+        route_tag_reasons(&mut tags, &[10.0; 4], 1500.0, 5000.0, 20.0, 1);
+        let r: Vec<&str> = tags.iter().map(|t| t.reason.as_str()).collect();
+        assert!(
+            r[0].starts_with("the start (the prior) holds the 20 m bound to 1500 m (reach 1500 m)"),
+            "{}",
+            r[0]
+        );
+        assert!(
+            r[0].contains("this is #1, at 1000 m along the route, within it"),
+            "{}",
+            r[0]
+        );
+        assert!(
+            r[1].contains("this is #2, at 1400 m along the route, within it"),
+            "{}",
+            r[1]
+        );
+        assert!(r[1].contains("each of the next 2 tags"), "{}", r[1]);
+        assert!(
+            r[2].starts_with(
+                "the fix at T1 (1000 m, 36 km/h) holds the 20 m bound to 2600 m (reach 1600 m)"
+            ),
+            "{}",
+            r[2]
+        );
+        assert!(
+            r[2].contains("#2, at 2500 m along the route, within it"),
+            "{}",
+            r[2]
+        );
+        assert!(
+            r[2].ends_with("holds the bound to the route's end (5000 m)"),
+            "{}",
+            r[2]
+        );
+        assert!(r[3].starts_with("installed already; "), "{}", r[3]);
+    }
+
+    #[test]
+    fn without_missed_reads_the_anchor_is_the_previous_fix() {
+        let mut tags = vec![
+            tag("T1", 900.0, 2000.0, false),
+            tag("T2", 2100.0, 3000.0, false),
+        ];
+        route_tag_reasons(&mut tags, &[20.0; 2], 1000.0, 3000.0, 10.0, 0);
+        assert!(tags[0]
+            .reason
+            .contains("with no missed read tolerated, the next tag"));
+        // A tag past its anchor's reach is reported as such, not hidden.
+        assert!(
+            tags[1].reason.starts_with(
+                "the fix at T1 (900 m, 72 km/h) holds the 10 m bound to 2000 m (reach 1100 m)"
+            ) && tags[1]
+                .reason
+                .contains("at 2100 m along the route, past it"),
+            "{}",
+            tags[1].reason
+        );
     }
 }

@@ -547,6 +547,7 @@ pub fn plan_with_stages(
             .collect()
     };
     let mut tags = Vec::with_capacity(chosen.len());
+    let mut speeds = Vec::with_capacity(chosen.len());
     let mut n_new = 0;
     for (n, &i) in chosen.iter().enumerate() {
         let s = &sites[i];
@@ -557,6 +558,7 @@ pub fn plan_with_stages(
         }
         let road = ctx.as_ref().map(|c| c.at(s.distance_m));
         let speed = site_speed_mps(a.state.v[0].hypot(a.state.v[1]), road);
+        speeds.push(speed);
         let lane = budget.lane_width_at(s.sample);
         let (sa, sc) = scn
             .rfid
@@ -582,8 +584,10 @@ pub fn plan_with_stages(
             }),
             bound_after_fix_m: chosen_reach[n].0,
             reach_m: chosen_reach[n].1,
+            reason: String::new(),
         });
     }
+    super::plan::route_tag_reasons(&mut tags, &speeds, start_reach, length, req, k);
     let mut max_gap: f64 = 0.0;
     let mut prev = 0.0;
     for t in &tags {
