@@ -465,6 +465,28 @@ pub fn straight_profile(
     Ok(run(scn, &truth, 0.0, req, p, None, true, false)?.profile)
 }
 
+/// [`straight_profile`] of every speed class in `speeds` (keys in
+/// (km/h)/100), run in parallel.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn straight_profiles(
+    scn: &Scenario,
+    lat_deg: f64,
+    lon_deg: f64,
+    height_m: f64,
+    speeds: &BTreeSet<u64>,
+    req: f64,
+    p: f64,
+) -> Result<BTreeMap<u64, Vec<(f64, f64)>>> {
+    use rayon::prelude::*;
+    speeds
+        .par_iter()
+        .map(|&s| {
+            straight_profile(scn, lat_deg, lon_deg, height_m, s as f64 / 360.0, req, p)
+                .map(|prof| (s, prof))
+        })
+        .collect()
+}
+
 /// [`MatchedReach::bound_after`] on a bare profile.
 pub fn profile_bound(p: &[(f64, f64)], d: f64) -> f64 {
     if p.is_empty() {

@@ -6,7 +6,7 @@ use super::cover::{self, Solved, Walk};
 use super::coverage::EdgeCoverage;
 use super::ilp::{self, IlpLimits, IlpOutcome};
 use super::instance::{build, classes_in_use, describe_walk, speed_key};
-use super::mm_reach::{profile_bound, straight_profile};
+use super::mm_reach::{profile_bound, straight_profiles};
 use super::reach::{reach_class, ReachClass};
 use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::NetworkPlan;
@@ -120,7 +120,7 @@ pub fn plan_network_on(
         scn.aiding().map_matching && scn.navigator().mode == crate::scenario::NavMode::Integrated;
     let mut matched: Vec<super::mm_reach::MatchedReach> = Vec::new();
     let mut reach_classes: Vec<ReachClass> = Vec::new();
-    let mut profiles: BTreeMap<u64, Vec<(f64, f64)>> = BTreeMap::new();
+    let profiles: BTreeMap<u64, Vec<(f64, f64)>>;
     let (steady, start);
     if mm {
         // Map matching credited (docs/DESIGN.md §3.4): the matched reach per
@@ -185,14 +185,7 @@ pub fn plan_network_on(
         }
         let conf = scn.planner().requirement_confidence;
         let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
-        let sp: Vec<(u64, Vec<(f64, f64)>)> = speeds
-            .par_iter()
-            .map(|&s| {
-                straight_profile(scn, lat0, lon0, height_m, s as f64 / 360.0, req, conf)
-                    .map(|p| (s, p))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        profiles.extend(sp);
+        profiles = straight_profiles(scn, lat0, lon0, height_m, &speeds, req, conf)?;
     }
     timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
     let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);

@@ -5,7 +5,7 @@
 
 use super::coverage::edge_budgets;
 use super::instance::{classes_in_use, speed_key, Built};
-use super::mm_reach::{matched_classes, profile_bound, straight_profile, MatchedReach, TURN_DEG};
+use super::mm_reach::{matched_classes, profile_bound, straight_profiles, MatchedReach, TURN_DEG};
 use super::reach::{reach_class, ReachClass};
 use super::tag_sites::tags_of;
 use super::traffic::{Destinations, EdgeModel, WindowInfo};
@@ -105,7 +105,7 @@ pub(super) fn plan_network_trips(
     let origin = net.frame.origin();
     let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
-    let mut profiles: BTreeMap<u64, Vec<(f64, f64)>> = BTreeMap::new();
+    let profiles: BTreeMap<u64, Vec<(f64, f64)>>;
     let mut matched: Vec<MatchedReach> = Vec::new();
     let mut class_curve: BTreeMap<u64, f64> = BTreeMap::new();
     let mut reach_classes: Vec<ReachClass> = Vec::new();
@@ -124,14 +124,7 @@ pub(super) fn plan_network_trips(
             let r = class_reach.entry(speed_key(v)).or_insert(f64::INFINITY);
             *r = r.min(c.steady_reach_m.min(c.start_reach_m));
         }
-        let sp: Vec<(u64, Vec<(f64, f64)>)> = speeds
-            .par_iter()
-            .map(|&s| {
-                straight_profile(scn, lat0, lon0, height_m, s as f64 / 360.0, req, conf)
-                    .map(|p| (s, p))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        profiles.extend(sp);
+        profiles = straight_profiles(scn, lat0, lon0, height_m, &speeds, req, conf)?;
     }
     timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
     let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);

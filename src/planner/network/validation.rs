@@ -61,18 +61,29 @@ fn open_dem(scn: &Scenario) -> Result<Option<Dem>> {
     }
 }
 
-/// A validation drive on the terrain (`[map] elevation`), as a route
-/// plan's simulation drives it; level at the map's height without one.
-fn terrain(
-    rp: RoutePlan,
+/// A validation drive along `route`: its plan on the terrain (`[map]
+/// elevation`, as a route plan's simulation drives it; level at the map's
+/// height without one) and the directed sections it drives (whose tags
+/// take part).
+fn drive(
     net: &Network,
     route: &crate::route::Route,
+    profile: &SpeedProfile,
+    height_m: f64,
+    dt: f64,
     dem: Option<&Dem>,
-) -> Result<RoutePlan> {
-    match dem {
-        Some(d) => Ok(rp.with_heights(&route_heights(net, route, d)?)),
-        None => Ok(rp),
-    }
+) -> Result<(RoutePlan, HashSet<(SectionId, bool)>)> {
+    let rp = RoutePlan::new(net, route, profile, &[], height_m, dt)?;
+    let rp = match dem {
+        Some(d) => rp.with_heights(&route_heights(net, route, d)?),
+        None => rp,
+    };
+    let dirs = route
+        .spans
+        .iter()
+        .map(|s| (s.section.section, s.section.forward))
+        .collect();
+    Ok((rp, dirs))
 }
 
 /// Driving per validation chain (s), unless the shift is shorter.
@@ -124,17 +135,7 @@ pub fn validate_network_plan(
         let route = plan_route_points(net, &chain.points)?;
         let start = route.vertices.first().map_or([0.0, 0.0], |v| v.lat_lon);
         let located = scn.located_at(start);
-        let rp = terrain(
-            RoutePlan::new(net, &route, &profile, &[], height_m, scn.dt)?,
-            net,
-            &route,
-            dem.as_ref(),
-        )?;
-        let dirs: HashSet<(SectionId, bool)> = route
-            .spans
-            .iter()
-            .map(|s| (s.section.section, s.section.forward))
-            .collect();
+        let (rp, dirs) = drive(net, &route, &profile, height_m, scn.dt, dem.as_ref())?;
         let tags = plan.sim_tags(Some(&dirs));
         length += route.length_m;
         let truth = TruthSource::from_route(std::sync::Arc::clone(net), route, rp);
@@ -287,17 +288,7 @@ fn validate_design_walks(
         let mut located = scn.located_at(w.start_lat_lon);
         located.rfid.read_probability = 1.0;
         located.rfid.read_probability_by_mounting = [None; 3];
-        let rp = terrain(
-            RoutePlan::new(net, &route, &profile, &[], height_m, scn.dt)?,
-            net,
-            &route,
-            dem.as_ref(),
-        )?;
-        let dirs: HashSet<(SectionId, bool)> = route
-            .spans
-            .iter()
-            .map(|s| (s.section.section, s.section.forward))
-            .collect();
+        let (rp, dirs) = drive(net, &route, &profile, height_m, scn.dt, dem.as_ref())?;
         let tags: Vec<_> = plan
             .sim_tags(Some(&dirs))
             .into_iter()
