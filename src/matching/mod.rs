@@ -31,7 +31,7 @@ pub mod track;
 
 pub use hmm::{HmmMatcher, HmmParams};
 pub use incremental::{IncrementalMatcher, IncrementalParams};
-pub use paths::{MatrixScratch, NetworkDistances, OnSection, PairScratch};
+pub use paths::{MatrixScratch, NetworkDistances, OnSection};
 pub use synthetic::{along_route, route_truth, SyntheticTrack, TrackModel};
 
 use crate::network::geometry::{closest_on_segment, coord, norm};

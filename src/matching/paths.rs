@@ -128,50 +128,6 @@ impl MatrixScratch {
     }
 }
 
-/// Route distances between directed points looked up one pair at a time,
-/// on demand ([`NetworkDistances::prepare_pairs`],
-/// [`NetworkDistances::pair_distance`]): the HMM asks only for the pairs
-/// its bounds cannot rule out, so a search runs only from the exit nodes
-/// of predecessors some pair of which is asked for, and each distinct exit
-/// node × entry node is looked up at most once. The values are those of
-/// [`NetworkDistances::point_distance_matrix`].
-#[derive(Debug, Default)]
-pub struct PairScratch {
-    /// Distinct exit nodes of the sources, entry nodes of the targets.
-    xs: Vec<NodeId>,
-    es: Vec<NodeId>,
-    /// Whether the search from each exit node is cached to the bound.
-    ready: Vec<bool>,
-    /// Distance and first section by exit node × entry node; `None`: not
-    /// looked up yet.
-    table: Vec<Option<Option<(f64, u32)>>>,
-    /// Each source's exit (node slot, cost), each target's entry.
-    exits: Vec<Option<(u32, f64)>>,
-    entries: Vec<Option<(u32, f64)>>,
-    from: Vec<OnSection>,
-    to: Vec<OnSection>,
-    bound_m: f64,
-    backtrack_m: f64,
-}
-
-impl PairScratch {
-    /// Space for `n` sources and `n` targets.
-    pub fn with_capacity(n: usize) -> Self {
-        Self {
-            xs: Vec::with_capacity(n),
-            es: Vec::with_capacity(n),
-            ready: Vec::with_capacity(n),
-            table: Vec::with_capacity(n * n),
-            exits: Vec::with_capacity(n),
-            entries: Vec::with_capacity(n),
-            from: Vec::with_capacity(n),
-            to: Vec::with_capacity(n),
-            bound_m: 0.0,
-            backtrack_m: 0.0,
-        }
-    }
-}
-
 /// Cached bounded shortest-path distances on one network.
 #[derive(Debug)]
 pub struct NetworkDistances<'a> {
@@ -220,23 +176,16 @@ impl<'a> NetworkDistances<'a> {
 
     /// Makes sure distances from `from` up to at least `bound_m` are cached.
     pub fn ensure(&mut self, from: NodeId, bound_m: f64) {
-        self.ensure_emptied(from, bound_m);
-    }
-
-    /// [`Self::ensure`]; true when the cache was emptied to make room (the
-    /// searches from other nodes are gone).
-    fn ensure_emptied(&mut self, from: NodeId, bound_m: f64) -> bool {
         if let Some(t) = self.cache.get(&from) {
             if t.bound >= bound_m {
-                return false;
+                return;
             }
         }
         let mut bound = MIN_BOUND_M;
         while bound < bound_m {
             bound *= 2.0;
         }
-        let emptied = self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES;
-        if emptied {
+        if self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES {
             self.cache.clear();
             self.entries = 0;
         }
@@ -245,7 +194,6 @@ impl<'a> NetworkDistances<'a> {
         if let Some(old) = self.cache.insert(from, tree) {
             self.entries -= old.reached.len();
         }
-        emptied
     }
 
     fn search(&mut self, from: NodeId, bound: f64) -> Tree {
@@ -497,100 +445,6 @@ impl<'a> NetworkDistances<'a> {
                 out.push(best);
             }
         }
-    }
-
-    /// Prepares [`Self::pair_distance`] from each of `from` to each of `to`
-    /// (directed points: `forward` given), with searches bounded by
-    /// `bound_m`; nothing is searched or looked up yet.
-    pub fn prepare_pairs(
-        &self,
-        from: &[OnSection],
-        to: &[OnSection],
-        bound_m: f64,
-        backtrack_m: f64,
-        scratch: &mut PairScratch,
-    ) {
-        let slot = |v: &mut Vec<NodeId>, n: NodeId| match v.iter().position(|&m| m == n) {
-            Some(i) => i as u32,
-            None => {
-                v.push(n);
-                (v.len() - 1) as u32
-            }
-        };
-        let s = scratch;
-        s.xs.clear();
-        s.es.clear();
-        s.exits.clear();
-        s.entries.clear();
-        for &a in from {
-            let [x0, x1] = self.exits(a);
-            s.exits
-                .push(x0.or(x1).map(|(n, c)| (slot(&mut s.xs, n), c)));
-        }
-        for &b in to {
-            let [e0, e1] = self.entries(b);
-            s.entries
-                .push(e0.or(e1).map(|(n, c, _)| (slot(&mut s.es, n), c)));
-        }
-        s.ready.clear();
-        s.ready.resize(s.xs.len(), false);
-        s.table.clear();
-        s.table.resize(s.xs.len() * s.es.len(), None);
-        s.from.clear();
-        s.from.extend_from_slice(from);
-        s.to.clear();
-        s.to.extend_from_slice(to);
-        s.bound_m = bound_m;
-        s.backtrack_m = backtrack_m;
-    }
-
-    /// The shortest permitted distance from source `i` to target `k` of
-    /// [`Self::prepare_pairs`] (the value [`Self::point_distance_cached`]
-    /// gives once the source's exit is searched to the bound), searching
-    /// from the source's exit node first if needed.
-    pub fn pair_distance(&mut self, s: &mut PairScratch, i: usize, k: usize) -> Option<f64> {
-        let (a, b) = (s.from[i], s.to[k]);
-        debug_assert!(a.forward.is_some() && b.forward.is_some());
-        let mut best = if a.section == b.section {
-            self.along_section(a, b, s.backtrack_m)
-        } else {
-            None
-        };
-        let (Some((xi, xc)), Some((ei, ec))) = (s.exits[i], s.entries[k]) else {
-            return best;
-        };
-        let (xi, ei) = (xi as usize, ei as usize);
-        let cell = xi * s.es.len() + ei;
-        let found = match s.table[cell] {
-            Some(found) => found,
-            None => {
-                let xn = s.xs[xi];
-                if !s.ready[xi] {
-                    if self.ensure_emptied(xn, s.bound_m) {
-                        // The cache was emptied for this search: the other
-                        // exits' searches are gone (their looked-up cells
-                        // stay valid: a search's distances within the bound
-                        // do not depend on when it runs).
-                        s.ready.iter_mut().for_each(|r| *r = false);
-                    }
-                    s.ready[xi] = true;
-                }
-                let found = self
-                    .cache
-                    .get(&xn)
-                    .and_then(|t| t.reached.get(&s.es[ei]))
-                    .map(|&(d, _, first)| (d, first));
-                s.table[cell] = Some(found);
-                found
-            }
-        };
-        if let Some((d, first)) = found {
-            let total = xc + d + ec + self.uturn(a, b, s.xs[xi], s.es[ei], first);
-            if best.is_none_or(|b| total < b) {
-                best = Some(total);
-            }
-        }
-        best
     }
 
     /// The shortest permitted path from `a` to `b` within `bound_m`, as pieces

@@ -28,18 +28,18 @@ impl HmmMatcher<'_> {
         let mut nearest = std::mem::take(&mut self.near_buf);
         nearest.clear();
         for &seg in &self.seg_buf {
-            let (t, q, dist) = project(net, seg, corrected);
+            let (t, _, dist) = project(net, seg, corrected);
             let section = net.segments[seg as usize].section;
             match nearest.iter_mut().find(|n| n.0 == section) {
                 Some(n) => {
                     if dist < n.2 {
-                        *n = (section, seg, dist, t, q);
+                        *n = (section, seg, dist, t);
                     }
                 }
-                None => nearest.push((section, seg, dist, t, q)),
+                None => nearest.push((section, seg, dist, t)),
             }
         }
-        for &(section, seg, _, t, pt) in &nearest {
+        for &(section, seg, _, t) in &nearest {
             let s = &net.segments[seg as usize];
             let line = Line::of(net, seg);
             let base = emission(&line, fix.enu, d, r2).log_p;
@@ -67,7 +67,6 @@ impl HmmMatcher<'_> {
                         offset_m,
                         forward: Some(forward),
                     },
-                    pt,
                     emission: base + h,
                     heading: h,
                     dir: [sign * line.u[0], sign * line.u[1]],

@@ -28,18 +28,7 @@ impl Drift {
     /// the covariance never exceeds the prior's and the mean relaxes to
     /// zero where nothing is observed, so no estimate can run away.
     pub(super) fn predict(&self, ds_m: f64, corr_m: f64, sigma_m: f64) -> Self {
-        self.predict_by(Self::decay(ds_m, corr_m), sigma_m)
-    }
-
-    /// The factor φ of [`Self::predict`] over `ds_m` metres (one `exp` for
-    /// every estimate predicted over the same distance).
-    pub(super) fn decay(ds_m: f64, corr_m: f64) -> f64 {
-        (-ds_m.max(0.0) / corr_m).exp()
-    }
-
-    /// [`Self::predict`] given its factor φ ([`Self::decay`]).
-    #[inline]
-    pub(super) fn predict_by(&self, phi: f64, sigma_m: f64) -> Self {
+        let phi = (-ds_m.max(0.0) / corr_m).exp();
         let (f2, q) = (phi * phi, sigma_m * sigma_m * (1.0 - phi * phi));
         Drift {
             mean: [phi * self.mean[0], phi * self.mean[1]],
@@ -89,46 +78,6 @@ pub(super) struct Emission {
 /// uncertain does not gain from that uncertainty.
 #[inline]
 pub(super) fn emission(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Emission {
-    let q = emission_quad(line, raw, d, r2);
-    Emission {
-        log_p: q.finish(r2),
-        normal: q.normal,
-        nu: q.nu,
-        s: q.s,
-    }
-}
-
-/// An emission without its log-determinant term: `quad` is the
-/// log-likelihood's quadratic part (−½ ν²/S, and the overshoot's), so that
-/// the log-likelihood is `quad − ½ ln(S/r²)` ([`Quad::finish`]) and at most
-/// [`Quad::bound`], which needs no logarithm.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Quad {
-    pub(super) quad: f64,
-    pub(super) normal: [f64; 2],
-    pub(super) nu: f64,
-    pub(super) s: f64,
-}
-
-impl Quad {
-    /// The log-likelihood (the same arithmetic as a single expression
-    /// would do).
-    #[inline]
-    pub(super) fn finish(&self, r2: f64) -> f64 {
-        self.quad - 0.5 * (self.s / r2).ln()
-    }
-
-    /// An upper bound of the log-likelihood without a logarithm: with x =
-    /// S/r² ≥ 1, ln x ≥ 1 − 1/x, so −½ ln x ≤ −½ (1 − r²/S).
-    #[inline]
-    pub(super) fn bound(&self, r2: f64) -> f64 {
-        self.quad - 0.5 * (1.0 - r2 / self.s)
-    }
-}
-
-/// [`emission`] up to its logarithm ([`Quad`]).
-#[inline]
-pub(super) fn emission_quad(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Quad {
     let u = line.u;
     let n = [-u[1], u[0]];
     let rel = [
@@ -145,13 +94,13 @@ pub(super) fn emission_quad(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Q
         0.0
     };
     let s_n = d.var(n) + r2;
-    let quad = if over == 0.0 {
+    let log_p = if over == 0.0 {
         -0.5 * across * across / s_n
     } else {
         -0.5 * (across * across / s_n + over * over / (d.var(u) + r2))
-    };
-    Quad {
-        quad,
+    } - 0.5 * (s_n / r2).ln();
+    Emission {
+        log_p,
         normal: n,
         nu: across,
         s: s_n,

@@ -30,16 +30,13 @@ pub struct HmmMatcher<'a> {
     pub(super) drift: Drift,
     pub(super) drift_at: Option<[f64; 2]>,
     pub(super) seg_buf: Vec<SegmentId>,
-    pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64, [f64; 2])>,
+    pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
     pub(super) post_buf: Vec<f64>,
     /// The backward pass's two vectors.
     pub(super) beta_bufs: [Vec<f64>; 2],
     pub(super) pred_buf: Vec<Drift>,
     pub(super) spare: Vec<Step>,
     pub(super) trans_buf: super::state::TransBuf,
-    /// Skip the transition pairs that bounds rule out (see
-    /// [`super::transitions`]); false: evaluate every pair.
-    pub(super) prune: bool,
 }
 
 impl<'a> HmmMatcher<'a> {
@@ -79,16 +76,7 @@ impl<'a> HmmMatcher<'a> {
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
             trans_buf: super::state::TransBuf::with_capacity(params.max_candidates),
-            prune: true,
         }
-    }
-
-    /// The same matcher evaluating every predecessor × candidate pair of
-    /// every step, without the pruning by bounds: the same path and points
-    /// (and confidences within 1e-6), more slowly. For checking the pruning.
-    pub fn exhaustive(mut self) -> Self {
-        self.prune = false;
-        self
     }
 
     /// The matcher's cached network searches (for the complete path, whose

@@ -1,8 +1,8 @@
 //! The Viterbi state: a candidate (one section and direction of travel)
 //! and a step of the lag window.
 
-use super::drift::{Drift, Line, Quad};
-use crate::matching::paths::{OnSection, PairScratch};
+use super::drift::{Drift, Emission, Line};
+use crate::matching::paths::{MatrixScratch, OnSection};
 use crate::matching::Fix;
 use crate::network::{RoadId, SegmentId};
 
@@ -11,8 +11,6 @@ pub(super) struct Cand {
     pub(super) seg: SegmentId,
     pub(super) line: Line,
     pub(super) at: OnSection,
-    /// The state's point on its segment (ENU, m).
-    pub(super) pt: [f64; 2],
     /// Emission under the common drift (candidate ranking, chain starts).
     pub(super) emission: f64,
     /// The heading part of the emission.
@@ -59,20 +57,13 @@ pub(super) struct TransBuf {
     /// The predecessors' and the candidates' points.
     pub(super) from: Vec<OnSection>,
     pub(super) at: Vec<OnSection>,
-    /// Route distances, looked up pair by pair.
-    pub(super) pairs: PairScratch,
+    pub(super) scratch: MatrixScratch,
+    /// Route distances, predecessor-major.
+    pub(super) dist: Vec<Option<f64>>,
     /// For each candidate, an earlier one on the same segment (or `u32::MAX`).
     pub(super) twin: Vec<u32>,
-    /// Emissions computed, candidate-major: the quadratic part, and the
-    /// log-likelihood (NaN when not computed).
-    pub(super) em: Vec<Option<(Quad, f64)>>,
-    /// Factors of the pair weights given without their logarithm term
-    /// (1 for the others), predecessor-major.
-    pub(super) scale: Vec<f64>,
-    /// The predecessors by decreasing Viterbi score (ties by index).
-    pub(super) order: Vec<u32>,
-    /// The predecessors' log forward probabilities.
-    pub(super) log_alpha: Vec<f64>,
+    /// Emissions computed, candidate-major.
+    pub(super) em: Vec<Option<Emission>>,
 }
 
 impl TransBuf {
@@ -81,12 +72,10 @@ impl TransBuf {
         Self {
             from: Vec::with_capacity(n),
             at: Vec::with_capacity(n),
-            pairs: PairScratch::with_capacity(n),
+            scratch: MatrixScratch::with_capacity(n),
+            dist: Vec::with_capacity(n * n),
             twin: Vec::with_capacity(n),
             em: Vec::with_capacity(n * n),
-            scale: Vec::with_capacity(n * n),
-            order: Vec::with_capacity(n),
-            log_alpha: Vec::with_capacity(n),
         }
     }
 }
