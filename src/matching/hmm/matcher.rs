@@ -79,6 +79,24 @@ impl<'a> HmmMatcher<'a> {
         }
     }
 
+    /// Makes this matcher a fresh one with `params` for the next track
+    /// (what [`Self::with_distances`] gives with this matcher's network
+    /// searches), keeping its buffers: a file of many short tracks does not
+    /// allocate them again for each.
+    pub fn restart(&mut self, params: HmmParams) {
+        self.params = params;
+        self.paths.uturn_penalty_m = params.uturn_penalty_m;
+        self.spare.extend(self.window.drain(..));
+        self.index = 0;
+        self.last_fix = None;
+        self.last_step_pos = None;
+        self.pending_break = None;
+        self.last_matched = None;
+        self.breaks.clear();
+        self.drift = Drift::prior(params.drift_sigma_m);
+        self.drift_at = None;
+    }
+
     /// The matcher's cached network searches (for the complete path, whose
     /// joins are mostly the transitions the matcher already searched).
     pub fn distances_mut(&mut self) -> &mut NetworkDistances<'a> {

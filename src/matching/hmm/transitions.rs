@@ -1,7 +1,7 @@
 //! Transitions: the Viterbi recursion with per-survivor drift estimates,
 //! and the forward–backward smoothing over the lag window.
 
-use super::drift::{emission, Emission};
+use super::drift::{emission, Drift, Emission};
 use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::{normalise, softmax_into};
@@ -29,7 +29,12 @@ impl HmmMatcher<'_> {
         let mut preds = std::mem::take(&mut self.pred_buf);
         preds.clear();
         let prev = self.window.back().expect("a previous step");
-        preds.extend(prev.cands.iter().map(|p| self.predict(&p.drift, gc)));
+        let phi = Drift::decay(gc, self.params.drift_correlation_m.max(1e-6));
+        preds.extend(
+            prev.cands
+                .iter()
+                .map(|p| p.drift.predict_by(phi, self.params.drift_sigma_m)),
+        );
         let track = self.params.track_drift;
         let mut any = false;
         step.score.clear();
