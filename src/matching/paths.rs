@@ -495,10 +495,18 @@ impl<'a> NetworkDistances<'a> {
         }
         let ne = es.len();
         out.clear();
-        for (&a, &(xi, xc)) in from.iter().zip(exit1.iter()) {
+        out.resize(from.len() * to.len(), None);
+        if to.is_empty() {
+            return;
+        }
+        for ((&a, &(xi, xc)), cells) in from
+            .iter()
+            .zip(exit1.iter())
+            .zip(out.chunks_exact_mut(to.len()))
+        {
             let row = &table[xi as usize * ne..(xi as usize + 1) * ne];
             let xn = xs[xi as usize];
-            for (&b, &(ei, ec)) in to.iter().zip(entry1.iter()) {
+            for ((&b, &(ei, ec)), cell) in to.iter().zip(entry1.iter()).zip(cells) {
                 let mut best = if a.section == b.section {
                     self.along_section(a, b, backtrack_m)
                 } else {
@@ -510,7 +518,7 @@ impl<'a> NetworkDistances<'a> {
                         best = Some(total);
                     }
                 }
-                out.push(best);
+                *cell = best;
             }
         }
     }
