@@ -4,7 +4,7 @@
 use super::drift::{emission, Drift};
 use super::geometry::{clamp_to_range, dist, nearest_on_pieces, with_raw};
 use super::params::{route_bound, HmmParams};
-use super::probability::{argmax, softmax_into};
+use super::probability::{argmax, normalise, softmax_into};
 use super::state::Step;
 use crate::matching::paths::NetworkDistances;
 use crate::matching::{matched_on, Break, BreakReason, Fix, MatchState, MatchedPoint, Matcher};
@@ -40,6 +40,10 @@ pub struct HmmMatcher<'a> {
     pub(super) pred_buf: Vec<Drift>,
     pub(super) spare: Vec<Step>,
     pub(super) trans_buf: super::state::TransBuf,
+    /// The back-traced choices; every step's backward vector, one after
+    /// another, and where each starts (a flush's single backward pass).
+    pub(super) choice_buf: Vec<u32>,
+    pub(super) beta_flat: (Vec<f64>, Vec<usize>),
 }
 
 impl<'a> HmmMatcher<'a> {
@@ -81,6 +85,8 @@ impl<'a> HmmMatcher<'a> {
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
             trans_buf: super::state::TransBuf::with_capacity(params.max_candidates),
+            choice_buf: Vec::with_capacity(params.lag + 1),
+            beta_flat: (Vec::new(), Vec::new()),
         }
     }
 
@@ -163,19 +169,18 @@ impl<'a> HmmMatcher<'a> {
     }
 
     /// Decides and emits the oldest step (given its choice and the next step's).
-    /// `posterior`: the front step's smoothed posterior when already known
-    /// (a flush computes every step's in one backward pass).
+    /// `known`: the front step's smoothed posterior is already in
+    /// `post_buf` (a flush computes every step's in one backward pass).
     fn emit_front(
         &mut self,
         choice: u32,
         next_choice: Option<u32>,
-        posterior: Option<Vec<f64>>,
+        known: bool,
         out: &mut Vec<MatchedPoint>,
     ) {
         let mut post = std::mem::take(&mut self.post_buf);
-        match posterior {
-            Some(p) => post = p,
-            None => self.front_posterior(&mut post),
+        if !known {
+            self.front_posterior(&mut post);
         }
         let step = self.window.pop_front().expect("a step");
         let net = self.net;
@@ -252,13 +257,25 @@ impl<'a> HmmMatcher<'a> {
         if self.window.is_empty() {
             return;
         }
-        let mut ch = Vec::new();
+        let mut ch = std::mem::take(&mut self.choice_buf);
         self.choices(self.window.len(), &mut ch);
-        let posts = self.window_posteriors();
-        for (i, post) in posts.into_iter().enumerate() {
+        let (betas, at) = self.window_betas();
+        for i in 0..ch.len() {
+            // The posterior of step i, now at the window's front.
+            let front = self.window.front().expect("a step");
+            let beta = &betas[at[i]..at[i] + front.cands.len()];
+            let mut post = std::mem::take(&mut self.post_buf);
+            post.clear();
+            post.extend(front.alpha.iter().zip(beta).map(|(a, b)| a * b));
+            if !normalise(&mut post) {
+                softmax_into(&front.score, &mut post);
+            }
+            self.post_buf = post;
             let next = ch.get(i + 1).copied();
-            self.emit_front(ch[i], next, Some(post), out);
+            self.emit_front(ch[i], next, true, out);
         }
+        self.beta_flat = (betas, at);
+        self.choice_buf = ch;
     }
 
     fn start_chain(&mut self, reason: Option<BreakReason>, index: u64, t_s: f64) {
@@ -388,9 +405,10 @@ impl Matcher for HmmMatcher<'_> {
         self.drift_at = Some(fix.enu);
         self.window.push_back(step);
         if self.window.len() > self.params.lag {
-            let mut ch = Vec::with_capacity(2);
+            let mut ch = std::mem::take(&mut self.choice_buf);
             self.choices(2, &mut ch);
-            self.emit_front(ch[0], ch.get(1).copied(), None, out);
+            self.emit_front(ch[0], ch.get(1).copied(), false, out);
+            self.choice_buf = ch;
         }
     }
 
