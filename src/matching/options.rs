@@ -161,3 +161,43 @@ fn nearest_road_m(net: &Network, p: [f64; 2], max_m: f64, buf: &mut Vec<u32>) ->
         r = (4.0 * r).min(max_m);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The grid's nearest road is the R-tree's, at the same distance, up to
+    /// the cut-off; beyond it, none.
+    #[test]
+    fn nearest_road_from_the_grid_equals_the_r_trees() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
+        let net = Network::load(&path, &Default::default()).unwrap();
+        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+        for sg in &net.segments {
+            for q in [sg.a, sg.b] {
+                (x0, y0) = (x0.min(q[0]), y0.min(q[1]));
+                (x1, y1) = (x1.max(q[0]), y1.max(q[1]));
+            }
+        }
+        let mut buf = Vec::new();
+        let (mut near, mut far) = (0, 0);
+        for i in 0..=40 {
+            for j in 0..=40 {
+                // Beyond the map's box too (up to a fifth of it each side).
+                let p = [
+                    x0 + (x1 - x0) * (-0.2 + 1.4 * f64::from(i) / 40.0),
+                    y0 + (y1 - y0) * (-0.2 + 1.4 * f64::from(j) / 40.0),
+                ];
+                let want = net.rtree.nearest(p).map(|(_, d)| d).filter(|d| *d <= 60.0);
+                let got = nearest_road_m(&net, p, 60.0, &mut buf);
+                assert_eq!(got, want, "{p:?}");
+                if got.is_some() {
+                    near += 1;
+                } else {
+                    far += 1;
+                }
+            }
+        }
+        assert!(near > 100 && far > 100, "{near} {far}");
+    }
+}

@@ -632,6 +632,66 @@ mod tests {
             .unwrap()
     }
 
+    /// The matrix (its directed fast path, and the general one with
+    /// undirected points) gives each pair's [`NetworkDistances::point_distance_cached`].
+    #[test]
+    fn distance_matrix_equals_the_pairwise_distances() {
+        let net = block();
+        let mut p = NetworkDistances::new(&net);
+        p.uturn_penalty_m = 300.0;
+        let mut points = Vec::new();
+        for s in 0..net.sections.len() as u32 {
+            let len = net.sections[s as usize].length_m;
+            for off in [0.0, 0.3 * len, 0.8 * len, len] {
+                for forward in [Some(true), Some(false), None] {
+                    let ok = match forward {
+                        Some(f) => {
+                            let o = net.sections[s as usize].oneway;
+                            if f {
+                                o.allows_forward()
+                            } else {
+                                o.allows_backward()
+                            }
+                        }
+                        None => true,
+                    };
+                    if ok {
+                        points.push(OnSection {
+                            section: s,
+                            offset_m: off,
+                            forward,
+                        });
+                    }
+                }
+            }
+        }
+        for a in &points {
+            for (n, _) in p.exits(*a).into_iter().flatten() {
+                p.ensure(n, 1000.0);
+            }
+        }
+        let directed: Vec<OnSection> = points
+            .iter()
+            .copied()
+            .filter(|q| q.forward.is_some())
+            .collect();
+        let mut scratch = MatrixScratch::with_capacity(4);
+        let mut out = Vec::new();
+        let mut reached = 0;
+        for set in [&directed, &points] {
+            p.point_distance_matrix(set, set, 15.0, &mut scratch, &mut out);
+            assert_eq!(out.len(), set.len() * set.len());
+            for (i, a) in set.iter().enumerate() {
+                for (k, b) in set.iter().enumerate() {
+                    let want = p.point_distance_cached(*a, *b, 15.0);
+                    assert_eq!(out[i * set.len() + k], want, "{a:?} -> {b:?}");
+                    reached += usize::from(want.is_some());
+                }
+            }
+        }
+        assert!(reached > directed.len() * directed.len() / 2, "{reached}");
+    }
+
     #[test]
     fn distances_honour_one_way_and_direction() {
         let net = block();
