@@ -113,6 +113,9 @@ pub struct MatrixScratch {
     /// Each source's exits (node slot, cost), each target's entries.
     exits: Vec<[Option<(u32, f64)>; 2]>,
     entries: Vec<[Option<(u32, f64)>; 2]>,
+    /// Directed points: each source's one exit, each target's one entry.
+    exit1: Vec<(u32, f64)>,
+    entry1: Vec<(u32, f64)>,
 }
 
 impl MatrixScratch {
@@ -124,6 +127,8 @@ impl MatrixScratch {
             table: Vec::with_capacity(4 * n * n),
             exits: Vec::with_capacity(n),
             entries: Vec::with_capacity(n),
+            exit1: Vec::with_capacity(n),
+            entry1: Vec::with_capacity(n),
         }
     }
 }
@@ -370,12 +375,17 @@ impl<'a> NetworkDistances<'a> {
         scratch: &mut MatrixScratch,
         out: &mut Vec<Option<f64>>,
     ) {
+        if from.iter().chain(to).all(|p| p.forward.is_some()) {
+            self.directed_distance_matrix(from, to, backtrack_m, scratch, out);
+            return;
+        }
         let MatrixScratch {
             xs,
             es,
             table,
             exits,
             entries,
+            ..
         } = scratch;
         let slot = |v: &mut Vec<NodeId>, n: NodeId| match v.iter().position(|&m| m == n) {
             Some(i) => i as u32,
@@ -404,30 +414,6 @@ impl<'a> NetworkDistances<'a> {
         }
         let ne = es.len();
         out.clear();
-        if from.iter().chain(to).all(|p| p.forward.is_some()) {
-            // Directed points (the HMM's states): one exit and one entry each.
-            for (&a, ex) in from.iter().zip(exits.iter()) {
-                let ex = ex[0].or(ex[1]);
-                for (&b, en) in to.iter().zip(entries.iter()) {
-                    let mut best = if a.section == b.section {
-                        self.along_section(a, b, backtrack_m)
-                    } else {
-                        None
-                    };
-                    if let (Some((xi, xc)), Some((ei, ec))) = (ex, en[0].or(en[1])) {
-                        if let Some((d, first)) = table[xi as usize * ne + ei as usize] {
-                            let (xn, en) = (xs[xi as usize], es[ei as usize]);
-                            let total = xc + d + ec + self.uturn(a, b, xn, en, first);
-                            if best.is_none_or(|b| total < b) {
-                                best = Some(total);
-                            }
-                        }
-                    }
-                    out.push(best);
-                }
-            }
-            return;
-        }
         for (&a, ex) in from.iter().zip(exits.iter()) {
             for (&b, en) in to.iter().zip(entries.iter()) {
                 let mut best = self.along_section(a, b, backtrack_m);
@@ -443,6 +429,96 @@ impl<'a> NetworkDistances<'a> {
                     }
                 }
                 out.push(best);
+            }
+        }
+    }
+
+    /// [`Self::point_distance_matrix`] for directed points (the HMM's
+    /// states): one exit node and one entry node each, so the network part
+    /// of a pair is one table cell.
+    fn directed_distance_matrix(
+        &self,
+        from: &[OnSection],
+        to: &[OnSection],
+        backtrack_m: f64,
+        scratch: &mut MatrixScratch,
+        out: &mut Vec<Option<f64>>,
+    ) {
+        let MatrixScratch {
+            xs,
+            es,
+            table,
+            exit1,
+            entry1,
+            ..
+        } = scratch;
+        let slot = |v: &mut Vec<NodeId>, n: NodeId| match v.iter().position(|&m| m == n) {
+            Some(i) => i as u32,
+            None => {
+                v.push(n);
+                (v.len() - 1) as u32
+            }
+        };
+        let sections = &self.net.sections;
+        xs.clear();
+        es.clear();
+        exit1.clear();
+        entry1.clear();
+        // As `exits` and `entries` give them for a given direction.
+        for a in from {
+            let s = &sections[a.section as usize];
+            let (n, c) = if a.forward == Some(true) {
+                (s.end, (s.length_m - a.offset_m).max(0.0))
+            } else {
+                (s.start, a.offset_m.max(0.0))
+            };
+            exit1.push((slot(xs, n), c));
+        }
+        for b in to {
+            let s = &sections[b.section as usize];
+            let (n, c) = if b.forward == Some(true) {
+                (s.start, b.offset_m.max(0.0))
+            } else {
+                (s.end, (s.length_m - b.offset_m).max(0.0))
+            };
+            entry1.push((slot(es, n), c));
+        }
+        table.clear();
+        for &xn in xs.iter() {
+            match self.cache.get(&xn) {
+                Some(t) => table.extend(
+                    es.iter()
+                        .map(|en| t.reached.get(en).map(|&(d, _, first)| (d, first))),
+                ),
+                None => table.extend(es.iter().map(|_| None)),
+            }
+        }
+        let ne = es.len();
+        out.clear();
+        out.resize(from.len() * to.len(), None);
+        if to.is_empty() {
+            return;
+        }
+        for ((&a, &(xi, xc)), cells) in from
+            .iter()
+            .zip(exit1.iter())
+            .zip(out.chunks_exact_mut(to.len()))
+        {
+            let row = &table[xi as usize * ne..(xi as usize + 1) * ne];
+            let xn = xs[xi as usize];
+            for ((&b, &(ei, ec)), cell) in to.iter().zip(entry1.iter()).zip(cells) {
+                let mut best = if a.section == b.section {
+                    self.along_section(a, b, backtrack_m)
+                } else {
+                    None
+                };
+                if let Some((d, first)) = row[ei as usize] {
+                    let total = xc + d + ec + self.uturn(a, b, xn, es[ei as usize], first);
+                    if best.is_none_or(|b| total < b) {
+                        best = Some(total);
+                    }
+                }
+                *cell = best;
             }
         }
     }
@@ -554,6 +630,66 @@ mod tests {
             .position(|r| r.attributes.id == id)
             .map(|r| net.roads[r].sections[0])
             .unwrap()
+    }
+
+    /// The matrix (its directed fast path, and the general one with
+    /// undirected points) gives each pair's [`NetworkDistances::point_distance_cached`].
+    #[test]
+    fn distance_matrix_equals_the_pairwise_distances() {
+        let net = block();
+        let mut p = NetworkDistances::new(&net);
+        p.uturn_penalty_m = 300.0;
+        let mut points = Vec::new();
+        for s in 0..net.sections.len() as u32 {
+            let len = net.sections[s as usize].length_m;
+            for off in [0.0, 0.3 * len, 0.8 * len, len] {
+                for forward in [Some(true), Some(false), None] {
+                    let ok = match forward {
+                        Some(f) => {
+                            let o = net.sections[s as usize].oneway;
+                            if f {
+                                o.allows_forward()
+                            } else {
+                                o.allows_backward()
+                            }
+                        }
+                        None => true,
+                    };
+                    if ok {
+                        points.push(OnSection {
+                            section: s,
+                            offset_m: off,
+                            forward,
+                        });
+                    }
+                }
+            }
+        }
+        for a in &points {
+            for (n, _) in p.exits(*a).into_iter().flatten() {
+                p.ensure(n, 1000.0);
+            }
+        }
+        let directed: Vec<OnSection> = points
+            .iter()
+            .copied()
+            .filter(|q| q.forward.is_some())
+            .collect();
+        let mut scratch = MatrixScratch::with_capacity(4);
+        let mut out = Vec::new();
+        let mut reached = 0;
+        for set in [&directed, &points] {
+            p.point_distance_matrix(set, set, 15.0, &mut scratch, &mut out);
+            assert_eq!(out.len(), set.len() * set.len());
+            for (i, a) in set.iter().enumerate() {
+                for (k, b) in set.iter().enumerate() {
+                    let want = p.point_distance_cached(*a, *b, 15.0);
+                    assert_eq!(out[i * set.len() + k], want, "{a:?} -> {b:?}");
+                    reached += usize::from(want.is_some());
+                }
+            }
+        }
+        assert!(reached > directed.len() * directed.len() / 2, "{reached}");
     }
 
     #[test]

@@ -238,6 +238,8 @@ struct Streamer<'a, 'w, W: Write> {
     text: String,
     points: Vec<MatchedPoint>,
     distances: Option<NetworkDistances<'a>>,
+    /// The last track's HMM matcher, restarted for the next.
+    spare: Option<HmmMatcher<'a>>,
     path_distances: Option<NetworkDistances<'a>>,
     result: StreamedMatch,
 }
@@ -248,16 +250,27 @@ impl<'a, W: Write> Streamer<'a, '_, W> {
         a.out.params = params;
         let m = match self.opts.method {
             Method::Hmm => {
-                let cache = self
-                    .distances
-                    .take()
-                    .unwrap_or_else(|| NetworkDistances::new(self.net));
+                // The previous track's matcher restarted (its buffers and
+                // network searches kept), else a new one.
+                let m = match self.spare.take() {
+                    Some(mut m) => {
+                        m.restart(params);
+                        m
+                    }
+                    None => {
+                        let cache = self
+                            .distances
+                            .take()
+                            .unwrap_or_else(|| NetworkDistances::new(self.net));
+                        HmmMatcher::with_distances(self.net, params, cache)
+                    }
+                };
                 let mut d = self
                     .path_distances
                     .take()
                     .unwrap_or_else(|| NetworkDistances::new(self.net));
                 d.uturn_penalty_m = params.uturn_penalty_m;
-                Which::Hmm(HmmMatcher::with_distances(self.net, params, cache), d)
+                Which::Hmm(m, d)
             }
             Method::Incremental => {
                 let inc = IncrementalParams {
@@ -374,7 +387,7 @@ impl<'a, W: Write> Streamer<'a, '_, W> {
         match a.matcher.take().expect("started") {
             Which::Hmm(m, mut d) => {
                 a.builder.finish(&mut d, self.net, m.breaks(), &params);
-                self.distances = Some(m.into_distances());
+                self.spare = Some(m);
                 self.path_distances = Some(d);
             }
             Which::Incremental(m, mut d) => a.builder.finish(&mut d, self.net, m.breaks(), &params),
@@ -420,6 +433,7 @@ pub fn match_csv_stream<W: Write>(
         text: String::new(),
         points: Vec::new(),
         distances: Some(NetworkDistances::new(net)),
+        spare: None,
         path_distances: None,
         result: StreamedMatch::default(),
     };

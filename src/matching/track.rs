@@ -449,6 +449,8 @@ pub fn match_rows_with<'a>(
     if distances.is_none() {
         *distances = Some(super::NetworkDistances::new(net));
     }
+    // One HMM matcher for all the tracks, restarted for each.
+    let mut hmm: Option<HmmMatcher<'a>> = None;
     for (track_id, idx) in group_tracks(rows) {
         let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
         let params = opts.hmm_params(net, &fixes);
@@ -470,13 +472,21 @@ pub fn match_rows_with<'a>(
                 (p, b, path)
             }
             Method::Hmm => {
-                let cache = distances.take().expect("the cache");
-                let mut m = HmmMatcher::with_distances(net, params, cache);
-                let p = super::match_track(&mut m, &fixes);
+                let m = match hmm.as_mut() {
+                    Some(m) => {
+                        m.restart(params);
+                        m
+                    }
+                    None => hmm.insert(HmmMatcher::with_distances(
+                        net,
+                        params,
+                        distances.take().expect("the cache"),
+                    )),
+                };
+                let p = super::match_track(m, &fixes);
                 let b = m.breaks().to_vec();
                 let path =
                     super::cpath::complete_path_with(m.distances_mut(), net, &p, &b, &params);
-                *distances = Some(m.into_distances());
                 (p, b, path)
             }
         };
@@ -494,6 +504,9 @@ pub fn match_rows_with<'a>(
             path,
             params,
         });
+    }
+    if let Some(m) = hmm {
+        *distances = Some(m.into_distances());
     }
     let points = all
         .into_iter()

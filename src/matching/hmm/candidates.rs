@@ -79,8 +79,34 @@ impl HmmMatcher<'_> {
             }
         }
         self.near_buf = nearest;
-        cands.sort_unstable_by(|a, b| b.emission.total_cmp(&a.emission));
-        cands.truncate(self.params.max_candidates);
+        // The best `max_candidates` by emission, ties in the order found (a
+        // total order, so the selection does not depend on the sorting
+        // algorithm); sorted as keys, the candidates moved once.
+        let order = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+        let mut keys = std::mem::take(&mut self.key_buf);
+        keys.clear();
+        keys.extend(
+            cands
+                .iter()
+                .enumerate()
+                .map(|(i, c)| (c.emission, i as u32)),
+        );
+        let k = self.params.max_candidates.min(keys.len());
+        if k == 0 {
+            cands.clear();
+        } else {
+            if keys.len() > k {
+                keys.select_nth_unstable_by(k - 1, order);
+                keys.truncate(k);
+            }
+            keys.sort_unstable_by(order);
+            let mut sorted = std::mem::take(&mut self.cand_buf);
+            sorted.clear();
+            sorted.extend(keys.iter().map(|&(_, i)| cands[i as usize]));
+            std::mem::swap(cands, &mut sorted);
+            self.cand_buf = sorted;
+        }
+        self.key_buf = keys;
     }
 
     pub(super) fn new_step(&mut self, index: u64, fix: Fix) -> Step {

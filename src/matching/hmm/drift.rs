@@ -28,7 +28,18 @@ impl Drift {
     /// the covariance never exceeds the prior's and the mean relaxes to
     /// zero where nothing is observed, so no estimate can run away.
     pub(super) fn predict(&self, ds_m: f64, corr_m: f64, sigma_m: f64) -> Self {
-        let phi = (-ds_m.max(0.0) / corr_m).exp();
+        self.predict_by(Self::decay(ds_m, corr_m), sigma_m)
+    }
+
+    /// The factor φ of [`Self::predict`] over `ds_m` metres (one `exp` for
+    /// all the estimates predicted over the same distance).
+    pub(super) fn decay(ds_m: f64, corr_m: f64) -> f64 {
+        (-ds_m.max(0.0) / corr_m).exp()
+    }
+
+    /// [`Self::predict`] given its factor φ ([`Self::decay`]): the same values.
+    #[inline]
+    pub(super) fn predict_by(&self, phi: f64, sigma_m: f64) -> Self {
         let (f2, q) = (phi * phi, sigma_m * sigma_m * (1.0 - phi * phi));
         Drift {
             mean: [phi * self.mean[0], phi * self.mean[1]],

@@ -4,7 +4,7 @@
 use super::drift::{emission, Drift};
 use super::geometry::{clamp_to_range, dist, nearest_on_pieces, with_raw};
 use super::params::{route_bound, HmmParams};
-use super::probability::{argmax, softmax_into};
+use super::probability::{argmax, normalise, softmax_into};
 use super::state::Step;
 use crate::matching::paths::NetworkDistances;
 use crate::matching::{matched_on, Break, BreakReason, Fix, MatchState, MatchedPoint, Matcher};
@@ -31,12 +31,19 @@ pub struct HmmMatcher<'a> {
     pub(super) drift_at: Option<[f64; 2]>,
     pub(super) seg_buf: Vec<SegmentId>,
     pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
+    /// The candidates' ranking keys, and the candidates in ranked order.
+    pub(super) key_buf: Vec<(f64, u32)>,
+    pub(super) cand_buf: Vec<super::state::Cand>,
     pub(super) post_buf: Vec<f64>,
     /// The backward pass's two vectors.
     pub(super) beta_bufs: [Vec<f64>; 2],
     pub(super) pred_buf: Vec<Drift>,
     pub(super) spare: Vec<Step>,
     pub(super) trans_buf: super::state::TransBuf,
+    /// The back-traced choices; every step's backward vector, one after
+    /// another, and where each starts (a flush's single backward pass).
+    pub(super) choice_buf: Vec<u32>,
+    pub(super) beta_flat: (Vec<f64>, Vec<usize>),
 }
 
 impl<'a> HmmMatcher<'a> {
@@ -68,6 +75,8 @@ impl<'a> HmmMatcher<'a> {
             drift_at: None,
             seg_buf: Vec::with_capacity(64),
             near_buf: Vec::with_capacity(64),
+            key_buf: Vec::with_capacity(64),
+            cand_buf: Vec::with_capacity(64),
             post_buf: Vec::with_capacity(params.max_candidates),
             beta_bufs: [
                 Vec::with_capacity(params.max_candidates),
@@ -76,7 +85,27 @@ impl<'a> HmmMatcher<'a> {
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
             trans_buf: super::state::TransBuf::with_capacity(params.max_candidates),
+            choice_buf: Vec::with_capacity(params.lag + 1),
+            beta_flat: (Vec::new(), Vec::new()),
         }
+    }
+
+    /// Makes this matcher a fresh one with `params` for the next track
+    /// (what [`Self::with_distances`] gives with this matcher's network
+    /// searches), keeping its buffers: a file of many short tracks does not
+    /// allocate them again for each.
+    pub fn restart(&mut self, params: HmmParams) {
+        self.params = params;
+        self.paths.uturn_penalty_m = params.uturn_penalty_m;
+        self.spare.extend(self.window.drain(..));
+        self.index = 0;
+        self.last_fix = None;
+        self.last_step_pos = None;
+        self.pending_break = None;
+        self.last_matched = None;
+        self.breaks.clear();
+        self.drift = Drift::prior(params.drift_sigma_m);
+        self.drift_at = None;
     }
 
     /// The matcher's cached network searches (for the complete path, whose
@@ -140,19 +169,18 @@ impl<'a> HmmMatcher<'a> {
     }
 
     /// Decides and emits the oldest step (given its choice and the next step's).
-    /// `posterior`: the front step's smoothed posterior when already known
-    /// (a flush computes every step's in one backward pass).
+    /// `known`: the front step's smoothed posterior is already in
+    /// `post_buf` (a flush computes every step's in one backward pass).
     fn emit_front(
         &mut self,
         choice: u32,
         next_choice: Option<u32>,
-        posterior: Option<Vec<f64>>,
+        known: bool,
         out: &mut Vec<MatchedPoint>,
     ) {
         let mut post = std::mem::take(&mut self.post_buf);
-        match posterior {
-            Some(p) => post = p,
-            None => self.front_posterior(&mut post),
+        if !known {
+            self.front_posterior(&mut post);
         }
         let step = self.window.pop_front().expect("a step");
         let net = self.net;
@@ -229,13 +257,25 @@ impl<'a> HmmMatcher<'a> {
         if self.window.is_empty() {
             return;
         }
-        let mut ch = Vec::new();
+        let mut ch = std::mem::take(&mut self.choice_buf);
         self.choices(self.window.len(), &mut ch);
-        let posts = self.window_posteriors();
-        for (i, post) in posts.into_iter().enumerate() {
+        let (betas, at) = self.window_betas();
+        for i in 0..ch.len() {
+            // The posterior of step i, now at the window's front.
+            let front = self.window.front().expect("a step");
+            let beta = &betas[at[i]..at[i] + front.cands.len()];
+            let mut post = std::mem::take(&mut self.post_buf);
+            post.clear();
+            post.extend(front.alpha.iter().zip(beta).map(|(a, b)| a * b));
+            if !normalise(&mut post) {
+                softmax_into(&front.score, &mut post);
+            }
+            self.post_buf = post;
             let next = ch.get(i + 1).copied();
-            self.emit_front(ch[i], next, Some(post), out);
+            self.emit_front(ch[i], next, true, out);
         }
+        self.beta_flat = (betas, at);
+        self.choice_buf = ch;
     }
 
     fn start_chain(&mut self, reason: Option<BreakReason>, index: u64, t_s: f64) {
@@ -365,9 +405,10 @@ impl Matcher for HmmMatcher<'_> {
         self.drift_at = Some(fix.enu);
         self.window.push_back(step);
         if self.window.len() > self.params.lag {
-            let mut ch = Vec::with_capacity(2);
+            let mut ch = std::mem::take(&mut self.choice_buf);
             self.choices(2, &mut ch);
-            self.emit_front(ch[0], ch.get(1).copied(), None, out);
+            self.emit_front(ch[0], ch.get(1).copied(), false, out);
+            self.choice_buf = ch;
         }
     }
 

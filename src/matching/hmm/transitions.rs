@@ -1,7 +1,7 @@
 //! Transitions: the Viterbi recursion with per-survivor drift estimates,
 //! and the forward–backward smoothing over the lag window.
 
-use super::drift::{emission, Emission};
+use super::drift::{emission, Drift, Emission};
 use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::{normalise, softmax_into};
@@ -29,7 +29,12 @@ impl HmmMatcher<'_> {
         let mut preds = std::mem::take(&mut self.pred_buf);
         preds.clear();
         let prev = self.window.back().expect("a previous step");
-        preds.extend(prev.cands.iter().map(|p| self.predict(&p.drift, gc)));
+        let phi = Drift::decay(gc, self.params.drift_correlation_m.max(1e-6));
+        preds.extend(
+            prev.cands
+                .iter()
+                .map(|p| p.drift.predict_by(phi, self.params.drift_sigma_m)),
+        );
         let track = self.params.track_drift;
         let mut any = false;
         step.score.clear();
@@ -158,47 +163,44 @@ impl HmmMatcher<'_> {
         any
     }
 
-    /// The smoothed posterior of every step in the window given every fix
-    /// in it: one backward pass (what [`Self::front_posterior`] gives for
-    /// each step in turn as the window is emitted from its front, at the
-    /// cost of one pass instead of one per step).
-    pub(super) fn window_posteriors(&self) -> Vec<Vec<f64>> {
+    /// The backward vector of every step in the window given every fix in
+    /// it, one after another, and where each step's starts: one backward
+    /// pass (with the forward vectors, what [`Self::front_posterior`] gives
+    /// for each step in turn as the window is emitted from its front, at
+    /// the cost of one pass instead of one per step). Reuses the matcher's
+    /// buffers (take them back into `beta_flat`).
+    pub(super) fn window_betas(&mut self) -> (Vec<f64>, Vec<usize>) {
+        let (mut flat, mut at) = std::mem::take(&mut self.beta_flat);
         let len = self.window.len();
-        let mut betas: Vec<Vec<f64>> = vec![Vec::new(); len];
-        betas[len - 1] = vec![1.0; self.window[len - 1].cands.len()];
+        at.clear();
+        let mut total = 0;
+        for st in &self.window {
+            at.push(total);
+            total += st.cands.len();
+        }
+        flat.clear();
+        flat.resize(total, 1.0);
         for t in (1..len).rev() {
             let (st, np) = (&self.window[t], self.window[t - 1].cands.len());
             let nc = st.cands.len();
-            let beta = &betas[t];
-            let mut next: Vec<f64> = if st.pair.len() != np * nc {
-                vec![1.0; np]
-            } else {
-                (0..np)
-                    .map(|i| {
-                        st.pair[i * nc..(i + 1) * nc]
-                            .iter()
-                            .zip(beta)
-                            .map(|(w, b)| w * b)
-                            .sum::<f64>()
-                    })
-                    .collect()
-            };
-            if !normalise(&mut next) {
+            let (head, tail) = flat.split_at_mut(at[t]);
+            let beta = &tail[..nc];
+            let next = &mut head[at[t - 1]..at[t - 1] + np];
+            if st.pair.len() == np * nc {
+                for (i, x) in next.iter_mut().enumerate() {
+                    *x = st.pair[i * nc..(i + 1) * nc]
+                        .iter()
+                        .zip(beta)
+                        .map(|(w, b)| w * b)
+                        .sum::<f64>();
+                }
+            }
+            // (A chain's first step: ones, normalised as the others.)
+            if !normalise(next) {
                 next.iter_mut().for_each(|x| *x = 1.0);
             }
-            betas[t - 1] = next;
         }
-        betas
-            .into_iter()
-            .zip(&self.window)
-            .map(|(beta, step)| {
-                let mut out: Vec<f64> = step.alpha.iter().zip(&beta).map(|(a, b)| a * b).collect();
-                if !normalise(&mut out) {
-                    softmax_into(&step.score, &mut out);
-                }
-                out
-            })
-            .collect()
+        (flat, at)
     }
 
     /// The smoothed posterior of the window's oldest step given every fix in
