@@ -57,6 +57,12 @@ pub struct Budget<'a> {
     steps: std::sync::atomic::AtomicU64,
     /// The probability the bound holds with (`planner.requirement_confidence`).
     p: f64,
+    /// The tag-free pass's stretch maps (module `stretch`), when the
+    /// propagations restart exactly.
+    stretches: std::sync::OnceLock<super::stretch::Stretches>,
+    /// Stretch maps applied (all threads) and ops composed into them.
+    jumps: std::sync::atomic::AtomicU64,
+    composed: std::sync::atomic::AtomicU64,
 }
 
 impl std::fmt::Debug for Budget<'_> {
@@ -99,6 +105,9 @@ impl<'a> Budget<'a> {
             lane_width,
             steps: std::sync::atomic::AtomicU64::new(0),
             p: scn.planner().requirement_confidence,
+            stretches: std::sync::OnceLock::new(),
+            jumps: std::sync::atomic::AtomicU64::new(0),
+            composed: std::sync::atomic::AtomicU64::new(0),
         }
     }
 
@@ -121,10 +130,38 @@ impl<'a> Budget<'a> {
         self.steps.load(std::sync::atomic::Ordering::Relaxed)
     }
 
-    /// [`Budget::steps`] in filter passes over the whole route: the
-    /// planner's cost as a multiple of one pass, whatever the machine's load.
+    /// The planner's cost in filter passes over the whole route, whatever
+    /// the machine's load: [`Budget::steps`], plus the stretch maps'
+    /// building and applications in filter steps of the same cost
+    /// ([`super::stretch::JUMP_STEPS`], [`super::stretch::COMPOSE_STEPS`]),
+    /// over the route's samples.
     pub fn passes(&self) -> f64 {
-        self.steps() as f64 / self.samples.len().saturating_sub(1).max(1) as f64
+        let ld = |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
+        let work = self.steps() as f64
+            + ld(&self.jumps) as f64 * super::stretch::JUMP_STEPS
+            + ld(&self.composed) as f64 * super::stretch::COMPOSE_STEPS;
+        work / self.samples.len().saturating_sub(1).max(1) as f64
+    }
+
+    /// The stretch maps, once the tag-free pass has built them.
+    pub(super) fn stretches(&self) -> Option<&super::stretch::Stretches> {
+        self.stretches.get()
+    }
+
+    /// Counts one stretch map applied.
+    pub(super) fn count_jump(&self) {
+        self.jumps
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Covariance ops composed into stretch maps so far.
+    pub fn composed(&self) -> u64 {
+        self.composed.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Stretch maps applied so far (all threads).
+    pub fn jumps(&self) -> u64 {
+        self.jumps.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// The lane width (m) at sample `i`, when the route is on a map.
@@ -198,6 +235,22 @@ impl<'a> Budget<'a> {
         let mut next_prof = every_m;
         let mut sites = Vec::with_capacity(sites_m.len());
         let mut next_site = 0;
+        // The tag-free pass records the stretch maps (module `stretch`).
+        let mut rec = match self.data.resync_every() {
+            Some(sync)
+                if fixes.is_empty()
+                    && self.data.restart_invariant()
+                    && self.stretches.get().is_none() =>
+            {
+                let unit = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]];
+                let chi2 = self.bound(&unit).powi(2);
+                let mut r = super::stretch::Recorder::new(sync, chi2, super::stretch::MIN_SAMPLES);
+                r.visit(0, &mut f, true, self.samples.len() == 1);
+                Some(r)
+            }
+            _ => None,
+        };
+        let n = self.samples.len();
         take_sites(
             &mut sites,
             &mut next_site,
@@ -216,6 +269,10 @@ impl<'a> Budget<'a> {
                 });
                 next_prof += every_m;
             }
+            if let Some(r) = rec.as_mut() {
+                let boundary = next_site < sites_m.len() && sites_m[next_site] <= a.distance_m;
+                r.visit(i, f, boundary, i + 1 == n);
+            }
             take_sites(
                 &mut sites,
                 &mut next_site,
@@ -230,6 +287,12 @@ impl<'a> Budget<'a> {
             }
             true
         });
+        if let Some(st) = rec.and_then(super::stretch::Recorder::finish) {
+            let ops: u64 = st.elements.iter().map(|e| e.ops).sum();
+            self.composed
+                .fetch_add(ops, std::sync::atomic::Ordering::Relaxed);
+            let _ = self.stretches.set(st);
+        }
         (prof, sites)
     }
 
@@ -245,18 +308,50 @@ impl<'a> Budget<'a> {
         self.reach_from(0, &mut f, requirement_m)
     }
 
-    fn reach_from(&self, from: usize, f: &mut Filter, requirement_m: f64) -> f64 {
-        let mut reach = self.length_m();
-        let mut prev = self.samples[from].avp.distance_m;
-        self.run(from, f, |i, f| {
-            if self.bound(&f.position_cov_enu()) > requirement_m {
-                reach = prev;
-                return false;
+    /// The first sample after `from` where the bound of filter `f` (at
+    /// sample `from`, on the truth, reading no more tags) exceeds `level`,
+    /// or None if it holds to the route's end: exactly as stepping `f`
+    /// sample by sample says, stepping only up to the first stretch the
+    /// maps can carry it from and where a stretch's interior bound cannot
+    /// exclude a crossing (module `stretch`). `f` is left along the way.
+    pub(super) fn first_above(&self, from: usize, f: &mut Filter, level: f64) -> Option<usize> {
+        let st = self
+            .stretches()
+            .and_then(|s| s.first_after(from).map(|m| (s, m)));
+        let stop = st.map_or(usize::MAX, |(s, m)| s.bounds[m]);
+        let mut hit = None;
+        let mut above = |i: usize, f: &mut Filter| {
+            if self.bound(&f.position_cov_enu()) > level {
+                hit = Some(i);
             }
-            prev = self.samples[i].avp.distance_m;
-            true
-        });
-        reach
+            hit.is_none()
+        };
+        self.run(from, f, |i, f| above(i, f) && i < stop);
+        let (Some((st, m)), None) = (st, hit) else {
+            return hit;
+        };
+        let replay = |start: &Filter, p, (from, end): (usize, usize)| {
+            let mut g = start.clone();
+            g.set_covariance(p);
+            let mut hit = None;
+            self.run(from, &mut g, |i, g| {
+                if self.bound(&g.position_cov_enu()) > level {
+                    hit = Some(i);
+                }
+                hit.is_none() && i < end
+            });
+            hit.map_or(Ok(*g.covariance()), Err)
+        };
+        st.carry(m, *f.covariance(), level, || self.count_jump(), replay)
+    }
+
+    /// The distance of the last sample before the bound of `f` (at sample
+    /// `from`) first exceeds `requirement_m`, or the route's length.
+    fn reach_from(&self, from: usize, f: &mut Filter, requirement_m: f64) -> f64 {
+        match self.first_above(from, f, requirement_m) {
+            Some(i) => self.samples[i - 1].avp.distance_m,
+            None => self.length_m(),
+        }
     }
 
     /// The fix a tag of `mounting` gives at truth sample `i`: applied to
@@ -381,22 +476,19 @@ impl<'a> Budget<'a> {
             self.apply_fix(from, &mut f, fixes[k].1);
             k += 1;
         }
-        let length = self.length_m();
-        let mut prev = self.samples[from].avp.distance_m;
-        let mut short = false;
-        self.run(from, &mut f, |i, f| {
-            while k < fixes.len() && fixes[k].0 <= i {
-                self.apply_fix(i, f, fixes[k].1);
-                k += 1;
-            }
-            if i > last && self.bound(&f.position_cov_enu()) > level_m {
-                short = prev < length;
-                return false;
-            }
-            prev = self.samples[i].avp.distance_m;
-            true
-        });
-        short
+        if last > from {
+            self.run(from, &mut f, |i, f| {
+                while k < fixes.len() && fixes[k].0 <= i {
+                    self.apply_fix(i, f, fixes[k].1);
+                    k += 1;
+                }
+                i < last
+            });
+        }
+        // After the last fix: carried on by the stretch maps where they
+        // apply (the same first sample above the level as stepping).
+        let hit = self.first_above(last, &mut f, level_m);
+        hit.is_some_and(|i| self.samples[i - 1].avp.distance_m < self.length_m())
     }
 
     /// The largest bound from sample `from` on, starting with filter `f`
@@ -467,7 +559,8 @@ impl<'a> Budget<'a> {
         let settled = |k: usize, f: &Filter, worst: f64| {
             let j = offset + k - 1;
             let rest = reference.after_max[j];
-            let alpha = generalized_lambda_max(f.covariance(), &reference.after[j]).max(1.0);
+            let alpha = super::stretch::generalized_lambda_max(f.covariance(), &reference.after[j])
+                .max(1.0);
             (alpha * (1.0 + 1e-9)).sqrt() * rest <= worst.max(settle_at_m)
         };
         if k > 0 && settled(k, &f, worst) {
@@ -763,46 +856,6 @@ pub struct AllRead {
     pub after_max: Vec<f64>,
 }
 
-/// The largest `α` with `P − αU` not negative definite: the largest
-/// eigenvalue of `U⁻¹P` (both symmetric positive definite), on the
-/// diagonally scaled matrices (the error state mixes radians of latitude
-/// with metres per second). Infinite when `U` is not positive definite.
-pub fn generalized_lambda_max(p: &crate::nav::ekf::Mat, u: &crate::nav::ekf::Mat) -> f64 {
-    use crate::nav::ekf::N;
-    let d: [f64; N] = std::array::from_fn(|i| {
-        let x = u[(i, i)];
-        if x > 0.0 {
-            1.0 / x.sqrt()
-        } else {
-            1.0
-        }
-    });
-    let us = crate::nav::ekf::Mat::from_fn(|i, j| u[(i, j)] * d[i] * d[j]);
-    let ps = crate::nav::ekf::Mat::from_fn(|i, j| p[(i, j)] * d[i] * d[j]);
-    let Some(c) = nalgebra::Cholesky::new(us) else {
-        return f64::INFINITY;
-    };
-    let l = c.l();
-    // M = L⁻¹ P L⁻ᵀ, symmetric with the eigenvalues of U⁻¹P.
-    let Some(x) = l.solve_lower_triangular(&ps) else {
-        return f64::INFINITY;
-    };
-    let Some(m) = l.solve_lower_triangular(&x.transpose()) else {
-        return f64::INFINITY;
-    };
-    let m = (m + m.transpose()) * 0.5;
-    let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
-    if e.iter().any(|x| x.is_nan()) {
-        return f64::INFINITY;
-    }
-    let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if top.is_finite() {
-        top
-    } else {
-        f64::INFINITY
-    }
-}
-
 /// Snapshots `f` as a [`Site`] at `(sample, distance_m)` for every site
 /// distance in `sites_m` (from `*next`) at or before `reached_m`.
 fn take_sites(
@@ -814,10 +867,13 @@ fn take_sites(
     f: &Filter,
 ) {
     while *next < sites_m.len() && sites_m[*next] <= reached_m {
+        let mut filter = f.clone();
+        // Not the tag-free pass's stretch map under construction.
+        filter.take_element();
         sites.push(Site {
             sample,
             distance_m,
-            filter: f.clone(),
+            filter,
         });
         *next += 1;
     }

@@ -148,6 +148,19 @@ impl<'a> PerfectData<'a> {
         self.network.is_none() && !self.aid_odometer
     }
 
+    /// The odometer interval (IMU samples) when every odometer epoch of the
+    /// drive (`i % interval == 0`) brings the covariance to that epoch and
+    /// restarts the propagation's accumulators (an odometer or constraint
+    /// update does, and one happens at every such epoch): then two
+    /// propagations of the same drive that differ only in the fixes they
+    /// read (a fix brings the covariance to its own sample, which shifts
+    /// the propagation intervals after it) go through the same ops again
+    /// from the first odometer epoch after the last fix. None otherwise.
+    pub fn resync_every(&self) -> Option<usize> {
+        let flushes = self.cfg.use_nhc || (self.aid_odometer && self.failure.is_none());
+        flushes.then_some(self.odo_every)
+    }
+
     /// A filter on the truth `avp` with the scenario's prior.
     pub fn filter_at(&self, avp: &Avp) -> Filter {
         Filter::new(avp.state, avp.t, self.dt, self.cfg)

@@ -1,0 +1,358 @@
+//! Stretch maps of the tag-free pass (issue 14): the covariance ops of the
+//! route between consecutive boundaries (candidate sites), composed into
+//! one map each ([`crate::nav::riccati::Element`]), with a rigorous upper
+//! bound on the bound anywhere inside the stretch, so that a run that
+//! reads no tag can cross a stretch with one map application instead of
+//! stepping the filter through it, and is stepped (replayed from the
+//! stretch's start with its own covariance) only where its bound may cross
+//! the level it is checked against.
+//!
+//! Why it is exact. On perfect data the state stays on the truth, so every
+//! run of the route goes through the same `Φ, Q, H, R` (the differences in
+//! the state are round-off, about 1e-9 relative) once its propagation
+//! intervals are those of the tag-free pass: a fix brings the covariance
+//! to its own sample and shifts the next interval, and the first odometer
+//! epoch after the last fix brings both back to the drive's schedule
+//! ([`crate::sim::covariance::PerfectData::resync_every`]). Runs therefore
+//! step the filter up to the first boundary after that epoch, and from
+//! there carry the covariance by the maps. Map-matching feeds (restarted
+//! with each run) and odometer readings (whose first reading after a
+//! restart covers a partial interval) are not restart invariant: no maps
+//! are built for them ([`crate::sim::covariance::PerfectData::restart_invariant`]).
+//!
+//! The interior bound. Updates only lower a covariance and every op is
+//! monotone in the PSD order, and `(P⁻¹ + J)⁻¹ ≤ P`, so at any sample `t`
+//! of a stretch starting at `e` with covariance `P`, `P_t ≤ A_t P Aᵀ_t +
+//! C_t` where `(A_t, C_t, J_t)` is the map of the stretch's ops up to `t`.
+//! With `M` the metric rows of the horizontal position at `e`
+//! (`diag(R_N cos L, R_M)` on δλ, δL) and `G_t = M A_t = M [I 0] + D_t`:
+//! `√λmax(G_t P Gᵀ_t) ≤ √λmax(M P_hor M) + √λmax(D_t P Dᵀ_t)`, and
+//! `D_tᵀ D_t ≤ diag(r)` with `r_k ≥ Σ_l |(D_tᵀ D_t)_kl|` (Gershgorin; here
+//! `r_k = max_t Σ_row |D_t,row,k| ‖D_t,row‖₁`) gives
+//! `λmax(D_t P Dᵀ_t) = λmax(P^½ D_tᵀ D_t P^½) ≤ Σ_k r_k P_kk`. The metric
+//! scaling at `t` differs from `M` by at most the factor `ρ` (the largest
+//! ratio of the radii, ≈ 1 + 1e-6), and `λmax(M C_t,hor M) ≤ q`. So the
+//! bound at every sample of the stretch is at most
+//! `√k · ρ · (√λmax(M P_hor M) + √(Σ_k r_k P_kk) + √q)`, with `k` the
+//! bound's χ² factor; all of `r`, `q`, `ρ` are taken over the stretch in
+//! the recording pass.
+
+use crate::nav::ekf::{Mat, DP, N};
+type Element = crate::nav::riccati::Element<N>;
+use crate::nav::Filter;
+
+/// The shortest stretch (IMU samples; its end is the first candidate site
+/// at least that far from its start). A cost setting only (the answers
+/// are the same): on the demo's 204 tag-free reaches (test
+/// `stretch_maps_give_the_stepped_reaches`), with 4 op states per anchor,
+/// 0 / 300 / 1000 samples took 148k / 218k / 579k filter steps and 16.4k /
+/// 8.7k / 3.1k map applications, 313 / 210 / 297 ms (stepping: 4.2 M
+/// steps, 1.26 s).
+pub(super) const MIN_SAMPLES: usize = 300;
+/// The cost of applying one stretch map (the interior test and the map),
+/// in filter steps (one IMU sample of [`Budget::run`]), for the planner's
+/// pass count: measured 49–56 on the demo's reaches (14.6–16.6 µs a map
+/// against 0.30 µs a step, same run).
+pub(super) const JUMP_STEPS: f64 = 55.0;
+/// The cost of composing one covariance op (a propagation or an accepted
+/// update) into a stretch map during the tag-free pass, in filter steps:
+/// the recording pass took 1.5–2.8 times a plain tag-free pass on the demo
+/// and the Helsinki 20 m route (11,157 and 109,040 ops; 2.4–8.4 steps an
+/// op, loaded machine): 7 is taken.
+pub(super) const COMPOSE_STEPS: f64 = 7.0;
+
+/// Op states per anchor of the interior bound (1: the bound `A P Aᵀ + C`
+/// itself at every state, tightest and dearest to test). On the demo's
+/// reaches, 1 and 4 states took 102k and 218k filter steps but 320 and
+/// 210 ms (anchor tests), with 300-sample stretches.
+const GROUP: usize = 4;
+
+/// Relative margin of the interior bound below the level it must stay
+/// under: the maps' covariances and the stepped ones differ by round-off
+/// (≈ 1e-12 relative, measured on the demo's sites).
+const INTERIOR_MARGIN: f64 = 1e-9;
+
+/// One anchor of a stretch's interior bound: for the samples it covers,
+/// `P_t ≤ A_t P Aᵀ_t + C_t` with `M A_t = G + D_t`, `D_tᵀ D_t ≤ diag(r)`
+/// and `λmax(M C_t,hor M) ≤ q`; `cm` is `M C,hor M` at the anchor itself.
+#[derive(Debug, Clone)]
+pub(super) struct Anchor {
+    g: [[f64; N]; 2],
+    cm: [f64; 3],
+    r: [f64; N],
+    q: f64,
+}
+
+/// The upper bound's inputs over one stretch.
+#[derive(Debug, Clone)]
+pub(super) struct Interior {
+    /// Metres per radian of longitude and of latitude at the start.
+    scale: (f64, f64),
+    anchors: Vec<Anchor>,
+    rho: f64,
+}
+
+/// The rows `M A` (east, north) and `M C,hor M` of a map.
+fn metric_rows(el: &Element, (ce, re): (f64, f64)) -> ([[f64; N]; 2], [f64; 3]) {
+    let g = [
+        std::array::from_fn(|k| ce * el.a[(DP + 1, k)]),
+        std::array::from_fn(|k| re * el.a[(DP, k)]),
+    ];
+    let c = &el.c;
+    (
+        g,
+        [
+            ce * ce * c[(DP + 1, DP + 1)],
+            ce * re * c[(DP + 1, DP)],
+            re * re * c[(DP, DP)],
+        ],
+    )
+}
+
+/// The stretch maps of a route.
+#[derive(Debug, Clone)]
+pub(super) struct Stretches {
+    /// Boundary samples (increasing; the last is the route's last sample).
+    pub bounds: Vec<usize>,
+    /// The tag-free filter at each boundary but the last.
+    pub filters: Vec<Filter>,
+    /// The map of each stretch (ops of samples `bounds[m]+1 ..= bounds[m+1]`).
+    pub elements: Vec<Element>,
+    pub interior: Vec<Interior>,
+    /// Odometer epochs (samples) that resynchronise the propagation.
+    pub sync_every: usize,
+    /// The bound's χ² factor (bound² per unit of the largest variance).
+    pub chi2: f64,
+}
+
+/// Builds [`Stretches`] during a tag-free pass.
+#[derive(Debug)]
+pub(super) struct Recorder {
+    st: Stretches,
+    cur: Option<Interior>,
+    /// The op states (metric rows) of the current anchor's group.
+    group: Vec<([[f64; N]; 2], [f64; 3])>,
+    last_ops: u64,
+    min_samples: usize,
+}
+
+/// λmax of the symmetric 2×2 `[[a, b], [b, d]]`.
+fn lam2(a: f64, b: f64, d: f64) -> f64 {
+    let tr = 0.5 * (a + d);
+    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    (tr + disc).max(0.0)
+}
+
+impl Recorder {
+    /// A recorder whose stretches are at least `min_samples` long (the
+    /// boundaries are the first candidate sites that far apart).
+    pub fn new(sync_every: usize, chi2: f64, min_samples: usize) -> Self {
+        Self {
+            st: Stretches {
+                bounds: vec![],
+                filters: vec![],
+                elements: vec![],
+                interior: vec![],
+                sync_every,
+                chi2,
+            },
+            cur: None,
+            group: vec![],
+            last_ops: 0,
+            min_samples,
+        }
+    }
+
+    /// Closes the current anchor group: anchored at its last state.
+    fn close_group(&mut self) {
+        let (Some(it), Some(&(g, cm))) = (self.cur.as_mut(), self.group.last()) else {
+            return;
+        };
+        let mut r = [0.0f64; N];
+        let mut q: f64 = 0.0;
+        for (gt, ct) in &self.group {
+            let d0: [f64; N] = std::array::from_fn(|k| gt[0][k] - g[0][k]);
+            let d1: [f64; N] = std::array::from_fn(|k| gt[1][k] - g[1][k]);
+            let n0: f64 = d0.iter().map(|x| x.abs()).sum();
+            let n1: f64 = d1.iter().map(|x| x.abs()).sum();
+            for k in 0..N {
+                r[k] = r[k].max(d0[k].abs() * n0 + d1[k].abs() * n1);
+            }
+            q = q.max(lam2(ct[0], ct[1], ct[2]));
+        }
+        it.anchors.push(Anchor { g, cm, r, q });
+        self.group.clear();
+    }
+
+    /// After sample `i`'s ops: updates the interior bound's inputs and,
+    /// when `boundary` (a candidate site here) and the stretch is long
+    /// enough, or at the route's last sample (`last`), closes the stretch.
+    pub fn visit(&mut self, i: usize, f: &mut Filter, boundary: bool, last: bool) {
+        if let Some(it) = self.cur.as_mut() {
+            let (rm, clrn) = f.metres_per_radian();
+            it.rho = it.rho.max(clrn / it.scale.0).max(rm / it.scale.1);
+            let scale = it.scale;
+            if let Some(el) = f.element() {
+                if el.ops != self.last_ops {
+                    self.last_ops = el.ops;
+                    if self.group.len() == GROUP {
+                        self.close_group();
+                    }
+                    self.group.push(metric_rows(el, scale));
+                }
+            }
+        }
+        let long = self
+            .st
+            .bounds
+            .last()
+            .is_none_or(|&b| i >= b + self.min_samples);
+        if !(last || (boundary && long)) {
+            return;
+        }
+        self.close_group();
+        if let Some(it) = self.cur.take() {
+            let el = f.take_element().unwrap_or_default();
+            self.st.elements.push(el);
+            self.st.interior.push(it);
+        }
+        self.st.bounds.push(i);
+        if !last {
+            self.st.filters.push(f.clone());
+            let (rm, clrn) = f.metres_per_radian();
+            // The start itself (the identity map) is the first state.
+            self.group
+                .push(metric_rows(&Element::identity(), (clrn, rm)));
+            self.cur = Some(Interior {
+                scale: (clrn, rm),
+                anchors: vec![],
+                rho: 1.0,
+            });
+            self.last_ops = 0;
+            f.track_element();
+        }
+    }
+
+    /// The stretches (None when the route's last sample was not visited).
+    pub fn finish(self) -> Option<Stretches> {
+        (self.cur.is_none() && self.st.bounds.len() >= 2).then_some(self.st)
+    }
+}
+
+impl Stretches {
+    /// The upper bound on the bound at every sample of stretch `m` from
+    /// covariance `p` at its start (see the module docs).
+    fn interior_within(&self, m: usize, p: &Mat, level: f64) -> bool {
+        let it = &self.interior[m];
+        let scale = self.chi2.sqrt() * it.rho;
+        for a in it.anchors.iter().rev() {
+            // G P Gᵀ over the 2×2, with P symmetric: x_r = P g_r.
+            let mut x = [[0.0; N]; 2];
+            for (row, xr) in x.iter_mut().enumerate() {
+                for (k, &gk) in a.g[row].iter().enumerate() {
+                    if gk != 0.0 {
+                        for (l, xl) in xr.iter_mut().enumerate() {
+                            *xl += gk * p[(l, k)];
+                        }
+                    }
+                }
+            }
+            let dot = |u: &[f64; N], v: &[f64; N]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+            let gpg = [
+                dot(&a.g[0], &x[0]),
+                dot(&a.g[0], &x[1]),
+                dot(&a.g[1], &x[1]),
+            ];
+            let ub = if a.q == 0.0 && a.r.iter().all(|&r| r == 0.0) {
+                lam2(gpg[0] + a.cm[0], gpg[1] + a.cm[1], gpg[2] + a.cm[2]).sqrt()
+            } else {
+                let s: f64 = (0..N).map(|k| a.r[k] * p[(k, k)].max(0.0)).sum();
+                lam2(gpg[0], gpg[1], gpg[2]).sqrt() + s.sqrt() + a.q.sqrt()
+            };
+            if scale * ub > level {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Carries covariance `p`, at the start of stretch `m`, on to the
+    /// route's end: each stretch whose interior bound stays under `level`
+    /// (less a round-off margin) by its map (`jumped` is called), each
+    /// other by `replay(filter at the stretch's start, its covariance,
+    /// (the stretch's first and last samples))`, which steps it and returns the
+    /// covariance at the end or the first sample above `level`. Returns
+    /// that sample, or None at the end.
+    pub fn carry(
+        &self,
+        mut m: usize,
+        mut p: Mat,
+        level: f64,
+        mut jumped: impl FnMut(),
+        mut replay: impl FnMut(&Filter, Mat, (usize, usize)) -> Result<Mat, usize>,
+    ) -> Option<usize> {
+        let safe = level / (1.0 + INTERIOR_MARGIN);
+        while m + 1 < self.bounds.len() {
+            if self.interior_within(m, &p, safe) {
+                p = self.elements[m].apply(&p);
+                jumped();
+            } else {
+                p = match replay(&self.filters[m], p, (self.bounds[m], self.bounds[m + 1])) {
+                    Ok(p) => p,
+                    Err(i) => return Some(i),
+                };
+            }
+            m += 1;
+        }
+        None
+    }
+
+    /// The first stretch a run at sample `from` can be carried from by the
+    /// maps: the first boundary after the first odometer epoch after
+    /// `from` (None: step to the end).
+    pub fn first_after(&self, from: usize) -> Option<usize> {
+        let sync = (from / self.sync_every + 1) * self.sync_every;
+        let m = self.bounds.partition_point(|&b| b < sync);
+        (m + 1 < self.bounds.len()).then_some(m)
+    }
+}
+
+/// The largest `α` with `P − αU` not negative definite: the largest
+/// eigenvalue of `U⁻¹P` (both symmetric positive definite), on the
+/// diagonally scaled matrices (the error state mixes radians of latitude
+/// with metres per second). Infinite when `U` is not positive definite.
+pub fn generalized_lambda_max(p: &crate::nav::ekf::Mat, u: &crate::nav::ekf::Mat) -> f64 {
+    use crate::nav::ekf::N;
+    let d: [f64; N] = std::array::from_fn(|i| {
+        let x = u[(i, i)];
+        if x > 0.0 {
+            1.0 / x.sqrt()
+        } else {
+            1.0
+        }
+    });
+    let us = crate::nav::ekf::Mat::from_fn(|i, j| u[(i, j)] * d[i] * d[j]);
+    let ps = crate::nav::ekf::Mat::from_fn(|i, j| p[(i, j)] * d[i] * d[j]);
+    let Some(c) = nalgebra::Cholesky::new(us) else {
+        return f64::INFINITY;
+    };
+    let l = c.l();
+    // M = L⁻¹ P L⁻ᵀ, symmetric with the eigenvalues of U⁻¹P.
+    let Some(x) = l.solve_lower_triangular(&ps) else {
+        return f64::INFINITY;
+    };
+    let Some(m) = l.solve_lower_triangular(&x.transpose()) else {
+        return f64::INFINITY;
+    };
+    let m = (m + m.transpose()) * 0.5;
+    let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
+    if e.iter().any(|x| x.is_nan()) {
+        return f64::INFINITY;
+    }
+    let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if top.is_finite() {
+        top
+    } else {
+        f64::INFINITY
+    }
+}
