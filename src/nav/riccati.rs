@@ -65,14 +65,14 @@ where
     /// Appends `P ← Φ P Φᵀ + diag(q) t` with `Φ = I + Σ x e_i e_kᵀ` over the
     /// sparse entries `(i, k, x)` (already multiplied by `t`).
     pub fn propagate(&mut self, phi: &[(u8, u8, f64)], q: &SVector<f64, N>, t: f64) {
-        // A ← Φ A: row i gains x × (old) row k.
-        let a0 = self.a;
+        // A ← Φ A: row i gains x × (old) row k; as columns of Aᵀ.
+        let at0 = self.a.transpose();
+        let mut at = at0;
         for &(i, k, x) in phi {
-            let (i, k) = (i as usize, k as usize);
-            for col in 0..N {
-                self.a[(i, col)] += x * a0[(k, col)];
-            }
+            at.column_mut(i as usize)
+                .axpy(x, &at0.column(k as usize), 1.0);
         }
+        at.transpose_to(&mut self.a);
         // C ← Φ C Φᵀ: D = C Φᵀ (columns), then Φ D = (D Φᵀ)ᵀ by symmetry.
         let mut d = self.c;
         for &(i, k, x) in phi {
@@ -80,14 +80,16 @@ where
                 .axpy(x, &self.c.column(k as usize), 1.0);
         }
         let e = d.transpose();
-        let mut c = e;
+        self.c = e;
         for &(i, k, x) in phi {
-            c.column_mut(i as usize).axpy(x, &e.column(k as usize), 1.0);
+            self.c
+                .column_mut(i as usize)
+                .axpy(x, &e.column(k as usize), 1.0);
         }
         for i in 0..N {
-            c[(i, i)] += q[i] * t;
+            self.c[(i, i)] += q[i] * t;
         }
-        self.c = (c + c.transpose()) * 0.5;
+        self.c.fill_upper_triangle_with_lower_triangle();
         self.ops += 1;
     }
 
@@ -100,11 +102,12 @@ where
         };
         let ha = h * self.a;
         let k = hc.transpose() * si;
-        self.j += ha.transpose() * si * ha;
-        self.j = (self.j + self.j.transpose()) * 0.5;
+        // J is symmetrized once, in `apply` and `then` (its updates are
+        // symmetric up to round-off).
+        self.j += ha.transpose() * (si * ha);
         self.a -= k * ha;
-        let c = self.c - k * hc;
-        self.c = (c + c.transpose()) * 0.5;
+        self.c -= k * hc;
+        self.c.fill_upper_triangle_with_lower_triangle();
         self.ops += 1;
     }
 
@@ -125,7 +128,9 @@ where
             }
         });
         let ps = SMatrix::<f64, N, N>::from_fn(|i, k| p[(i, k)] / (d[i] * d[k]));
-        let js = SMatrix::<f64, N, N>::from_fn(|i, k| self.j[(i, k)] * d[i] * d[k]);
+        let js = SMatrix::<f64, N, N>::from_fn(|i, k| {
+            0.5 * (self.j[(i, k)] + self.j[(k, i)]) * d[i] * d[k]
+        });
         let m = SMatrix::<f64, N, N>::identity() + ps * js;
         let w = match m.lu().solve(&ps) {
             Some(w) => SMatrix::<f64, N, N>::from_fn(|i, k| w[(i, k)] * d[i] * d[k]),
@@ -138,7 +143,8 @@ where
     /// The element of this one followed by `next`.
     pub fn then(&self, next: &Element<N>) -> Element<N> {
         // (I + C₁ J₂)⁻¹ applied to A₁ and to C₁.
-        let m = SMatrix::<f64, N, N>::identity() + self.c * next.j;
+        let j2 = (next.j + next.j.transpose()) * 0.5;
+        let m = SMatrix::<f64, N, N>::identity() + self.c * j2;
         let lu = m.lu();
         let (Some(x), Some(y)) = (lu.solve(&self.a), lu.solve(&self.c)) else {
             return next.clone();
@@ -146,12 +152,97 @@ where
         let a = next.a * x;
         let c = next.a * y * next.a.transpose() + next.c;
         // J₁₂ = A₁ᵀ (I + J₂ C₁)⁻¹ J₂ A₁ + J₁ = A₁ᵀ J₂ (I + C₁ J₂)⁻¹ A₁ + J₁.
-        let j = self.a.transpose() * next.j * x + self.j;
+        let j = self.a.transpose() * j2 * x + self.j;
         Element {
             a,
             c: (c + c.transpose()) * 0.5,
             j: (j + j.transpose()) * 0.5,
             ops: self.ops + next.ops,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Element;
+    use nalgebra::{SMatrix, SVector};
+
+    type M5 = SMatrix<f64, 5, 5>;
+
+    /// A deterministic SPD matrix.
+    fn spd(seed: f64) -> M5 {
+        let a = M5::from_fn(|i, j| ((i * 5 + j) as f64 * 0.37 + seed).sin());
+        a * a.transpose() + M5::identity() * 0.3
+    }
+
+    /// Propagations and updates applied one by one, as the filter does.
+    struct Ops {
+        phi: Vec<Vec<(u8, u8, f64)>>,
+        h: Vec<SMatrix<f64, 2, 5>>,
+    }
+
+    fn ops(seed: f64) -> Ops {
+        let phi = (0..3)
+            .map(|n| {
+                (0..7)
+                    .map(|k| {
+                        let x = ((k + 3 * n) as f64 * 1.7 + seed).cos() * 0.2;
+                        (((k * 3 + n) % 5) as u8, ((k * 2 + 1) % 5) as u8, x)
+                    })
+                    .collect()
+            })
+            .collect();
+        let h = (0..3)
+            .map(|n| SMatrix::<f64, 2, 5>::from_fn(|i, j| ((i + j + n) as f64 + seed).sin()))
+            .collect();
+        Ops { phi, h }
+    }
+
+    fn direct(p: &M5, o: &Ops, q: &SVector<f64, 5>, r: &SMatrix<f64, 2, 2>) -> M5 {
+        let mut p = *p;
+        for (phi, h) in o.phi.iter().zip(&o.h) {
+            let mut f = M5::identity();
+            for &(i, k, x) in phi {
+                f[(i as usize, k as usize)] += x;
+            }
+            p = f * p * f.transpose() + M5::from_diagonal(q) * 0.1;
+            let s = h * p * h.transpose() + r;
+            let k = p * h.transpose() * s.try_inverse().expect("S");
+            p -= k * h * p;
+        }
+        p
+    }
+
+    fn element(o: &Ops, q: &SVector<f64, 5>, r: &SMatrix<f64, 2, 2>) -> Element<5> {
+        let mut e = Element::identity();
+        for (phi, h) in o.phi.iter().zip(&o.h) {
+            e.propagate(phi, q, 0.1);
+            e.update(h, r);
+        }
+        e
+    }
+
+    /// The element of propagations and updates maps a prior to the very
+    /// covariance the ops give one by one (to round-off: 1e-10 of the
+    /// entries, O(1) here), composes associatively with another stretch's
+    /// (`then`), and stays under its PSD upper bound `A P Aᵀ + C`.
+    #[test]
+    fn element_reproduces_the_ops_and_composes() {
+        let q = SVector::<f64, 5>::from_fn(|i, _| 0.1 + 0.05 * i as f64);
+        let r = SMatrix::<f64, 2, 2>::new(0.5, 0.1, 0.1, 0.4);
+        let (o1, o2) = (ops(0.3), ops(1.1));
+        let (e1, e2) = (element(&o1, &q, &r), element(&o2, &q, &r));
+        for seed in [0.0, 2.0, 5.0] {
+            let p = spd(seed);
+            let want1 = direct(&p, &o1, &q, &r);
+            assert!((e1.apply(&p) - want1).abs().max() < 1e-10);
+            let want12 = direct(&want1, &o2, &q, &r);
+            assert!((e2.apply(&e1.apply(&p)) - want12).abs().max() < 1e-10);
+            assert!((e1.then(&e2).apply(&p) - want12).abs().max() < 1e-10);
+            // A P Aᵀ + C − f(P) is positive semi-definite.
+            let gap = e1.a * p * e1.a.transpose() + e1.c - want1;
+            let low = gap.symmetric_eigen().eigenvalues.min();
+            assert!(low > -1e-10, "{low}");
         }
     }
 }

@@ -189,7 +189,12 @@ impl<'a> Budget<'a> {
         filter: &mut Filter,
         mut visit: impl FnMut(usize, &mut Filter) -> bool,
     ) {
-        let mut p = self.data.start(filter, self.samples[from].avp.distance_m);
+        let epoch = from - from % self.data.odometer_every();
+        let mut p = self.data.resume(
+            filter,
+            self.samples[from].avp.distance_m,
+            self.samples[epoch].avp.distance_m,
+        );
         let mut n = 0u64;
         for (i, s) in self.samples.iter().enumerate().skip(from + 1) {
             p.step(i, s, filter);
@@ -310,39 +315,46 @@ impl<'a> Budget<'a> {
 
     /// The first sample after `from` where the bound of filter `f` (at
     /// sample `from`, on the truth, reading no more tags) exceeds `level`,
-    /// or None if it holds to the route's end: exactly as stepping `f`
-    /// sample by sample says, stepping only up to the first stretch the
-    /// maps can carry it from and where a stretch's interior bound cannot
-    /// exclude a crossing (module `stretch`). `f` is left along the way.
+    /// or None if it holds to the route's end, exactly as stepping `f`
+    /// says ([`Budget::run_carrying`]). `f` is left along the way.
     pub(super) fn first_above(&self, from: usize, f: &mut Filter, level: f64) -> Option<usize> {
-        let st = self
-            .stretches()
-            .and_then(|s| s.first_after(from).map(|m| (s, m)));
-        let stop = st.map_or(usize::MAX, |(s, m)| s.bounds[m]);
         let mut hit = None;
-        let mut above = |i: usize, f: &mut Filter| {
+        let level_c = std::cell::Cell::new(level);
+        self.run_carrying(from, f, &[], &level_c, |i, f| {
             if self.bound(&f.position_cov_enu()) > level {
                 hit = Some(i);
             }
             hit.is_none()
-        };
-        self.run(from, f, |i, f| above(i, f) && i < stop);
-        let (Some((st, m)), None) = (st, hit) else {
-            return hit;
-        };
-        let replay = |start: &Filter, p, (from, end): (usize, usize)| {
-            let mut g = start.clone();
-            g.set_covariance(p);
-            let mut hit = None;
-            self.run(from, &mut g, |i, g| {
-                if self.bound(&g.position_cov_enu()) > level {
-                    hit = Some(i);
-                }
-                hit.is_none() && i < end
+        });
+        hit
+    }
+
+    /// [`Budget::run`] with `visit`, but carried by the tag-free pass's
+    /// stretch maps (module `stretch`) over stretches without a fix
+    /// sample (`fixes`) whose bound provably stays at most `level` there,
+    /// where `visit` must do nothing (it is not called there).
+    pub(super) fn run_carrying(
+        &self,
+        from: usize,
+        f: &mut Filter,
+        fixes: &[usize],
+        level: &std::cell::Cell<f64>,
+        mut visit: impl FnMut(usize, &mut Filter) -> bool,
+    ) {
+        let mut step = |from: usize, f: &mut Filter, until: usize| {
+            let mut go = true;
+            self.run(from, f, |i, f| {
+                go = visit(i, f);
+                go && i < until
             });
-            hit.map_or(Ok(*g.covariance()), Err)
+            go
         };
-        st.carry(m, *f.covariance(), level, || self.count_jump(), replay)
+        match self.stretches() {
+            Some(st) => st.drive(from, f, fixes, level, step, || self.count_jump()),
+            None => {
+                step(from, f, usize::MAX);
+            }
+        }
     }
 
     /// The distance of the last sample before the bound of `f` (at sample
@@ -551,7 +563,7 @@ impl<'a> Budget<'a> {
     ) -> f64 {
         let fixes = &reference.fixes[offset.min(reference.fixes.len())..];
         let mut k = 0;
-        let mut worst = self.bound(&f.position_cov_enu());
+        let worst = self.bound(&f.position_cov_enu());
         while k < fixes.len() && fixes[k].0 <= from {
             self.apply_fix(from, &mut f, fixes[k].1);
             k += 1;
@@ -566,8 +578,13 @@ impl<'a> Budget<'a> {
         if k > 0 && settled(k, &f, worst) {
             return worst;
         }
-        self.run(from, &mut f, |i, f| {
-            worst = worst.max(self.bound(&f.position_cov_enu()));
+        // Stretches without a fix whose bound cannot exceed the worst so
+        // far change nothing here: carried by the stretch maps.
+        let at: Vec<usize> = fixes[k..].iter().map(|x| x.0).collect();
+        let level = std::cell::Cell::new(worst);
+        self.run_carrying(from, &mut f, &at, &level, |i, f| {
+            let worst = level.get().max(self.bound(&f.position_cov_enu()));
+            level.set(worst);
             let mut fixed = false;
             while k < fixes.len() && fixes[k].0 <= i {
                 self.apply_fix(i, f, fixes[k].1);
@@ -579,7 +596,7 @@ impl<'a> Budget<'a> {
             }
             worst <= stop_above_m
         });
-        worst
+        level.get()
     }
 
     /// The bound profile with fixes at the given sites (sample index,
@@ -737,8 +754,8 @@ impl LazyReaches<'_, '_> {
     /// on with the fixes at the sites between, lacks: the tag-free pass's
     /// ([`Budget::tag_free`]) or those of a pass reading a tag at every
     /// site ([`Budget::snapshots`] with a fix at every site). Ignored when
-    /// the propagations do not restart exactly (odometer readings, map
-    /// matching: [`PerfectData::restart_invariant`]).
+    /// the propagations do not restart exactly (map matching:
+    /// [`PerfectData::restart_invariant`]).
     pub fn certifying(mut self) -> Self {
         self.certify = self.budget.data.restart_invariant();
         self

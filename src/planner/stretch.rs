@@ -16,9 +16,8 @@
 //! ([`crate::sim::covariance::PerfectData::resync_every`]). Runs therefore
 //! step the filter up to the first boundary after that epoch, and from
 //! there carry the covariance by the maps. Map-matching feeds (restarted
-//! with each run) and odometer readings (whose first reading after a
-//! restart covers a partial interval) are not restart invariant: no maps
-//! are built for them ([`crate::sim::covariance::PerfectData::restart_invariant`]).
+//! with each run) are not restart invariant: no maps are built for them
+//! ([`crate::sim::covariance::PerfectData::restart_invariant`]).
 //!
 //! The interior bound. Updates only lower a covariance and every op is
 //! monotone in the PSD order, and `(P⁻¹ + J)⁻¹ ≤ P`, so at any sample `t`
@@ -242,7 +241,7 @@ impl Recorder {
 impl Stretches {
     /// The upper bound on the bound at every sample of stretch `m` from
     /// covariance `p` at its start (see the module docs).
-    fn interior_within(&self, m: usize, p: &Mat, level: f64) -> bool {
+    pub fn interior_within(&self, m: usize, p: &Mat, level: f64) -> bool {
         let it = &self.interior[m];
         let scale = self.chi2.sqrt() * it.rho;
         for a in it.anchors.iter().rev() {
@@ -276,35 +275,76 @@ impl Stretches {
         true
     }
 
-    /// Carries covariance `p`, at the start of stretch `m`, on to the
-    /// route's end: each stretch whose interior bound stays under `level`
-    /// (less a round-off margin) by its map (`jumped` is called), each
-    /// other by `replay(filter at the stretch's start, its covariance,
-    /// (the stretch's first and last samples))`, which steps it and returns the
-    /// covariance at the end or the first sample above `level`. Returns
-    /// that sample, or None at the end.
-    pub fn carry(
+    /// Drives filter `f` from sample `from` to the route's end as
+    /// `step(from, f, until)` would sample by sample (it steps `f` from
+    /// `from` through `until` at most, calling its caller's visit at each
+    /// sample, and returns false when that visit stopped the run), but
+    /// carries the covariance by the maps over each stretch that holds no
+    /// fix sample (`fixes`, increasing) and whose interior bound stays
+    /// under `level` (less a round-off margin): the caller's visit must do
+    /// nothing at a sample whose bound is at most `level` and holds no
+    /// fix. The other stretches are stepped from the tag-free filter at
+    /// their start with the carried covariance; fixes and the stretches
+    /// up to the first boundary after the odometer epoch that follows them
+    /// are stepped with `f` itself. `f` is left somewhere along the way.
+    pub fn drive(
         &self,
-        mut m: usize,
-        mut p: Mat,
-        level: f64,
+        from: usize,
+        f: &mut Filter,
+        fixes: &[usize],
+        level: &std::cell::Cell<f64>,
+        mut step: impl FnMut(usize, &mut Filter, usize) -> bool,
         mut jumped: impl FnMut(),
-        mut replay: impl FnMut(&Filter, Mat, (usize, usize)) -> Result<Mat, usize>,
-    ) -> Option<usize> {
-        let safe = level / (1.0 + INTERIOR_MARGIN);
-        while m + 1 < self.bounds.len() {
-            if self.interior_within(m, &p, safe) {
-                p = self.elements[m].apply(&p);
-                jumped();
-            } else {
-                p = match replay(&self.filters[m], p, (self.bounds[m], self.bounds[m + 1])) {
-                    Ok(p) => p,
-                    Err(i) => return Some(i),
-                };
+    ) {
+        let end = *self.bounds.last().unwrap_or(&0);
+        let mut cur = from;
+        let mut kf = fixes.partition_point(|&x| x <= from);
+        while cur < end {
+            let next_fix = fixes.get(kf).copied().unwrap_or(usize::MAX);
+            let Some(mut m) = self.first_after(cur) else {
+                step(cur, f, usize::MAX);
+                return;
+            };
+            let mut moved = false;
+            if next_fix > self.bounds[m] {
+                if !step(cur, f, self.bounds[m]) {
+                    return;
+                }
+                let mut p = *f.covariance();
+                while m + 1 < self.bounds.len() && self.bounds[m + 1] < next_fix {
+                    let safe = level.get() / (1.0 + INTERIOR_MARGIN);
+                    if self.interior_within(m, &p, safe) {
+                        p = self.elements[m].apply(&p);
+                        jumped();
+                    } else {
+                        let mut g = self.filters[m].clone();
+                        g.set_covariance(p);
+                        if !step(self.bounds[m], &mut g, self.bounds[m + 1]) {
+                            return;
+                        }
+                        p = *g.covariance();
+                    }
+                    m += 1;
+                    moved = true;
+                }
+                if m + 1 == self.bounds.len() {
+                    return;
+                }
+                cur = self.bounds[m];
+                if moved {
+                    *f = self.filters[m].clone();
+                    f.set_covariance(p);
+                }
             }
-            m += 1;
+            // The next stretch holds a fix: step through it.
+            if !step(cur, f, next_fix) {
+                return;
+            }
+            cur = next_fix;
+            while kf < fixes.len() && fixes[kf] <= cur {
+                kf += 1;
+            }
         }
-        None
     }
 
     /// The first stretch a run at sample `from` can be carried from by the
