@@ -130,11 +130,9 @@ impl<'a> Budget<'a> {
         self.steps.load(std::sync::atomic::Ordering::Relaxed)
     }
 
-    /// The planner's cost in filter passes over the whole route, whatever
-    /// the machine's load: [`Budget::steps`], plus the stretch maps'
-    /// building and applications in filter steps of the same cost
-    /// ([`super::stretch::JUMP_STEPS`], [`super::stretch::COMPOSE_STEPS`]),
-    /// over the route's samples.
+    /// The planner's cost in filter passes of the route, whatever the load:
+    /// [`Budget::steps`] plus the stretch maps' building and applications
+    /// in filter steps of the same cost (module `stretch`), over samples.
     pub fn passes(&self) -> f64 {
         let ld = |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
         let work = self.steps() as f64
@@ -311,50 +309,6 @@ impl<'a> Budget<'a> {
             return 0.0;
         }
         self.reach_from(0, &mut f, requirement_m)
-    }
-
-    /// The first sample after `from` where the bound of filter `f` (at
-    /// sample `from`, on the truth, reading no more tags) exceeds `level`,
-    /// or None if it holds to the route's end, exactly as stepping `f`
-    /// says ([`Budget::run_carrying`]). `f` is left along the way.
-    pub(super) fn first_above(&self, from: usize, f: &mut Filter, level: f64) -> Option<usize> {
-        let mut hit = None;
-        let level_c = std::cell::Cell::new(level);
-        self.run_carrying(from, f, &[], &level_c, |i, f| {
-            if self.bound(&f.position_cov_enu()) > level {
-                hit = Some(i);
-            }
-            hit.is_none()
-        });
-        hit
-    }
-
-    /// [`Budget::run`] with `visit`, but carried by the tag-free pass's
-    /// stretch maps (module `stretch`) over stretches without a fix
-    /// sample (`fixes`) whose bound provably stays at most `level` there,
-    /// where `visit` must do nothing (it is not called there).
-    pub(super) fn run_carrying(
-        &self,
-        from: usize,
-        f: &mut Filter,
-        fixes: &[usize],
-        level: &std::cell::Cell<f64>,
-        mut visit: impl FnMut(usize, &mut Filter) -> bool,
-    ) {
-        let mut step = |from: usize, f: &mut Filter, until: usize| {
-            let mut go = true;
-            self.run(from, f, |i, f| {
-                go = visit(i, f);
-                go && i < until
-            });
-            go
-        };
-        match self.stretches() {
-            Some(st) => st.drive(from, f, fixes, level, step, || self.count_jump()),
-            None => {
-                step(from, f, usize::MAX);
-            }
-        }
     }
 
     /// The distance of the last sample before the bound of `f` (at sample
@@ -623,13 +577,29 @@ impl<'a> Budget<'a> {
     /// for [`Budget::worst_bound_settled`], the covariance right after
     /// each fix's sample and the largest bound at any later sample.
     pub fn all_read(&self, fixes: &[(usize, Mounting)], every_m: f64, sites_m: &[f64]) -> AllRead {
+        self.all_read_gridded(fixes, every_m, sites_m, every_m)
+    }
+
+    /// [`Budget::all_read`], also giving [`AllRead::grid_max`] on a
+    /// profile grid of `grid_m` (the profile [`Budget::all_read`] with
+    /// `every_m = grid_m` would give): one pass for both.
+    pub fn all_read_gridded(
+        &self,
+        fixes: &[(usize, Mounting)],
+        every_m: f64,
+        sites_m: &[f64],
+        grid_m: f64,
+    ) -> AllRead {
         let mut out = AllRead {
             fixes: fixes.to_vec(),
             profile: vec![],
             sites: Vec::with_capacity(sites_m.len()),
             after: Vec::with_capacity(fixes.len()),
             after_max: vec![0.0; fixes.len()],
+            grid_m,
+            grid_max: 0.0,
         };
+        let mut next_grid = grid_m;
         let Some(mut f) = self.initial_filter() else {
             return out;
         };
@@ -647,6 +617,7 @@ impl<'a> Budget<'a> {
             distance_m: self.samples[0].avp.distance_m,
             bound95_m: self.bound(&f.position_cov_enu()),
         });
+        out.grid_max = out.profile[0].bound95_m;
         let mut next_prof = every_m;
         // Largest bound over the samples after the j-th fix's sample up to
         // the next fix's, then turned into suffix maxima.
@@ -673,6 +644,12 @@ impl<'a> Budget<'a> {
             }
             let at_fix = k < fixes.len() && fixes[k].0 == i;
             let at_end = i + 1 == self.samples.len();
+            if a.distance_m >= next_grid || at_fix || at_end {
+                out.grid_max = out.grid_max.max(b);
+                if a.distance_m >= next_grid {
+                    next_grid += grid_m;
+                }
+            }
             if a.distance_m >= next_prof || at_fix || at_end {
                 // Recorded before a fix at this sample: the peak just before it.
                 out.profile.push(BudgetPoint {
@@ -871,6 +848,11 @@ pub struct AllRead {
     pub after: Vec<crate::nav::ekf::Mat>,
     /// The largest bound at any sample after each fix's sample (m).
     pub after_max: Vec<f64>,
+    /// The grid (m) of [`AllRead::grid_max`].
+    pub grid_m: f64,
+    /// The largest bound of the profile on the grid asked for
+    /// ([`Budget::all_read_gridded`]; else of [`AllRead::profile`]).
+    pub grid_max: f64,
 }
 
 /// Snapshots `f` as a [`Site`] at `(sample, distance_m)` for every site

@@ -7,13 +7,15 @@
 //! One role per file: `settings` (the `[planner]` section checked once),
 //! `plan` (plan types), `route` (placement along a route), `budget`
 //! (the route's covariance analysis on `crate::sim::covariance`),
-//! `stretch` (the tag-free pass's composed stretch maps),
+//! `stretch` (the tag-free pass's composed stretch maps) and `carry`
+//! (runs carried by them),
 //! `placement` and `forward` (placement algorithms), `validation`
 //! (Monte Carlo and the missed-tags check), `baseline` (uniform spacing),
 //! `output` (export records), [`network`] (`coverage = "network"`).
 
 pub(crate) mod baseline;
 pub(crate) mod budget;
+pub(crate) mod carry;
 pub(crate) mod forward;
 pub mod network;
 pub(crate) mod output;

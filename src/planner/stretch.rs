@@ -55,10 +55,9 @@ pub(super) const MIN_SAMPLES: usize = 300;
 pub(super) const JUMP_STEPS: f64 = 55.0;
 /// The cost of composing one covariance op (a propagation or an accepted
 /// update) into a stretch map during the tag-free pass, in filter steps:
-/// the recording pass took 1.5–2.8 times a plain tag-free pass on the demo
-/// and the Helsinki 20 m route (11,157 and 109,040 ops; 2.4–8.4 steps an
-/// op, loaded machine): 7 is taken.
-pub(super) const COMPOSE_STEPS: f64 = 7.0;
+/// the recording pass took 2.0–2.2 times a plain tag-free pass on the
+/// demo (11,157 ops over 53,137 samples: 4.8–5.9 steps an op, three runs).
+pub(super) const COMPOSE_STEPS: f64 = 6.0;
 
 /// Op states per anchor of the interior bound (1: the bound `A P Aᵀ + C`
 /// itself at every state, tightest and dearest to test). On the demo's
