@@ -230,6 +230,8 @@ pub fn plan_with_stages(
         tracing::info!(
             phase = name,
             filter_passes = budget.passes(),
+            steps = budget.steps(),
+            map_jumps = budget.jumps(),
             "planner cost so far"
         );
     };

@@ -45,9 +45,11 @@ use crate::nav::Filter;
 /// are the same): on the demo's 204 tag-free reaches (test
 /// `stretch_maps_give_the_stepped_reaches`), with 4 op states per anchor,
 /// 0 / 300 / 1000 samples took 148k / 218k / 579k filter steps and 16.4k /
-/// 8.7k / 3.1k map applications, 313 / 210 / 297 ms (stepping: 4.2 M
-/// steps, 1.26 s).
-pub(super) const MIN_SAMPLES: usize = 300;
+/// 8.7k / 3.1k map applications (stepping: 4.2 M steps); whole plans
+/// (`plan.json`'s counted passes, demo / Monaco 20 m / Helsinki tactical):
+/// 300 → 6.62 / 5.04 / 5.12, 600 → 6.42 / 5.04 / 4.96, 1000 → 6.79 /
+/// 4.97 / 5.00, 2000 → 10.2 / 5.63 / 5.94.
+pub(super) const MIN_SAMPLES: usize = 600;
 /// The cost of applying one stretch map (the interior test and the map),
 /// in filter steps (one IMU sample of [`Budget::run`]), for the planner's
 /// pass count: measured 49–56 on the demo's reaches (14.6–16.6 µs a map
@@ -62,7 +64,10 @@ pub(super) const COMPOSE_STEPS: f64 = 6.0;
 /// Op states per anchor of the interior bound (1: the bound `A P Aᵀ + C`
 /// itself at every state, tightest and dearest to test). On the demo's
 /// reaches, 1 and 4 states took 102k and 218k filter steps but 320 and
-/// 210 ms (anchor tests), with 300-sample stretches.
+/// 210 ms (anchor tests), with 300-sample stretches; whole plans with
+/// 600-sample stretches, 1 / 2 / 3 / 4 / 8 states: demo 0.17 / 0.19 /
+/// 0.19 / 0.13 / 0.13 s user, Monaco 20 m 1.00 / 0.74 / 0.63 / 0.56 /
+/// 0.58 s (8 states: more stepping, +13 % passes on the demo).
 const GROUP: usize = 4;
 
 /// Relative margin of the interior bound below the level it must stay
