@@ -60,8 +60,10 @@ pub struct Budget<'a> {
     /// The tag-free pass's stretch maps (module `stretch`), when the
     /// propagations restart exactly.
     stretches: std::sync::OnceLock<super::stretch::Stretches>,
-    /// Stretch maps applied (all threads) and ops composed into them.
+    /// Stretch maps applied and anchors tested (all threads), and ops
+    /// composed into the maps.
     jumps: std::sync::atomic::AtomicU64,
+    anchors: std::sync::atomic::AtomicU64,
     composed: std::sync::atomic::AtomicU64,
 }
 
@@ -107,6 +109,7 @@ impl<'a> Budget<'a> {
             p: scn.planner().requirement_confidence,
             stretches: std::sync::OnceLock::new(),
             jumps: std::sync::atomic::AtomicU64::new(0),
+            anchors: std::sync::atomic::AtomicU64::new(0),
             composed: std::sync::atomic::AtomicU64::new(0),
         }
     }
@@ -136,7 +139,8 @@ impl<'a> Budget<'a> {
     pub fn passes(&self) -> f64 {
         let ld = |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
         let work = self.steps() as f64
-            + ld(&self.jumps) as f64 * super::stretch::JUMP_STEPS
+            + ld(&self.jumps) as f64 * super::stretch::APPLY_STEPS
+            + ld(&self.anchors) as f64 * super::stretch::ANCHOR_STEPS
             + ld(&self.composed) as f64 * super::stretch::COMPOSE_STEPS;
         work / self.samples.len().saturating_sub(1).max(1) as f64
     }
@@ -146,10 +150,12 @@ impl<'a> Budget<'a> {
         self.stretches.get()
     }
 
-    /// Counts one stretch map applied.
-    pub(super) fn count_jump(&self) {
-        self.jumps
-            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    /// Counts one interior test of `anchors` anchors, and the map applied
+    /// when `applied`.
+    pub(super) fn count_map(&self, anchors: usize, applied: bool) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.anchors.fetch_add(anchors as u64, Relaxed);
+        self.jumps.fetch_add(u64::from(applied), Relaxed);
     }
 
     /// Covariance ops composed into stretch maps so far.

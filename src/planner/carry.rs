@@ -43,7 +43,7 @@ impl Budget<'_> {
             go
         };
         match self.stretches() {
-            Some(st) => st.drive(from, f, fixes, level, step, || self.count_jump()),
+            Some(st) => st.drive(from, f, fixes, level, step, |a, j| self.count_map(a, j)),
             None => {
                 step(from, f, usize::MAX);
             }

@@ -50,11 +50,15 @@ use crate::nav::Filter;
 /// 300 → 6.62 / 5.04 / 5.12, 600 → 6.42 / 5.04 / 4.96, 1000 → 6.79 /
 /// 4.97 / 5.00, 2000 → 10.2 / 5.63 / 5.94.
 pub(super) const MIN_SAMPLES: usize = 600;
-/// The cost of applying one stretch map (the interior test and the map),
-/// in filter steps (one IMU sample of [`Budget::run`]), for the planner's
-/// pass count: measured 49–56 on the demo's reaches (14.6–16.6 µs a map
-/// against 0.30 µs a step, same run).
-pub(super) const JUMP_STEPS: f64 = 55.0;
+/// The cost of applying one stretch map, in filter steps (one IMU sample
+/// of [`Budget::run`]), for the planner's pass count: 14.9 µs a map
+/// (21×21 solve and products) against 0.28–0.33 µs a step.
+pub(super) const APPLY_STEPS: f64 = 50.0;
+/// The cost of testing one anchor of an interior bound, in filter steps:
+/// 0.2–0.35 µs an anchor (whole reaches less their steps and maps). With
+/// these two, the counted work of the maps was 1.1 times the measured on
+/// the demo's 204 reaches and 0.9–1.1 times on the Monaco 20 m route's.
+pub(super) const ANCHOR_STEPS: f64 = 1.5;
 /// The cost of composing one covariance op (a propagation or an accepted
 /// update) into a stretch map during the tag-free pass, in filter steps:
 /// the recording pass took 2.0–2.2 times a plain tag-free pass on the
@@ -91,8 +95,51 @@ pub(super) struct Anchor {
 pub(super) struct Interior {
     /// Metres per radian of longitude and of latitude at the start.
     scale: (f64, f64),
+    /// One anchor at the start for the whole stretch (cheap to test: its
+    /// rows are the start's metric rows, two entries).
+    whole: Anchor,
     anchors: Vec<Anchor>,
     rho: f64,
+}
+
+/// The anchor's upper bound on `√λmax` of the metric horizontal
+/// covariance over the samples it covers, from `p` at the stretch's start.
+fn anchor_bound(a: &Anchor, p: &Mat) -> f64 {
+    // G P Gᵀ over the 2×2, with P symmetric: x_r = P g_r.
+    let mut x = [[0.0; N]; 2];
+    for (row, xr) in x.iter_mut().enumerate() {
+        for (k, &gk) in a.g[row].iter().enumerate() {
+            if gk != 0.0 {
+                for (l, xl) in xr.iter_mut().enumerate() {
+                    *xl += gk * p[(l, k)];
+                }
+            }
+        }
+    }
+    let dot = |u: &[f64; N], v: &[f64; N]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+    let gpg = [
+        dot(&a.g[0], &x[0]),
+        dot(&a.g[0], &x[1]),
+        dot(&a.g[1], &x[1]),
+    ];
+    if a.q == 0.0 && a.r.iter().all(|&r| r == 0.0) {
+        lam2(gpg[0] + a.cm[0], gpg[1] + a.cm[1], gpg[2] + a.cm[2]).sqrt()
+    } else {
+        let s: f64 = (0..N).map(|k| a.r[k] * p[(k, k)].max(0.0)).sum();
+        lam2(gpg[0], gpg[1], gpg[2]).sqrt() + s.sqrt() + a.q.sqrt()
+    }
+}
+
+/// Widens anchor `a` to cover a state with rows `g` and `M C,hor M` = `c`.
+fn widen(a: &mut Anchor, g: &[[f64; N]; 2], c: &[f64; 3]) {
+    let d0: [f64; N] = std::array::from_fn(|k| g[0][k] - a.g[0][k]);
+    let d1: [f64; N] = std::array::from_fn(|k| g[1][k] - a.g[1][k]);
+    let n0: f64 = d0.iter().map(|x| x.abs()).sum();
+    let n1: f64 = d1.iter().map(|x| x.abs()).sum();
+    for k in 0..N {
+        a.r[k] = a.r[k].max(d0[k].abs() * n0 + d1[k].abs() * n1);
+    }
+    a.q = a.q.max(lam2(c[0], c[1], c[2]));
 }
 
 /// The rows `M A` (east, north) and `M C,hor M` of a map.
@@ -171,19 +218,16 @@ impl Recorder {
         let (Some(it), Some(&(g, cm))) = (self.cur.as_mut(), self.group.last()) else {
             return;
         };
-        let mut r = [0.0f64; N];
-        let mut q: f64 = 0.0;
+        let mut a = Anchor {
+            g,
+            cm,
+            r: [0.0; N],
+            q: 0.0,
+        };
         for (gt, ct) in &self.group {
-            let d0: [f64; N] = std::array::from_fn(|k| gt[0][k] - g[0][k]);
-            let d1: [f64; N] = std::array::from_fn(|k| gt[1][k] - g[1][k]);
-            let n0: f64 = d0.iter().map(|x| x.abs()).sum();
-            let n1: f64 = d1.iter().map(|x| x.abs()).sum();
-            for k in 0..N {
-                r[k] = r[k].max(d0[k].abs() * n0 + d1[k].abs() * n1);
-            }
-            q = q.max(lam2(ct[0], ct[1], ct[2]));
+            widen(&mut a, gt, ct);
         }
-        it.anchors.push(Anchor { g, cm, r, q });
+        it.anchors.push(a);
         self.group.clear();
     }
 
@@ -201,7 +245,10 @@ impl Recorder {
                     if self.group.len() == GROUP {
                         self.close_group();
                     }
-                    self.group.push(metric_rows(el, scale));
+                    let (g, c) = metric_rows(el, scale);
+                    let it = self.cur.as_mut().expect("open stretch");
+                    widen(&mut it.whole, &g, &c);
+                    self.group.push((g, c));
                 }
             }
         }
@@ -224,10 +271,16 @@ impl Recorder {
             self.st.filters.push(f.clone());
             let (rm, clrn) = f.metres_per_radian();
             // The start itself (the identity map) is the first state.
-            self.group
-                .push(metric_rows(&Element::identity(), (clrn, rm)));
+            let (g, cm) = metric_rows(&Element::identity(), (clrn, rm));
+            self.group.push((g, cm));
             self.cur = Some(Interior {
                 scale: (clrn, rm),
+                whole: Anchor {
+                    g,
+                    cm,
+                    r: [0.0; N],
+                    q: 0.0,
+                },
                 anchors: vec![],
                 rho: 1.0,
             });
@@ -245,38 +298,22 @@ impl Recorder {
 impl Stretches {
     /// The upper bound on the bound at every sample of stretch `m` from
     /// covariance `p` at its start (see the module docs).
-    pub fn interior_within(&self, m: usize, p: &Mat, level: f64) -> bool {
+    /// Whether the bound stays at most `level` at every sample of stretch
+    /// `m` from covariance `p` at its start, by the interior bound (the
+    /// whole-stretch anchor first, then each anchor), and the anchors
+    /// tested.
+    pub fn interior_within(&self, m: usize, p: &Mat, level: f64) -> (bool, usize) {
         let it = &self.interior[m];
         let scale = self.chi2.sqrt() * it.rho;
-        for a in it.anchors.iter().rev() {
-            // G P Gᵀ over the 2×2, with P symmetric: x_r = P g_r.
-            let mut x = [[0.0; N]; 2];
-            for (row, xr) in x.iter_mut().enumerate() {
-                for (k, &gk) in a.g[row].iter().enumerate() {
-                    if gk != 0.0 {
-                        for (l, xl) in xr.iter_mut().enumerate() {
-                            *xl += gk * p[(l, k)];
-                        }
-                    }
-                }
-            }
-            let dot = |u: &[f64; N], v: &[f64; N]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
-            let gpg = [
-                dot(&a.g[0], &x[0]),
-                dot(&a.g[0], &x[1]),
-                dot(&a.g[1], &x[1]),
-            ];
-            let ub = if a.q == 0.0 && a.r.iter().all(|&r| r == 0.0) {
-                lam2(gpg[0] + a.cm[0], gpg[1] + a.cm[1], gpg[2] + a.cm[2]).sqrt()
-            } else {
-                let s: f64 = (0..N).map(|k| a.r[k] * p[(k, k)].max(0.0)).sum();
-                lam2(gpg[0], gpg[1], gpg[2]).sqrt() + s.sqrt() + a.q.sqrt()
-            };
-            if scale * ub > level {
-                return false;
+        if scale * anchor_bound(&it.whole, p) <= level {
+            return (true, 1);
+        }
+        for (n, a) in it.anchors.iter().rev().enumerate() {
+            if scale * anchor_bound(a, p) > level {
+                return (false, n + 2);
             }
         }
-        true
+        (true, it.anchors.len() + 1)
     }
 
     /// Drives filter `f` from sample `from` to the route's end as
@@ -298,7 +335,7 @@ impl Stretches {
         fixes: &[usize],
         level: &std::cell::Cell<f64>,
         mut step: impl FnMut(usize, &mut Filter, usize) -> bool,
-        mut jumped: impl FnMut(),
+        mut cost: impl FnMut(usize, bool),
     ) {
         let end = *self.bounds.last().unwrap_or(&0);
         let mut cur = from;
@@ -317,9 +354,10 @@ impl Stretches {
                 let mut p = *f.covariance();
                 while m + 1 < self.bounds.len() && self.bounds[m + 1] < next_fix {
                     let safe = level.get() / (1.0 + INTERIOR_MARGIN);
-                    if self.interior_within(m, &p, safe) {
+                    let (within, tested) = self.interior_within(m, &p, safe);
+                    cost(tested, within);
+                    if within {
                         p = self.elements[m].apply(&p);
-                        jumped();
                     } else {
                         let mut g = self.filters[m].clone();
                         g.set_covariance(p);
