@@ -64,6 +64,8 @@ pub struct Budget<'a> {
     /// composed into the maps.
     jumps: std::sync::atomic::AtomicU64,
     anchors: std::sync::atomic::AtomicU64,
+    /// Stretches composed into nodes (module `stretch`).
+    noded: std::sync::atomic::AtomicU64,
     composed: std::sync::atomic::AtomicU64,
 }
 
@@ -110,6 +112,7 @@ impl<'a> Budget<'a> {
             stretches: std::sync::OnceLock::new(),
             jumps: std::sync::atomic::AtomicU64::new(0),
             anchors: std::sync::atomic::AtomicU64::new(0),
+            noded: std::sync::atomic::AtomicU64::new(0),
             composed: std::sync::atomic::AtomicU64::new(0),
         }
     }
@@ -141,6 +144,7 @@ impl<'a> Budget<'a> {
         let work = self.steps() as f64
             + ld(&self.jumps) as f64 * super::stretch::APPLY_STEPS
             + ld(&self.anchors) as f64 * super::stretch::ANCHOR_STEPS
+            + ld(&self.noded) as f64 * super::stretch::NODE_PART_STEPS
             + ld(&self.composed) as f64 * super::stretch::COMPOSE_STEPS;
         work / self.samples.len().saturating_sub(1).max(1) as f64
     }
@@ -300,6 +304,9 @@ impl<'a> Budget<'a> {
             let ops: u64 = st.elements.iter().map(|e| e.ops).sum();
             self.composed
                 .fetch_add(ops, std::sync::atomic::Ordering::Relaxed);
+            let parts = super::stretch::Recorder::node_work(&st);
+            self.noded
+                .fetch_add(parts, std::sync::atomic::Ordering::Relaxed);
             let _ = self.stretches.set(st);
         }
         (prof, sites)
