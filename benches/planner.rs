@@ -22,14 +22,19 @@ use waymark::sim::{Scenario, TruthSource};
 /// One route plan and one filter pass of the same route, for the small
 /// bundled planning scenarios; their ratio is the plan's cost in filter
 /// passes, which the planner also counts itself (`Plan::filter_passes`,
-/// asserted by tests/plan_speed.rs). The Helsinki and Monaco 20 m routes
-/// and the paper's drive take too long a plan for ten samples: their
-/// counted passes are in BENCHMARKS.md ("Planning speed (issue 14)").
+/// asserted by tests/plan_speed.rs), and the Monaco 20 m tactical route
+/// (21.8 km, two tags) as a longer one. The Helsinki 20 m routes and the
+/// paper's drive take too long a plan for ten samples: their counted
+/// passes are in BENCHMARKS.md ("Planning speed (issue 14)").
 fn route_plan(c: &mut Criterion) {
     let mut g = c.benchmark_group("route");
     g.sample_size(10).measurement_time(Duration::from_secs(20));
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    for name in ["demo.toml", "helsinki-plan-tactical.toml"] {
+    for name in [
+        "demo.toml",
+        "helsinki-plan-tactical.toml",
+        "monaco-plan-20m-tactical.toml",
+    ] {
         let scn = Scenario::load(&root.join("scenarios").join(name)).expect("scenario");
         let settings = PlannerSettings::from_scenario(&scn).expect("settings");
         let truth = TruthSource::new(&scn).expect("truth");

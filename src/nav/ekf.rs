@@ -261,6 +261,9 @@ pub struct Covariance {
     nz: [(u8, u8, f64); 160],
     q: StateVec,
     noise: NoiseModel,
+    /// When tracked, the composed map of the ops since it was started
+    /// ([`super::riccati::Element`]; the planner's stretch maps).
+    pub element: Option<Box<super::riccati::Element<N>>>,
 }
 
 impl Covariance {
@@ -272,6 +275,7 @@ impl Covariance {
             nz: [(0, 0, 0.0); 160],
             q: process_noise_diag(&noise),
             noise,
+            element: None,
         }
     }
 
@@ -324,6 +328,9 @@ impl Covariance {
                 c[(i, j)] = s;
                 c[(j, i)] = s;
             }
+        }
+        if let Some(el) = self.element.as_mut() {
+            el.propagate(&self.nz[..n], &self.q, t);
         }
     }
 
@@ -409,6 +416,9 @@ impl Covariance {
             if self.p[(i, i)] < 1e-30 {
                 self.p[(i, i)] = 1e-30;
             }
+        }
+        if let Some(el) = self.element.as_mut() {
+            el.update(h, r);
         }
         (
             UpdateOutcome {

@@ -194,6 +194,28 @@ impl Filter {
         &self.cov.p
     }
 
+    /// Replaces the error covariance (the planner's composed stretch maps
+    /// carry a covariance over a stretch without stepping the filter).
+    pub fn set_covariance(&mut self, p: Mat) {
+        self.cov.p = p;
+    }
+
+    /// Starts (or restarts) composing the covariance ops from here on into
+    /// one map ([`super::riccati::Element`]).
+    pub fn track_element(&mut self) {
+        self.cov.element = Some(Box::default());
+    }
+
+    /// The map composed since [`Filter::track_element`], if tracked.
+    pub fn element(&self) -> Option<&super::riccati::Element<N>> {
+        self.cov.element.as_deref()
+    }
+
+    /// Stops composing and returns the map, if tracked.
+    pub fn take_element(&mut self) -> Option<super::riccati::Element<N>> {
+        self.cov.element.take().map(|b| *b)
+    }
+
     /// Estimated gyro and accelerometer biases (body axes; rad/s, m/s²).
     pub fn imu_biases(&self) -> (V3, V3) {
         (self.gyro_bias, self.accel_bias)
@@ -212,6 +234,13 @@ impl Filter {
     /// The current adaptive (Sage–Husa) external fix noise, if any.
     pub fn adaptive_fix_noise(&self) -> Option<Matrix2<f64>> {
         self.sh_r
+    }
+
+    /// Metres per radian of latitude and of longitude at the navigator's
+    /// position (`R_M + h`, `(R_N + h) cos L`): the scaling of
+    /// [`Filter::position_cov_enu`].
+    pub fn metres_per_radian(&self) -> (f64, f64) {
+        self.m_per_rad()
     }
 
     fn m_per_rad(&self) -> (f64, f64) {

@@ -10,6 +10,7 @@ pub(crate) mod dead_reckoning;
 pub(crate) mod dr3d;
 pub mod ekf;
 pub mod integrated;
+pub mod riccati;
 pub(crate) mod strapdown;
 pub(crate) mod vertical;
 

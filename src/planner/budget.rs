@@ -57,6 +57,16 @@ pub struct Budget<'a> {
     steps: std::sync::atomic::AtomicU64,
     /// The probability the bound holds with (`planner.requirement_confidence`).
     p: f64,
+    /// The tag-free pass's stretch maps (module `stretch`), when the
+    /// propagations restart exactly.
+    stretches: std::sync::OnceLock<super::stretch::Stretches>,
+    /// Stretch maps applied and anchors tested (all threads), and ops
+    /// composed into the maps.
+    jumps: std::sync::atomic::AtomicU64,
+    anchors: std::sync::atomic::AtomicU64,
+    /// Stretches composed into nodes (module `stretch`).
+    noded: std::sync::atomic::AtomicU64,
+    composed: std::sync::atomic::AtomicU64,
 }
 
 impl std::fmt::Debug for Budget<'_> {
@@ -99,6 +109,11 @@ impl<'a> Budget<'a> {
             lane_width,
             steps: std::sync::atomic::AtomicU64::new(0),
             p: scn.planner().requirement_confidence,
+            stretches: std::sync::OnceLock::new(),
+            jumps: std::sync::atomic::AtomicU64::new(0),
+            anchors: std::sync::atomic::AtomicU64::new(0),
+            noded: std::sync::atomic::AtomicU64::new(0),
+            composed: std::sync::atomic::AtomicU64::new(0),
         }
     }
 
@@ -121,10 +136,40 @@ impl<'a> Budget<'a> {
         self.steps.load(std::sync::atomic::Ordering::Relaxed)
     }
 
-    /// [`Budget::steps`] in filter passes over the whole route: the
-    /// planner's cost as a multiple of one pass, whatever the machine's load.
+    /// The planner's cost in filter passes of the route, whatever the load:
+    /// [`Budget::steps`] plus the stretch maps' building and applications
+    /// in filter steps of the same cost (module `stretch`), over samples.
     pub fn passes(&self) -> f64 {
-        self.steps() as f64 / self.samples.len().saturating_sub(1).max(1) as f64
+        let ld = |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
+        let work = self.steps() as f64
+            + ld(&self.jumps) as f64 * super::stretch::APPLY_STEPS
+            + ld(&self.anchors) as f64 * super::stretch::ANCHOR_STEPS
+            + ld(&self.noded) as f64 * super::stretch::NODE_PART_STEPS
+            + ld(&self.composed) as f64 * super::stretch::COMPOSE_STEPS;
+        work / self.samples.len().saturating_sub(1).max(1) as f64
+    }
+
+    /// The stretch maps, once the tag-free pass has built them.
+    pub(super) fn stretches(&self) -> Option<&super::stretch::Stretches> {
+        self.stretches.get()
+    }
+
+    /// Counts one interior test of `anchors` anchors, and the map applied
+    /// when `applied`.
+    pub(super) fn count_map(&self, anchors: usize, applied: bool) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.anchors.fetch_add(anchors as u64, Relaxed);
+        self.jumps.fetch_add(u64::from(applied), Relaxed);
+    }
+
+    /// Covariance ops composed into stretch maps so far.
+    pub fn composed(&self) -> u64 {
+        self.composed.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Stretch maps applied so far (all threads).
+    pub fn jumps(&self) -> u64 {
+        self.jumps.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// The lane width (m) at sample `i`, when the route is on a map.
@@ -152,7 +197,12 @@ impl<'a> Budget<'a> {
         filter: &mut Filter,
         mut visit: impl FnMut(usize, &mut Filter) -> bool,
     ) {
-        let mut p = self.data.start(filter, self.samples[from].avp.distance_m);
+        let epoch = from - from % self.data.odometer_every();
+        let mut p = self.data.resume(
+            filter,
+            self.samples[from].avp.distance_m,
+            self.samples[epoch].avp.distance_m,
+        );
         let mut n = 0u64;
         for (i, s) in self.samples.iter().enumerate().skip(from + 1) {
             p.step(i, s, filter);
@@ -198,6 +248,22 @@ impl<'a> Budget<'a> {
         let mut next_prof = every_m;
         let mut sites = Vec::with_capacity(sites_m.len());
         let mut next_site = 0;
+        // The tag-free pass records the stretch maps (module `stretch`).
+        let mut rec = match self.data.resync_every() {
+            Some(sync)
+                if fixes.is_empty()
+                    && self.data.restart_invariant()
+                    && self.stretches.get().is_none() =>
+            {
+                let unit = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]];
+                let chi2 = self.bound(&unit).powi(2);
+                let mut r = super::stretch::Recorder::new(sync, chi2, super::stretch::MIN_SAMPLES);
+                r.visit(0, &mut f, true, self.samples.len() == 1);
+                Some(r)
+            }
+            _ => None,
+        };
+        let n = self.samples.len();
         take_sites(
             &mut sites,
             &mut next_site,
@@ -216,6 +282,10 @@ impl<'a> Budget<'a> {
                 });
                 next_prof += every_m;
             }
+            if let Some(r) = rec.as_mut() {
+                let boundary = next_site < sites_m.len() && sites_m[next_site] <= a.distance_m;
+                r.visit(i, f, boundary, i + 1 == n);
+            }
             take_sites(
                 &mut sites,
                 &mut next_site,
@@ -230,6 +300,15 @@ impl<'a> Budget<'a> {
             }
             true
         });
+        if let Some(st) = rec.and_then(super::stretch::Recorder::finish) {
+            let ops: u64 = st.elements.iter().map(|e| e.ops).sum();
+            self.composed
+                .fetch_add(ops, std::sync::atomic::Ordering::Relaxed);
+            let parts = super::stretch::Recorder::node_work(&st);
+            self.noded
+                .fetch_add(parts, std::sync::atomic::Ordering::Relaxed);
+            let _ = self.stretches.set(st);
+        }
         (prof, sites)
     }
 
@@ -245,18 +324,13 @@ impl<'a> Budget<'a> {
         self.reach_from(0, &mut f, requirement_m)
     }
 
+    /// The distance of the last sample before the bound of `f` (at sample
+    /// `from`) first exceeds `requirement_m`, or the route's length.
     fn reach_from(&self, from: usize, f: &mut Filter, requirement_m: f64) -> f64 {
-        let mut reach = self.length_m();
-        let mut prev = self.samples[from].avp.distance_m;
-        self.run(from, f, |i, f| {
-            if self.bound(&f.position_cov_enu()) > requirement_m {
-                reach = prev;
-                return false;
-            }
-            prev = self.samples[i].avp.distance_m;
-            true
-        });
-        reach
+        match self.first_above(from, f, requirement_m) {
+            Some(i) => self.samples[i - 1].avp.distance_m,
+            None => self.length_m(),
+        }
     }
 
     /// The fix a tag of `mounting` gives at truth sample `i`: applied to
@@ -381,22 +455,19 @@ impl<'a> Budget<'a> {
             self.apply_fix(from, &mut f, fixes[k].1);
             k += 1;
         }
-        let length = self.length_m();
-        let mut prev = self.samples[from].avp.distance_m;
-        let mut short = false;
-        self.run(from, &mut f, |i, f| {
-            while k < fixes.len() && fixes[k].0 <= i {
-                self.apply_fix(i, f, fixes[k].1);
-                k += 1;
-            }
-            if i > last && self.bound(&f.position_cov_enu()) > level_m {
-                short = prev < length;
-                return false;
-            }
-            prev = self.samples[i].avp.distance_m;
-            true
-        });
-        short
+        if last > from {
+            self.run(from, &mut f, |i, f| {
+                while k < fixes.len() && fixes[k].0 <= i {
+                    self.apply_fix(i, f, fixes[k].1);
+                    k += 1;
+                }
+                i < last
+            });
+        }
+        // After the last fix: carried on by the stretch maps where they
+        // apply (the same first sample above the level as stepping).
+        let hit = self.first_above(last, &mut f, level_m);
+        hit.is_some_and(|i| self.samples[i - 1].avp.distance_m < self.length_m())
     }
 
     /// The largest bound from sample `from` on, starting with filter `f`
@@ -459,7 +530,7 @@ impl<'a> Budget<'a> {
     ) -> f64 {
         let fixes = &reference.fixes[offset.min(reference.fixes.len())..];
         let mut k = 0;
-        let mut worst = self.bound(&f.position_cov_enu());
+        let worst = self.bound(&f.position_cov_enu());
         while k < fixes.len() && fixes[k].0 <= from {
             self.apply_fix(from, &mut f, fixes[k].1);
             k += 1;
@@ -467,14 +538,20 @@ impl<'a> Budget<'a> {
         let settled = |k: usize, f: &Filter, worst: f64| {
             let j = offset + k - 1;
             let rest = reference.after_max[j];
-            let alpha = generalized_lambda_max(f.covariance(), &reference.after[j]).max(1.0);
+            let alpha = super::stretch::generalized_lambda_max(f.covariance(), &reference.after[j])
+                .max(1.0);
             (alpha * (1.0 + 1e-9)).sqrt() * rest <= worst.max(settle_at_m)
         };
         if k > 0 && settled(k, &f, worst) {
             return worst;
         }
-        self.run(from, &mut f, |i, f| {
-            worst = worst.max(self.bound(&f.position_cov_enu()));
+        // Stretches without a fix whose bound cannot exceed the worst so
+        // far change nothing here: carried by the stretch maps.
+        let at: Vec<usize> = fixes[k..].iter().map(|x| x.0).collect();
+        let level = std::cell::Cell::new(worst);
+        self.run_carrying(from, &mut f, &at, &level, |i, f| {
+            let worst = level.get().max(self.bound(&f.position_cov_enu()));
+            level.set(worst);
             let mut fixed = false;
             while k < fixes.len() && fixes[k].0 <= i {
                 self.apply_fix(i, f, fixes[k].1);
@@ -486,7 +563,7 @@ impl<'a> Budget<'a> {
             }
             worst <= stop_above_m
         });
-        worst
+        level.get()
     }
 
     /// The bound profile with fixes at the given sites (sample index,
@@ -513,13 +590,29 @@ impl<'a> Budget<'a> {
     /// for [`Budget::worst_bound_settled`], the covariance right after
     /// each fix's sample and the largest bound at any later sample.
     pub fn all_read(&self, fixes: &[(usize, Mounting)], every_m: f64, sites_m: &[f64]) -> AllRead {
+        self.all_read_gridded(fixes, every_m, sites_m, every_m)
+    }
+
+    /// [`Budget::all_read`], also giving [`AllRead::grid_max`] on a
+    /// profile grid of `grid_m` (the profile [`Budget::all_read`] with
+    /// `every_m = grid_m` would give): one pass for both.
+    pub fn all_read_gridded(
+        &self,
+        fixes: &[(usize, Mounting)],
+        every_m: f64,
+        sites_m: &[f64],
+        grid_m: f64,
+    ) -> AllRead {
         let mut out = AllRead {
             fixes: fixes.to_vec(),
             profile: vec![],
             sites: Vec::with_capacity(sites_m.len()),
             after: Vec::with_capacity(fixes.len()),
             after_max: vec![0.0; fixes.len()],
+            grid_m,
+            grid_max: 0.0,
         };
+        let mut next_grid = grid_m;
         let Some(mut f) = self.initial_filter() else {
             return out;
         };
@@ -537,6 +630,7 @@ impl<'a> Budget<'a> {
             distance_m: self.samples[0].avp.distance_m,
             bound95_m: self.bound(&f.position_cov_enu()),
         });
+        out.grid_max = out.profile[0].bound95_m;
         let mut next_prof = every_m;
         // Largest bound over the samples after the j-th fix's sample up to
         // the next fix's, then turned into suffix maxima.
@@ -563,6 +657,12 @@ impl<'a> Budget<'a> {
             }
             let at_fix = k < fixes.len() && fixes[k].0 == i;
             let at_end = i + 1 == self.samples.len();
+            if a.distance_m >= next_grid || at_fix || at_end {
+                out.grid_max = out.grid_max.max(b);
+                if a.distance_m >= next_grid {
+                    next_grid += grid_m;
+                }
+            }
             if a.distance_m >= next_prof || at_fix || at_end {
                 // Recorded before a fix at this sample: the peak just before it.
                 out.profile.push(BudgetPoint {
@@ -644,8 +744,8 @@ impl LazyReaches<'_, '_> {
     /// on with the fixes at the sites between, lacks: the tag-free pass's
     /// ([`Budget::tag_free`]) or those of a pass reading a tag at every
     /// site ([`Budget::snapshots`] with a fix at every site). Ignored when
-    /// the propagations do not restart exactly (odometer readings, map
-    /// matching: [`PerfectData::restart_invariant`]).
+    /// the propagations do not restart exactly (map matching:
+    /// [`PerfectData::restart_invariant`]).
     pub fn certifying(mut self) -> Self {
         self.certify = self.budget.data.restart_invariant();
         self
@@ -761,46 +861,11 @@ pub struct AllRead {
     pub after: Vec<crate::nav::ekf::Mat>,
     /// The largest bound at any sample after each fix's sample (m).
     pub after_max: Vec<f64>,
-}
-
-/// The largest `α` with `P − αU` not negative definite: the largest
-/// eigenvalue of `U⁻¹P` (both symmetric positive definite), on the
-/// diagonally scaled matrices (the error state mixes radians of latitude
-/// with metres per second). Infinite when `U` is not positive definite.
-pub fn generalized_lambda_max(p: &crate::nav::ekf::Mat, u: &crate::nav::ekf::Mat) -> f64 {
-    use crate::nav::ekf::N;
-    let d: [f64; N] = std::array::from_fn(|i| {
-        let x = u[(i, i)];
-        if x > 0.0 {
-            1.0 / x.sqrt()
-        } else {
-            1.0
-        }
-    });
-    let us = crate::nav::ekf::Mat::from_fn(|i, j| u[(i, j)] * d[i] * d[j]);
-    let ps = crate::nav::ekf::Mat::from_fn(|i, j| p[(i, j)] * d[i] * d[j]);
-    let Some(c) = nalgebra::Cholesky::new(us) else {
-        return f64::INFINITY;
-    };
-    let l = c.l();
-    // M = L⁻¹ P L⁻ᵀ, symmetric with the eigenvalues of U⁻¹P.
-    let Some(x) = l.solve_lower_triangular(&ps) else {
-        return f64::INFINITY;
-    };
-    let Some(m) = l.solve_lower_triangular(&x.transpose()) else {
-        return f64::INFINITY;
-    };
-    let m = (m + m.transpose()) * 0.5;
-    let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
-    if e.iter().any(|x| x.is_nan()) {
-        return f64::INFINITY;
-    }
-    let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if top.is_finite() {
-        top
-    } else {
-        f64::INFINITY
-    }
+    /// The grid (m) of [`AllRead::grid_max`].
+    pub grid_m: f64,
+    /// The largest bound of the profile on the grid asked for
+    /// ([`Budget::all_read_gridded`]; else of [`AllRead::profile`]).
+    pub grid_max: f64,
 }
 
 /// Snapshots `f` as a [`Site`] at `(sample, distance_m)` for every site
@@ -814,10 +879,13 @@ fn take_sites(
     f: &Filter,
 ) {
     while *next < sites_m.len() && sites_m[*next] <= reached_m {
+        let mut filter = f.clone();
+        // Not the tag-free pass's stretch map under construction.
+        filter.take_element();
         sites.push(Site {
             sample,
             distance_m,
-            filter: f.clone(),
+            filter,
         });
         *next += 1;
     }

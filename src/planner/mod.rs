@@ -7,12 +7,15 @@
 //! One role per file: `settings` (the `[planner]` section checked once),
 //! `plan` (plan types), `route` (placement along a route), `budget`
 //! (the route's covariance analysis on `crate::sim::covariance`),
+//! `stretch` (the tag-free pass's composed stretch maps) and `carry`
+//! (runs carried by them),
 //! `placement` and `forward` (placement algorithms), `validation`
 //! (Monte Carlo and the missed-tags check), `baseline` (uniform spacing),
 //! `output` (export records), [`network`] (`coverage = "network"`).
 
 pub(crate) mod baseline;
 pub(crate) mod budget;
+pub(crate) mod carry;
 pub(crate) mod forward;
 pub mod network;
 pub(crate) mod output;
@@ -20,14 +23,16 @@ pub(crate) mod placement;
 pub(crate) mod plan;
 pub(crate) mod route;
 pub(crate) mod settings;
+pub(crate) mod stretch;
 pub(crate) mod validation;
 
 pub use baseline::{uniform_baseline, uniform_tags};
-pub use budget::{generalized_lambda_max, AllRead, Budget, BudgetPoint, LazyReaches, Site};
+pub use budget::{AllRead, Budget, BudgetPoint, LazyReaches, Site};
 pub use plan::{Plan, PlannedTag, UniformBaseline, Validation};
 pub use route::{plan, plan_with, plan_with_progress, plan_with_stages, PlanStage};
 pub use settings::{
     fix_bound95, lane_width_m, site_speed_mps, Coverage, MountingOption, PlannerSettings,
     DEFAULT_READ_PROBABILITY,
 };
+pub use stretch::generalized_lambda_max;
 pub use validation::{horizontal_bound95, robust, validate_plan};

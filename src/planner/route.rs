@@ -230,6 +230,8 @@ pub fn plan_with_stages(
         tracing::info!(
             phase = name,
             filter_passes = budget.passes(),
+            steps = budget.steps(),
+            map_jumps = budget.jumps(),
             "planner cost so far"
         );
     };
@@ -524,15 +526,21 @@ pub fn plan_with_stages(
     // a fix at the first sample (applied before the first step by the
     // latter, after it by the former), so that case keeps its own pass.
     let at: Vec<f64> = chosen.iter().map(|&i| sites[i].distance_m).collect();
-    let all = budget.all_read(&fixes, settings.candidate_spacing_m, &at);
+    // Also the missed-read bound's all-read pass (its profile grid).
+    let all = budget.all_read_gridded(
+        &fixes,
+        settings.candidate_spacing_m,
+        &at,
+        super::output::MISSED_GRID_M,
+    );
     let own = if fixes.iter().all(|f| f.0 > 0) {
-        all.sites
+        all.sites.clone()
     } else {
         budget
             .snapshots(&fixes, settings.candidate_spacing_m, &at)
             .1
     };
-    let with = all.profile;
+    let with = all.profile.clone();
     let chosen_reach: Vec<(f64, f64)> = if own.len() == chosen.len() {
         let m: Vec<Mounting> = chosen.iter().map(|&i| mountings[i]).collect();
         budget.reaches(&own, &m, req)
@@ -642,7 +650,7 @@ pub fn plan_with_stages(
     };
     // The largest bound with any k consecutive tags missed, on the same
     // covariance analysis.
-    plan.predicted_max_bound95_missed_m = plan.missed_bound_on(&budget);
+    plan.predicted_max_bound95_missed_m = plan.missed_bound_with(&budget, Some(&all));
     phase("missed-tag bound");
     plan.filter_passes = budget.passes();
     if validate {

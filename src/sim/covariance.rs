@@ -140,17 +140,54 @@ impl<'a> PerfectData<'a> {
     /// Whether a propagation started at a truth sample goes through the
     /// very same updates as one started earlier and carried on through
     /// that sample: true without a map-matching feed (which restarts with
-    /// each propagation) and without odometer readings (the first reading
-    /// after a start counts only the distance since the start, while the
-    /// filter compares it with its own interval). The constraints, the
-    /// barometer and the fixes are on the drive's own schedule.
+    /// each propagation). Odometer readings are: a propagation resumed at
+    /// a sample ([`PerfectData::resume`]) counts the distance from the
+    /// drive's last odometer epoch, the interval the filter's own odometer
+    /// accumulators cover. The constraints, the barometer and the fixes
+    /// are on the drive's own schedule.
     pub fn restart_invariant(&self) -> bool {
-        self.network.is_none() && !self.aid_odometer
+        self.network.is_none()
+    }
+
+    /// The odometer interval (IMU samples) when every odometer epoch of the
+    /// drive (`i % interval == 0`) brings the covariance to that epoch and
+    /// restarts the propagation's accumulators (an odometer or constraint
+    /// update does, and one happens at every such epoch): then two
+    /// propagations of the same drive that differ only in the fixes they
+    /// read (a fix brings the covariance to its own sample, which shifts
+    /// the propagation intervals after it) go through the same ops again
+    /// from the first odometer epoch after the last fix. None otherwise.
+    pub fn resync_every(&self) -> Option<usize> {
+        let flushes = self.cfg.use_nhc || (self.aid_odometer && self.failure.is_none());
+        flushes.then_some(self.odo_every)
     }
 
     /// A filter on the truth `avp` with the scenario's prior.
     pub fn filter_at(&self, avp: &Avp) -> Filter {
         Filter::new(avp.state, avp.t, self.dt, self.cfg)
+    }
+
+    /// [`PerfectData::start`] for a filter at drive sample `i` (distance
+    /// `distance_m`) that has been stepped along the drive up to there: the
+    /// first odometer reading counts the distance since the drive's last
+    /// odometer epoch (`epoch_distance_m`, at sample `i − i mod interval`),
+    /// which is the interval the filter's own odometer accumulators cover,
+    /// so that a resumed propagation reads what one carried on from the
+    /// drive's start reads.
+    pub fn resume(
+        &self,
+        filter: &Filter,
+        distance_m: f64,
+        epoch_distance_m: f64,
+    ) -> Propagation<'_, 'a> {
+        let mut p = self.start(filter, distance_m);
+        p.odo_acc = distance_m - epoch_distance_m;
+        p
+    }
+
+    /// The odometer interval (IMU samples).
+    pub fn odometer_every(&self) -> usize {
+        self.odo_every
     }
 
     /// Starts propagating `filter`, which is at a truth sample at distance
