@@ -361,6 +361,22 @@ impl<'a> NetworkDistances<'a> {
         best
     }
 
+    /// The cached network distance and first step of every exit node in
+    /// `xs` to every entry node in `es`, row by row (`None` where a node's
+    /// search is not cached or did not reach the entry).
+    fn fill_table(&self, xs: &[NodeId], es: &[NodeId], table: &mut Vec<Option<(f64, u32)>>) {
+        table.clear();
+        for xn in xs {
+            match self.cache.get(xn) {
+                Some(t) => table.extend(
+                    es.iter()
+                        .map(|en| t.reached.get(en).map(|&(d, _, first)| (d, first))),
+                ),
+                None => table.extend(es.iter().map(|_| None)),
+            }
+        }
+    }
+
     /// [`Self::point_distance_cached`] from each of `from` to each of `to`
     /// into `out` (row-major, `from.len()` × `to.len()`; the same values).
     /// The network part is looked up once per distinct exit node × entry
@@ -387,13 +403,6 @@ impl<'a> NetworkDistances<'a> {
             entries,
             ..
         } = scratch;
-        let slot = |v: &mut Vec<NodeId>, n: NodeId| match v.iter().position(|&m| m == n) {
-            Some(i) => i as u32,
-            None => {
-                v.push(n);
-                (v.len() - 1) as u32
-            }
-        };
         xs.clear();
         es.clear();
         exits.clear();
@@ -404,14 +413,7 @@ impl<'a> NetworkDistances<'a> {
         for &b in to {
             entries.push(self.entries(b).map(|e| e.map(|(n, c, _)| (slot(es, n), c))));
         }
-        table.clear();
-        for &xn in xs.iter() {
-            let tree = self.cache.get(&xn);
-            table.extend(es.iter().map(|en| {
-                tree.and_then(|t| t.reached.get(en))
-                    .map(|&(d, _, first)| (d, first))
-            }));
-        }
+        self.fill_table(xs, es, table);
         let ne = es.len();
         out.clear();
         for (&a, ex) in from.iter().zip(exits.iter()) {
@@ -452,13 +454,6 @@ impl<'a> NetworkDistances<'a> {
             entry1,
             ..
         } = scratch;
-        let slot = |v: &mut Vec<NodeId>, n: NodeId| match v.iter().position(|&m| m == n) {
-            Some(i) => i as u32,
-            None => {
-                v.push(n);
-                (v.len() - 1) as u32
-            }
-        };
         let sections = &self.net.sections;
         xs.clear();
         es.clear();
@@ -483,16 +478,7 @@ impl<'a> NetworkDistances<'a> {
             };
             entry1.push((slot(es, n), c));
         }
-        table.clear();
-        for &xn in xs.iter() {
-            match self.cache.get(&xn) {
-                Some(t) => table.extend(
-                    es.iter()
-                        .map(|en| t.reached.get(en).map(|&(d, _, first)| (d, first))),
-                ),
-                None => table.extend(es.iter().map(|_| None)),
-            }
-        }
+        self.fill_table(xs, es, table);
         let ne = es.len();
         out.clear();
         out.resize(from.len() * to.len(), None);
@@ -586,6 +572,18 @@ impl<'a> NetworkDistances<'a> {
         }
         pieces.push((b.section, if fwd { 0.0 } else { sb.length_m }, b.offset_m));
         Some(pieces)
+    }
+}
+
+/// The index of node `n` in `v`, appended when absent (the few distinct
+/// nodes of a step's candidates: a linear scan beats hashing).
+fn slot(v: &mut Vec<NodeId>, n: NodeId) -> u32 {
+    match v.iter().position(|&m| m == n) {
+        Some(i) => i as u32,
+        None => {
+            v.push(n);
+            (v.len() - 1) as u32
+        }
     }
 }
 
