@@ -86,6 +86,15 @@ fn report_is_self_contained_and_plots_are_drawn() {
         html.contains(&format!("data-level=\"{level}\">Simulation")),
         "verdict {level} shown"
     );
+    // The rule's words (printed by simulate, in summary.json) end as the
+    // page's level does: not "FAILED" where the page says amber.
+    let words = rule["rule"].as_str().unwrap();
+    let expected_end = match level {
+        "green" => "passed",
+        "amber" => "(run more)",
+        _ => "FAILED",
+    };
+    assert!(words.ends_with(expected_end), "{level}: {words}");
     assert!(
         html.contains(&format!("{within} of {n} thinned samples within 10 m")),
         "the figures the verdict was decided on"

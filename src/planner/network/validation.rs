@@ -40,15 +40,42 @@ pub const THINNING_S: f64 = 30.0;
 /// The validation's rule on thinned samples (`within` of `n` within
 /// `req` m): the one-sided 95 % Clopper–Pearson lower bound of the share
 /// within, whether it reaches `conf`, and the rule in words with its
-/// figures. Route and area plans state the same rule.
+/// figures. Route and area plans state the same rule. The words end as
+/// the report's verdict does: "passed" (green), "not shown" when the
+/// observed share reaches `conf` but the samples are too few for the bound
+/// to (amber: run more), "FAILED" when the observed share itself falls
+/// short (red); `passed` is true only in the first case.
+///
+/// ```
+/// use waymark::planner::network::share_rule;
+/// // 60 of 60 within: the bound 0.05^(1/60) = 0.9513 reaches 0.95.
+/// let (lower, passed, rule) = share_rule(60, 60, 20.0, 0.95);
+/// assert!(passed && (lower - 0.05f64.powf(1.0 / 60.0)).abs() < 1e-9 && rule.ends_with("passed"));
+/// // 30 of 30: every sample within, but the bound is 0.9049.
+/// let (_, passed, rule) = share_rule(30, 30, 20.0, 0.95);
+/// assert!(!passed && rule.contains("not shown"));
+/// // 900 of 1000: the observed share is below 0.95.
+/// let (_, passed, rule) = share_rule(900, 1000, 20.0, 0.95);
+/// assert!(!passed && rule.ends_with("FAILED"));
+/// ```
 pub fn share_rule(within: usize, n: usize, req: f64, conf: f64) -> (f64, bool, String) {
     let lower = clopper_pearson_lower(within, n, 0.05);
     let passed = lower >= conf;
+    let verdict = if passed {
+        "passed".to_string()
+    } else if n > 0 && within as f64 / n as f64 >= conf {
+        format!(
+            "not shown: the observed share {:.4} reaches {conf}, but {n} samples are too few \
+             to show it with 95 % confidence (run more)",
+            within as f64 / n as f64
+        )
+    } else {
+        "FAILED".to_string()
+    };
     let rule = format!(
         "share of run time within {req} m (one sample per {THINNING_S:.0} s per run) with its \
          one-sided 95 % Clopper–Pearson lower bound at least {conf}: {within} of {n} samples, \
-         lower bound {lower:.4} → {}",
-        if passed { "passed" } else { "FAILED" }
+         lower bound {lower:.4} → {verdict}"
     );
     (lower, passed, rule)
 }
