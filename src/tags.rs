@@ -115,8 +115,10 @@ pub struct TagRecord {
     pub reason: Option<String>,
 }
 
-/// What every file says about how it was made.
-#[derive(Debug, Clone, Default, Serialize)]
+/// What every file says about how it was made. Serialized with its
+/// fields and the derived [`ExportMetadata::heights_source`], so that
+/// `plan.json`'s `tag_files` says what `tags.meta.json` says.
+#[derive(Debug, Clone, Default)]
 pub struct ExportMetadata {
     /// Waymark version.
     pub waymark_version: String,
@@ -142,6 +144,36 @@ impl ExportMetadata {
         }
     }
 
+    /// Where the tags' heights come from: `"none"` when they are not known
+    /// (placeholders: the route's constant height, 0 m unless the scenario
+    /// sets one; KML then clamps to the ground, GPX has no `ele`, GeoJSON
+    /// points are 2-D), `"elevation_model"` when a DEM gave them (the
+    /// plan's `height_m` parameter names it), else `"trajectory"` (a drive
+    /// by motion commands).
+    ///
+    /// ```
+    /// use waymark::tags::ExportMetadata;
+    /// let mut m = ExportMetadata::new(Some(20.0));
+    /// assert_eq!(m.heights_source(), "none");
+    /// m.heights_known = true;
+    /// assert_eq!(m.heights_source(), "trajectory");
+    /// m.parameters.insert("height_m".into(), "from the elevation model dem.tif".into());
+    /// assert_eq!(m.heights_source(), "elevation_model");
+    /// ```
+    pub fn heights_source(&self) -> &'static str {
+        if !self.heights_known {
+            "none"
+        } else if self
+            .parameters
+            .get("height_m")
+            .is_some_and(|h| h.contains("elevation model"))
+        {
+            "elevation_model"
+        } else {
+            "trajectory"
+        }
+    }
+
     /// The metadata as text lines: the version, the requirement, each
     /// parameter as `name = value`, the map attribution.
     pub(crate) fn lines(&self) -> Vec<String> {
@@ -156,6 +188,20 @@ impl ExportMetadata {
             v.push(format!("map data: {a}"));
         }
         v
+    }
+}
+
+impl Serialize for ExportMetadata {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("ExportMetadata", 6)?;
+        st.serialize_field("waymark_version", &self.waymark_version)?;
+        st.serialize_field("requirement_m", &self.requirement_m)?;
+        st.serialize_field("parameters", &self.parameters)?;
+        st.serialize_field("attribution", &self.attribution)?;
+        st.serialize_field("heights_known", &self.heights_known)?;
+        st.serialize_field("heights_source", self.heights_source())?;
+        st.end()
     }
 }
 

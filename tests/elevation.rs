@@ -630,6 +630,10 @@ fn plans_carry_terrain_heights_into_every_file() {
     }
     let plan_json = std::fs::read_to_string(out.join("plan.json")).unwrap();
     assert!(plan_json.contains("dem.tif"));
+    // plan.json's tag_files says what tags.meta.json says of the heights.
+    let pj: serde_json::Value = serde_json::from_str(&plan_json).unwrap();
+    assert_eq!(pj["tag_files"]["heights_source"], "elevation_model");
+    assert_eq!(pj["tag_files"]["heights_known"], true);
     let rep = run(&["report", "out"], dir.path());
     assert!(
         rep.status.success(),

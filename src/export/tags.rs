@@ -80,17 +80,7 @@ pub fn csv_row(t: &TagRecord) -> [String; 13] {
 /// `"elevation_model"` when a DEM gave them (the plan's `height_m`
 /// parameter names it), else `"trajectory"` (a drive by motion commands).
 pub fn heights_source(meta: &ExportMetadata) -> &'static str {
-    if !meta.heights_known {
-        "none"
-    } else if meta
-        .parameters
-        .get("height_m")
-        .is_some_and(|h| h.contains("elevation model"))
-    {
-        "elevation_model"
-    } else {
-        "trajectory"
-    }
+    meta.heights_source()
 }
 
 /// Writes `tags.meta.json`: the metadata of the tag files (version,
