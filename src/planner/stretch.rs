@@ -47,6 +47,7 @@
 use crate::nav::ekf::{Mat, DP, N};
 type Element = crate::nav::riccati::Element<N>;
 use crate::nav::Filter;
+use crate::sim::lambda_max_2x2;
 
 /// The shortest stretch (IMU samples; its end is the first candidate site
 /// at least that far from its start). A cost setting only (the answers
@@ -137,10 +138,10 @@ fn anchor_bound(a: &Anchor, p: &Mat) -> f64 {
         dot(&a.g[1], &x[1]),
     ];
     if a.q == 0.0 && a.r.iter().all(|&r| r == 0.0) {
-        lam2(gpg[0] + a.cm[0], gpg[1] + a.cm[1], gpg[2] + a.cm[2]).sqrt()
+        lambda_max_2x2(gpg[0] + a.cm[0], gpg[1] + a.cm[1], gpg[2] + a.cm[2]).sqrt()
     } else {
         let s: f64 = (0..N).map(|k| a.r[k] * p[(k, k)].max(0.0)).sum();
-        lam2(gpg[0], gpg[1], gpg[2]).sqrt() + s.sqrt() + a.q.sqrt()
+        lambda_max_2x2(gpg[0], gpg[1], gpg[2]).sqrt() + s.sqrt() + a.q.sqrt()
     }
 }
 
@@ -153,7 +154,7 @@ fn widen(a: &mut Anchor, g: &[[f64; N]; 2], c: &[f64; 3]) {
     for k in 0..N {
         a.r[k] = a.r[k].max(d0[k].abs() * n0 + d1[k].abs() * n1);
     }
-    a.q = a.q.max(lam2(c[0], c[1], c[2]));
+    a.q = a.q.max(lambda_max_2x2(c[0], c[1], c[2]));
 }
 
 /// The rows `M A` (east, north) and `M C,hor M` of a map.
@@ -239,7 +240,7 @@ impl Node {
                     .map(|i| (0..N).map(|k| u[i] * c[(i, k)] * v[k]).sum::<f64>())
                     .sum::<f64>()
             };
-            let lc = lam2(
+            let lc = lambda_max_2x2(
                 gc(&a.g[0], &a.g[0]),
                 gc(&a.g[0], &a.g[1]),
                 gc(&a.g[1], &a.g[1]),
@@ -288,13 +289,6 @@ pub(super) struct Recorder {
     group: Vec<([[f64; N]; 2], [f64; 3])>,
     last_ops: u64,
     min_samples: usize,
-}
-
-/// λmax of the symmetric 2×2 `[[a, b], [b, d]]`.
-fn lam2(a: f64, b: f64, d: f64) -> f64 {
-    let tr = 0.5 * (a + d);
-    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-    (tr + disc).max(0.0)
 }
 
 impl Recorder {

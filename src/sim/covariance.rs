@@ -46,10 +46,22 @@ pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
 /// assert!((bound95(&c) - (CHI2_2_95 * 6.0).sqrt()).abs() < 1e-12);
 /// ```
 pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
-    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
+    (CHI2_2_95 * lambda_max_2x2(c[0][0], c[0][1], c[1][1])).sqrt()
+}
+
+/// The largest eigenvalue of the symmetric 2×2 `[[a, b], [b, d]]`, at
+/// least 0 (round-off can make a covariance's slightly negative): the
+/// closed form `(a + d)/2 + √(((a − d)/2)² + b²)`.
+///
+/// ```
+/// use waymark::sim::lambda_max_2x2;
+/// assert_eq!(lambda_max_2x2(5.0, 2.0, 2.0), 6.0);
+/// assert_eq!(lambda_max_2x2(-1.0, 0.0, -2.0), 0.0);
+/// ```
+pub fn lambda_max_2x2(a: f64, b: f64, d: f64) -> f64 {
     let tr = 0.5 * (a + d);
     let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-    (CHI2_2_95 * (tr + disc).max(0.0)).sqrt()
+    (tr + disc).max(0.0)
 }
 
 /// The horizontal bound (m) at probability `p` of an east-north covariance
@@ -66,10 +78,7 @@ pub fn bound95(c: &[[f64; 3]; 3]) -> f64 {
 /// assert!((bound_at(&c, 0.99) - 6f64.sqrt() * (-2.0 * 0.01f64.ln()).sqrt()).abs() < 1e-12);
 /// ```
 pub fn bound_at(c: &[[f64; 3]; 3], p: f64) -> f64 {
-    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
-    let tr = 0.5 * (a + d);
-    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-    (-2.0 * (1.0 - p).ln() * (tr + disc).max(0.0)).sqrt()
+    (-2.0 * (1.0 - p).ln() * lambda_max_2x2(c[0][0], c[0][1], c[1][1])).sqrt()
 }
 
 /// [`bound95`] of a diagonal covariance given by its two 1σ (m): an

@@ -36,7 +36,7 @@ pub mod tags;
 pub(crate) mod truth;
 
 pub use crate::scenario::{NavMode, Scenario};
-pub use covariance::{bound95, bound95_of_sigmas, bound_at, CHI2_2_95};
+pub use covariance::{bound95, bound95_of_sigmas, bound_at, lambda_max_2x2, CHI2_2_95};
 pub use finite::check_runs_finite;
 pub use integrated::Prepared;
 pub use limits::{check_simulation_size, MAX_RUNS, MAX_SIMULATED_S, MAX_STORED_ROWS};
