@@ -553,40 +553,36 @@ fn a_simulation_keeps_a_plan_in_the_same_folder() {
     }
 }
 
-#[test]
-fn sigterm_while_writing_removes_the_temporary_file() {
-    // A large errors.csv (200,000 rows, ~15 MB) takes long enough to write
-    // and sync that its hidden temporary file can be seen; the command is
-    // stopped the moment it appears.
-    let dir = tempfile::tempdir().unwrap();
-    let text = "output_interval_s = 0.01\nname = \"w\"\n[[route]]\n\
-        start = { lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = 45.0 }\n\
-        motion = [ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 2000 } ]\n\
-        [navigator]\nmode = \"dead_reckoning\"\n";
-    std::fs::write(dir.path().join("w.toml"), text).unwrap();
-    let o = dir.path().join("o");
-    let temporaries = || -> Vec<String> {
-        std::fs::read_dir(&o)
-            .map(|r| {
-                r.flatten()
-                    .map(|e| e.file_name().to_string_lossy().into_owned())
-                    .filter(|n| n.starts_with('.') && n.contains(".tmp"))
-                    .collect()
-            })
-            .unwrap_or_default()
-    };
+/// The hidden temporary files (`.NAME.tmp…`) in `o`.
+fn temporaries(o: &Path) -> Vec<String> {
+    std::fs::read_dir(o)
+        .map(|r| {
+            r.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.starts_with('.') && n.contains(".tmp"))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Runs `waymark ARGS` in `dir` up to five times (output folder `dir/o`
+/// emptied first), sends SIGTERM the moment a temporary file appears in
+/// `o`, and asserts that none is ever left behind and that at least once
+/// the signal came while a file was being written (exit 130).
+fn sigterm_mid_write_leaves_nothing(dir: &Path, args: &[&str], patience_s: u64) {
+    let o = dir.join("o");
     let mut caught = 0;
     for _ in 0..5 {
         let _ = std::fs::remove_dir_all(&o);
         let mut child = Command::new(env!("CARGO_BIN_EXE_waymark"))
-            .args(["simulate", "w.toml", "--out", "o", "-q"])
-            .current_dir(dir.path())
+            .args(args)
+            .current_dir(dir)
             .spawn()
             .unwrap();
         let t0 = std::time::Instant::now();
         let mut seen = false;
-        while t0.elapsed().as_secs() < 60 {
-            if !temporaries().is_empty() {
+        while t0.elapsed().as_secs() < patience_s {
+            if !temporaries(&o).is_empty() {
                 seen = true;
                 let _ = Command::new("kill")
                     .args(["-TERM", &child.id().to_string()])
@@ -598,13 +594,31 @@ fn sigterm_while_writing_removes_the_temporary_file() {
             }
         }
         let status = child.wait().unwrap();
-        assert!(temporaries().is_empty(), "left behind: {:?}", temporaries());
+        assert!(
+            temporaries(&o).is_empty(),
+            "left behind: {:?}",
+            temporaries(&o)
+        );
         if seen && status.code() == Some(130) {
             caught += 1;
+            break;
         }
     }
-    // At least once the signal came while the file was being written.
     assert!(caught >= 1, "the write was never caught in progress");
+}
+
+#[test]
+fn sigterm_while_writing_removes_the_temporary_file() {
+    // A large errors.csv (200,000 rows, ~15 MB) takes long enough to write
+    // and sync that its hidden temporary file can be seen; the command is
+    // stopped the moment it appears.
+    let dir = tempfile::tempdir().unwrap();
+    let text = "output_interval_s = 0.01\nname = \"w\"\n[[route]]\n\
+        start = { lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = 45.0 }\n\
+        motion = [ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 2000 } ]\n\
+        [navigator]\nmode = \"dead_reckoning\"\n";
+    std::fs::write(dir.path().join("w.toml"), text).unwrap();
+    sigterm_mid_write_leaves_nothing(dir.path(), &["simulate", "w.toml", "--out", "o", "-q"], 60);
 }
 
 #[test]
@@ -627,55 +641,15 @@ fn sigterm_while_match_writes_removes_the_temporary_file() {
     }
     std::fs::write(dir.path().join("track.csv"), csv).unwrap();
     let map = root().join("maps/helsinki.osm.pbf").display().to_string();
-    let o = dir.path().join("o");
-    let temporaries = || -> Vec<String> {
-        std::fs::read_dir(&o)
-            .map(|r| {
-                r.flatten()
-                    .map(|e| e.file_name().to_string_lossy().into_owned())
-                    .filter(|n| n.starts_with('.') && n.contains(".tmp"))
-                    .collect()
-            })
-            .unwrap_or_default()
-    };
-    let mut caught = 0;
-    for _ in 0..5 {
-        let _ = std::fs::remove_dir_all(&o);
-        let mut child = Command::new(env!("CARGO_BIN_EXE_waymark"))
-            .args([
-                "match",
-                "--map",
-                &map,
-                "--track",
-                "track.csv",
-                "--out",
-                "o/matched.csv",
-                "-q",
-            ])
-            .current_dir(dir.path())
-            .spawn()
-            .unwrap();
-        let t0 = std::time::Instant::now();
-        let mut seen = false;
-        while t0.elapsed().as_secs() < 120 {
-            if !temporaries().is_empty() {
-                seen = true;
-                let _ = Command::new("kill")
-                    .args(["-TERM", &child.id().to_string()])
-                    .status();
-                break;
-            }
-            if child.try_wait().unwrap().is_some() {
-                break;
-            }
-        }
-        let status = child.wait().unwrap();
-        assert!(temporaries().is_empty(), "left behind: {:?}", temporaries());
-        if seen && status.code() == Some(130) {
-            caught += 1;
-            break;
-        }
-    }
-    // At least once the signal came while the file was being written.
-    assert!(caught >= 1, "the write was never caught in progress");
+    let args = [
+        "match",
+        "--map",
+        &map,
+        "--track",
+        "track.csv",
+        "--out",
+        "o/matched.csv",
+        "-q",
+    ];
+    sigterm_mid_write_leaves_nothing(dir.path(), &args, 120);
 }
