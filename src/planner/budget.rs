@@ -52,21 +52,14 @@ pub struct Budget<'a> {
     /// Lane width (m) at each sample, from the road under the route (empty
     /// without a map: `[rfid]`'s lane width everywhere).
     lane_width: Vec<f32>,
-    /// Filter steps taken so far (all threads): the planner's cost in
-    /// filter passes is `steps / samples`.
-    steps: std::sync::atomic::AtomicU64,
+    /// The planner's work so far (all threads), in filter steps and
+    /// stretch-map operations ([`Budget::passes`]).
+    work: super::carry::Work,
     /// The probability the bound holds with (`planner.requirement_confidence`).
     p: f64,
     /// The tag-free pass's stretch maps (module `stretch`), when the
     /// propagations restart exactly.
     stretches: std::sync::OnceLock<super::stretch::Stretches>,
-    /// Stretch maps applied and anchors tested (all threads), and ops
-    /// composed into the maps.
-    jumps: std::sync::atomic::AtomicU64,
-    anchors: std::sync::atomic::AtomicU64,
-    /// Stretches composed into nodes (module `stretch`).
-    noded: std::sync::atomic::AtomicU64,
-    composed: std::sync::atomic::AtomicU64,
 }
 
 impl std::fmt::Debug for Budget<'_> {
@@ -107,13 +100,9 @@ impl<'a> Budget<'a> {
                 .with_map_feed(network.filter(|_| scn.aiding().map_matching)),
             samples,
             lane_width,
-            steps: std::sync::atomic::AtomicU64::new(0),
+            work: super::carry::Work::default(),
             p: scn.planner().requirement_confidence,
             stretches: std::sync::OnceLock::new(),
-            jumps: std::sync::atomic::AtomicU64::new(0),
-            anchors: std::sync::atomic::AtomicU64::new(0),
-            noded: std::sync::atomic::AtomicU64::new(0),
-            composed: std::sync::atomic::AtomicU64::new(0),
         }
     }
 
@@ -133,20 +122,20 @@ impl<'a> Budget<'a> {
     /// Filter steps taken so far through [`Budget::run`] (and the calls
     /// built on it), on every thread.
     pub fn steps(&self) -> u64 {
-        self.steps.load(std::sync::atomic::Ordering::Relaxed)
+        self.work.steps()
     }
 
     /// The planner's cost in filter passes of the route, whatever the load:
     /// [`Budget::steps`] plus the stretch maps' building and applications
     /// in filter steps of the same cost (module `stretch`), over samples.
     pub fn passes(&self) -> f64 {
-        let ld = |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
-        let work = self.steps() as f64
-            + ld(&self.jumps) as f64 * super::stretch::APPLY_STEPS
-            + ld(&self.anchors) as f64 * super::stretch::ANCHOR_STEPS
-            + ld(&self.noded) as f64 * super::stretch::NODE_PART_STEPS
-            + ld(&self.composed) as f64 * super::stretch::COMPOSE_STEPS;
-        work / self.samples.len().saturating_sub(1).max(1) as f64
+        self.work
+            .passes(self.samples.len().saturating_sub(1).max(1))
+    }
+
+    /// The work counters.
+    pub(super) fn work(&self) -> &super::carry::Work {
+        &self.work
     }
 
     /// The stretch maps, once the tag-free pass has built them.
@@ -154,22 +143,14 @@ impl<'a> Budget<'a> {
         self.stretches.get()
     }
 
-    /// Counts one interior test of `anchors` anchors, and the map applied
-    /// when `applied`.
-    pub(super) fn count_map(&self, anchors: usize, applied: bool) {
-        use std::sync::atomic::Ordering::Relaxed;
-        self.anchors.fetch_add(anchors as u64, Relaxed);
-        self.jumps.fetch_add(u64::from(applied), Relaxed);
-    }
-
     /// Covariance ops composed into stretch maps so far.
     pub fn composed(&self) -> u64 {
-        self.composed.load(std::sync::atomic::Ordering::Relaxed)
+        self.work.composed()
     }
 
     /// Stretch maps applied so far (all threads).
     pub fn jumps(&self) -> u64 {
-        self.jumps.load(std::sync::atomic::Ordering::Relaxed)
+        self.work.maps()
     }
 
     /// The lane width (m) at sample `i`, when the route is on a map.
@@ -211,8 +192,7 @@ impl<'a> Budget<'a> {
                 break;
             }
         }
-        self.steps
-            .fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        self.work.add_steps(n);
     }
 
     /// A filter at the first truth sample with the scenario's prior.
@@ -302,11 +282,8 @@ impl<'a> Budget<'a> {
         });
         if let Some(st) = rec.and_then(super::stretch::Recorder::finish) {
             let ops: u64 = st.elements.iter().map(|e| e.ops).sum();
-            self.composed
-                .fetch_add(ops, std::sync::atomic::Ordering::Relaxed);
-            let parts = super::stretch::Recorder::node_work(&st);
-            self.noded
-                .fetch_add(parts, std::sync::atomic::Ordering::Relaxed);
+            self.work
+                .add_built(ops, super::stretch::Recorder::node_work(&st));
             let _ = self.stretches.set(st);
         }
         (prof, sites)
@@ -418,58 +395,6 @@ impl<'a> Budget<'a> {
         }
     }
 
-    /// Whether the filter that reads a tag at each of `sites[a..=b]` (with
-    /// `mountings`), starting from `sites[a]`'s snapshot, has its bound
-    /// above `level_m` at some sample after `sites[b]`'s before the route's
-    /// end (the run stops there, or at the end).
-    ///
-    /// What it proves, when the snapshots are such that each later site's
-    /// holds no information that `sites[a]`'s propagated with the fixes at
-    /// the sites between lacks (the tag-free pass's snapshots, or a pass
-    /// reading a tag at every site) and propagations restart exactly
-    /// ([`PerfectData::restart_invariant`]): for every `j` in `a..=b`, the
-    /// filter of `sites[j]`'s reach ([`Budget::reaches`]: its snapshot, the
-    /// fix there, nothing after) has read only information this one has
-    /// read too, through the same Riccati maps (same truth, same update
-    /// rows; the state stays on the truth, so no linearisation differs).
-    /// An extra update only lowers a covariance and the maps are monotone
-    /// in the PSD order, so after `sites[b]` its covariance is at least
-    /// this one's and its bound (the largest eigenvalue of the horizontal
-    /// block) at least this one's: it exceeds the requirement at or before
-    /// the sample where this one exceeds `level_m ≥ requirement`, and its
-    /// reach ends before the route's end.
-    fn falls_short(
-        &self,
-        sites: &[Site],
-        mountings: &[Mounting],
-        (a, b): (usize, usize),
-        level_m: f64,
-    ) -> bool {
-        let mut f = sites[a].filter.clone();
-        let from = sites[a].sample;
-        let last = sites[b].sample;
-        let fixes: Vec<(usize, Mounting)> =
-            (a..=b).map(|j| (sites[j].sample, mountings[j])).collect();
-        let mut k = 0;
-        while k < fixes.len() && fixes[k].0 <= from {
-            self.apply_fix(from, &mut f, fixes[k].1);
-            k += 1;
-        }
-        if last > from {
-            self.run(from, &mut f, |i, f| {
-                while k < fixes.len() && fixes[k].0 <= i {
-                    self.apply_fix(i, f, fixes[k].1);
-                    k += 1;
-                }
-                i < last
-            });
-        }
-        // After the last fix: carried on by the stretch maps where they
-        // apply (the same first sample above the level as stepping).
-        let hit = self.first_above(last, &mut f, level_m);
-        hit.is_some_and(|i| self.samples[i - 1].avp.distance_m < self.length_m())
-    }
-
     /// The largest bound from sample `from` on, starting with filter `f`
     /// there and applying `fixes` (sample index, mounting; increasing; those
     /// at or before `from` are applied first); stops early once it exceeds
@@ -538,8 +463,9 @@ impl<'a> Budget<'a> {
         let settled = |k: usize, f: &Filter, worst: f64| {
             let j = offset + k - 1;
             let rest = reference.after_max[j];
-            let alpha = super::stretch::generalized_lambda_max(f.covariance(), &reference.after[j])
-                .max(1.0);
+            let alpha =
+                crate::nav::riccati::generalized_lambda_max(f.covariance(), &reference.after[j])
+                    .max(1.0);
             (alpha * (1.0 + 1e-9)).sqrt() * rest <= worst.max(settle_at_m)
         };
         if k > 0 && settled(k, &f, worst) {

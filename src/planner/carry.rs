@@ -2,8 +2,92 @@
 //! (module `stretch`) where they apply, stepped elsewhere: the same
 //! answers as stepping every sample (see `stretch` for why).
 
-use super::budget::Budget;
+use super::budget::{Budget, Site};
 use crate::nav::Filter;
+use crate::sim::tags::Mounting;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+/// The planner's work counters (all threads): filter steps and the
+/// stretch maps' operations, each counted in filter steps of the same
+/// measured cost for [`Budget::passes`] (the constants in module
+/// `stretch`).
+#[derive(Debug, Default)]
+pub(crate) struct Work {
+    steps: AtomicU64,
+    /// Stretch (or node) maps applied.
+    maps: AtomicU64,
+    /// Anchors (or node parts) tested.
+    anchors: AtomicU64,
+    /// Stretches composed into nodes.
+    node_parts: AtomicU64,
+    /// Covariance ops composed into stretch maps.
+    composed: AtomicU64,
+    /// Stretches replayed (stepped from their start) by carried runs, and
+    /// those replayed whole (the run went on after them).
+    replays: AtomicU64,
+    replays_through: AtomicU64,
+}
+
+impl Work {
+    pub(super) fn add_steps(&self, n: u64) {
+        self.steps.fetch_add(n, Relaxed);
+    }
+
+    /// Counts `anchors` anchors tested, and one map applied when `applied`.
+    pub(super) fn add_map(&self, anchors: usize, applied: bool) {
+        self.anchors.fetch_add(anchors as u64, Relaxed);
+        self.maps.fetch_add(u64::from(applied), Relaxed);
+    }
+
+    /// Counts the recording's ops composed and node parts built.
+    pub(super) fn add_built(&self, ops: u64, node_parts: u64) {
+        self.composed.fetch_add(ops, Relaxed);
+        self.node_parts.fetch_add(node_parts, Relaxed);
+    }
+
+    pub(super) fn add_replay(&self) {
+        self.replays.fetch_add(1, Relaxed);
+    }
+
+    pub(super) fn steps(&self) -> u64 {
+        self.steps.load(Relaxed)
+    }
+
+    pub(super) fn maps(&self) -> u64 {
+        self.maps.load(Relaxed)
+    }
+
+    pub(super) fn anchors(&self) -> u64 {
+        self.anchors.load(Relaxed)
+    }
+
+    pub(super) fn composed(&self) -> u64 {
+        self.composed.load(Relaxed)
+    }
+
+    pub(super) fn add_replay_through(&self) {
+        self.replays_through.fetch_add(1, Relaxed);
+    }
+
+    /// Stretches replayed, and those of them replayed whole.
+    pub(super) fn replays(&self) -> (u64, u64) {
+        (
+            self.replays.load(Relaxed),
+            self.replays_through.load(Relaxed),
+        )
+    }
+
+    /// The work in filter passes of a route of `samples` steps.
+    pub(super) fn passes(&self, samples: usize) -> f64 {
+        use super::stretch::{ANCHOR_STEPS, APPLY_STEPS, COMPOSE_STEPS, NODE_PART_STEPS};
+        let work = self.steps() as f64
+            + self.maps() as f64 * APPLY_STEPS
+            + self.anchors() as f64 * ANCHOR_STEPS
+            + self.node_parts.load(Relaxed) as f64 * NODE_PART_STEPS
+            + self.composed() as f64 * COMPOSE_STEPS;
+        work / samples as f64
+    }
+}
 
 impl Budget<'_> {
     /// The first sample after `from` where the bound of filter `f` (at
@@ -43,10 +127,62 @@ impl Budget<'_> {
             go
         };
         match self.stretches() {
-            Some(st) => st.drive(from, f, fixes, level, step, |a, j| self.count_map(a, j)),
+            Some(st) => st.drive(from, f, fixes, level, step, self.work()),
             None => {
                 step(from, f, usize::MAX);
             }
         }
+    }
+
+    /// Whether the filter that reads a tag at each of `sites[a..=b]` (with
+    /// `mountings`), starting from `sites[a]`'s snapshot, has its bound
+    /// above `level_m` at some sample after `sites[b]`'s before the route's
+    /// end (the run stops there, or at the end).
+    ///
+    /// What it proves, when the snapshots are such that each later site's
+    /// holds no information that `sites[a]`'s propagated with the fixes at
+    /// the sites between lacks (the tag-free pass's snapshots, or a pass
+    /// reading a tag at every site) and propagations restart exactly
+    /// ([`PerfectData::restart_invariant`]): for every `j` in `a..=b`, the
+    /// filter of `sites[j]`'s reach ([`Budget::reaches`]: its snapshot, the
+    /// fix there, nothing after) has read only information this one has
+    /// read too, through the same Riccati maps (same truth, same update
+    /// rows; the state stays on the truth, so no linearisation differs).
+    /// An extra update only lowers a covariance and the maps are monotone
+    /// in the PSD order, so after `sites[b]` its covariance is at least
+    /// this one's and its bound (the largest eigenvalue of the horizontal
+    /// block) at least this one's: it exceeds the requirement at or before
+    /// the sample where this one exceeds `level_m ≥ requirement`, and its
+    /// reach ends before the route's end.
+    pub(super) fn falls_short(
+        &self,
+        sites: &[Site],
+        mountings: &[Mounting],
+        (a, b): (usize, usize),
+        level_m: f64,
+    ) -> bool {
+        let mut f = sites[a].filter.clone();
+        let from = sites[a].sample;
+        let last = sites[b].sample;
+        let fixes: Vec<(usize, Mounting)> =
+            (a..=b).map(|j| (sites[j].sample, mountings[j])).collect();
+        let mut k = 0;
+        while k < fixes.len() && fixes[k].0 <= from {
+            self.apply_fix(from, &mut f, fixes[k].1);
+            k += 1;
+        }
+        if last > from {
+            self.run(from, &mut f, |i, f| {
+                while k < fixes.len() && fixes[k].0 <= i {
+                    self.apply_fix(i, f, fixes[k].1);
+                    k += 1;
+                }
+                i < last
+            });
+        }
+        // After the last fix: carried on by the stretch maps where they
+        // apply (the same first sample above the level as stepping).
+        let hit = self.first_above(last, &mut f, level_m);
+        hit.is_some_and(|i| self.samples()[i - 1].avp.distance_m < self.length_m())
     }
 }

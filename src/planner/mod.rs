@@ -26,6 +26,7 @@ pub(crate) mod settings;
 pub(crate) mod stretch;
 pub(crate) mod validation;
 
+pub use crate::nav::riccati::generalized_lambda_max;
 pub use baseline::{uniform_baseline, uniform_tags};
 pub use budget::{AllRead, Budget, BudgetPoint, LazyReaches, Site};
 pub use plan::{Plan, PlannedTag, UniformBaseline, Validation};
@@ -34,5 +35,4 @@ pub use settings::{
     fix_bound95, lane_width_m, site_speed_mps, Coverage, MountingOption, PlannerSettings,
     DEFAULT_READ_PROBABILITY,
 };
-pub use stretch::generalized_lambda_max;
 pub use validation::{horizontal_bound95, robust, validate_plan};

@@ -34,15 +34,17 @@
 //! With `M` the metric rows of the horizontal position at `e`
 //! (`diag(R_N cos L, R_M)` on δλ, δL) and `G_t = M A_t = M [I 0] + D_t`:
 //! `√λmax(G_t P Gᵀ_t) ≤ √λmax(M P_hor M) + √λmax(D_t P Dᵀ_t)`, and
-//! `D_tᵀ D_t ≤ diag(r)` with `r_k ≥ Σ_l |(D_tᵀ D_t)_kl|` (Gershgorin; here
-//! `r_k = max_t Σ_row |D_t,row,k| ‖D_t,row‖₁`) gives
+//! `D_tᵀ D_t ≤ diag(r)` (a Gershgorin bound scaled by the tag-free
+//! filter's standard deviations at the stretch's start, [`widen`]: the
+//! unscaled one mixed units) gives
 //! `λmax(D_t P Dᵀ_t) = λmax(P^½ D_tᵀ D_t P^½) ≤ Σ_k r_k P_kk`. The metric
 //! scaling at `t` differs from `M` by at most the factor `ρ` (the largest
 //! ratio of the radii, ≈ 1 + 1e-6), and `λmax(M C_t,hor M) ≤ q`. So the
 //! bound at every sample of the stretch is at most
-//! `√k · ρ · (√λmax(M P_hor M) + √(Σ_k r_k P_kk) + √q)`, with `k` the
-//! bound's χ² factor; all of `r`, `q`, `ρ` are taken over the stretch in
-//! the recording pass.
+//! `√k · ρ · √((√λmax(M P_hor M) + √(Σ_k r_k P_kk))² + q)` ([`combine`];
+//! the fourth round added `√q` outside the root), with `k` the bound's χ²
+//! factor; all of `r`, `q`, `ρ` are taken over the stretch in the
+//! recording pass.
 
 use crate::nav::ekf::{Mat, DP, N};
 type Element = crate::nav::riccati::Element<N>;
@@ -115,6 +117,8 @@ pub(super) struct Interior {
     whole: Anchor,
     anchors: Vec<Anchor>,
     rho: f64,
+    /// The scaled Gershgorin bound's weights ([`widen`]).
+    sd: [f64; N],
 }
 
 /// The anchor's upper bound on `√λmax` of the metric horizontal
@@ -141,18 +145,37 @@ fn anchor_bound(a: &Anchor, p: &Mat) -> f64 {
         lambda_max_2x2(gpg[0] + a.cm[0], gpg[1] + a.cm[1], gpg[2] + a.cm[2]).sqrt()
     } else {
         let s: f64 = (0..N).map(|k| a.r[k] * p[(k, k)].max(0.0)).sum();
-        lambda_max_2x2(gpg[0], gpg[1], gpg[2]).sqrt() + s.sqrt() + a.q.sqrt()
+        combine(lambda_max_2x2(gpg[0], gpg[1], gpg[2]), s, a.q)
     }
 }
 
+/// The bound `√λmax((G + D) P (G + D)ᵀ + C)` from `y ≥ λmax(G P Gᵀ)`,
+/// `x ≥ λmax(D P Dᵀ)` and `q ≥ λmax(C)`: `λmax(X + Y) ≤ λmax X + λmax Y`
+/// for symmetric `X, Y`, and `√λmax` of `(G + D) P (G + D)ᵀ` is a norm of
+/// `(G + D) P^½`, so at most `√y + √x` (triangle inequality).
+fn combine(y: f64, x: f64, q: f64) -> f64 {
+    let u = y.max(0.0).sqrt() + x.max(0.0).sqrt();
+    (u * u + q.max(0.0)).sqrt()
+}
+
 /// Widens anchor `a` to cover a state with rows `g` and `M C,hor M` = `c`.
-fn widen(a: &mut Anchor, g: &[[f64; N]; 2], c: &[f64; 3]) {
+///
+/// `DᵀD ≤ diag(r)` by the scaled Gershgorin bound: for any positive `s`,
+/// `vᵀXv ≤ Σ_kl |X_kl| |v_k| |v_l| ≤ Σ_k v_k² Σ_l |X_kl| s_l / s_k` (from
+/// `2|v_k v_l| ≤ v_k² s_l/s_k + v_l² s_k/s_l`), and `|(DᵀD)_kl| ≤
+/// Σ_row |D_row,k| |D_row,l|`. With `s` the standard deviations of the
+/// tag-free filter at the stretch's start (`scale`), the sum weighs each
+/// state in its own units: at that covariance's diagonal `Σ_k r_k P_kk`
+/// is `Σ_row (Σ_k |D_row,k| s_k)²`, the Cauchy–Schwarz bound, where the
+/// unscaled sum (`s = 1`) mixed radians of latitude with metres per
+/// second.
+fn widen(a: &mut Anchor, g: &[[f64; N]; 2], c: &[f64; 3], scale: &[f64; N]) {
     let d0: [f64; N] = std::array::from_fn(|k| g[0][k] - a.g[0][k]);
     let d1: [f64; N] = std::array::from_fn(|k| g[1][k] - a.g[1][k]);
-    let n0: f64 = d0.iter().map(|x| x.abs()).sum();
-    let n1: f64 = d1.iter().map(|x| x.abs()).sum();
+    let n0: f64 = d0.iter().zip(scale).map(|(x, s)| x.abs() * s).sum();
+    let n1: f64 = d1.iter().zip(scale).map(|(x, s)| x.abs() * s).sum();
     for k in 0..N {
-        a.r[k] = a.r[k].max(d0[k].abs() * n0 + d1[k].abs() * n1);
+        a.r[k] = a.r[k].max((d0[k].abs() * n0 + d1[k].abs() * n1) / scale[k]);
     }
     a.q = a.q.max(lambda_max_2x2(c[0], c[1], c[2]));
 }
@@ -202,10 +225,10 @@ const NODE_SIZES: [usize; 2] = [8, 64];
 /// For stretch `j` of the node, with the map of the stretches before it
 /// in the node `(A', C', J')`: its start covariance is `P_j ≤ A' P A'ᵀ +
 /// C'` for `P` at the node's start, and its anchor `(G, r, q)` bounds its
-/// samples by `√λ(G P_j Gᵀ) + √(Σ r_k P_j,kk) + √q`; with `√λ(X + Y) ≤
-/// √λX + √λY`, that is at most `√λ(Ĝ P Ĝᵀ) + √(Σ_ik P_ik W_ik) + κ` with
-/// `Ĝ = G A'`, `W = A'ᵀ diag(r) A'` and the constant `κ = √λ(G C' Gᵀ) +
-/// √(Σ r_k C'_kk) + √q`.
+/// samples by `√((√λ(G P_j Gᵀ) + √(Σ r_k P_j,kk))² + q)` ([`combine`]);
+/// with `λ(X + Y) ≤ λX + λY`, `λ(G P_j Gᵀ) ≤ λ(Ĝ P Ĝᵀ) + λ(G C' Gᵀ)` and
+/// `Σ r_k P_j,kk ≤ Σ_ik P_ik W_ik + Σ r_k C'_kk` with `Ĝ = G A'` and
+/// `W = A'ᵀ diag(r) A'`; the two constants are kept ([`Part`]).
 #[derive(Debug, Clone)]
 pub(super) struct Node {
     element: Element,
@@ -217,7 +240,10 @@ pub(super) struct Node {
 struct Part {
     g: [[f64; N]; 2],
     w: Mat,
-    kappa: f64,
+    /// `λmax(G C' Gᵀ)`, `Σ r_k C'_kk` and the anchor's `q`.
+    gc: f64,
+    rc: f64,
+    q: f64,
     rho: f64,
 }
 
@@ -249,7 +275,9 @@ impl Node {
             parts.push(Part {
                 g,
                 w,
-                kappa: lc.sqrt() + rc.sqrt() + a.q.sqrt(),
+                gc: lc,
+                rc,
+                q: a.q,
                 rho: it.rho,
             });
             prefix = prefix.then(&st.elements[j]);
@@ -271,7 +299,8 @@ impl Node {
                 q: 0.0,
             };
             let trw: f64 = p.component_mul(&part.w).sum().max(0.0);
-            let ub = anchor_bound(&a, p) + trw.sqrt() + part.kappa;
+            let y = anchor_bound(&a, p).powi(2);
+            let ub = combine(y + part.gc, trw + part.rc, part.q);
             if part.rho * ub > level {
                 return (false, self.parts.len() - n);
             }
@@ -324,7 +353,7 @@ impl Recorder {
             q: 0.0,
         };
         for (gt, ct) in &self.group {
-            widen(&mut a, gt, ct);
+            widen(&mut a, gt, ct, &it.sd);
         }
         it.anchors.push(a);
         self.group.clear();
@@ -346,7 +375,7 @@ impl Recorder {
                     }
                     let (g, c) = metric_rows(el, scale);
                     let it = self.cur.as_mut().expect("open stretch");
-                    widen(&mut it.whole, &g, &c);
+                    widen(&mut it.whole, &g, &c, &it.sd);
                     self.group.push((g, c));
                 }
             }
@@ -382,6 +411,14 @@ impl Recorder {
                 },
                 anchors: vec![],
                 rho: 1.0,
+                sd: std::array::from_fn(|k| {
+                    let v = f.covariance()[(k, k)];
+                    if v > 0.0 {
+                        v.sqrt()
+                    } else {
+                        1.0
+                    }
+                }),
             });
             self.last_ops = 0;
             f.track_element();
@@ -455,8 +492,9 @@ impl Stretches {
         fixes: &[usize],
         level: &std::cell::Cell<f64>,
         mut step: impl FnMut(usize, &mut Filter, usize) -> bool,
-        mut cost: impl FnMut(usize, bool),
+        work: &super::carry::Work,
     ) {
+        let mut cost = |tested: usize, applied: bool| work.add_map(tested, applied);
         let end = *self.bounds.last().unwrap_or(&0);
         let mut cur = from;
         let mut kf = fixes.partition_point(|&x| x <= from);
@@ -485,11 +523,13 @@ impl Stretches {
                     if within {
                         p = self.elements[m].apply(&p);
                     } else {
+                        work.add_replay();
                         let mut g = self.filters[m].clone();
                         g.set_covariance(p);
                         if !step(self.bounds[m], &mut g, self.bounds[m + 1]) {
                             return;
                         }
+                        work.add_replay_through();
                         p = *g.covariance();
                     }
                     m += 1;
@@ -551,45 +591,5 @@ impl Stretches {
         let sync = (from / self.sync_every + 1) * self.sync_every;
         let m = self.bounds.partition_point(|&b| b < sync);
         (m + 1 < self.bounds.len()).then_some(m)
-    }
-}
-
-/// The largest `α` with `P − αU` not negative definite: the largest
-/// eigenvalue of `U⁻¹P` (both symmetric positive definite), on the
-/// diagonally scaled matrices (the error state mixes radians of latitude
-/// with metres per second). Infinite when `U` is not positive definite.
-pub fn generalized_lambda_max(p: &crate::nav::ekf::Mat, u: &crate::nav::ekf::Mat) -> f64 {
-    use crate::nav::ekf::N;
-    let d: [f64; N] = std::array::from_fn(|i| {
-        let x = u[(i, i)];
-        if x > 0.0 {
-            1.0 / x.sqrt()
-        } else {
-            1.0
-        }
-    });
-    let us = crate::nav::ekf::Mat::from_fn(|i, j| u[(i, j)] * d[i] * d[j]);
-    let ps = crate::nav::ekf::Mat::from_fn(|i, j| p[(i, j)] * d[i] * d[j]);
-    let Some(c) = nalgebra::Cholesky::new(us) else {
-        return f64::INFINITY;
-    };
-    let l = c.l();
-    // M = L⁻¹ P L⁻ᵀ, symmetric with the eigenvalues of U⁻¹P.
-    let Some(x) = l.solve_lower_triangular(&ps) else {
-        return f64::INFINITY;
-    };
-    let Some(m) = l.solve_lower_triangular(&x.transpose()) else {
-        return f64::INFINITY;
-    };
-    let m = (m + m.transpose()) * 0.5;
-    let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
-    if e.iter().any(|x| x.is_nan()) {
-        return f64::INFINITY;
-    }
-    let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if top.is_finite() {
-        top
-    } else {
-        f64::INFINITY
     }
 }
