@@ -424,7 +424,9 @@ impl<'a> Budget<'a> {
     }
 
     /// [`Budget::worst_bound_from`] with `reference`'s fixes from index
-    /// `offset` on (stopping early once the bound exceeds `stop_above_m`),
+    /// `offset` on (stopping early once the bound exceeds `stop_above_m`,
+    /// except after the last fix, where the largest bound to the end is
+    /// found without stepping most of it: [`Budget::max_to_end`]),
     /// also stopped as soon as the rest of the route provably cannot raise
     /// the result above `max(worst so far, settle_at_m)`, by comparison
     /// with `reference`, the all-read filter of the same fix list. Returns
@@ -473,23 +475,37 @@ impl<'a> Budget<'a> {
         }
         // Stretches without a fix whose bound cannot exceed the worst so
         // far change nothing here: carried by the stretch maps.
+        // Below `settle_at_m` nothing matters: the level the maps carry the
+        // run under is the worst so far or that, whichever is larger. After
+        // the last fix, the rest is the largest bound to the end
+        // (`Budget::max_to_end`).
         let at: Vec<usize> = fixes[k..].iter().map(|x| x.0).collect();
-        let level = std::cell::Cell::new(worst);
-        self.run_carrying(from, &mut f, &at, &level, |i, f| {
-            let worst = level.get().max(self.bound(&f.position_cov_enu()));
-            level.set(worst);
-            let mut fixed = false;
-            while k < fixes.len() && fixes[k].0 <= i {
-                self.apply_fix(i, f, fixes[k].1);
-                k += 1;
-                fixed = true;
-            }
-            if fixed && settled(k, f, worst) {
-                return false;
-            }
-            worst <= stop_above_m
-        });
-        level.get()
+        let level = std::cell::Cell::new(worst.max(settle_at_m));
+        let mut tail = (k == fixes.len()).then_some(from);
+        if tail.is_none() {
+            self.run_carrying(from, &mut f, &at, &level, |i, f| {
+                let worst = level.get().max(self.bound(&f.position_cov_enu()));
+                level.set(worst);
+                let mut fixed = false;
+                while k < fixes.len() && fixes[k].0 <= i {
+                    self.apply_fix(i, f, fixes[k].1);
+                    k += 1;
+                    fixed = true;
+                }
+                if fixed && settled(k, f, worst) {
+                    return false;
+                }
+                if fixed && k == fixes.len() && worst <= stop_above_m {
+                    tail = Some(i);
+                    return false;
+                }
+                worst <= stop_above_m
+            });
+        }
+        match tail {
+            Some(i) => self.max_to_end(i, &mut f, level.get()),
+            None => level.get(),
+        }
     }
 
     /// The bound profile with fixes at the given sites (sample index,

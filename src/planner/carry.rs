@@ -3,6 +3,7 @@
 //! answers as stepping every sample (see `stretch` for why).
 
 use super::budget::{Budget, Site};
+use super::stretch::INTERIOR_MARGIN;
 use crate::nav::Filter;
 use crate::sim::tags::Mounting;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
@@ -43,6 +44,11 @@ impl Work {
     pub(super) fn add_built(&self, ops: u64, node_parts: u64) {
         self.composed.fetch_add(ops, Relaxed);
         self.node_parts.fetch_add(node_parts, Relaxed);
+    }
+
+    /// Counts `n` maps applied without a test.
+    pub(super) fn add_maps(&self, n: usize) {
+        self.maps.fetch_add(n as u64, Relaxed);
     }
 
     pub(super) fn add_replay(&self) {
@@ -104,6 +110,62 @@ impl Budget<'_> {
             hit.is_none()
         });
         hit
+    }
+
+    /// The largest bound over the samples after `from` of filter `f` (at
+    /// sample `from`, on the truth, reading no more tags), or `floor` when
+    /// that is larger; exactly as stepping `f` says when it exceeds
+    /// `floor`. `f` is left along the way.
+    ///
+    /// Two phases: the covariance is carried by the stretch maps to the
+    /// route's end, keeping it at each boundary (one map a stretch, no
+    /// test); then, from the last stretch back, a stretch is replayed
+    /// (stepped from its start with that covariance) only when its
+    /// interior bound (module `stretch`) exceeds the largest bound found so
+    /// far: every sample of a stretch that is not replayed is at most that.
+    /// A run whose bound grows to the end steps about its last stretch,
+    /// where carrying it under the worst bound so far stepped every
+    /// stretch where it grew.
+    pub(super) fn max_to_end(&self, from: usize, f: &mut Filter, floor: f64) -> f64 {
+        let mut worst = floor;
+        let step = |from: usize, f: &mut Filter, until: usize, worst: &mut f64| {
+            self.run(from, f, |i, f| {
+                *worst = worst.max(self.bound(&f.position_cov_enu()));
+                i < until
+            });
+        };
+        let Some((st, m0)) = self
+            .stretches()
+            .and_then(|st| st.first_after(from).map(|m| (st, m)))
+        else {
+            step(from, f, usize::MAX, &mut worst);
+            return worst;
+        };
+        if st.bounds[m0] > from {
+            step(from, f, st.bounds[m0], &mut worst);
+        }
+        let last = st.bounds.len() - 1;
+        let mut ps = Vec::with_capacity(last - m0);
+        let mut p = *f.covariance();
+        for m in m0..last {
+            let next = st.elements[m].apply(&p);
+            ps.push(p);
+            p = next;
+        }
+        self.work().add_maps(last - m0);
+        for m in (m0..last).rev() {
+            let p = ps[m - m0];
+            let (within, tested) = st.interior_within(m, &p, worst / (1.0 + INTERIOR_MARGIN));
+            self.work().add_map(tested, false);
+            if !within {
+                self.work().add_replay();
+                self.work().add_replay_through();
+                let mut g = st.filters[m].clone();
+                g.set_covariance(p);
+                step(st.bounds[m], &mut g, st.bounds[m + 1], &mut worst);
+            }
+        }
+        worst
     }
 
     /// [`Budget::run`] with `visit`, but carried by the tag-free pass's

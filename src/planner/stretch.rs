@@ -94,7 +94,7 @@ pub(super) const NODE_PART_STEPS: f64 = 95.0;
 /// Relative margin of the interior bound below the level it must stay
 /// under: the maps' covariances and the stepped ones differ by round-off
 /// (≈ 1e-12 relative, measured on the demo's sites).
-const INTERIOR_MARGIN: f64 = 1e-9;
+pub(super) const INTERIOR_MARGIN: f64 = 1e-9;
 
 /// One anchor of a stretch's interior bound: for the samples it covers,
 /// `P_t ≤ A_t P Aᵀ_t + C_t` with `M A_t = G + D_t`, `D_tᵀ D_t ≤ diag(r)`
