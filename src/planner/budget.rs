@@ -49,9 +49,11 @@ pub struct Site {
 pub struct Budget<'a> {
     data: PerfectData<'a>,
     samples: Vec<TruthSample>,
-    /// Lane width (m) at each sample, from the road under the route (empty
-    /// without a map: `[rfid]`'s lane width everywhere).
-    lane_width: Vec<f32>,
+    /// The map and the route under the truth, and the route's length per
+    /// metre of truth distance, for the lane width at a sample (none
+    /// without a map: `[rfid]`'s lane width everywhere); looked up at the
+    /// fixes only (a lookup for every sample took about 0.2 passes).
+    road: Option<(&'a Network, &'a crate::route::Route, f64)>,
     /// The planner's work so far (all threads), in filter steps and
     /// stretch-map operations ([`Budget::passes`]).
     work: super::carry::Work,
@@ -74,32 +76,31 @@ impl<'a> Budget<'a> {
     /// Prepares the truth (with ideal IMU increments) of a scenario's route;
     /// `network` (the scenario's map) gives each sample's lane width (for
     /// roadside fixes) and feeds map matching when the scenario uses it.
-    pub fn new(scn: &'a Scenario, truth: &TruthSource, network: Option<&'a Network>) -> Self {
+    pub fn new(scn: &'a Scenario, truth: &'a TruthSource, network: Option<&'a Network>) -> Self {
         let cap = scn.duration_cap_s() + 0.5 * scn.dt;
-        let samples: Vec<TruthSample> =
-            ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
+        // Reserved for the whole drive (growing the vector by doubling
+        // copied it and touched twice the memory).
+        let expect = (cap.min(truth.duration_s()) / scn.dt).max(0.0) as usize + 2;
+        let mut samples: Vec<TruthSample> = Vec::with_capacity(expect);
+        samples.extend(ideal_imu(
+            truth.samples().take_while(|a| a.t <= cap),
+            scn.dt,
+        ));
         // The route the truth was compiled from (planned once, with the
         // truth's network; `network` is the same map).
-        let lane_width = match (network, truth.route()) {
+        let road = match (network, truth.route()) {
             (Some(net), Some(route)) => {
                 let len = samples.last().map_or(0.0, |s| s.avp.distance_m);
                 let scale = if len > 0.0 { route.length_m / len } else { 1.0 };
-                samples
-                    .iter()
-                    .map(|s| {
-                        let span = route.span_at(s.avp.distance_m * scale);
-                        let a = &net.model.roads[span.road as usize].attributes;
-                        super::settings::lane_width_m(a) as f32
-                    })
-                    .collect()
+                Some((net, route, scale))
             }
-            _ => vec![],
+            _ => None,
         };
         Self {
             data: PerfectData::new(scn)
                 .with_map_feed(network.filter(|_| scn.aiding().map_matching)),
             samples,
-            lane_width,
+            road,
             work: super::carry::Work::default(),
             p: scn.planner().requirement_confidence,
             stretches: std::sync::OnceLock::new(),
@@ -155,7 +156,12 @@ impl<'a> Budget<'a> {
 
     /// The lane width (m) at sample `i`, when the route is on a map.
     pub fn lane_width_at(&self, i: usize) -> Option<f64> {
-        self.lane_width.get(i).map(|&w| f64::from(w))
+        let (net, route, scale) = self.road?;
+        let s = self.samples.get(i)?;
+        let span = route.span_at(s.avp.distance_m * scale);
+        let a = &net.model.roads[span.road as usize].attributes;
+        // Through f32, as the per-sample table this replaces stored it.
+        Some(f64::from(super::settings::lane_width_m(a) as f32))
     }
 
     /// The truth samples.
@@ -282,8 +288,7 @@ impl<'a> Budget<'a> {
         });
         if let Some(st) = rec.and_then(super::stretch::Recorder::finish) {
             let ops: u64 = st.elements.iter().map(|e| e.ops).sum();
-            self.work
-                .add_built(ops, super::stretch::Recorder::node_work(&st));
+            self.work.add_built(ops, 0);
             let _ = self.stretches.set(st);
         }
         (prof, sites)

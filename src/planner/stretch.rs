@@ -24,8 +24,9 @@
 //! carried through the map of the stretches before it in the node
 //! ([`Node`]), so that a run far from crossing its level crosses them by
 //! one map; measured on the paper's drive: 282k map applications became
-//! 88k (30.6 → 23.3 counted passes), while the routes of a few km pay
-//! about 0.2 passes for building them.
+//! 88k (30.6 → 23.3 counted passes). A node is built on its second
+//! request ([`LazyNode`]): built up front, the routes of a few km paid
+//! about 0.2 passes for nodes no run or one run crossed.
 //!
 //! The interior bound. Updates only lower a covariance and every op is
 //! monotone in the PSD order, and `(P⁻¹ + J)⁻¹ ≤ P`, so at any sample `t`
@@ -212,7 +213,7 @@ pub(super) struct Stretches {
     /// The bound's χ² factor (bound² per unit of the largest variance).
     pub chi2: f64,
     /// Nodes of [`NODE_SIZES`] consecutive stretches, per level.
-    pub nodes: Vec<Vec<Node>>,
+    pub nodes: Vec<Vec<LazyNode>>,
 }
 
 /// Stretches per node, by level: a run crosses a whole node by its
@@ -433,24 +434,35 @@ impl Recorder {
         let n = self.st.elements.len();
         self.st.nodes = NODE_SIZES
             .iter()
-            .map(|&b| {
-                (0..n / b)
-                    .map(|k| Node::build(&self.st, k * b..(k + 1) * b))
-                    .collect()
-            })
+            .map(|&b| (0..n / b).map(|_| LazyNode::default()).collect())
             .collect();
         Some(self.st)
     }
+}
 
-    /// Nodes built ([`Stretches::nodes`]) and stretches in them, per level.
-    pub fn node_work(st: &Stretches) -> u64 {
-        st.nodes
-            .iter()
-            .flatten()
-            .map(|n| n.parts.len() as u64)
-            .sum()
+/// A [`Node`] built on its [`NODE_BUILD_AFTER`]-th request: building one
+/// costs about twice the maps it saves a run that crosses it, so a node
+/// only one run reaches is not built (the short routes paid about 0.2
+/// passes for nodes built up front).
+#[derive(Debug, Default)]
+pub(super) struct LazyNode {
+    asked: std::sync::atomic::AtomicU32,
+    node: std::sync::OnceLock<Node>,
+}
+
+impl Clone for LazyNode {
+    fn clone(&self) -> Self {
+        Self {
+            asked: std::sync::atomic::AtomicU32::new(
+                self.asked.load(std::sync::atomic::Ordering::Relaxed),
+            ),
+            node: self.node.clone(),
+        }
     }
 }
+
+/// The request on which a [`LazyNode`] is built.
+const NODE_BUILD_AFTER: u32 = 2;
 
 impl Stretches {
     /// The upper bound on the bound at every sample of stretch `m` from
@@ -512,7 +524,7 @@ impl Stretches {
                 let mut p = *f.covariance();
                 while m + 1 < self.bounds.len() && self.bounds[m + 1] < next_fix {
                     let safe = level.get() / (1.0 + INTERIOR_MARGIN);
-                    if let Some((b, node)) = self.node_at(m, &p, safe, next_fix, &mut cost) {
+                    if let Some((b, node)) = self.node_at(m, &p, safe, next_fix, &mut cost, work) {
                         p = node.element.apply(&p);
                         m += b;
                         moved = true;
@@ -566,15 +578,31 @@ impl Stretches {
         level: f64,
         next_fix: usize,
         cost: &mut impl FnMut(usize, bool),
+        work: &super::carry::Work,
     ) -> Option<(usize, &Node)> {
         let unit = level / self.chi2.sqrt();
         for (lv, &b) in NODE_SIZES.iter().enumerate().rev() {
-            let Some(node) = self.nodes.get(lv).and_then(|l| l.get(m / b)) else {
+            let Some(lazy) = self.nodes.get(lv).and_then(|l| l.get(m / b)) else {
                 continue;
             };
             if m % b != 0 || self.bounds[m + b] >= next_fix {
                 continue;
             }
+            let node = match lazy.node.get() {
+                Some(node) => node,
+                None => {
+                    let n = 1 + lazy
+                        .asked
+                        .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    if n < NODE_BUILD_AFTER {
+                        continue;
+                    }
+                    lazy.node.get_or_init(|| {
+                        work.add_built(0, b as u64);
+                        Node::build(self, m..m + b)
+                    })
+                }
+            };
             let (ok, tested) = node.within(p, unit);
             cost(tested, ok);
             if ok {
