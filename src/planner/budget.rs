@@ -82,10 +82,23 @@ impl<'a> Budget<'a> {
         // copied it and touched twice the memory).
         let expect = (cap.min(truth.duration_s()) / scn.dt).max(0.0) as usize + 2;
         let mut samples: Vec<TruthSample> = Vec::with_capacity(expect);
-        samples.extend(ideal_imu(
-            truth.samples().take_while(|a| a.t <= cap),
-            scn.dt,
-        ));
+        // The truth's samples (the trajectory) and their ideal IMU
+        // increments (inverse strapdown) are about half of the set-up each:
+        // made on two threads, in chunks (a pipeline; same samples).
+        const CHUNK: usize = 4096;
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<crate::trajectory::Avp>>(8);
+        std::thread::scope(|sc| {
+            sc.spawn(move || {
+                let mut avps = truth.samples().take_while(|a| a.t <= cap);
+                loop {
+                    let chunk: Vec<_> = avps.by_ref().take(CHUNK).collect();
+                    if chunk.is_empty() || tx.send(chunk).is_err() {
+                        break;
+                    }
+                }
+            });
+            samples.extend(ideal_imu(rx.into_iter().flatten(), scn.dt));
+        });
         // The route the truth was compiled from (planned once, with the
         // truth's network; `network` is the same map).
         let road = match (network, truth.route()) {

@@ -168,6 +168,19 @@ impl Budget<'_> {
         worst
     }
 
+    /// Filter `f` (at sample `from`, on the truth, reading no more tags)
+    /// at sample `to > from`: carried by the stretch maps up to the
+    /// stretch that holds `to` (with no level to keep under) and stepped
+    /// from there, as stepping `f` gives it up to the maps' round-off.
+    pub(super) fn filter_at(&self, from: usize, mut f: Filter, to: usize) -> Filter {
+        if to <= from {
+            return f;
+        }
+        let level = std::cell::Cell::new(f64::INFINITY);
+        self.run_carrying(from, &mut f, &[to], &level, |i, _| i < to);
+        f
+    }
+
     /// [`Budget::run`] with `visit`, but carried by the tag-free pass's
     /// stretch maps (module `stretch`) over stretches without a fix
     /// sample (`fixes`) whose bound provably stays at most `level` there,
