@@ -62,6 +62,8 @@ pub struct Budget<'a> {
     /// The tag-free pass's stretch maps (module `stretch`), when the
     /// propagations restart exactly.
     stretches: std::sync::OnceLock<super::stretch::Stretches>,
+    /// What the all-read passes reuse of the tag-free pass.
+    tag_free_record: std::sync::OnceLock<super::carry::TagFreeRecord>,
 }
 
 impl std::fmt::Debug for Budget<'_> {
@@ -117,6 +119,7 @@ impl<'a> Budget<'a> {
             work: super::carry::Work::default(),
             p: scn.planner().requirement_confidence,
             stretches: std::sync::OnceLock::new(),
+            tag_free_record: std::sync::OnceLock::new(),
         }
     }
 
@@ -150,6 +153,11 @@ impl<'a> Budget<'a> {
     /// The work counters.
     pub(super) fn work(&self) -> &super::carry::Work {
         &self.work
+    }
+
+    /// The tag-free pass's record for the all-read passes, once made.
+    pub(super) fn tag_free_record(&self) -> Option<&super::carry::TagFreeRecord> {
+        self.tag_free_record.get()
     }
 
     /// The stretch maps, once the tag-free pass has built them.
@@ -262,6 +270,9 @@ impl<'a> Budget<'a> {
             }
             _ => None,
         };
+        let mut tfr = rec.as_ref().map(|_| {
+            super::carry::TagFreeRecord::new(every_m, prof[0].bound95_m, self.data.odometer_every())
+        });
         let n = self.samples.len();
         take_sites(
             &mut sites,
@@ -280,6 +291,16 @@ impl<'a> Budget<'a> {
                     bound95_m: self.bound(&f.position_cov_enu()),
                 });
                 next_prof += every_m;
+            }
+            if let Some(t) = tfr.as_mut() {
+                let at_prof = prof.len() > t.profile.len();
+                t.visit(
+                    self,
+                    i,
+                    f,
+                    at_prof.then(|| prof[prof.len() - 1].bound95_m),
+                    &sites_m[next_site..],
+                );
             }
             if let Some(r) = rec.as_mut() {
                 let boundary = next_site < sites_m.len() && sites_m[next_site] <= a.distance_m;
@@ -303,6 +324,9 @@ impl<'a> Budget<'a> {
             let ops: u64 = st.elements.iter().map(|e| e.ops).sum();
             self.work.add_built(ops, 0);
             let _ = self.stretches.set(st);
+            if let Some(t) = tfr {
+                let _ = self.tag_free_record.set(t);
+            }
         }
         (prof, sites)
     }
@@ -577,21 +601,39 @@ impl<'a> Budget<'a> {
             return out;
         };
         let mut next_site = 0;
-        take_sites(
-            &mut out.sites,
-            &mut next_site,
-            sites_m,
-            0.0,
-            (0, self.samples[0].avp.distance_m),
-            &f,
-        );
-        out.profile.push(BudgetPoint {
-            t_s: self.samples[0].avp.t,
-            distance_m: self.samples[0].avp.distance_m,
-            bound95_m: self.bound(&f.position_cov_enu()),
-        });
-        out.grid_max = out.profile[0].bound95_m;
         let mut next_prof = every_m;
+        // Before the first fix the filter is the tag-free one: its samples
+        // up to an odometer epoch before the fix are the tag-free pass's.
+        let prefix = fixes.first().and_then(|x| {
+            self.tag_free_record()?
+                .prefix(self, x.0, every_m, sites_m, grid_m)
+        });
+        let start = match prefix {
+            Some(pre) => {
+                out.profile = pre.profile;
+                out.grid_max = pre.grid_max;
+                (next_prof, next_grid) = (pre.next_prof, pre.next_grid);
+                f = pre.filter;
+                pre.epoch
+            }
+            None => {
+                take_sites(
+                    &mut out.sites,
+                    &mut next_site,
+                    sites_m,
+                    0.0,
+                    (0, self.samples[0].avp.distance_m),
+                    &f,
+                );
+                out.profile.push(BudgetPoint {
+                    t_s: self.samples[0].avp.t,
+                    distance_m: self.samples[0].avp.distance_m,
+                    bound95_m: self.bound(&f.position_cov_enu()),
+                });
+                out.grid_max = out.profile[0].bound95_m;
+                0
+            }
+        };
         // Largest bound over the samples after the j-th fix's sample up to
         // the next fix's, then turned into suffix maxima.
         let mut seg_max = vec![0.0f64; fixes.len()];
@@ -606,10 +648,10 @@ impl<'a> Budget<'a> {
                 after.push(*f.covariance());
             }
         };
-        while k < fixes.len() && fixes[k].0 == 0 {
-            apply(0, &mut f, &mut out.after, &mut k);
+        while k < fixes.len() && fixes[k].0 == start {
+            apply(start, &mut f, &mut out.after, &mut k);
         }
-        self.run(0, &mut f, |i, f| {
+        self.run(start, &mut f, |i, f| {
             let a = &self.samples[i].avp;
             let b = self.bound(&f.position_cov_enu());
             if k > 0 {
