@@ -166,8 +166,13 @@ where
 /// eigenvalue of `U⁻¹P` (both symmetric positive definite), on the
 /// diagonally scaled matrices (the error state mixes radians of latitude
 /// with metres per second). Infinite when `U` is not positive definite.
-pub fn generalized_lambda_max(p: &super::ekf::Mat, u: &super::ekf::Mat) -> f64 {
-    use super::ekf::N;
+///
+/// Generic in the state count (the filter's is 21); computed on
+/// dynamically sized copies, which need no dimension bounds.
+pub fn generalized_lambda_max<const N: usize>(
+    p: &SMatrix<f64, N, N>,
+    u: &SMatrix<f64, N, N>,
+) -> f64 {
     let d: [f64; N] = std::array::from_fn(|i| {
         let x = u[(i, i)];
         if x > 0.0 {
@@ -176,8 +181,8 @@ pub fn generalized_lambda_max(p: &super::ekf::Mat, u: &super::ekf::Mat) -> f64 {
             1.0
         }
     });
-    let us = super::ekf::Mat::from_fn(|i, j| u[(i, j)] * d[i] * d[j]);
-    let ps = super::ekf::Mat::from_fn(|i, j| p[(i, j)] * d[i] * d[j]);
+    let us = nalgebra::DMatrix::from_fn(N, N, |i, j| u[(i, j)] * d[i] * d[j]);
+    let ps = nalgebra::DMatrix::from_fn(N, N, |i, j| p[(i, j)] * d[i] * d[j]);
     let Some(c) = nalgebra::Cholesky::new(us) else {
         return f64::INFINITY;
     };
@@ -189,7 +194,7 @@ pub fn generalized_lambda_max(p: &super::ekf::Mat, u: &super::ekf::Mat) -> f64 {
     let Some(m) = l.solve_lower_triangular(&x.transpose()) else {
         return f64::INFINITY;
     };
-    let m = (m + m.transpose()) * 0.5;
+    let m = (&m + m.transpose()) * 0.5;
     let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
     if e.iter().any(|x| x.is_nan()) {
         return f64::INFINITY;

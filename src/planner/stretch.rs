@@ -62,20 +62,6 @@ use crate::sim::lambda_max_2x2;
 /// 300 → 6.62 / 5.04 / 5.12, 600 → 6.42 / 5.04 / 4.96, 1000 → 6.79 /
 /// 4.97 / 5.00, 2000 → 10.2 / 5.63 / 5.94.
 pub(super) const MIN_SAMPLES: usize = 600;
-/// The cost of applying one stretch map, in filter steps (one IMU sample
-/// of [`Budget::run`]), for the planner's pass count: 14.9 µs a map
-/// (21×21 solve and products) against 0.28–0.33 µs a step.
-pub(super) const APPLY_STEPS: f64 = 50.0;
-/// The cost of testing one anchor of an interior bound, in filter steps:
-/// 0.2–0.35 µs an anchor (whole reaches less their steps and maps). With
-/// these two, the counted work of the maps was 1.1 times the measured on
-/// the demo's 204 reaches and 0.9–1.1 times on the Monaco 20 m route's.
-pub(super) const ANCHOR_STEPS: f64 = 1.5;
-/// The cost of composing one covariance op (a propagation or an accepted
-/// update) into a stretch map during the tag-free pass, in filter steps:
-/// the recording pass took 2.0–2.2 times a plain tag-free pass on the
-/// demo (11,157 ops over 53,137 samples: 4.8–5.9 steps an op, three runs).
-pub(super) const COMPOSE_STEPS: f64 = 6.0;
 
 /// Op states per anchor of the interior bound (1: the bound `A P Aᵀ + C`
 /// itself at every state, tightest and dearest to test). On the demo's
@@ -85,12 +71,6 @@ pub(super) const COMPOSE_STEPS: f64 = 6.0;
 /// 0.19 / 0.13 / 0.13 s user, Monaco 20 m 1.00 / 0.74 / 0.63 / 0.56 /
 /// 0.58 s (8 states: more stepping, +13 % passes on the demo).
 const GROUP: usize = 4;
-
-/// The cost of building one stretch's part of a node (a composition and
-/// the carried anchor), in filter steps: 28 µs a part against 0.28–0.33
-/// µs a step. A part's test is charged as an anchor's
-/// ([`ANCHOR_STEPS`]: two 21-element rows against `P` and a 21×21 dot).
-pub(super) const NODE_PART_STEPS: f64 = 95.0;
 
 /// Relative margin of the interior bound below the level it must stay
 /// under: the maps' covariances and the stepped ones differ by round-off
@@ -342,6 +322,11 @@ impl Recorder {
         }
     }
 
+    /// The odometer epochs (samples) of the recorded drive.
+    pub fn sync_every(&self) -> usize {
+        self.st.sync_every
+    }
+
     /// Closes the current anchor group: anchored at its last state.
     fn close_group(&mut self) {
         let (Some(it), Some(&(g, cm))) = (self.cur.as_mut(), self.group.last()) else {
@@ -504,7 +489,7 @@ impl Stretches {
         fixes: &[usize],
         level: &std::cell::Cell<f64>,
         mut step: impl FnMut(usize, &mut Filter, usize) -> bool,
-        work: &super::carry::Work,
+        work: &super::cost::Work,
     ) {
         let mut cost = |tested: usize, applied: bool| work.add_map(tested, applied);
         let end = *self.bounds.last().unwrap_or(&0);
@@ -578,7 +563,7 @@ impl Stretches {
         level: f64,
         next_fix: usize,
         cost: &mut impl FnMut(usize, bool),
-        work: &super::carry::Work,
+        work: &super::cost::Work,
     ) -> Option<(usize, &Node)> {
         let unit = level / self.chi2.sqrt();
         for (lv, &b) in NODE_SIZES.iter().enumerate().rev() {
