@@ -46,6 +46,35 @@ fn route_plan(c: &mut Criterion) {
         g.bench_function(format!("filter_pass/{name}"), |b| {
             b.iter(|| budget.with_fixes(&[], settings.candidate_spacing_m))
         });
+        // The plan's parts that its counted passes price differently:
+        // the budget's set-up (truth with ideal IMU increments, not
+        // counted) and the tag-free pass that records the stretch maps
+        // (counted as a pass plus `COMPOSE_STEPS` steps an op composed).
+        g.bench_function(format!("budget_setup/{name}"), |b| {
+            b.iter(|| Budget::new(&scn, &truth, net).samples().len())
+        });
+        let spacing = settings.candidate_spacing_m;
+        let sites_m: Vec<f64> = (1..)
+            .map(|n| n as f64 * spacing)
+            .take_while(|&d| d < budget.length_m())
+            .collect();
+        let probe = Budget::new(&scn, &truth, net);
+        probe.tag_free(spacing, &sites_m);
+        eprintln!(
+            "{name}: {} samples, {} covariance ops composed",
+            probe.samples().len(),
+            probe.composed()
+        );
+        g.bench_function(format!("tag_free_recording/{name}"), |b| {
+            b.iter_batched(
+                || Budget::new(&scn, &truth, net),
+                |fresh| {
+                    fresh.tag_free(spacing, &sites_m);
+                    fresh
+                },
+                criterion::BatchSize::PerIteration,
+            )
+        });
     }
     g.finish();
 }

@@ -238,7 +238,8 @@ fn stretch_maps_give_the_stepped_reaches() {
         assert!((s2 - s1) * 3 < s1 - s0, "{} vs {}", s2 - s1, s1 - s0);
     }
     // The missed-tag windows of a tag every 600 m: the worst bound carried
-    // by the maps (where a stretch cannot raise it) is the stepped one.
+    // by the maps (where a stretch cannot raise it; after the last fix,
+    // replaying only the stretches that may exceed it) is the stepped one.
     let fixes: Vec<(usize, Mounting)> = sites
         .iter()
         .skip(29)
@@ -251,7 +252,9 @@ fn stretch_maps_give_the_stepped_reaches() {
         .collect();
     let all = budget.all_read(&fixes, 50.0, &at);
     let j0 = budget.jumps();
-    for d in 0..fixes.len() - 1 {
+    // The last window misses the last tag: the largest bound to the end
+    // (`max_to_end`) from its start.
+    for d in 0..fixes.len() {
         let stepped = budget.worst_bound_from(
             fixes[d].0,
             all.sites[d].filter.clone(),

@@ -162,6 +162,51 @@ where
     }
 }
 
+/// The largest `α` with `P − αU` not negative definite: the largest
+/// eigenvalue of `U⁻¹P` (both symmetric positive definite), on the
+/// diagonally scaled matrices (the error state mixes radians of latitude
+/// with metres per second). Infinite when `U` is not positive definite.
+///
+/// Generic in the state count (the filter's is 21); computed on
+/// dynamically sized copies, which need no dimension bounds.
+pub fn generalized_lambda_max<const N: usize>(
+    p: &SMatrix<f64, N, N>,
+    u: &SMatrix<f64, N, N>,
+) -> f64 {
+    let d: [f64; N] = std::array::from_fn(|i| {
+        let x = u[(i, i)];
+        if x > 0.0 {
+            1.0 / x.sqrt()
+        } else {
+            1.0
+        }
+    });
+    let us = nalgebra::DMatrix::from_fn(N, N, |i, j| u[(i, j)] * d[i] * d[j]);
+    let ps = nalgebra::DMatrix::from_fn(N, N, |i, j| p[(i, j)] * d[i] * d[j]);
+    let Some(c) = nalgebra::Cholesky::new(us) else {
+        return f64::INFINITY;
+    };
+    let l = c.l();
+    // M = L⁻¹ P L⁻ᵀ, symmetric with the eigenvalues of U⁻¹P.
+    let Some(x) = l.solve_lower_triangular(&ps) else {
+        return f64::INFINITY;
+    };
+    let Some(m) = l.solve_lower_triangular(&x.transpose()) else {
+        return f64::INFINITY;
+    };
+    let m = (&m + m.transpose()) * 0.5;
+    let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
+    if e.iter().any(|x| x.is_nan()) {
+        return f64::INFINITY;
+    }
+    let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if top.is_finite() {
+        top
+    } else {
+        f64::INFINITY
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::Element;

@@ -49,24 +49,21 @@ pub struct Site {
 pub struct Budget<'a> {
     data: PerfectData<'a>,
     samples: Vec<TruthSample>,
-    /// Lane width (m) at each sample, from the road under the route (empty
-    /// without a map: `[rfid]`'s lane width everywhere).
-    lane_width: Vec<f32>,
-    /// Filter steps taken so far (all threads): the planner's cost in
-    /// filter passes is `steps / samples`.
-    steps: std::sync::atomic::AtomicU64,
+    /// The map and the route under the truth, and the route's length per
+    /// metre of truth distance, for the lane width at a sample (none
+    /// without a map: `[rfid]`'s lane width everywhere); looked up at the
+    /// fixes only (a lookup for every sample took about 0.2 passes).
+    road: Option<(&'a Network, &'a crate::route::Route, f64)>,
+    /// The planner's work so far (all threads), in filter steps and
+    /// stretch-map operations ([`Budget::passes`]).
+    work: super::cost::Work,
     /// The probability the bound holds with (`planner.requirement_confidence`).
     p: f64,
     /// The tag-free pass's stretch maps (module `stretch`), when the
     /// propagations restart exactly.
     stretches: std::sync::OnceLock<super::stretch::Stretches>,
-    /// Stretch maps applied and anchors tested (all threads), and ops
-    /// composed into the maps.
-    jumps: std::sync::atomic::AtomicU64,
-    anchors: std::sync::atomic::AtomicU64,
-    /// Stretches composed into nodes (module `stretch`).
-    noded: std::sync::atomic::AtomicU64,
-    composed: std::sync::atomic::AtomicU64,
+    /// What the all-read passes reuse of the tag-free pass.
+    tag_free_record: std::sync::OnceLock<super::record::TagFreeRecord>,
 }
 
 impl std::fmt::Debug for Budget<'_> {
@@ -81,39 +78,48 @@ impl<'a> Budget<'a> {
     /// Prepares the truth (with ideal IMU increments) of a scenario's route;
     /// `network` (the scenario's map) gives each sample's lane width (for
     /// roadside fixes) and feeds map matching when the scenario uses it.
-    pub fn new(scn: &'a Scenario, truth: &TruthSource, network: Option<&'a Network>) -> Self {
+    pub fn new(scn: &'a Scenario, truth: &'a TruthSource, network: Option<&'a Network>) -> Self {
         let cap = scn.duration_cap_s() + 0.5 * scn.dt;
-        let samples: Vec<TruthSample> =
-            ideal_imu(truth.samples().take_while(|a| a.t <= cap), scn.dt).collect();
+        // Reserved for the whole drive (growing the vector by doubling
+        // copied it and touched twice the memory).
+        let expect = (cap.min(truth.duration_s()) / scn.dt).max(0.0) as usize + 2;
+        let mut samples: Vec<TruthSample> = Vec::with_capacity(expect);
+        // The truth's samples (the trajectory) and their ideal IMU
+        // increments (inverse strapdown) are about half of the set-up each:
+        // made on two threads, in chunks (a pipeline; same samples).
+        const CHUNK: usize = 4096;
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<crate::trajectory::Avp>>(8);
+        std::thread::scope(|sc| {
+            sc.spawn(move || {
+                let mut avps = truth.samples().take_while(|a| a.t <= cap);
+                loop {
+                    let chunk: Vec<_> = avps.by_ref().take(CHUNK).collect();
+                    if chunk.is_empty() || tx.send(chunk).is_err() {
+                        break;
+                    }
+                }
+            });
+            samples.extend(ideal_imu(rx.into_iter().flatten(), scn.dt));
+        });
         // The route the truth was compiled from (planned once, with the
         // truth's network; `network` is the same map).
-        let lane_width = match (network, truth.route()) {
+        let road = match (network, truth.route()) {
             (Some(net), Some(route)) => {
                 let len = samples.last().map_or(0.0, |s| s.avp.distance_m);
                 let scale = if len > 0.0 { route.length_m / len } else { 1.0 };
-                samples
-                    .iter()
-                    .map(|s| {
-                        let span = route.span_at(s.avp.distance_m * scale);
-                        let a = &net.model.roads[span.road as usize].attributes;
-                        super::settings::lane_width_m(a) as f32
-                    })
-                    .collect()
+                Some((net, route, scale))
             }
-            _ => vec![],
+            _ => None,
         };
         Self {
             data: PerfectData::new(scn)
                 .with_map_feed(network.filter(|_| scn.aiding().map_matching)),
             samples,
-            lane_width,
-            steps: std::sync::atomic::AtomicU64::new(0),
+            road,
+            work: super::cost::Work::default(),
             p: scn.planner().requirement_confidence,
             stretches: std::sync::OnceLock::new(),
-            jumps: std::sync::atomic::AtomicU64::new(0),
-            anchors: std::sync::atomic::AtomicU64::new(0),
-            noded: std::sync::atomic::AtomicU64::new(0),
-            composed: std::sync::atomic::AtomicU64::new(0),
+            tag_free_record: std::sync::OnceLock::new(),
         }
     }
 
@@ -133,20 +139,31 @@ impl<'a> Budget<'a> {
     /// Filter steps taken so far through [`Budget::run`] (and the calls
     /// built on it), on every thread.
     pub fn steps(&self) -> u64 {
-        self.steps.load(std::sync::atomic::Ordering::Relaxed)
+        self.work.steps()
     }
 
     /// The planner's cost in filter passes of the route, whatever the load:
     /// [`Budget::steps`] plus the stretch maps' building and applications
     /// in filter steps of the same cost (module `stretch`), over samples.
     pub fn passes(&self) -> f64 {
-        let ld = |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
-        let work = self.steps() as f64
-            + ld(&self.jumps) as f64 * super::stretch::APPLY_STEPS
-            + ld(&self.anchors) as f64 * super::stretch::ANCHOR_STEPS
-            + ld(&self.noded) as f64 * super::stretch::NODE_PART_STEPS
-            + ld(&self.composed) as f64 * super::stretch::COMPOSE_STEPS;
-        work / self.samples.len().saturating_sub(1).max(1) as f64
+        self.work
+            .passes(self.samples.len().saturating_sub(1).max(1))
+    }
+
+    /// The work counters.
+    pub(super) fn work(&self) -> &super::cost::Work {
+        &self.work
+    }
+
+    /// Whether propagations restart exactly
+    /// ([`PerfectData::restart_invariant`]).
+    pub(super) fn restart_invariant(&self) -> bool {
+        self.data.restart_invariant()
+    }
+
+    /// The tag-free pass's record for the all-read passes, once made.
+    pub(super) fn tag_free_record(&self) -> Option<&super::record::TagFreeRecord> {
+        self.tag_free_record.get()
     }
 
     /// The stretch maps, once the tag-free pass has built them.
@@ -154,27 +171,24 @@ impl<'a> Budget<'a> {
         self.stretches.get()
     }
 
-    /// Counts one interior test of `anchors` anchors, and the map applied
-    /// when `applied`.
-    pub(super) fn count_map(&self, anchors: usize, applied: bool) {
-        use std::sync::atomic::Ordering::Relaxed;
-        self.anchors.fetch_add(anchors as u64, Relaxed);
-        self.jumps.fetch_add(u64::from(applied), Relaxed);
-    }
-
     /// Covariance ops composed into stretch maps so far.
     pub fn composed(&self) -> u64 {
-        self.composed.load(std::sync::atomic::Ordering::Relaxed)
+        self.work.composed()
     }
 
     /// Stretch maps applied so far (all threads).
     pub fn jumps(&self) -> u64 {
-        self.jumps.load(std::sync::atomic::Ordering::Relaxed)
+        self.work.maps()
     }
 
     /// The lane width (m) at sample `i`, when the route is on a map.
     pub fn lane_width_at(&self, i: usize) -> Option<f64> {
-        self.lane_width.get(i).map(|&w| f64::from(w))
+        let (net, route, scale) = self.road?;
+        let s = self.samples.get(i)?;
+        let span = route.span_at(s.avp.distance_m * scale);
+        let a = &net.model.roads[span.road as usize].attributes;
+        // Through f32, as the per-sample table this replaces stored it.
+        Some(f64::from(super::settings::lane_width_m(a) as f32))
     }
 
     /// The truth samples.
@@ -211,8 +225,7 @@ impl<'a> Budget<'a> {
                 break;
             }
         }
-        self.steps
-            .fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        self.work.add_steps(n);
     }
 
     /// A filter at the first truth sample with the scenario's prior.
@@ -263,6 +276,14 @@ impl<'a> Budget<'a> {
             }
             _ => None,
         };
+        let mut pending_site = false;
+        let mut tfr = rec.as_ref().map(|_| {
+            super::record::TagFreeRecord::new(
+                every_m,
+                prof[0].bound95_m,
+                self.data.odometer_every(),
+            )
+        });
         let n = self.samples.len();
         take_sites(
             &mut sites,
@@ -282,8 +303,23 @@ impl<'a> Budget<'a> {
                 });
                 next_prof += every_m;
             }
+            if let Some(t) = tfr.as_mut() {
+                let at_prof = prof.len() > t.profile.len();
+                t.visit(
+                    &self.samples,
+                    i,
+                    f,
+                    |g| self.bound(&g.position_cov_enu()),
+                    at_prof.then(|| prof[prof.len() - 1].bound95_m),
+                    &sites_m[next_site..],
+                );
+            }
             if let Some(r) = rec.as_mut() {
-                let boundary = next_site < sites_m.len() && sites_m[next_site] <= a.distance_m;
+                // A stretch starts at the first odometer epoch after a
+                // candidate site: a run from a fix there steps to it only.
+                let boundary = pending_site && i % r.sync_every() == 0;
+                pending_site &= !boundary;
+                pending_site |= next_site < sites_m.len() && sites_m[next_site] <= a.distance_m;
                 r.visit(i, f, boundary, i + 1 == n);
             }
             take_sites(
@@ -302,12 +338,11 @@ impl<'a> Budget<'a> {
         });
         if let Some(st) = rec.and_then(super::stretch::Recorder::finish) {
             let ops: u64 = st.elements.iter().map(|e| e.ops).sum();
-            self.composed
-                .fetch_add(ops, std::sync::atomic::Ordering::Relaxed);
-            let parts = super::stretch::Recorder::node_work(&st);
-            self.noded
-                .fetch_add(parts, std::sync::atomic::Ordering::Relaxed);
+            self.work.add_built(ops, 0);
             let _ = self.stretches.set(st);
+            if let Some(t) = tfr {
+                let _ = self.tag_free_record.set(t);
+            }
         }
         (prof, sites)
     }
@@ -379,7 +414,12 @@ impl<'a> Budget<'a> {
     }
 
     /// The bound right after a fix of `mounting` at `site`, and the reach.
-    fn reach_of(&self, site: &Site, mounting: Mounting, requirement_m: f64) -> (f64, f64) {
+    pub(super) fn reach_of(
+        &self,
+        site: &Site,
+        mounting: Mounting,
+        requirement_m: f64,
+    ) -> (f64, f64) {
         let mut f = site.filter.clone();
         self.apply_fix(site.sample, &mut f, mounting);
         let b0 = self.bound(&f.position_cov_enu());
@@ -387,87 +427,6 @@ impl<'a> Budget<'a> {
             return (b0, site.distance_m);
         }
         (b0, self.reach_from(site.sample, &mut f, requirement_m))
-    }
-
-    /// [`Budget::reaches_with_progress`] computed on demand
-    /// ([`LazyReaches::get`]): each site's reach is a filter run, and the
-    /// placement's search needs only the reaches of the sites it gets to.
-    pub fn lazy_reaches<'s>(
-        &'s self,
-        sites: &'s [Site],
-        mountings: &'s [Mounting],
-        requirement_m: f64,
-        progress: Option<&'s (dyn Fn(usize, usize) + Sync)>,
-    ) -> LazyReaches<'s, 'a> {
-        LazyReaches {
-            budget: self,
-            sites,
-            mountings,
-            requirement_m,
-            progress,
-            done: std::cell::Cell::new(0),
-            cells: (0..sites.len())
-                .map(|_| std::cell::OnceCell::new())
-                .collect(),
-            short: (0..sites.len())
-                .map(|_| std::cell::Cell::new(false))
-                .collect(),
-            certify: false,
-            width: std::cell::Cell::new(CERTIFY_FIRST_WIDTH),
-            certified: std::cell::Cell::new(0),
-        }
-    }
-
-    /// Whether the filter that reads a tag at each of `sites[a..=b]` (with
-    /// `mountings`), starting from `sites[a]`'s snapshot, has its bound
-    /// above `level_m` at some sample after `sites[b]`'s before the route's
-    /// end (the run stops there, or at the end).
-    ///
-    /// What it proves, when the snapshots are such that each later site's
-    /// holds no information that `sites[a]`'s propagated with the fixes at
-    /// the sites between lacks (the tag-free pass's snapshots, or a pass
-    /// reading a tag at every site) and propagations restart exactly
-    /// ([`PerfectData::restart_invariant`]): for every `j` in `a..=b`, the
-    /// filter of `sites[j]`'s reach ([`Budget::reaches`]: its snapshot, the
-    /// fix there, nothing after) has read only information this one has
-    /// read too, through the same Riccati maps (same truth, same update
-    /// rows; the state stays on the truth, so no linearisation differs).
-    /// An extra update only lowers a covariance and the maps are monotone
-    /// in the PSD order, so after `sites[b]` its covariance is at least
-    /// this one's and its bound (the largest eigenvalue of the horizontal
-    /// block) at least this one's: it exceeds the requirement at or before
-    /// the sample where this one exceeds `level_m ≥ requirement`, and its
-    /// reach ends before the route's end.
-    fn falls_short(
-        &self,
-        sites: &[Site],
-        mountings: &[Mounting],
-        (a, b): (usize, usize),
-        level_m: f64,
-    ) -> bool {
-        let mut f = sites[a].filter.clone();
-        let from = sites[a].sample;
-        let last = sites[b].sample;
-        let fixes: Vec<(usize, Mounting)> =
-            (a..=b).map(|j| (sites[j].sample, mountings[j])).collect();
-        let mut k = 0;
-        while k < fixes.len() && fixes[k].0 <= from {
-            self.apply_fix(from, &mut f, fixes[k].1);
-            k += 1;
-        }
-        if last > from {
-            self.run(from, &mut f, |i, f| {
-                while k < fixes.len() && fixes[k].0 <= i {
-                    self.apply_fix(i, f, fixes[k].1);
-                    k += 1;
-                }
-                i < last
-            });
-        }
-        // After the last fix: carried on by the stretch maps where they
-        // apply (the same first sample above the level as stepping).
-        let hit = self.first_above(last, &mut f, level_m);
-        hit.is_some_and(|i| self.samples[i - 1].avp.distance_m < self.length_m())
     }
 
     /// The largest bound from sample `from` on, starting with filter `f`
@@ -499,7 +458,9 @@ impl<'a> Budget<'a> {
     }
 
     /// [`Budget::worst_bound_from`] with `reference`'s fixes from index
-    /// `offset` on (stopping early once the bound exceeds `stop_above_m`),
+    /// `offset` on (stopping early once the bound exceeds `stop_above_m`,
+    /// except after the last fix, where the largest bound to the end is
+    /// found without stepping most of it: [`Budget::max_to_end`]),
     /// also stopped as soon as the rest of the route provably cannot raise
     /// the result above `max(worst so far, settle_at_m)`, by comparison
     /// with `reference`, the all-read filter of the same fix list. Returns
@@ -538,8 +499,9 @@ impl<'a> Budget<'a> {
         let settled = |k: usize, f: &Filter, worst: f64| {
             let j = offset + k - 1;
             let rest = reference.after_max[j];
-            let alpha = super::stretch::generalized_lambda_max(f.covariance(), &reference.after[j])
-                .max(1.0);
+            let alpha =
+                crate::nav::riccati::generalized_lambda_max(f.covariance(), &reference.after[j])
+                    .max(1.0);
             (alpha * (1.0 + 1e-9)).sqrt() * rest <= worst.max(settle_at_m)
         };
         if k > 0 && settled(k, &f, worst) {
@@ -547,23 +509,37 @@ impl<'a> Budget<'a> {
         }
         // Stretches without a fix whose bound cannot exceed the worst so
         // far change nothing here: carried by the stretch maps.
+        // Below `settle_at_m` nothing matters: the level the maps carry the
+        // run under is the worst so far or that, whichever is larger. After
+        // the last fix, the rest is the largest bound to the end
+        // (`Budget::max_to_end`).
         let at: Vec<usize> = fixes[k..].iter().map(|x| x.0).collect();
-        let level = std::cell::Cell::new(worst);
-        self.run_carrying(from, &mut f, &at, &level, |i, f| {
-            let worst = level.get().max(self.bound(&f.position_cov_enu()));
-            level.set(worst);
-            let mut fixed = false;
-            while k < fixes.len() && fixes[k].0 <= i {
-                self.apply_fix(i, f, fixes[k].1);
-                k += 1;
-                fixed = true;
-            }
-            if fixed && settled(k, f, worst) {
-                return false;
-            }
-            worst <= stop_above_m
-        });
-        level.get()
+        let level = std::cell::Cell::new(worst.max(settle_at_m));
+        let mut tail = (k == fixes.len()).then_some(from);
+        if tail.is_none() {
+            self.run_carrying(from, &mut f, &at, &level, |i, f| {
+                let worst = level.get().max(self.bound(&f.position_cov_enu()));
+                level.set(worst);
+                let mut fixed = false;
+                while k < fixes.len() && fixes[k].0 <= i {
+                    self.apply_fix(i, f, fixes[k].1);
+                    k += 1;
+                    fixed = true;
+                }
+                if fixed && settled(k, f, worst) {
+                    return false;
+                }
+                if fixed && k == fixes.len() && worst <= stop_above_m {
+                    tail = Some(i);
+                    return false;
+                }
+                worst <= stop_above_m
+            });
+        }
+        match tail {
+            Some(i) => self.max_to_end(i, &mut f, level.get()),
+            None => level.get(),
+        }
     }
 
     /// The bound profile with fixes at the given sites (sample index,
@@ -617,21 +593,46 @@ impl<'a> Budget<'a> {
             return out;
         };
         let mut next_site = 0;
-        take_sites(
-            &mut out.sites,
-            &mut next_site,
-            sites_m,
-            0.0,
-            (0, self.samples[0].avp.distance_m),
-            &f,
-        );
-        out.profile.push(BudgetPoint {
-            t_s: self.samples[0].avp.t,
-            distance_m: self.samples[0].avp.distance_m,
-            bound95_m: self.bound(&f.position_cov_enu()),
-        });
-        out.grid_max = out.profile[0].bound95_m;
         let mut next_prof = every_m;
+        // Before the first fix the filter is the tag-free one: its samples
+        // up to an odometer epoch before the fix are the tag-free pass's.
+        let prefix = fixes.first().and_then(|x| {
+            self.tag_free_record()?
+                .prefix(&self.samples, x.0, every_m, sites_m, grid_m)
+        });
+        let start = match prefix {
+            Some(pre) => {
+                let s = &self.samples;
+                out.profile = (pre.profile.iter())
+                    .map(|&(i, b)| BudgetPoint {
+                        t_s: s[i].avp.t,
+                        distance_m: s[i].avp.distance_m,
+                        bound95_m: b,
+                    })
+                    .collect();
+                out.grid_max = pre.grid_max;
+                (next_prof, next_grid) = (pre.next_prof, pre.next_grid);
+                f = pre.filter;
+                pre.epoch
+            }
+            None => {
+                take_sites(
+                    &mut out.sites,
+                    &mut next_site,
+                    sites_m,
+                    0.0,
+                    (0, self.samples[0].avp.distance_m),
+                    &f,
+                );
+                out.profile.push(BudgetPoint {
+                    t_s: self.samples[0].avp.t,
+                    distance_m: self.samples[0].avp.distance_m,
+                    bound95_m: self.bound(&f.position_cov_enu()),
+                });
+                out.grid_max = out.profile[0].bound95_m;
+                0
+            }
+        };
         // Largest bound over the samples after the j-th fix's sample up to
         // the next fix's, then turned into suffix maxima.
         let mut seg_max = vec![0.0f64; fixes.len()];
@@ -646,10 +647,10 @@ impl<'a> Budget<'a> {
                 after.push(*f.covariance());
             }
         };
-        while k < fixes.len() && fixes[k].0 == 0 {
-            apply(0, &mut f, &mut out.after, &mut k);
+        while k < fixes.len() && fixes[k].0 == start {
+            apply(start, &mut f, &mut out.after, &mut k);
         }
-        self.run(0, &mut f, |i, f| {
+        self.run(start, &mut f, |i, f| {
             let a = &self.samples[i].avp;
             let b = self.bound(&f.position_cov_enu());
             if k > 0 {
@@ -691,160 +692,6 @@ impl<'a> Budget<'a> {
             out.after_max[j] = m;
         }
         out
-    }
-}
-
-/// The number of sites [`LazyReaches::reaches_end`] first tries to show
-/// short of the end with one run, halved after each failure (no more tries
-/// below 2). A cost setting only, the answers are the same: a run costs
-/// about as much whether it succeeds (its bound crosses the requirement
-/// not long before the end, as the sites' own do) or fails (it runs to the
-/// end): on the demo and the Helsinki and Monaco 20 m routes a fixed
-/// width of 8 took 1–5 % fewer filter steps for the tag-free reaches than
-/// 4 or 16, and doubling the width after each success 34–60 % more (each
-/// widening ends in a failure).
-const CERTIFY_FIRST_WIDTH: usize = 8;
-/// Relative margin of the level the shared run must exceed over the
-/// requirement: the comparison of two filters' bounds computed in floating
-/// point along different update sequences (round-off ≈ 1e-13 relative).
-const CERTIFY_MARGIN: f64 = 1e-6;
-
-/// Site reaches computed on first demand ([`Budget::lazy_reaches`]).
-pub struct LazyReaches<'s, 'a> {
-    budget: &'s Budget<'a>,
-    sites: &'s [Site],
-    mountings: &'s [Mounting],
-    requirement_m: f64,
-    progress: Option<&'s (dyn Fn(usize, usize) + Sync)>,
-    done: std::cell::Cell<usize>,
-    cells: Vec<std::cell::OnceCell<(f64, f64)>>,
-    /// Sites shown to fall short of the route's end without their reach.
-    short: Vec<std::cell::Cell<bool>>,
-    /// Whether [`LazyReaches::reaches_end`] may show that by shared runs.
-    certify: bool,
-    /// Sites the next shared run tries to cover (below 2: no more tries).
-    width: std::cell::Cell<usize>,
-    /// Sites shown short by shared runs.
-    certified: std::cell::Cell<usize>,
-}
-
-impl std::fmt::Debug for LazyReaches<'_, '_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LazyReaches")
-            .field("sites", &self.sites.len())
-            .field("computed", &self.done.get())
-            .finish()
-    }
-}
-
-impl LazyReaches<'_, '_> {
-    /// Lets [`LazyReaches::reaches_end`] show several sites short of the
-    /// end by one filter run ([`Budget::falls_short`]). Only for snapshots
-    /// where a later site's holds no information an earlier one's, carried
-    /// on with the fixes at the sites between, lacks: the tag-free pass's
-    /// ([`Budget::tag_free`]) or those of a pass reading a tag at every
-    /// site ([`Budget::snapshots`] with a fix at every site). Ignored when
-    /// the propagations do not restart exactly (map matching:
-    /// [`PerfectData::restart_invariant`]).
-    pub fn certifying(mut self) -> Self {
-        self.certify = self.budget.data.restart_invariant();
-        self
-    }
-
-    /// Whether site `i`'s reach is the route's end (`reach ≥ length`),
-    /// exactly as [`LazyReaches::get`] would say; when certifying, a site
-    /// not yet computed is first tried with the next few in one run that
-    /// reads all their tags ([`Budget::falls_short`]): when that run's
-    /// bound exceeds the requirement before the end, none of them reaches
-    /// the end, and none of their reaches is computed.
-    pub fn reaches_end(&self, i: usize) -> bool {
-        let length = self.budget.length_m();
-        if let Some(&(_, r)) = self.cells[i].get() {
-            return r >= length;
-        }
-        if self.short[i].get() {
-            return false;
-        }
-        if self.certify && self.certify_from(i) {
-            return false;
-        }
-        self.get(i).1 >= length
-    }
-
-    /// Tries to show sites `i..` short of the end with shared runs, from
-    /// the current width down to 2 sites; true when `i` was. The width is
-    /// kept after a success and halved after a failure: reaches grow along
-    /// the route, so once a narrower run is needed it stays needed.
-    fn certify_from(&self, i: usize) -> bool {
-        let n = self.sites.len();
-        let level = self.requirement_m * (1.0 + CERTIFY_MARGIN);
-        loop {
-            let w = self.width.get();
-            if w < 2 {
-                return false;
-            }
-            let b = (i + w - 1).min(n - 1);
-            if b == i {
-                return false;
-            }
-            let s0 = self.budget.steps();
-            let ok = self
-                .budget
-                .falls_short(self.sites, self.mountings, (i, b), level);
-            tracing::trace!(
-                i,
-                b,
-                ok,
-                steps = self.budget.steps() - s0,
-                "shared reach run"
-            );
-            if ok {
-                for c in &self.short[i..=b] {
-                    c.set(true);
-                }
-                self.certified.set(self.certified.get() + b + 1 - i);
-                return true;
-            }
-            self.width.set(w / 2);
-        }
-    }
-
-    /// Sites shown short of the end by shared runs, without their reach.
-    pub fn certified(&self) -> usize {
-        self.certified.get()
-    }
-
-    /// The bound right after a fix at site `i` and its reach (as
-    /// [`Budget::reaches`]). A site not yet computed is computed with the
-    /// next few not yet computed after it, one per worker thread, in
-    /// parallel (the search asks for sites mostly in route order).
-    pub fn get(&self, i: usize) -> (f64, f64) {
-        if let Some(&r) = self.cells[i].get() {
-            return r;
-        }
-        let batch: Vec<usize> = (i..self.sites.len())
-            .filter(|&j| j == i || (self.cells[j].get().is_none() && !self.short[j].get()))
-            .take(rayon::current_num_threads().max(1))
-            .collect();
-        let (b, sites, mountings, req) =
-            (self.budget, self.sites, self.mountings, self.requirement_m);
-        let out: Vec<(f64, f64)> = batch
-            .par_iter()
-            .map(|&j| b.reach_of(&sites[j], mountings[j], req))
-            .collect();
-        for (&j, r) in batch.iter().zip(out) {
-            let _ = self.cells[j].set(r);
-            self.done.set(self.done.get() + 1);
-            if let Some(p) = self.progress {
-                p(self.done.get(), self.sites.len());
-            }
-        }
-        self.cells[i].get().copied().unwrap_or((f64::NAN, f64::NAN))
-    }
-
-    /// Sites whose reach was computed.
-    pub fn computed(&self) -> usize {
-        self.done.get()
     }
 }
 

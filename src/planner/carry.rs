@@ -2,8 +2,10 @@
 //! (module `stretch`) where they apply, stepped elsewhere: the same
 //! answers as stepping every sample (see `stretch` for why).
 
-use super::budget::Budget;
+use super::budget::{Budget, Site};
+use super::stretch::INTERIOR_MARGIN;
 use crate::nav::Filter;
+use crate::sim::tags::Mounting;
 
 impl Budget<'_> {
     /// The first sample after `from` where the bound of filter `f` (at
@@ -20,6 +22,75 @@ impl Budget<'_> {
             hit.is_none()
         });
         hit
+    }
+
+    /// The largest bound over the samples after `from` of filter `f` (at
+    /// sample `from`, on the truth, reading no more tags), or `floor` when
+    /// that is larger; exactly as stepping `f` says when it exceeds
+    /// `floor`. `f` is left along the way.
+    ///
+    /// Two phases: the covariance is carried by the stretch maps to the
+    /// route's end, keeping it at each boundary (one map a stretch, no
+    /// test); then, from the last stretch back, a stretch is replayed
+    /// (stepped from its start with that covariance) only when its
+    /// interior bound (module `stretch`) exceeds the largest bound found so
+    /// far: every sample of a stretch that is not replayed is at most that.
+    /// A run whose bound grows to the end steps about its last stretch,
+    /// where carrying it under the worst bound so far stepped every
+    /// stretch where it grew.
+    pub(super) fn max_to_end(&self, from: usize, f: &mut Filter, floor: f64) -> f64 {
+        let mut worst = floor;
+        let step = |from: usize, f: &mut Filter, until: usize, worst: &mut f64| {
+            self.run(from, f, |i, f| {
+                *worst = worst.max(self.bound(&f.position_cov_enu()));
+                i < until
+            });
+        };
+        let Some((st, m0)) = self
+            .stretches()
+            .and_then(|st| st.first_after(from).map(|m| (st, m)))
+        else {
+            step(from, f, usize::MAX, &mut worst);
+            return worst;
+        };
+        if st.bounds[m0] > from {
+            step(from, f, st.bounds[m0], &mut worst);
+        }
+        let last = st.bounds.len() - 1;
+        let mut ps = Vec::with_capacity(last - m0);
+        let mut p = *f.covariance();
+        for m in m0..last {
+            let next = st.elements[m].apply(&p);
+            ps.push(p);
+            p = next;
+        }
+        self.work().add_maps(last - m0);
+        for m in (m0..last).rev() {
+            let p = ps[m - m0];
+            let (within, tested) = st.interior_within(m, &p, worst / (1.0 + INTERIOR_MARGIN));
+            self.work().add_map(tested, false);
+            if !within {
+                self.work().add_replay();
+                self.work().add_replay_through();
+                let mut g = st.filters[m].clone();
+                g.set_covariance(p);
+                step(st.bounds[m], &mut g, st.bounds[m + 1], &mut worst);
+            }
+        }
+        worst
+    }
+
+    /// Filter `f` (at sample `from`, on the truth, reading no more tags)
+    /// at sample `to > from`: carried by the stretch maps up to the
+    /// stretch that holds `to` (with no level to keep under) and stepped
+    /// from there, as stepping `f` gives it up to the maps' round-off.
+    pub(super) fn filter_at(&self, from: usize, mut f: Filter, to: usize) -> Filter {
+        if to <= from {
+            return f;
+        }
+        let level = std::cell::Cell::new(f64::INFINITY);
+        self.run_carrying(from, &mut f, &[to], &level, |i, _| i < to);
+        f
     }
 
     /// [`Budget::run`] with `visit`, but carried by the tag-free pass's
@@ -43,10 +114,62 @@ impl Budget<'_> {
             go
         };
         match self.stretches() {
-            Some(st) => st.drive(from, f, fixes, level, step, |a, j| self.count_map(a, j)),
+            Some(st) => st.drive(from, f, fixes, level, step, self.work()),
             None => {
                 step(from, f, usize::MAX);
             }
         }
+    }
+
+    /// Whether the filter that reads a tag at each of `sites[a..=b]` (with
+    /// `mountings`), starting from `sites[a]`'s snapshot, has its bound
+    /// above `level_m` at some sample after `sites[b]`'s before the route's
+    /// end (the run stops there, or at the end).
+    ///
+    /// What it proves, when the snapshots are such that each later site's
+    /// holds no information that `sites[a]`'s propagated with the fixes at
+    /// the sites between lacks (the tag-free pass's snapshots, or a pass
+    /// reading a tag at every site) and propagations restart exactly
+    /// ([`PerfectData::restart_invariant`]): for every `j` in `a..=b`, the
+    /// filter of `sites[j]`'s reach ([`Budget::reaches`]: its snapshot, the
+    /// fix there, nothing after) has read only information this one has
+    /// read too, through the same Riccati maps (same truth, same update
+    /// rows; the state stays on the truth, so no linearisation differs).
+    /// An extra update only lowers a covariance and the maps are monotone
+    /// in the PSD order, so after `sites[b]` its covariance is at least
+    /// this one's and its bound (the largest eigenvalue of the horizontal
+    /// block) at least this one's: it exceeds the requirement at or before
+    /// the sample where this one exceeds `level_m ≥ requirement`, and its
+    /// reach ends before the route's end.
+    pub(super) fn falls_short(
+        &self,
+        sites: &[Site],
+        mountings: &[Mounting],
+        (a, b): (usize, usize),
+        level_m: f64,
+    ) -> bool {
+        let mut f = sites[a].filter.clone();
+        let from = sites[a].sample;
+        let last = sites[b].sample;
+        let fixes: Vec<(usize, Mounting)> =
+            (a..=b).map(|j| (sites[j].sample, mountings[j])).collect();
+        let mut k = 0;
+        while k < fixes.len() && fixes[k].0 <= from {
+            self.apply_fix(from, &mut f, fixes[k].1);
+            k += 1;
+        }
+        if last > from {
+            self.run(from, &mut f, |i, f| {
+                while k < fixes.len() && fixes[k].0 <= i {
+                    self.apply_fix(i, f, fixes[k].1);
+                    k += 1;
+                }
+                i < last
+            });
+        }
+        // After the last fix: carried on by the stretch maps where they
+        // apply (the same first sample above the level as stepping).
+        let hit = self.first_above(last, &mut f, level_m);
+        hit.is_some_and(|i| self.samples()[i - 1].avp.distance_m < self.length_m())
     }
 }

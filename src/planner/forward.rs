@@ -80,42 +80,48 @@ pub fn forward_greedy(
         while next_site < sites.len() && sites[next_site].sample <= cur {
             next_site += 1;
         }
-        // Sample index of the first violation by any tracked filter.
+        // Sample index of the first violation by any tracked filter, each
+        // run carried by the stretch maps where its bound provably stays
+        // within the requirement (`Budget::first_above`: the same sample
+        // as stepping).
         let mut limit = usize::MAX;
-        // snaps[s][w]: filter s just before site next_site + w.
-        let mut snaps: Vec<Vec<Filter>> = Vec::with_capacity(states.len());
         for (_, f0) in &states {
-            let mut f = f0.clone();
-            let mut mine = Vec::new();
-            let mut ptr = next_site;
-            if budget.bound(&f.position_cov_enu()) > requirement_m {
+            if budget.bound(&f0.position_cov_enu()) > requirement_m {
                 limit = limit.min(cur);
-            } else {
-                budget.run(cur, &mut f, |i, f| {
-                    if i >= limit {
-                        return false;
-                    }
-                    if budget.bound(&f.position_cov_enu()) > requirement_m {
-                        limit = i;
-                        return false;
-                    }
-                    while ptr < sites.len() && sites[ptr].sample <= i {
-                        mine.push(f.clone());
-                        ptr += 1;
-                    }
-                    true
-                });
+                break;
             }
-            snaps.push(mine);
+            // Stopped at the earliest violation found so far (a fix sample
+            // for the maps: the stretch holding it is stepped).
+            let cap = [limit];
+            let stop: &[usize] = if limit == usize::MAX { &[] } else { &cap };
+            let level = std::cell::Cell::new(requirement_m);
+            budget.run_carrying(cur, &mut f0.clone(), stop, &level, |i, f| {
+                if i >= limit {
+                    return false;
+                }
+                if budget.bound(&f.position_cov_enu()) > requirement_m {
+                    limit = i;
+                    return false;
+                }
+                true
+            });
         }
         if limit == usize::MAX {
             return Placement::Feasible(chosen);
         }
-        // Sites whose snapshots every filter has (before the violation).
-        let window = snaps.iter().map(Vec::len).min().unwrap_or(0);
-        let in_window: Vec<usize> = (next_site..next_site + window)
+        // Sites before the violation (every filter holds the bound there).
+        let in_window: Vec<usize> = (next_site..sites.len())
             .take_while(|&j| sites[j].sample < limit)
             .collect();
+        // Each tracked filter just before a site, on first demand (the
+        // furthest admissible pick is usually kept): carried by the maps
+        // to the site's stretch and stepped to it (`Budget::filter_at`).
+        let snaps = Snapshots {
+            budget,
+            from: cur,
+            states: &states,
+            cache: std::cell::RefCell::new(std::collections::HashMap::new()),
+        };
         // Admissible picks, furthest first; the first installed tag in the
         // window is the next tag whatever else is admissible.
         let order: Vec<usize> = match in_window.iter().find(|&&j| sites[j].existing) {
@@ -129,8 +135,7 @@ pub fn forward_greedy(
         };
         let mut picked = None;
         for (n, &c) in order.iter().enumerate() {
-            let w = c - next_site;
-            let next = transition(budget, &states, &snaps, w, sites[c], k, settle);
+            let next = transition(budget, &states, &snaps, sites[c], k, settle);
             if n + 1 == order.len() || viable(budget, &next, sites, c, requirement_m, min_spacing_m)
             {
                 picked = Some((c, next));
@@ -151,13 +156,34 @@ pub fn forward_greedy(
     }
 }
 
-/// The tracked filters after a tag at `site` (window index `w` of the
-/// snapshots): read or missed, per the module docs.
+/// The tracked filters just before sites, computed on demand and kept.
+struct Snapshots<'s, 'b> {
+    budget: &'s Budget<'b>,
+    from: usize,
+    states: &'s [(Kind, Filter)],
+    cache: std::cell::RefCell<std::collections::HashMap<(usize, usize), Filter>>,
+}
+
+impl Snapshots<'_, '_> {
+    /// Tracked filter `s` (at sample `from`) just before sample `to`.
+    fn get(&self, s: usize, to: usize) -> Filter {
+        self.cache
+            .borrow_mut()
+            .entry((s, to))
+            .or_insert_with(|| {
+                self.budget
+                    .filter_at(self.from, self.states[s].1.clone(), to)
+            })
+            .clone()
+    }
+}
+
+/// The tracked filters after a tag at `site`: read or missed, per the
+/// module docs.
 fn transition(
     budget: &Budget<'_>,
     states: &[(Kind, Filter)],
-    snaps: &[Vec<Filter>],
-    w: usize,
+    snaps: &Snapshots<'_, '_>,
     site: ForwardSite,
     k: usize,
     settle: usize,
@@ -167,8 +193,8 @@ fn transition(
         f
     };
     let mut next = Vec::with_capacity(states.len() + 1);
-    for ((kind, _), s) in states.iter().zip(snaps) {
-        let f = s[w].clone();
+    for (n, (kind, _)) in states.iter().enumerate() {
+        let f = snaps.get(n, site.sample);
         match *kind {
             Kind::All => {
                 if k >= 1 {

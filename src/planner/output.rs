@@ -4,10 +4,9 @@
 
 use super::budget::{AllRead, Budget};
 
-/// The profile grid (m) of [`Plan::missed_bound`]'s all-read bound.
-pub const MISSED_GRID_M: f64 = 50.0;
 use super::network::types::NetworkPlan;
 use super::plan::Plan;
+pub use super::record::MISSED_GRID_M;
 use crate::error::Result;
 use crate::scenario::{RouteKind, Scenario};
 use crate::sim::tags::Mounting;

@@ -232,6 +232,8 @@ pub fn plan_with_stages(
             filter_passes = budget.passes(),
             steps = budget.steps(),
             map_jumps = budget.jumps(),
+            anchors = budget.work().anchors(),
+            replays = ?budget.work().replays(),
             "planner cost so far"
         );
     };

@@ -1,5 +1,6 @@
 //! Stretch maps of the tag-free pass (issue 14): the covariance ops of the
-//! route between consecutive boundaries (candidate sites), composed into
+//! route between consecutive boundaries (each the first odometer epoch
+//! after a candidate site; fifth round: before, the site itself), composed into
 //! one map each ([`crate::nav::riccati::Element`]), with a rigorous upper
 //! bound on the bound anywhere inside the stretch, so that a run that
 //! reads no tag can cross a stretch with one map application instead of
@@ -15,7 +16,10 @@
 //! epoch after the last fix brings both back to the drive's schedule
 //! ([`crate::sim::covariance::PerfectData::resync_every`]). Runs therefore
 //! step the filter up to the first boundary after that epoch, and from
-//! there carry the covariance by the maps. Map-matching feeds (restarted
+//! there carry the covariance by the maps; a boundary being that epoch
+//! for its site, a run from a fix at a boundary's site steps at most one
+//! odometer interval (the paper's drive: 2.7 → 1.4 M steps for its
+//! tag-free reaches, 13.6 → 11.1 counted passes in all). Map-matching feeds (restarted
 //! with each run) are not restart invariant: no maps are built for them
 //! ([`crate::sim::covariance::PerfectData::restart_invariant`]).
 //!
@@ -24,8 +28,9 @@
 //! carried through the map of the stretches before it in the node
 //! ([`Node`]), so that a run far from crossing its level crosses them by
 //! one map; measured on the paper's drive: 282k map applications became
-//! 88k (30.6 → 23.3 counted passes), while the routes of a few km pay
-//! about 0.2 passes for building them.
+//! 88k (30.6 → 23.3 counted passes). A node is built on its second
+//! request ([`LazyNode`]): built up front, the routes of a few km paid
+//! about 0.2 passes for nodes no run or one run crossed.
 //!
 //! The interior bound. Updates only lower a covariance and every op is
 //! monotone in the PSD order, and `(P⁻¹ + J)⁻¹ ≤ P`, so at any sample `t`
@@ -34,23 +39,26 @@
 //! With `M` the metric rows of the horizontal position at `e`
 //! (`diag(R_N cos L, R_M)` on δλ, δL) and `G_t = M A_t = M [I 0] + D_t`:
 //! `√λmax(G_t P Gᵀ_t) ≤ √λmax(M P_hor M) + √λmax(D_t P Dᵀ_t)`, and
-//! `D_tᵀ D_t ≤ diag(r)` with `r_k ≥ Σ_l |(D_tᵀ D_t)_kl|` (Gershgorin; here
-//! `r_k = max_t Σ_row |D_t,row,k| ‖D_t,row‖₁`) gives
+//! `D_tᵀ D_t ≤ diag(r)` (a Gershgorin bound scaled by the tag-free
+//! filter's standard deviations at the stretch's start, [`widen`]: the
+//! unscaled one mixed units) gives
 //! `λmax(D_t P Dᵀ_t) = λmax(P^½ D_tᵀ D_t P^½) ≤ Σ_k r_k P_kk`. The metric
 //! scaling at `t` differs from `M` by at most the factor `ρ` (the largest
 //! ratio of the radii, ≈ 1 + 1e-6), and `λmax(M C_t,hor M) ≤ q`. So the
 //! bound at every sample of the stretch is at most
-//! `√k · ρ · (√λmax(M P_hor M) + √(Σ_k r_k P_kk) + √q)`, with `k` the
-//! bound's χ² factor; all of `r`, `q`, `ρ` are taken over the stretch in
-//! the recording pass.
+//! `√k · ρ · √((√λmax(M P_hor M) + √(Σ_k r_k P_kk))² + q)` ([`combine`];
+//! the fourth round added `√q` outside the root), with `k` the bound's χ²
+//! factor; all of `r`, `q`, `ρ` are taken over the stretch in the
+//! recording pass.
 
 use crate::nav::ekf::{Mat, DP, N};
 type Element = crate::nav::riccati::Element<N>;
 use crate::nav::Filter;
 use crate::sim::lambda_max_2x2;
 
-/// The shortest stretch (IMU samples; its end is the first candidate site
-/// at least that far from its start). A cost setting only (the answers
+/// The shortest stretch (IMU samples; its end is the first odometer epoch
+/// after the first candidate site at least that far from its start;
+/// measured below with the site itself as the end). A cost setting only (the answers
 /// are the same): on the demo's 204 tag-free reaches (test
 /// `stretch_maps_give_the_stepped_reaches`), with 4 op states per anchor,
 /// 0 / 300 / 1000 samples took 148k / 218k / 579k filter steps and 16.4k /
@@ -59,20 +67,6 @@ use crate::sim::lambda_max_2x2;
 /// 300 → 6.62 / 5.04 / 5.12, 600 → 6.42 / 5.04 / 4.96, 1000 → 6.79 /
 /// 4.97 / 5.00, 2000 → 10.2 / 5.63 / 5.94.
 pub(super) const MIN_SAMPLES: usize = 600;
-/// The cost of applying one stretch map, in filter steps (one IMU sample
-/// of [`Budget::run`]), for the planner's pass count: 14.9 µs a map
-/// (21×21 solve and products) against 0.28–0.33 µs a step.
-pub(super) const APPLY_STEPS: f64 = 50.0;
-/// The cost of testing one anchor of an interior bound, in filter steps:
-/// 0.2–0.35 µs an anchor (whole reaches less their steps and maps). With
-/// these two, the counted work of the maps was 1.1 times the measured on
-/// the demo's 204 reaches and 0.9–1.1 times on the Monaco 20 m route's.
-pub(super) const ANCHOR_STEPS: f64 = 1.5;
-/// The cost of composing one covariance op (a propagation or an accepted
-/// update) into a stretch map during the tag-free pass, in filter steps:
-/// the recording pass took 2.0–2.2 times a plain tag-free pass on the
-/// demo (11,157 ops over 53,137 samples: 4.8–5.9 steps an op, three runs).
-pub(super) const COMPOSE_STEPS: f64 = 6.0;
 
 /// Op states per anchor of the interior bound (1: the bound `A P Aᵀ + C`
 /// itself at every state, tightest and dearest to test). On the demo's
@@ -83,16 +77,10 @@ pub(super) const COMPOSE_STEPS: f64 = 6.0;
 /// 0.58 s (8 states: more stepping, +13 % passes on the demo).
 const GROUP: usize = 4;
 
-/// The cost of building one stretch's part of a node (a composition and
-/// the carried anchor), in filter steps: 28 µs a part against 0.28–0.33
-/// µs a step. A part's test is charged as an anchor's
-/// ([`ANCHOR_STEPS`]: two 21-element rows against `P` and a 21×21 dot).
-pub(super) const NODE_PART_STEPS: f64 = 95.0;
-
 /// Relative margin of the interior bound below the level it must stay
 /// under: the maps' covariances and the stepped ones differ by round-off
 /// (≈ 1e-12 relative, measured on the demo's sites).
-const INTERIOR_MARGIN: f64 = 1e-9;
+pub(super) const INTERIOR_MARGIN: f64 = 1e-9;
 
 /// One anchor of a stretch's interior bound: for the samples it covers,
 /// `P_t ≤ A_t P Aᵀ_t + C_t` with `M A_t = G + D_t`, `D_tᵀ D_t ≤ diag(r)`
@@ -115,6 +103,8 @@ pub(super) struct Interior {
     whole: Anchor,
     anchors: Vec<Anchor>,
     rho: f64,
+    /// The scaled Gershgorin bound's weights ([`widen`]).
+    sd: [f64; N],
 }
 
 /// The anchor's upper bound on `√λmax` of the metric horizontal
@@ -141,18 +131,37 @@ fn anchor_bound(a: &Anchor, p: &Mat) -> f64 {
         lambda_max_2x2(gpg[0] + a.cm[0], gpg[1] + a.cm[1], gpg[2] + a.cm[2]).sqrt()
     } else {
         let s: f64 = (0..N).map(|k| a.r[k] * p[(k, k)].max(0.0)).sum();
-        lambda_max_2x2(gpg[0], gpg[1], gpg[2]).sqrt() + s.sqrt() + a.q.sqrt()
+        combine(lambda_max_2x2(gpg[0], gpg[1], gpg[2]), s, a.q)
     }
 }
 
+/// The bound `√λmax((G + D) P (G + D)ᵀ + C)` from `y ≥ λmax(G P Gᵀ)`,
+/// `x ≥ λmax(D P Dᵀ)` and `q ≥ λmax(C)`: `λmax(X + Y) ≤ λmax X + λmax Y`
+/// for symmetric `X, Y`, and `√λmax` of `(G + D) P (G + D)ᵀ` is a norm of
+/// `(G + D) P^½`, so at most `√y + √x` (triangle inequality).
+fn combine(y: f64, x: f64, q: f64) -> f64 {
+    let u = y.max(0.0).sqrt() + x.max(0.0).sqrt();
+    (u * u + q.max(0.0)).sqrt()
+}
+
 /// Widens anchor `a` to cover a state with rows `g` and `M C,hor M` = `c`.
-fn widen(a: &mut Anchor, g: &[[f64; N]; 2], c: &[f64; 3]) {
+///
+/// `DᵀD ≤ diag(r)` by the scaled Gershgorin bound: for any positive `s`,
+/// `vᵀXv ≤ Σ_kl |X_kl| |v_k| |v_l| ≤ Σ_k v_k² Σ_l |X_kl| s_l / s_k` (from
+/// `2|v_k v_l| ≤ v_k² s_l/s_k + v_l² s_k/s_l`), and `|(DᵀD)_kl| ≤
+/// Σ_row |D_row,k| |D_row,l|`. With `s` the standard deviations of the
+/// tag-free filter at the stretch's start (`scale`), the sum weighs each
+/// state in its own units: at that covariance's diagonal `Σ_k r_k P_kk`
+/// is `Σ_row (Σ_k |D_row,k| s_k)²`, the Cauchy–Schwarz bound, where the
+/// unscaled sum (`s = 1`) mixed radians of latitude with metres per
+/// second.
+fn widen(a: &mut Anchor, g: &[[f64; N]; 2], c: &[f64; 3], scale: &[f64; N]) {
     let d0: [f64; N] = std::array::from_fn(|k| g[0][k] - a.g[0][k]);
     let d1: [f64; N] = std::array::from_fn(|k| g[1][k] - a.g[1][k]);
-    let n0: f64 = d0.iter().map(|x| x.abs()).sum();
-    let n1: f64 = d1.iter().map(|x| x.abs()).sum();
+    let n0: f64 = d0.iter().zip(scale).map(|(x, s)| x.abs() * s).sum();
+    let n1: f64 = d1.iter().zip(scale).map(|(x, s)| x.abs() * s).sum();
     for k in 0..N {
-        a.r[k] = a.r[k].max(d0[k].abs() * n0 + d1[k].abs() * n1);
+        a.r[k] = a.r[k].max((d0[k].abs() * n0 + d1[k].abs() * n1) / scale[k]);
     }
     a.q = a.q.max(lambda_max_2x2(c[0], c[1], c[2]));
 }
@@ -189,7 +198,7 @@ pub(super) struct Stretches {
     /// The bound's χ² factor (bound² per unit of the largest variance).
     pub chi2: f64,
     /// Nodes of [`NODE_SIZES`] consecutive stretches, per level.
-    pub nodes: Vec<Vec<Node>>,
+    pub nodes: Vec<Vec<LazyNode>>,
 }
 
 /// Stretches per node, by level: a run crosses a whole node by its
@@ -202,10 +211,10 @@ const NODE_SIZES: [usize; 2] = [8, 64];
 /// For stretch `j` of the node, with the map of the stretches before it
 /// in the node `(A', C', J')`: its start covariance is `P_j ≤ A' P A'ᵀ +
 /// C'` for `P` at the node's start, and its anchor `(G, r, q)` bounds its
-/// samples by `√λ(G P_j Gᵀ) + √(Σ r_k P_j,kk) + √q`; with `√λ(X + Y) ≤
-/// √λX + √λY`, that is at most `√λ(Ĝ P Ĝᵀ) + √(Σ_ik P_ik W_ik) + κ` with
-/// `Ĝ = G A'`, `W = A'ᵀ diag(r) A'` and the constant `κ = √λ(G C' Gᵀ) +
-/// √(Σ r_k C'_kk) + √q`.
+/// samples by `√((√λ(G P_j Gᵀ) + √(Σ r_k P_j,kk))² + q)` ([`combine`]);
+/// with `λ(X + Y) ≤ λX + λY`, `λ(G P_j Gᵀ) ≤ λ(Ĝ P Ĝᵀ) + λ(G C' Gᵀ)` and
+/// `Σ r_k P_j,kk ≤ Σ_ik P_ik W_ik + Σ r_k C'_kk` with `Ĝ = G A'` and
+/// `W = A'ᵀ diag(r) A'`; the two constants are kept ([`Part`]).
 #[derive(Debug, Clone)]
 pub(super) struct Node {
     element: Element,
@@ -217,7 +226,10 @@ pub(super) struct Node {
 struct Part {
     g: [[f64; N]; 2],
     w: Mat,
-    kappa: f64,
+    /// `λmax(G C' Gᵀ)`, `Σ r_k C'_kk` and the anchor's `q`.
+    gc: f64,
+    rc: f64,
+    q: f64,
     rho: f64,
 }
 
@@ -249,7 +261,9 @@ impl Node {
             parts.push(Part {
                 g,
                 w,
-                kappa: lc.sqrt() + rc.sqrt() + a.q.sqrt(),
+                gc: lc,
+                rc,
+                q: a.q,
                 rho: it.rho,
             });
             prefix = prefix.then(&st.elements[j]);
@@ -271,7 +285,8 @@ impl Node {
                 q: 0.0,
             };
             let trw: f64 = p.component_mul(&part.w).sum().max(0.0);
-            let ub = anchor_bound(&a, p) + trw.sqrt() + part.kappa;
+            let y = anchor_bound(&a, p).powi(2);
+            let ub = combine(y + part.gc, trw + part.rc, part.q);
             if part.rho * ub > level {
                 return (false, self.parts.len() - n);
             }
@@ -312,6 +327,11 @@ impl Recorder {
         }
     }
 
+    /// The odometer epochs (samples) of the recorded drive.
+    pub fn sync_every(&self) -> usize {
+        self.st.sync_every
+    }
+
     /// Closes the current anchor group: anchored at its last state.
     fn close_group(&mut self) {
         let (Some(it), Some(&(g, cm))) = (self.cur.as_mut(), self.group.last()) else {
@@ -324,7 +344,7 @@ impl Recorder {
             q: 0.0,
         };
         for (gt, ct) in &self.group {
-            widen(&mut a, gt, ct);
+            widen(&mut a, gt, ct, &it.sd);
         }
         it.anchors.push(a);
         self.group.clear();
@@ -346,7 +366,7 @@ impl Recorder {
                     }
                     let (g, c) = metric_rows(el, scale);
                     let it = self.cur.as_mut().expect("open stretch");
-                    widen(&mut it.whole, &g, &c);
+                    widen(&mut it.whole, &g, &c, &it.sd);
                     self.group.push((g, c));
                 }
             }
@@ -382,6 +402,14 @@ impl Recorder {
                 },
                 anchors: vec![],
                 rho: 1.0,
+                sd: std::array::from_fn(|k| {
+                    let v = f.covariance()[(k, k)];
+                    if v > 0.0 {
+                        v.sqrt()
+                    } else {
+                        1.0
+                    }
+                }),
             });
             self.last_ops = 0;
             f.track_element();
@@ -396,24 +424,35 @@ impl Recorder {
         let n = self.st.elements.len();
         self.st.nodes = NODE_SIZES
             .iter()
-            .map(|&b| {
-                (0..n / b)
-                    .map(|k| Node::build(&self.st, k * b..(k + 1) * b))
-                    .collect()
-            })
+            .map(|&b| (0..n / b).map(|_| LazyNode::default()).collect())
             .collect();
         Some(self.st)
     }
+}
 
-    /// Nodes built ([`Stretches::nodes`]) and stretches in them, per level.
-    pub fn node_work(st: &Stretches) -> u64 {
-        st.nodes
-            .iter()
-            .flatten()
-            .map(|n| n.parts.len() as u64)
-            .sum()
+/// A [`Node`] built on its [`NODE_BUILD_AFTER`]-th request: building one
+/// costs about twice the maps it saves a run that crosses it, so a node
+/// only one run reaches is not built (the short routes paid about 0.2
+/// passes for nodes built up front).
+#[derive(Debug, Default)]
+pub(super) struct LazyNode {
+    asked: std::sync::atomic::AtomicU32,
+    node: std::sync::OnceLock<Node>,
+}
+
+impl Clone for LazyNode {
+    fn clone(&self) -> Self {
+        Self {
+            asked: std::sync::atomic::AtomicU32::new(
+                self.asked.load(std::sync::atomic::Ordering::Relaxed),
+            ),
+            node: self.node.clone(),
+        }
     }
 }
+
+/// The request on which a [`LazyNode`] is built.
+const NODE_BUILD_AFTER: u32 = 2;
 
 impl Stretches {
     /// The upper bound on the bound at every sample of stretch `m` from
@@ -455,8 +494,9 @@ impl Stretches {
         fixes: &[usize],
         level: &std::cell::Cell<f64>,
         mut step: impl FnMut(usize, &mut Filter, usize) -> bool,
-        mut cost: impl FnMut(usize, bool),
+        work: &super::cost::Work,
     ) {
+        let mut cost = |tested: usize, applied: bool| work.add_map(tested, applied);
         let end = *self.bounds.last().unwrap_or(&0);
         let mut cur = from;
         let mut kf = fixes.partition_point(|&x| x <= from);
@@ -474,7 +514,7 @@ impl Stretches {
                 let mut p = *f.covariance();
                 while m + 1 < self.bounds.len() && self.bounds[m + 1] < next_fix {
                     let safe = level.get() / (1.0 + INTERIOR_MARGIN);
-                    if let Some((b, node)) = self.node_at(m, &p, safe, next_fix, &mut cost) {
+                    if let Some((b, node)) = self.node_at(m, &p, safe, next_fix, &mut cost, work) {
                         p = node.element.apply(&p);
                         m += b;
                         moved = true;
@@ -485,11 +525,13 @@ impl Stretches {
                     if within {
                         p = self.elements[m].apply(&p);
                     } else {
+                        work.add_replay();
                         let mut g = self.filters[m].clone();
                         g.set_covariance(p);
                         if !step(self.bounds[m], &mut g, self.bounds[m + 1]) {
                             return;
                         }
+                        work.add_replay_through();
                         p = *g.covariance();
                     }
                     m += 1;
@@ -526,15 +568,31 @@ impl Stretches {
         level: f64,
         next_fix: usize,
         cost: &mut impl FnMut(usize, bool),
+        work: &super::cost::Work,
     ) -> Option<(usize, &Node)> {
         let unit = level / self.chi2.sqrt();
         for (lv, &b) in NODE_SIZES.iter().enumerate().rev() {
-            let Some(node) = self.nodes.get(lv).and_then(|l| l.get(m / b)) else {
+            let Some(lazy) = self.nodes.get(lv).and_then(|l| l.get(m / b)) else {
                 continue;
             };
             if m % b != 0 || self.bounds[m + b] >= next_fix {
                 continue;
             }
+            let node = match lazy.node.get() {
+                Some(node) => node,
+                None => {
+                    let n = 1 + lazy
+                        .asked
+                        .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    if n < NODE_BUILD_AFTER {
+                        continue;
+                    }
+                    lazy.node.get_or_init(|| {
+                        work.add_built(0, b as u64);
+                        Node::build(self, m..m + b)
+                    })
+                }
+            };
             let (ok, tested) = node.within(p, unit);
             cost(tested, ok);
             if ok {
@@ -551,45 +609,5 @@ impl Stretches {
         let sync = (from / self.sync_every + 1) * self.sync_every;
         let m = self.bounds.partition_point(|&b| b < sync);
         (m + 1 < self.bounds.len()).then_some(m)
-    }
-}
-
-/// The largest `α` with `P − αU` not negative definite: the largest
-/// eigenvalue of `U⁻¹P` (both symmetric positive definite), on the
-/// diagonally scaled matrices (the error state mixes radians of latitude
-/// with metres per second). Infinite when `U` is not positive definite.
-pub fn generalized_lambda_max(p: &crate::nav::ekf::Mat, u: &crate::nav::ekf::Mat) -> f64 {
-    use crate::nav::ekf::N;
-    let d: [f64; N] = std::array::from_fn(|i| {
-        let x = u[(i, i)];
-        if x > 0.0 {
-            1.0 / x.sqrt()
-        } else {
-            1.0
-        }
-    });
-    let us = crate::nav::ekf::Mat::from_fn(|i, j| u[(i, j)] * d[i] * d[j]);
-    let ps = crate::nav::ekf::Mat::from_fn(|i, j| p[(i, j)] * d[i] * d[j]);
-    let Some(c) = nalgebra::Cholesky::new(us) else {
-        return f64::INFINITY;
-    };
-    let l = c.l();
-    // M = L⁻¹ P L⁻ᵀ, symmetric with the eigenvalues of U⁻¹P.
-    let Some(x) = l.solve_lower_triangular(&ps) else {
-        return f64::INFINITY;
-    };
-    let Some(m) = l.solve_lower_triangular(&x.transpose()) else {
-        return f64::INFINITY;
-    };
-    let m = (m + m.transpose()) * 0.5;
-    let e = nalgebra::SymmetricEigen::new(m).eigenvalues;
-    if e.iter().any(|x| x.is_nan()) {
-        return f64::INFINITY;
-    }
-    let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if top.is_finite() {
-        top
-    } else {
-        f64::INFINITY
     }
 }
