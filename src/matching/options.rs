@@ -4,9 +4,16 @@
 //! Defaults from the track: the fixes' distances to their nearest road give
 //! a robust estimate of the position error, σ̂ = 1.4826 × median distance
 //! (Newson and Krumm 2009, §4: the median absolute deviation scaled to a
-//! Gaussian σ). The search radius is 6 σ̂, at least 100 m (so plausible
-//! points up to 100 m from a road are matched on a good track) and at most
-//! 300 m (beyond that the candidates of a fix cover whole blocks). The HMM's
+//! Gaussian σ). The search radius is [`RADIUS_SIGMAS`] = 4 σ̂: a fix's
+//! distance across its true road is Gaussian with σ ≈ σ̂, so the true road
+//! lies beyond 4 σ̂ for a share 2 Φ(−4) = 6.3e-5 of the fixes (6 σ̂, the
+//! earlier rule, bought 2e-9 for about twice the candidates on the FMM
+//! example); at least 100 m (so plausible points up to 100 m from a road
+//! are matched on a good track) and at most 300 m (beyond that the
+//! candidates of a fix cover whole blocks). Within the radius the HMM also
+//! drops the candidates far less likely than the fix's best
+//! ([`super::HmmParams::min_emission_ratio`]). An explicit `--radius-m` is
+//! the search radius as given. The HMM's
 //! error model has a slowly varying drift (stationary σ, 19.4 m by default,
 //! tuned for dead reckoning) and a white part (5 m): the drift's σ becomes
 //! σ̂ within 5-19.4 m (a GNSS track with metres of error does not get to
@@ -62,6 +69,10 @@ impl Default for MatchOptions {
 /// Smallest and largest search radius taken from the track (m).
 pub const AUTO_RADIUS_M: [f64; 2] = [100.0, 300.0];
 
+/// The search radius taken from the track, in σ̂ (see the module
+/// documentation), before [`AUTO_RADIUS_M`]'s limits.
+pub const RADIUS_SIGMAS: f64 = 4.0;
+
 impl MatchOptions {
     /// Checks every option; the error names the command-line option.
     pub fn validate(&self) -> Result<()> {
@@ -87,7 +98,7 @@ impl MatchOptions {
         let base = HmmParams::default();
         let sigma_hat = estimate_sigma_m(net, fixes);
         let radius = self.radius_m.unwrap_or_else(|| match sigma_hat {
-            Some(s) => (6.0 * s).clamp(AUTO_RADIUS_M[0], AUTO_RADIUS_M[1]),
+            Some(s) => (RADIUS_SIGMAS * s).clamp(AUTO_RADIUS_M[0], AUTO_RADIUS_M[1]),
             None => base.search_radius_m,
         });
         let sigma = self.sigma_m.unwrap_or_else(|| match sigma_hat {
@@ -199,5 +210,32 @@ mod tests {
             }
         }
         assert!(near > 100 && far > 100, "{near} {far}");
+    }
+
+    /// The radius taken from the track is 4 σ̂ within 100-300 m; an
+    /// explicit `--radius-m` is kept as given.
+    #[test]
+    fn radius_from_the_track_is_four_sigma_hat_and_an_explicit_one_is_kept() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
+        let net = Network::load(&path, &Default::default()).unwrap();
+        let sg = &net.segments[net.segments.len() / 2];
+        // Fixes 10-40 m off one road: σ̂ well inside the limits' range.
+        let fixes: Vec<Fix> = (0..9)
+            .map(|i| Fix {
+                t_s: f64::from(i),
+                enu: [sg.a[0] + 10.0 + 4.0 * f64::from(i), sg.a[1] + 30.0],
+                heading_rad: None,
+            })
+            .collect();
+        let s = estimate_sigma_m(&net, &fixes).unwrap();
+        let p = MatchOptions::default().hmm_params(&net, &fixes);
+        let want = (RADIUS_SIGMAS * s).clamp(AUTO_RADIUS_M[0], AUTO_RADIUS_M[1]);
+        assert_eq!(p.search_radius_m, want);
+        assert!(want > AUTO_RADIUS_M[0] && want < AUTO_RADIUS_M[1], "{s}");
+        let given = MatchOptions {
+            radius_m: Some(77.0),
+            ..MatchOptions::default()
+        };
+        assert_eq!(given.hmm_params(&net, &fixes).search_radius_m, 77.0);
     }
 }
