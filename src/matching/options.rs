@@ -131,13 +131,15 @@ impl MatchOptions {
 pub fn estimate_sigma_m(net: &Network, fixes: &[Fix]) -> Option<f64> {
     // A sample of at most 2,000 fixes, evenly spread, is plenty for a median.
     let step = (fixes.len() / 2000).max(1);
-    let mut near = Vec::new();
-    let mut d: Vec<f64> = fixes
-        .iter()
-        .step_by(step)
-        .filter(|f| f.enu[0].is_finite() && f.enu[1].is_finite())
-        .filter_map(|f| nearest_road_m(net, f.enu, AUTO_RADIUS_M[1], &mut near))
-        .collect();
+    let mut near = Vec::with_capacity(64);
+    let mut d = Vec::with_capacity(fixes.len().div_ceil(step));
+    d.extend(
+        fixes
+            .iter()
+            .step_by(step)
+            .filter(|f| f.enu[0].is_finite() && f.enu[1].is_finite())
+            .filter_map(|f| nearest_road_m(net, f.enu, AUTO_RADIUS_M[1], &mut near)),
+    );
     if d.is_empty() {
         return None;
     }

@@ -81,6 +81,7 @@ mod geometry;
 mod matcher;
 mod params;
 mod probability;
+mod smoother;
 mod state;
 mod transitions;
 
