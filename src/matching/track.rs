@@ -322,10 +322,16 @@ pub fn group_tracks(rows: &[TrackRow]) -> Vec<(String, Vec<usize>)> {
         let id = r.track_id.as_str();
         let k = match last {
             Some((l, k)) if l == id => k,
-            _ => *at.entry(id).or_insert_with(|| {
-                order.push((r.track_id.clone(), Vec::new()));
-                order.len() - 1
-            }),
+            _ => {
+                let k = *at.entry(id).or_insert_with(|| {
+                    order.push((r.track_id.clone(), Vec::new()));
+                    order.len() - 1
+                });
+                // Room for the whole run of rows of this track at once.
+                let run = rows[i..].iter().take_while(|q| q.track_id == id).count();
+                order[k].1.reserve(run);
+                k
+            }
         };
         last = Some((id, k));
         order[k].1.push(i);
