@@ -99,7 +99,7 @@ enum Command {
         /// Writes the complete path as GeoJSON (a LineString per continuous piece).
         #[arg(long, value_name = "PATH.geojson")]
         path_geojson: Option<PathBuf>,
-        /// Candidate search radius (m) [default: from the track, 100-300 m].
+        /// Candidate search radius (m) [default: from the track, 4 σ̂ within 100-300 m]; candidates less than 1e-6 as likely as a point's best are dropped.
         #[arg(long, value_name = "M", value_parser = waymark::workflow::number_in(1.0, 1000.0))]
         radius_m: Option<f64>,
         /// σ of the position noise (m) [default: from the track, at least 5 m].

@@ -194,7 +194,11 @@ impl PathBuilder {
                 return;
             }
         }
-        if let Some(st) = self.open.replace((piece, road, rf, rt, vec![(sec, f, t)])) {
+        // Room for a few sections from the start (most stretches hold one to
+        // four): no reallocation as the stretch grows.
+        let mut secs = Vec::with_capacity(4);
+        secs.push((sec, f, t));
+        if let Some(st) = self.open.replace((piece, road, rf, rt, secs)) {
             self.close(st);
         }
     }

@@ -315,11 +315,25 @@ pub(crate) fn parse_row(
 pub fn group_tracks(rows: &[TrackRow]) -> Vec<(String, Vec<usize>)> {
     let mut order: Vec<(String, Vec<usize>)> = Vec::new();
     let mut at: FxHashMap<&str, usize> = FxHashMap::default();
+    // The group of the previous row, whose id the next row most often
+    // shares (tracks come in runs): no hashing then.
+    let mut last: Option<(&str, usize)> = None;
     for (i, r) in rows.iter().enumerate() {
-        let k = *at.entry(r.track_id.as_str()).or_insert_with(|| {
-            order.push((r.track_id.clone(), Vec::new()));
-            order.len() - 1
-        });
+        let id = r.track_id.as_str();
+        let k = match last {
+            Some((l, k)) if l == id => k,
+            _ => {
+                let k = *at.entry(id).or_insert_with(|| {
+                    order.push((r.track_id.clone(), Vec::new()));
+                    order.len() - 1
+                });
+                // Room for the whole run of rows of this track at once.
+                let run = rows[i..].iter().take_while(|q| q.track_id == id).count();
+                order[k].1.reserve(run);
+                k
+            }
+        };
+        last = Some((id, k));
         order[k].1.push(i);
     }
     order

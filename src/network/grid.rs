@@ -260,6 +260,28 @@ impl GridIndex {
         });
     }
 
+    /// Distance (m) from `p` to its nearest segment when that is at most
+    /// `radius`, else `None`: the segments [`Self::within_radius_into`] would
+    /// report, by the same point–segment distance, in one pass (no list
+    /// built, no distance computed twice).
+    pub fn nearest_within(&self, p: [f64; 2], radius: f64) -> Option<f64> {
+        let min = [p[0] - radius, p[1] - radius];
+        let max = [p[0] + radius, p[1] + radius];
+        let r2 = radius * radius;
+        let pc = coord(p);
+        let best = std::cell::Cell::new(f64::INFINITY);
+        self.visit(min, max, &mut Vec::new(), |l| {
+            let (_, q) = closest_on_segment(l, pc);
+            let d2 = norm_sq(pc.x - q.x, pc.y - q.y);
+            if d2 <= r2 && d2 < best.get() {
+                best.set(d2);
+            }
+            false
+        });
+        let d2 = best.get();
+        (d2 <= r2).then(|| d2.sqrt())
+    }
+
     /// Segments within `radius` metres of `p`.
     pub fn within_radius(&self, p: [f64; 2], radius: f64) -> Vec<SegmentId> {
         let mut out = Vec::new();

@@ -100,6 +100,10 @@ impl HmmMatcher<'_> {
                 keys.truncate(k);
             }
             keys.sort_unstable_by(order);
+            // Far less likely than the best: dropped (`min_emission_ratio`).
+            let floor = keys[0].0 + self.params.min_emission_ratio.ln();
+            let kept = keys.partition_point(|k| k.0 >= floor);
+            keys.truncate(kept);
             let mut sorted = std::mem::take(&mut self.cand_buf);
             sorted.clear();
             sorted.extend(keys.iter().map(|&(_, i)| cands[i as usize]));
@@ -133,5 +137,54 @@ impl HmmMatcher<'_> {
                 pending: Vec::new(),
             },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{HmmMatcher, HmmParams};
+    use super::*;
+    use crate::network::Network;
+
+    /// The emission-ratio rule drops exactly the candidates below the
+    /// fix's best × `min_emission_ratio`, keeping the others in the same
+    /// order; with 0 every candidate within the radius (up to the cap) is
+    /// kept, and on this map some of those lie below the floor.
+    #[test]
+    fn candidates_far_less_likely_than_the_best_are_dropped() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
+        let net = Network::load(&path, &Default::default()).unwrap();
+        let params = |ratio: f64| HmmParams {
+            search_radius_m: 300.0,
+            max_candidates: 1000,
+            min_emission_ratio: ratio,
+            ..HmmParams::default()
+        };
+        let (mut all, mut kept) = (Vec::new(), Vec::new());
+        let mut below = 0;
+        for sg in net.segments.iter().step_by(7) {
+            let fix = Fix {
+                t_s: 0.0,
+                enu: [(sg.a[0] + sg.b[0]) / 2.0 + 3.0, (sg.a[1] + sg.b[1]) / 2.0],
+                heading_rad: None,
+            };
+            let d = Drift::prior(HmmParams::default().drift_sigma_m);
+            HmmMatcher::new(&net, params(0.0)).candidates(&fix, None, &d, &mut all);
+            HmmMatcher::new(&net, params(1e-6)).candidates(&fix, None, &d, &mut kept);
+            let floor = all[0].emission + 1e-6f64.ln();
+            let want: Vec<_> = all.iter().filter(|c| c.emission >= floor).collect();
+            below += all.len() - want.len();
+            assert_eq!(want.len(), kept.len());
+            for (a, b) in want.iter().zip(&kept) {
+                assert_eq!(
+                    (a.seg, a.at.forward, a.emission),
+                    (b.seg, b.at.forward, b.emission)
+                );
+            }
+        }
+        assert!(
+            below > 0,
+            "no candidate below the floor: the test shows nothing"
+        );
     }
 }

@@ -37,6 +37,8 @@ pub struct HmmMatcher<'a> {
     pub(super) post_buf: Vec<f64>,
     /// The backward pass's two vectors.
     pub(super) beta_bufs: [Vec<f64>; 2],
+    /// The front step's backward vector, kept incrementally.
+    pub(super) smoother: super::smoother::Smoother,
     pub(super) pred_buf: Vec<Drift>,
     pub(super) spare: Vec<Step>,
     pub(super) trans_buf: super::state::TransBuf,
@@ -82,6 +84,7 @@ impl<'a> HmmMatcher<'a> {
                 Vec::with_capacity(params.max_candidates),
                 Vec::with_capacity(params.max_candidates),
             ],
+            smoother: Default::default(),
             pred_buf: Vec::with_capacity(params.max_candidates),
             spare: Vec::new(),
             trans_buf: super::state::TransBuf::with_capacity(params.max_candidates),
@@ -98,6 +101,7 @@ impl<'a> HmmMatcher<'a> {
         self.params = params;
         self.paths.uturn_penalty_m = params.uturn_penalty_m;
         self.spare.extend(self.window.drain(..));
+        self.smoother.clear();
         self.index = 0;
         self.last_fix = None;
         self.last_step_pos = None;
@@ -257,6 +261,7 @@ impl<'a> HmmMatcher<'a> {
         if self.window.is_empty() {
             return;
         }
+        self.smoother.clear();
         let mut ch = std::mem::take(&mut self.choice_buf);
         self.choices(self.window.len(), &mut ch);
         let (betas, at) = self.window_betas();

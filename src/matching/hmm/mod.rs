@@ -3,7 +3,8 @@
 //!
 //! - States: candidate road sections within the search radius of a fix, one
 //!   per section and permitted direction of travel (its nearest point), at
-//!   most `max_candidates`. Moving on in the same direction costs the
+//!   most `max_candidates`, none less than `min_emission_ratio` as likely
+//!   as the fix's best. Moving on in the same direction costs the
 //!   distance; turning round needs a node (a junction or a dead end), never
 //!   happens inside a section, and costs `uturn_penalty_m` more: a path
 //!   turning straight back onto the section it left, a transition shorter
@@ -73,7 +74,9 @@
 //!   every fix in the lag window (forward–backward over the window on the
 //!   Viterbi's own transition and emission weights, each emission under the
 //!   drift of the surviving path into its predecessor). Points are emitted
-//!   `lag` steps late anyway, so the later fixes inform it at no delay.
+//!   `lag` steps late anyway, so the later fixes inform it at no delay. The
+//!   oldest step's backward vector is kept incrementally (`smoother`), not
+//!   recomputed over the whole window for every step.
 
 mod candidates;
 mod drift;
@@ -81,6 +84,7 @@ mod geometry;
 mod matcher;
 mod params;
 mod probability;
+mod smoother;
 mod state;
 mod transitions;
 

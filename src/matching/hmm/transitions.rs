@@ -6,6 +6,7 @@ use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::{normalise, softmax_into};
 use super::state::{Step, ANCHOR_M};
+use std::collections::VecDeque;
 
 impl HmmMatcher<'_> {
     /// Viterbi recursion from the window's last step into `step`; false when
@@ -206,29 +207,10 @@ impl HmmMatcher<'_> {
     /// The smoothed posterior of the window's oldest step given every fix in
     /// the window (forward–backward over the lag window) into `out`.
     pub(super) fn front_posterior(&mut self, out: &mut Vec<f64>) {
-        let len = self.window.len();
         let [mut beta, mut next] = std::mem::take(&mut self.beta_bufs);
-        beta.clear();
-        beta.resize(self.window[len - 1].cands.len(), 1.0);
-        for t in (1..len).rev() {
-            let (st, np) = (&self.window[t], self.window[t - 1].cands.len());
-            let nc = st.cands.len();
-            next.clear();
-            if st.pair.len() != np * nc {
-                next.resize(np, 1.0);
-            } else {
-                next.extend((0..np).map(|i| {
-                    st.pair[i * nc..(i + 1) * nc]
-                        .iter()
-                        .zip(&beta)
-                        .map(|(w, b)| w * b)
-                        .sum::<f64>()
-                }));
-                if !normalise(&mut next) {
-                    next.iter_mut().for_each(|x| *x = 1.0);
-                }
-            }
-            std::mem::swap(&mut beta, &mut next);
+        // The incremental products where they apply, else step by step.
+        if !self.smoother.front_beta(&self.window, &mut beta) {
+            step_beta(&self.window, &mut beta, &mut next);
         }
         let front = &self.window[0];
         out.clear();
@@ -237,5 +219,34 @@ impl HmmMatcher<'_> {
             softmax_into(&front.score, out);
         }
         self.beta_bufs = [beta, next];
+    }
+}
+
+/// The backward vector of the window's oldest step by the step-by-step
+/// recursion (each step's vector normalised; a vanishing one, or a chain's
+/// first step, restarts from ones) into `beta`, with `next` as scratch.
+pub(super) fn step_beta(window: &VecDeque<Step>, beta: &mut Vec<f64>, next: &mut Vec<f64>) {
+    let len = window.len();
+    beta.clear();
+    beta.resize(window[len - 1].cands.len(), 1.0);
+    for t in (1..len).rev() {
+        let (st, np) = (&window[t], window[t - 1].cands.len());
+        let nc = st.cands.len();
+        next.clear();
+        if st.pair.len() != np * nc {
+            next.resize(np, 1.0);
+        } else {
+            next.extend((0..np).map(|i| {
+                st.pair[i * nc..(i + 1) * nc]
+                    .iter()
+                    .zip(beta.iter())
+                    .map(|(w, b)| w * b)
+                    .sum::<f64>()
+            }));
+            if !normalise(next) {
+                next.iter_mut().for_each(|x| *x = 1.0);
+            }
+        }
+        std::mem::swap(beta, next);
     }
 }
