@@ -180,13 +180,7 @@ mod tests {
     fn nearest_road_from_the_grid_equals_the_r_trees() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
         let net = Network::load(&path, &Default::default()).unwrap();
-        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
-        for sg in &net.segments {
-            for q in [sg.a, sg.b] {
-                (x0, y0) = (x0.min(q[0]), y0.min(q[1]));
-                (x1, y1) = (x1.max(q[0]), y1.max(q[1]));
-            }
-        }
+        let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
         let (mut near, mut far) = (0, 0);
         for i in 0..=40 {
             for j in 0..=40 {

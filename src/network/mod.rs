@@ -286,6 +286,20 @@ impl Network {
         })
     }
 
+    /// The smallest box `([x_min, y_min], [x_max, y_max])` (local ENU
+    /// metres) holding every segment's end points; `None` for a map
+    /// without segments.
+    pub fn enu_bounds(&self) -> Option<([f64; 2], [f64; 2])> {
+        let mut ends = self.segments.iter().flat_map(|sg| [sg.a, sg.b]);
+        let first = ends.next()?;
+        Some(ends.fold((first, first), |(lo, hi), q| {
+            (
+                [lo[0].min(q[0]), lo[1].min(q[1])],
+                [hi[0].max(q[0]), hi[1].max(q[1])],
+            )
+        }))
+    }
+
     /// Runs the defect checks with the given near-node tolerance (m).
     pub fn defects(&self, tolerance_m: f64) -> DefectReport {
         check_defects(&self.model, &self.topology, &self.grid, tolerance_m)
