@@ -18,6 +18,43 @@
 
 use rustc_hash::FxHashMap;
 
+/// A window of the exact search: the candidate indices of the last k + 1
+/// tags (`START` before the first). Kept inline up to k = 3 (the scenario
+/// limit), compared and hashed element by element: the search explores
+/// every window once, and a heap allocation and a `memcmp` call per window
+/// were most of the paper plan's search time.
+#[derive(Clone, Debug)]
+struct Window(smallvec::SmallVec<[usize; 4]>);
+
+impl PartialEq for Window {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.len() == other.0.len() && self.0.iter().zip(other.0.iter()).all(|(a, b)| a == b)
+    }
+}
+
+impl Eq for Window {}
+
+impl std::hash::Hash for Window {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        for &x in self.0.iter() {
+            h.write_usize(x);
+        }
+    }
+}
+
+impl std::ops::Deref for Window {
+    type Target = [usize];
+    fn deref(&self) -> &[usize] {
+        &self.0
+    }
+}
+
+impl FromIterator<usize> for Window {
+    fn from_iter<I: IntoIterator<Item = usize>>(it: I) -> Self {
+        Window(it.into_iter().collect())
+    }
+}
+
 /// A candidate site.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
@@ -184,18 +221,18 @@ fn search(
     let first_existing = (0..n_candidates)
         .find(|&i| is_existing(i))
         .unwrap_or(usize::MAX);
-    let start = vec![START; k + 1];
+    let start: Window = std::iter::repeat_n(START, k + 1).collect();
     if start_reach_m >= length_m && first_existing == usize::MAX {
         return Placement::Feasible(vec![]);
     }
-    let mut dist: FxHashMap<Vec<usize>, (usize, Option<Vec<usize>>)> = FxHashMap::default();
+    let mut dist: FxHashMap<Window, (usize, Option<Window>)> = FxHashMap::default();
     dist.insert(start.clone(), (0, None));
     let mut deque = std::collections::VecDeque::new();
     deque.push_back(start);
     let mut done = rustc_hash::FxHashSet::default();
-    let expand = |w: &[usize],
-                  dist: &mut FxHashMap<Vec<usize>, (usize, Option<Vec<usize>>)>,
-                  deque: &mut std::collections::VecDeque<Vec<usize>>| {
+    let expand = |w: &Window,
+                  dist: &mut FxHashMap<Window, (usize, Option<Window>)>,
+                  deque: &mut std::collections::VecDeque<Window>| {
         expand_with(
             w,
             dist,
@@ -210,7 +247,7 @@ fn search(
     };
     // Every step costs one tag: check a layer whole before expanding it.
     let by_layers = layered && first_existing == usize::MAX;
-    let mut pending: Vec<Vec<usize>> = Vec::new();
+    let mut pending: Vec<Window> = Vec::new();
     loop {
         let w = match deque.pop_front() {
             Some(w) => w,
@@ -270,9 +307,9 @@ fn search(
     /// The windows one step on from `w`, queued (0-1 costs).
     #[allow(clippy::too_many_arguments)]
     fn expand_with(
-        w: &[usize],
-        dist: &mut FxHashMap<Vec<usize>, (usize, Option<Vec<usize>>)>,
-        deque: &mut std::collections::VecDeque<Vec<usize>>,
+        w: &Window,
+        dist: &mut FxHashMap<Window, (usize, Option<Window>)>,
+        deque: &mut std::collections::VecDeque<Window>,
         reach: &dyn Fn(usize) -> f64,
         is_existing: &dyn Fn(usize) -> bool,
         at_m: &[f64],
@@ -303,14 +340,13 @@ fn search(
             {
                 continue;
             }
-            let mut nw: Vec<usize> = w[1..].to_vec();
-            nw.push(j);
+            let nw: Window = w[1..].iter().copied().chain([j]).collect();
             let cost = usize::from(!is_existing(j));
             let nd = d + cost;
             if dist.get(&nw).is_some_and(|e| e.0 <= nd) {
                 continue;
             }
-            dist.insert(nw.clone(), (nd, Some(w.to_vec())));
+            dist.insert(nw.clone(), (nd, Some(w.clone())));
             if cost == 0 {
                 deque.push_front(nw);
             } else {
