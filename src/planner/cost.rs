@@ -27,8 +27,7 @@ pub(super) const NODE_PART_STEPS: f64 = 95.0;
 
 /// The planner's work counters (all threads): filter steps and the
 /// stretch maps' operations, each counted in filter steps of the same
-/// measured cost for `Budget::passes` (the constants in module
-/// `stretch`).
+/// measured cost for `Budget::passes` (the constants above).
 #[derive(Debug, Default)]
 pub(crate) struct Work {
     steps: AtomicU64,

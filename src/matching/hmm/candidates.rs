@@ -101,7 +101,15 @@ impl HmmMatcher<'_> {
             }
             keys.sort_unstable_by(order);
             // Far less likely than the best: dropped (`min_emission_ratio`).
-            let floor = keys[0].0 + self.params.min_emission_ratio.ln();
+            // The ratio is taken within [0, 1] (NaN as 0), so the best is
+            // always kept and a ratio out of range never empties the set.
+            let ratio = self.params.min_emission_ratio;
+            let ratio = if ratio.is_nan() {
+                0.0
+            } else {
+                ratio.clamp(0.0, 1.0)
+            };
+            let floor = keys[0].0 + ratio.ln();
             let kept = keys.partition_point(|k| k.0 >= floor);
             keys.truncate(kept);
             let mut sorted = std::mem::take(&mut self.cand_buf);
@@ -186,5 +194,39 @@ mod tests {
             below > 0,
             "no candidate below the floor: the test shows nothing"
         );
+    }
+    /// A ratio out of range never empties a fix's candidates: NaN and
+    /// negative ratios keep every candidate within the radius, ratios
+    /// above 1 keep the best (and its ties) only.
+    #[test]
+    fn an_out_of_range_emission_ratio_keeps_the_best() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
+        let net = Network::load(&path, &Default::default()).unwrap();
+        let sg = &net.segments[net.segments.len() / 2];
+        let fix = Fix {
+            t_s: 0.0,
+            enu: [(sg.a[0] + sg.b[0]) / 2.0 + 3.0, (sg.a[1] + sg.b[1]) / 2.0],
+            heading_rad: None,
+        };
+        let d = Drift::prior(HmmParams::default().drift_sigma_m);
+        let run = |ratio: f64| {
+            let params = HmmParams {
+                search_radius_m: 300.0,
+                max_candidates: 1000,
+                min_emission_ratio: ratio,
+                ..HmmParams::default()
+            };
+            let mut out = Vec::new();
+            HmmMatcher::new(&net, params).candidates(&fix, None, &d, &mut out);
+            out
+        };
+        let all = run(0.0);
+        assert!(all.len() > 1, "{}", all.len());
+        for ratio in [f64::NAN, -1.0] {
+            assert_eq!(run(ratio).len(), all.len(), "{ratio}");
+        }
+        let best = run(2.0);
+        assert!(!best.is_empty() && best.len() < all.len(), "{}", best.len());
+        assert_eq!(best[0].emission, all[0].emission);
     }
 }

@@ -15,7 +15,8 @@ pub struct HmmParams {
     /// between fixes 10 m apart: 83 m; 15 m at 100 m: 207 m), and
     /// otherwise its smoothed probability is of the order of 1e-6, far
     /// below the printed 1e-3 of a confidence. 0 keeps every candidate
-    /// within the radius.
+    /// within the radius; values are taken within [0, 1] (NaN as 0), so
+    /// the fix's best candidate is always kept.
     pub min_emission_ratio: f64,
     /// σ of the white part of the fix error, per axis (m): noise, lane and
     /// centreline offsets. The slowly varying part is the drift below.
