@@ -1,8 +1,9 @@
-//! Matching throughput on one track file: `match_rows` (the HMM with the
-//! default options, the complete path included) run REPEATS times after the
-//! map is loaded, with a fresh cache of network searches each time (cold)
-//! and with one kept between repeats (warm); prints points per second
-//! (BENCHMARKS.md, "Matching").
+//! Matching throughput on one track file: `FileMatcher::match_rows` (the
+//! HMM with the default options, the complete path included) run REPEATS
+//! times after the map is loaded, by one matcher kept across the repeats (as
+//! a peer's matcher object is), with its cache of network searches emptied
+//! before each repeat (cold) or kept between repeats (warm); prints points
+//! per second (BENCHMARKS.md, "Matching").
 //!
 //! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M]
 //! (RADIUS_M: `--radius-m`, e.g. a peer's search radius, instead of the
@@ -11,7 +12,7 @@
 use std::time::Instant;
 use waymark::matching::inputs::read_track_file;
 use waymark::matching::options::MatchOptions;
-use waymark::matching::track::{match_rows, match_rows_with};
+use waymark::matching::track::FileMatcher;
 use waymark::network::{LoadOptions, Network};
 
 fn main() -> anyhow::Result<()> {
@@ -31,18 +32,20 @@ fn main() -> anyhow::Result<()> {
     let mut matched = 0;
     // Cold: each repeat starts an empty cache of network searches (as
     // `waymark match` does for its one file).
+    let mut matcher = FileMatcher::new(&net);
     let t0 = Instant::now();
     for _ in 0..repeats {
-        let (_, outcomes) = match_rows(&net, &rows, &opts);
+        matcher.forget_searches();
+        let (_, outcomes) = matcher.match_rows(&rows, &opts);
         matched = outcomes.iter().map(|o| o.matched).sum::<usize>();
     }
     let cold = t0.elapsed().as_secs_f64();
     // Warm: the cache kept between repeats (as fastmm's UBODT, built once
     // before its matching is timed).
-    let mut cache = None;
+    matcher.forget_searches();
     let t0 = Instant::now();
     for _ in 0..repeats {
-        let (_, outcomes) = match_rows_with(&net, &rows, &opts, &mut cache);
+        let (_, outcomes) = matcher.match_rows(&rows, &opts);
         matched = matched.min(outcomes.iter().map(|o| o.matched).sum::<usize>());
     }
     let warm = t0.elapsed().as_secs_f64();

@@ -68,3 +68,67 @@ fn a_restarted_matcher_matches_as_a_fresh_one() {
     assert_eq!(m.breaks(), fresh.breaks());
     assert!(want.iter().filter(|p| p.state.is_matched()).count() > b.len() * 9 / 10);
 }
+
+/// A `FileMatcher` kept across files (its HMM matcher, buffers and the
+/// tables of its network searches reused) gives exactly what `match_rows`
+/// gives for each file when its searches are forgotten before it (cold),
+/// and what `match_rows_with` gives with the cache kept (warm): the same
+/// MATCHED.csv text, breaks, complete paths and parameters.
+#[test]
+fn a_file_matcher_kept_across_files_matches_as_match_rows() {
+    use waymark::matching::inputs::read_track_file;
+    use waymark::matching::options::MatchOptions;
+    use waymark::matching::track::{
+        match_rows, match_rows_with, matched_csv, FileMatcher, TrackOutcome,
+    };
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real");
+    let net = Network::load(&dir.join("issue-13.osm"), &LoadOptions::default()).unwrap();
+    let files: Vec<_> = ["issue-13.gpx", "issue-127.gpx", "issue-13.gpx"]
+        .iter()
+        .map(|f| read_track_file(&dir.join(f)).unwrap().0)
+        .collect();
+    let same = |a: &[TrackOutcome], b: &[TrackOutcome]| {
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(b) {
+            assert_eq!(x.track_id, y.track_id);
+            assert_eq!(x.rows, y.rows);
+            assert_eq!(x.matched, y.matched);
+            assert_eq!(x.breaks, y.breaks);
+            assert_eq!(x.unmatched, y.unmatched);
+            assert_eq!(x.path, y.path);
+            assert_eq!(format!("{:?}", x.params), format!("{:?}", y.params));
+        }
+    };
+    for opts in [
+        MatchOptions::default(),
+        MatchOptions {
+            radius_m: Some(60.0),
+            ..MatchOptions::default()
+        },
+    ] {
+        let mut kept = FileMatcher::new(&net);
+        let mut cache = None;
+        for rows in &files {
+            // Cold: as a new matcher's.
+            kept.forget_searches();
+            let (want_pts, want) = match_rows(&net, rows, &opts);
+            let (pts, got) = kept.match_rows(rows, &opts);
+            assert_eq!(
+                matched_csv(&net, rows, &pts),
+                matched_csv(&net, rows, &want_pts)
+            );
+            same(&got, &want);
+            assert!(got[0].matched > 0 && !got[0].path.is_empty() || rows.len() < 3);
+            // Warm: the cache of the files before kept.
+            let (want_pts, want) = match_rows_with(&net, rows, &opts, &mut cache);
+            let mut warm = FileMatcher::with_distances(&net, cache.take().unwrap());
+            let (pts, got) = warm.match_rows(rows, &opts);
+            assert_eq!(
+                matched_csv(&net, rows, &pts),
+                matched_csv(&net, rows, &want_pts)
+            );
+            same(&got, &want);
+            cache = Some(warm.into_distances());
+        }
+    }
+}

@@ -80,6 +80,14 @@ impl Reached {
             Reached::Dense(v) => v.len(),
         }
     }
+
+    /// Entries its memory holds.
+    fn capacity(&self) -> usize {
+        match self {
+            Reached::Sparse(m) => m.capacity(),
+            Reached::Dense(v) => v.capacity(),
+        }
+    }
 }
 
 #[derive(Debug, Copy, Clone, PartialEq)]
@@ -144,6 +152,10 @@ pub struct NetworkDistances<'a> {
     touched: Vec<NodeId>,
     heap: BinaryHeap<Item>,
     entries: usize,
+    /// Tables of searches dropped from the cache, reused by the next
+    /// searches (their entries in all at most [`CACHE_ENTRIES`]).
+    spare: Vec<Reached>,
+    spare_entries: usize,
     /// Searches run (cache misses), for diagnostics.
     pub searches: u64,
     /// Added to the distance of a path between two directed points that
@@ -174,6 +186,8 @@ impl<'a> NetworkDistances<'a> {
             touched: Vec::new(),
             heap: BinaryHeap::new(),
             entries: 0,
+            spare: Vec::new(),
+            spare_entries: 0,
             searches: 0,
             uturn_penalty_m: 0.0,
         }
@@ -191,13 +205,34 @@ impl<'a> NetworkDistances<'a> {
             bound *= 2.0;
         }
         if self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES {
-            self.cache.clear();
-            self.entries = 0;
+            self.clear();
         }
         let tree = self.search(from, bound);
         self.entries += tree.reached.len();
         if let Some(old) = self.cache.insert(from, tree) {
             self.entries -= old.reached.len();
+            self.recycle(old.reached);
+        }
+    }
+
+    /// Empties the cache (what [`Self::new`] starts with), keeping the
+    /// searches' tables for reuse.
+    pub fn clear(&mut self) {
+        let mut cache = std::mem::take(&mut self.cache);
+        for (_, t) in cache.drain() {
+            self.recycle(t.reached);
+        }
+        self.cache = cache;
+        self.entries = 0;
+    }
+
+    /// Keeps a dropped search's table for the next search, within
+    /// [`CACHE_ENTRIES`] entries in all.
+    fn recycle(&mut self, r: Reached) {
+        let n = r.capacity();
+        if self.spare_entries + n <= CACHE_ENTRIES {
+            self.spare_entries += n;
+            self.spare.push(r);
         }
     }
 
@@ -236,15 +271,40 @@ impl<'a> NetworkDistances<'a> {
         // Every node touched was settled (within the bound): the tree, in a
         // table of exactly its size (small searches on small networks must
         // not pay for a large table each).
-        let reached = if 4 * self.touched.len() >= net.nodes.len() {
-            let mut v = vec![(f64::INFINITY, NO_PRED, NO_PRED); net.nodes.len()];
+        let dense = 4 * self.touched.len() >= net.nodes.len();
+        // A spare table of the same kind (the last one kept), else a new one.
+        let spare = self
+            .spare
+            .iter()
+            .rposition(|r| matches!(r, Reached::Dense(_)) == dense)
+            .map(|k| {
+                let r = self.spare.swap_remove(k);
+                self.spare_entries -= r.capacity();
+                r
+            });
+        let reached = if dense {
+            let mut v = match spare {
+                Some(Reached::Dense(mut v)) => {
+                    v.clear();
+                    v.resize(net.nodes.len(), (f64::INFINITY, NO_PRED, NO_PRED));
+                    v
+                }
+                _ => vec![(f64::INFINITY, NO_PRED, NO_PRED); net.nodes.len()],
+            };
             for &n in &self.touched {
                 let i = n as usize;
                 v[i] = (self.dist[i], self.pred[i], self.first[i]);
             }
             Reached::Dense(v)
         } else {
-            let mut m = FxHashMap::with_capacity_and_hasher(self.touched.len(), Default::default());
+            let mut m = match spare {
+                Some(Reached::Sparse(mut m)) => {
+                    m.clear();
+                    m.reserve(self.touched.len());
+                    m
+                }
+                _ => FxHashMap::with_capacity_and_hasher(self.touched.len(), Default::default()),
+            };
             for &n in &self.touched {
                 let i = n as usize;
                 m.insert(n, (self.dist[i], self.pred[i], self.first[i]));

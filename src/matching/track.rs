@@ -443,8 +443,7 @@ pub fn match_rows(
 ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
     // One cache of network searches for the whole file: fleet files hold
     // many tracks on the same roads.
-    let mut distances = Some(super::NetworkDistances::new(net));
-    match_rows_with(net, rows, opts, &mut distances)
+    FileMatcher::new(net).match_rows(rows, opts)
 }
 
 /// [`match_rows`] with a cache of network searches kept by the caller
@@ -457,79 +456,178 @@ pub fn match_rows_with<'a>(
     opts: &super::options::MatchOptions,
     distances: &mut Option<super::NetworkDistances<'a>>,
 ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
-    use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
-    let mut all: Vec<Option<MatchedPoint>> = vec![None; rows.len()];
-    let mut outcomes = Vec::new();
-    if distances.is_none() {
-        *distances = Some(super::NetworkDistances::new(net));
+    let mut m = FileMatcher::with_distances(
+        net,
+        distances
+            .take()
+            .unwrap_or_else(|| super::NetworkDistances::new(net)),
+    );
+    let r = m.match_rows(rows, opts);
+    *distances = Some(m.into_distances());
+    r
+}
+
+/// A matcher of track files kept across files and tracks: one HMM matcher
+/// (its window, steps and buffers) restarted for each track, its cache of
+/// network searches, and the per-track buffers, so that matching many
+/// files on one map (a server, a benchmark's repeats) allocates none of
+/// them again. [`Self::match_rows`] gives exactly what [`match_rows`] gives
+/// with the same cache of searches; [`Self::forget_searches`] empties the
+/// cache (a cold start, as a new matcher's) and keeps its memory.
+#[derive(Debug)]
+pub struct FileMatcher<'a> {
+    net: &'a Network,
+    hmm: Option<super::HmmMatcher<'a>>,
+    /// The cache of searches while no HMM matcher holds it.
+    distances: Option<super::NetworkDistances<'a>>,
+    fixes: Vec<Fix>,
+    points: Vec<MatchedPoint>,
+    filled: Vec<bool>,
+}
+
+impl<'a> FileMatcher<'a> {
+    /// A matcher on `net` with an empty cache of network searches.
+    pub fn new(net: &'a Network) -> Self {
+        Self::with_distances(net, super::NetworkDistances::new(net))
     }
-    // One HMM matcher for all the tracks, restarted for each.
-    let mut hmm: Option<HmmMatcher<'a>> = None;
-    for (track_id, idx) in group_tracks(rows) {
-        let fixes: Vec<Fix> = idx.iter().map(|&i| to_fix(net, &rows[i])).collect();
-        let params = opts.hmm_params(net, &fixes);
-        let (points, breaks, path) = match opts.method {
-            Method::Incremental => {
-                let mut m = IncrementalMatcher::new(
-                    net,
-                    IncrementalParams {
-                        // Its own tuned radius unless one is given.
-                        search_radius_m: opts
-                            .radius_m
-                            .unwrap_or(IncrementalParams::default().search_radius_m),
-                        ..IncrementalParams::default()
-                    },
-                );
-                let p = super::match_track(&mut m, &fixes);
-                let b = m.breaks().to_vec();
-                let path = super::cpath::complete_path(net, &p, &b, &params);
-                (p, b, path)
-            }
-            Method::Hmm => {
-                let m = match hmm.as_mut() {
-                    Some(m) => {
-                        m.restart(params);
-                        m
-                    }
-                    None => hmm.insert(HmmMatcher::with_distances(
-                        net,
-                        params,
-                        distances.take().expect("the cache"),
-                    )),
-                };
-                let p = super::match_track(m, &fixes);
-                let b = m.breaks().to_vec();
-                let path =
-                    super::cpath::complete_path_with(m.distances_mut(), net, &p, &b, &params);
-                (p, b, path)
-            }
-        };
-        let matched = points.iter().filter(|p| p.state.is_matched()).count();
-        let unmatched = super::unmatched_spans(&points);
-        for p in points {
-            all[idx[p.index as usize]] = Some(p);
+
+    /// A matcher on `net` starting from the searches of `distances`.
+    pub fn with_distances(net: &'a Network, distances: super::NetworkDistances<'a>) -> Self {
+        Self {
+            net,
+            hmm: None,
+            distances: Some(distances),
+            fixes: Vec::new(),
+            points: Vec::new(),
+            filled: Vec::new(),
         }
-        outcomes.push(TrackOutcome {
-            track_id,
-            rows: idx,
-            matched,
-            breaks,
-            unmatched,
-            path,
-            params,
-        });
     }
-    if let Some(m) = hmm {
-        *distances = Some(m.into_distances());
+
+    /// The cache of network searches.
+    pub fn distances_mut(&mut self) -> &mut super::NetworkDistances<'a> {
+        match self.hmm.as_mut() {
+            Some(m) => m.distances_mut(),
+            None => self.distances.as_mut().expect("a cache"),
+        }
     }
-    let points = all
-        .into_iter()
-        .enumerate()
-        .map(|(i, p)| {
-            p.unwrap_or_else(|| MatchedPoint::unmatched(i as u64, &to_fix(net, &rows[i])))
-        })
-        .collect();
-    (points, outcomes)
+
+    /// Empties the cache of network searches (the next file starts cold,
+    /// with the same results as a new matcher's), keeping its memory.
+    pub fn forget_searches(&mut self) {
+        self.distances_mut().clear();
+    }
+
+    /// The cache of network searches, to keep elsewhere.
+    pub fn into_distances(self) -> super::NetworkDistances<'a> {
+        match self.hmm {
+            Some(m) => m.into_distances(),
+            None => self.distances.expect("a cache"),
+        }
+    }
+
+    /// Matches every track of a file; one point per row, in row order.
+    pub fn match_rows(
+        &mut self,
+        rows: &[TrackRow],
+        opts: &super::options::MatchOptions,
+    ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
+        use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
+        let net = self.net;
+        // Rows not in any track's output yet hold a placeholder.
+        let mut all: Vec<MatchedPoint> = vec![
+            MatchedPoint::unmatched(
+                0,
+                &Fix {
+                    t_s: f64::NAN,
+                    enu: [f64::NAN; 2],
+                    heading_rad: None,
+                }
+            );
+            rows.len()
+        ];
+        self.filled.clear();
+        self.filled.resize(rows.len(), false);
+        let mut outcomes = Vec::new();
+        for (track_id, idx) in group_tracks(rows) {
+            let mut fixes = std::mem::take(&mut self.fixes);
+            fixes.clear();
+            fixes.extend(idx.iter().map(|&i| to_fix(net, &rows[i])));
+            let params = opts.hmm_params(net, &fixes);
+            let mut points = std::mem::take(&mut self.points);
+            points.clear();
+            let (breaks, path) = match opts.method {
+                Method::Incremental => {
+                    let mut m = IncrementalMatcher::new(
+                        net,
+                        IncrementalParams {
+                            // Its own tuned radius unless one is given.
+                            search_radius_m: opts
+                                .radius_m
+                                .unwrap_or(IncrementalParams::default().search_radius_m),
+                            ..IncrementalParams::default()
+                        },
+                    );
+                    for f in &fixes {
+                        m.push(f, &mut points);
+                    }
+                    m.finish(&mut points);
+                    let b = m.breaks().to_vec();
+                    let path = super::cpath::complete_path(net, &points, &b, &params);
+                    (b, path)
+                }
+                Method::Hmm => {
+                    let m = match self.hmm.as_mut() {
+                        Some(m) => {
+                            m.restart(params);
+                            m
+                        }
+                        None => self.hmm.insert(HmmMatcher::with_distances(
+                            net,
+                            params,
+                            self.distances.take().expect("the cache"),
+                        )),
+                    };
+                    for f in &fixes {
+                        m.push(f, &mut points);
+                    }
+                    m.finish(&mut points);
+                    let b = m.breaks().to_vec();
+                    let path = super::cpath::complete_path_with(
+                        m.distances_mut(),
+                        net,
+                        &points,
+                        &b,
+                        &params,
+                    );
+                    (b, path)
+                }
+            };
+            let matched = points.iter().filter(|p| p.state.is_matched()).count();
+            let unmatched = super::unmatched_spans(&points);
+            for p in &points {
+                let i = idx[p.index as usize];
+                all[i] = *p;
+                self.filled[i] = true;
+            }
+            self.points = points;
+            self.fixes = fixes;
+            outcomes.push(TrackOutcome {
+                track_id,
+                rows: idx,
+                matched,
+                breaks,
+                unmatched,
+                path,
+                params,
+            });
+        }
+        for (i, p) in all.iter_mut().enumerate() {
+            if !self.filled[i] {
+                *p = MatchedPoint::unmatched(i as u64, &to_fix(net, &rows[i]));
+            }
+        }
+        (all, outcomes)
+    }
 }
 
 #[cfg(test)]
