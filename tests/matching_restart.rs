@@ -132,3 +132,61 @@ fn a_file_matcher_kept_across_files_matches_as_match_rows() {
         }
     }
 }
+
+/// The streaming match by a `FileMatcher` kept across files writes what
+/// `match_csv_stream` writes for each file (searches forgotten before each:
+/// a cold start), byte for byte, with the same summary.
+#[test]
+fn a_file_matcher_kept_across_streamed_files_matches_as_a_new_one() {
+    use waymark::matching::inputs::read_track_file;
+    use waymark::matching::options::MatchOptions;
+    use waymark::matching::stream::match_csv_stream;
+    use waymark::matching::track::FileMatcher;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real");
+    let net = Network::load(&dir.join("issue-13.osm"), &LoadOptions::default()).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    // Two CSV files of two tracks each, from the committed GPX traces.
+    let mut files = Vec::new();
+    for (k, names) in [
+        ["issue-13.gpx", "issue-127.gpx"],
+        ["issue-127.gpx", "issue-13.gpx"],
+    ]
+    .iter()
+    .enumerate()
+    {
+        let mut text = String::from("t_s,lat,lon,track_id\n");
+        for (j, name) in names.iter().enumerate() {
+            let (rows, _) = read_track_file(&dir.join(name)).unwrap();
+            for (i, r) in rows.iter().enumerate() {
+                text += &format!("{},{},{},t{j}\n", i, r.lat, r.lon);
+            }
+        }
+        let p = tmp.path().join(format!("f{k}.csv"));
+        std::fs::write(&p, text).unwrap();
+        files.push(p);
+    }
+    let opts = MatchOptions::default();
+    let out = tmp.path().join("m.csv");
+    let mut kept = FileMatcher::new(&net);
+    for _ in 0..2 {
+        for f in &files {
+            let mut want = Vec::new();
+            let w = match_csv_stream(&net, f, &opts, true, &mut want, &out)
+                .unwrap()
+                .unwrap();
+            kept.forget_searches();
+            let mut got = Vec::new();
+            let g = kept
+                .match_csv_stream(f, &opts, true, &mut got, &out)
+                .unwrap()
+                .unwrap();
+            assert_eq!(
+                String::from_utf8(got).unwrap(),
+                String::from_utf8(want).unwrap()
+            );
+            assert_eq!(g.tracks.len(), 2);
+            assert_eq!(format!("{:?}", g.tracks), format!("{:?}", w.tracks));
+            assert!(g.tracks.iter().all(|t| t.matched == t.points));
+        }
+    }
+}

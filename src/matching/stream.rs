@@ -22,7 +22,9 @@
 use super::cpath::{PathBuilder, PathStep};
 use super::evaluate::RoadLengths;
 use super::options::{MatchOptions, Method};
-use super::track::{columns, matched_row, parse_row, to_fix, Columns, CsvTable, TrackRow};
+use super::track::{
+    columns, matched_row, parse_row, to_fix, Columns, CsvTable, FileMatcher, TrackRow,
+};
 use super::{
     Break, Fix, HmmMatcher, HmmParams, IncrementalMatcher, IncrementalParams, MatchedPoint,
     Matcher, NetworkDistances,
@@ -237,10 +239,9 @@ struct Streamer<'a, 'w, W: Write> {
     out_path: &'w Path,
     text: String,
     points: Vec<MatchedPoint>,
-    distances: Option<NetworkDistances<'a>>,
-    /// The last track's HMM matcher, restarted for the next.
-    spare: Option<HmmMatcher<'a>>,
-    path_distances: Option<NetworkDistances<'a>>,
+    /// The HMM matcher (restarted for each track), its cache of searches
+    /// and the complete paths' searches, kept across tracks and files.
+    files: &'w mut FileMatcher<'a>,
     result: StreamedMatch,
 }
 
@@ -252,20 +253,9 @@ impl<'a, W: Write> Streamer<'a, '_, W> {
             Method::Hmm => {
                 // The previous track's matcher restarted (its buffers and
                 // network searches kept), else a new one.
-                let m = match self.spare.take() {
-                    Some(mut m) => {
-                        m.restart(params);
-                        m
-                    }
-                    None => {
-                        let cache = self
-                            .distances
-                            .take()
-                            .unwrap_or_else(|| NetworkDistances::new(self.net));
-                        HmmMatcher::with_distances(self.net, params, cache)
-                    }
-                };
+                let m = self.files.hmm_for(params);
                 let mut d = self
+                    .files
                     .path_distances
                     .take()
                     .unwrap_or_else(|| NetworkDistances::new(self.net));
@@ -387,8 +377,8 @@ impl<'a, W: Write> Streamer<'a, '_, W> {
         match a.matcher.take().expect("started") {
             Which::Hmm(m, mut d) => {
                 a.builder.finish(&mut d, self.net, m.breaks(), &params);
-                self.spare = Some(m);
-                self.path_distances = Some(d);
+                self.files.keep_hmm(m);
+                self.files.path_distances = Some(d);
             }
             Which::Incremental(m, mut d) => a.builder.finish(&mut d, self.net, m.breaks(), &params),
         }
@@ -421,6 +411,33 @@ pub fn match_csv_stream<W: Write>(
     out: &mut W,
     out_path: &Path,
 ) -> Result<Option<StreamedMatch>> {
+    FileMatcher::new(net).match_csv_stream(path, opts, keep_path, out, out_path)
+}
+
+impl FileMatcher<'_> {
+    /// [`match_csv_stream`] by this matcher (its HMM matcher, buffers and
+    /// network searches kept from the files before, and for the next).
+    pub fn match_csv_stream<W: Write>(
+        &mut self,
+        path: &Path,
+        opts: &MatchOptions,
+        keep_path: bool,
+        out: &mut W,
+        out_path: &Path,
+    ) -> Result<Option<StreamedMatch>> {
+        stream_with(self, path, opts, keep_path, out, out_path)
+    }
+}
+
+fn stream_with<W: Write>(
+    files: &mut FileMatcher<'_>,
+    path: &Path,
+    opts: &MatchOptions,
+    keep_path: bool,
+    out: &mut W,
+    out_path: &Path,
+) -> Result<Option<StreamedMatch>> {
+    let net = files.network();
     let mut reader = TrackCsvStream::open(path)?;
     out.write_all(super::track::MATCHED_HEADER.as_bytes())
         .map_err(|e| Error::io(out_path, e))?;
@@ -432,9 +449,7 @@ pub fn match_csv_stream<W: Write>(
         out_path,
         text: String::new(),
         points: Vec::new(),
-        distances: Some(NetworkDistances::new(net)),
-        spare: None,
-        path_distances: None,
+        files,
         result: StreamedMatch::default(),
     };
     let mut done: FxHashSet<String> = FxHashSet::default();

@@ -480,6 +480,9 @@ pub struct FileMatcher<'a> {
     hmm: Option<super::HmmMatcher<'a>>,
     /// The cache of searches while no HMM matcher holds it.
     distances: Option<super::NetworkDistances<'a>>,
+    /// The streaming match's searches for its complete paths (its own:
+    /// see [`super::stream`]).
+    pub(super) path_distances: Option<super::NetworkDistances<'a>>,
     fixes: Vec<Fix>,
     points: Vec<MatchedPoint>,
     filled: Vec<bool>,
@@ -497,6 +500,7 @@ impl<'a> FileMatcher<'a> {
             net,
             hmm: None,
             distances: Some(distances),
+            path_distances: None,
             fixes: Vec::new(),
             points: Vec::new(),
             filled: Vec::new(),
@@ -515,6 +519,36 @@ impl<'a> FileMatcher<'a> {
     /// with the same results as a new matcher's), keeping its memory.
     pub fn forget_searches(&mut self) {
         self.distances_mut().clear();
+        if let Some(d) = self.path_distances.as_mut() {
+            d.clear();
+        }
+    }
+
+    /// The network this matcher works on.
+    pub fn network(&self) -> &'a Network {
+        self.net
+    }
+
+    /// The HMM matcher for the next track, with `params`: the kept one
+    /// restarted (its buffers and searches kept), else a new one on the
+    /// cache. Give it back with [`Self::keep_hmm`].
+    pub(super) fn hmm_for(&mut self, params: super::HmmParams) -> super::HmmMatcher<'a> {
+        match self.hmm.take() {
+            Some(mut m) => {
+                m.restart(params);
+                m
+            }
+            None => super::HmmMatcher::with_distances(
+                self.net,
+                params,
+                self.distances.take().expect("the cache"),
+            ),
+        }
+    }
+
+    /// Keeps a track's HMM matcher (from [`Self::hmm_for`]) for the next.
+    pub(super) fn keep_hmm(&mut self, m: super::HmmMatcher<'a>) {
+        self.hmm = Some(m);
     }
 
     /// The cache of network searches, to keep elsewhere.
@@ -531,7 +565,7 @@ impl<'a> FileMatcher<'a> {
         rows: &[TrackRow],
         opts: &super::options::MatchOptions,
     ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
-        use super::{HmmMatcher, IncrementalMatcher, IncrementalParams, Matcher};
+        use super::{IncrementalMatcher, IncrementalParams, Matcher};
         let net = self.net;
         // Rows not in any track's output yet hold a placeholder.
         let mut all: Vec<MatchedPoint> = vec![
@@ -576,17 +610,8 @@ impl<'a> FileMatcher<'a> {
                     (b, path)
                 }
                 Method::Hmm => {
-                    let m = match self.hmm.as_mut() {
-                        Some(m) => {
-                            m.restart(params);
-                            m
-                        }
-                        None => self.hmm.insert(HmmMatcher::with_distances(
-                            net,
-                            params,
-                            self.distances.take().expect("the cache"),
-                        )),
-                    };
+                    let m = self.hmm_for(params);
+                    let m = self.hmm.insert(m);
                     for f in &fixes {
                         m.push(f, &mut points);
                     }
