@@ -94,6 +94,8 @@ pub struct PathBuilder {
     open: Option<Stretch>,
     number: u32,
     last_piece: Option<u32>,
+    /// The pieces of the last join (kept: no allocation per join).
+    join_buf: Vec<(SectionId, f64, f64)>,
 }
 
 /// Whether the matcher broke the track before point `index` (`breaks`
@@ -165,10 +167,22 @@ impl PathBuilder {
             self.cur = Some((at, p.point, p.t_s));
             return;
         }
-        match join(paths, net, a, at, a_pt, p.point, p.t_s - a_t, params) {
+        let mut pieces = std::mem::take(&mut self.join_buf);
+        let joined = join(
+            paths,
+            net,
+            a,
+            at,
+            a_pt,
+            p.point,
+            p.t_s - a_t,
+            params,
+            &mut pieces,
+        );
+        match joined {
             Join::Stay => {}
-            Join::Pieces(pieces) => {
-                for (s, f, t) in pieces {
+            Join::Pieces => {
+                for &(s, f, t) in &pieces {
                     self.raw(net, self.piece, s, f, t);
                 }
                 self.cur = Some((at, p.point, p.t_s));
@@ -178,6 +192,7 @@ impl PathBuilder {
                 self.cur = Some((at, p.point, p.t_s));
             }
         }
+        self.join_buf = pieces;
     }
 
     /// Merges a driven piece into the open stretch when it continues it on
@@ -223,8 +238,8 @@ impl PathBuilder {
 enum Join {
     /// No movement (the second point is the first, or a little behind it).
     Stay,
-    /// Driven: (section, from, to) in order.
-    Pieces(Vec<(SectionId, f64, f64)>),
+    /// Driven: (section, from, to) in order, in the join's buffer.
+    Pieces,
     /// No permitted path within the bound.
     None,
 }
@@ -239,7 +254,9 @@ fn join(
     b_pt: [f64; 2],
     dt_s: f64,
     params: &HmmParams,
+    pieces: &mut Vec<(SectionId, f64, f64)>,
 ) -> Join {
+    pieces.clear();
     if a.section == b.section {
         let delta = b.offset_m - a.offset_m;
         let dir = match (a.forward, b.forward) {
@@ -255,7 +272,8 @@ fn join(
                 return if delta == 0.0 {
                     Join::Stay
                 } else {
-                    Join::Pieces(vec![(a.section, a.offset_m, b.offset_m)])
+                    pieces.push((a.section, a.offset_m, b.offset_m));
+                    Join::Pieces
                 };
             }
             // Behind the direction of travel by a little: noise.
@@ -271,19 +289,15 @@ fn join(
     }
     let gc = (b_pt[0] - a_pt[0]).hypot(b_pt[1] - a_pt[1]);
     let bound = route_bound(params, gc, dt_s);
-    match paths.path(a, b, bound, params.backtrack_m) {
-        Some(pieces) => {
-            let pieces: Vec<_> = pieces
-                .into_iter()
-                .filter(|(_, f, t)| (t - f).abs() > 1e-9)
-                .collect();
-            if pieces.is_empty() {
-                Join::Stay
-            } else {
-                Join::Pieces(pieces)
-            }
+    if paths.path_into(a, b, bound, params.backtrack_m, pieces) {
+        pieces.retain(|(_, f, t)| (t - f).abs() > 1e-9);
+        if pieces.is_empty() {
+            Join::Stay
+        } else {
+            Join::Pieces
         }
-        None => Join::None,
+    } else {
+        Join::None
     }
 }
 

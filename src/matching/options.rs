@@ -94,8 +94,14 @@ impl MatchOptions {
     /// The HMM's parameters for these fixes (defaults from the track where
     /// an option is not given; see the module documentation).
     pub fn hmm_params(&self, net: &Network, fixes: &[Fix]) -> HmmParams {
+        self.hmm_params_with(net, fixes, &mut Vec::new())
+    }
+
+    /// [`Self::hmm_params`] with `buf` as σ̂'s scratch (kept by a caller
+    /// matching many tracks: no allocation per track).
+    pub fn hmm_params_with(&self, net: &Network, fixes: &[Fix], buf: &mut Vec<f64>) -> HmmParams {
         let base = HmmParams::default();
-        let sigma_hat = estimate_sigma_m(net, fixes);
+        let sigma_hat = estimate_sigma_m_with(net, fixes, buf);
         let radius = self.radius_m.unwrap_or_else(|| match sigma_hat {
             Some(s) => (RADIUS_SIGMAS * s).clamp(AUTO_RADIUS_M[0], AUTO_RADIUS_M[1]),
             None => base.search_radius_m,
@@ -128,9 +134,15 @@ impl MatchOptions {
 /// [`AUTO_RADIUS_M`]'s upper end of a road (the others say nothing about
 /// the error, only that the track left the map). `None` without such fixes.
 pub fn estimate_sigma_m(net: &Network, fixes: &[Fix]) -> Option<f64> {
+    estimate_sigma_m_with(net, fixes, &mut Vec::new())
+}
+
+/// [`estimate_sigma_m`] with `d` as its scratch (emptied first).
+pub fn estimate_sigma_m_with(net: &Network, fixes: &[Fix], d: &mut Vec<f64>) -> Option<f64> {
     // A sample of at most 2,000 fixes, evenly spread, is plenty for a median.
     let step = (fixes.len() / 2000).max(1);
-    let mut d = Vec::with_capacity(fixes.len().div_ceil(step));
+    d.clear();
+    d.reserve(fixes.len().div_ceil(step));
     d.extend(
         fixes
             .iter()

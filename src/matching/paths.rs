@@ -150,6 +150,8 @@ pub struct NetworkDistances<'a> {
     pred: Vec<u32>,
     first: Vec<u32>,
     touched: Vec<NodeId>,
+    /// A path's sections between its two ends (scratch of `path_into`).
+    middle: Vec<DirectedSection>,
     heap: BinaryHeap<Item>,
     entries: usize,
     /// Tables of searches dropped from the cache, reused by the next
@@ -184,6 +186,7 @@ impl<'a> NetworkDistances<'a> {
             pred: vec![NO_PRED; net.nodes.len()],
             first: vec![NO_PRED; net.nodes.len()],
             touched: Vec::new(),
+            middle: Vec::new(),
             heap: BinaryHeap::new(),
             entries: 0,
             spare: Vec::new(),
@@ -578,6 +581,22 @@ impl<'a> NetworkDistances<'a> {
         bound_m: f64,
         backtrack_m: f64,
     ) -> Option<Vec<(SectionId, f64, f64)>> {
+        let mut pieces = Vec::new();
+        self.path_into(a, b, bound_m, backtrack_m, &mut pieces)
+            .then_some(pieces)
+    }
+
+    /// [`Self::path`] into `pieces` (emptied first; false where `path`
+    /// gives `None`), allocating nothing once the buffers have grown.
+    pub fn path_into(
+        &mut self,
+        a: OnSection,
+        b: OnSection,
+        bound_m: f64,
+        backtrack_m: f64,
+        pieces: &mut Vec<(SectionId, f64, f64)>,
+    ) -> bool {
+        pieces.clear();
         for (xn, _) in self.exits(a).into_iter().flatten() {
             self.ensure(xn, bound_m);
         }
@@ -594,18 +613,25 @@ impl<'a> NetworkDistances<'a> {
                 }
             }
         }
-        let (_, via) = best?;
+        let Some((_, via)) = best else {
+            return false;
+        };
         let Some((xn, _, en, fwd)) = via else {
-            return Some(vec![(a.section, a.offset_m, b.offset_m)]);
+            pieces.push((a.section, a.offset_m, b.offset_m));
+            return true;
         };
         let net = self.net;
         let sa = &net.sections[a.section as usize];
         let sb = &net.sections[b.section as usize];
         let tree = &self.cache[&xn];
-        let mut middle = Vec::new();
+        let mut middle = std::mem::take(&mut self.middle);
+        middle.clear();
         let mut node = en;
         while node != xn {
-            let &(_, p, _) = tree.reached.get(&node)?;
+            let Some(&(_, p, _)) = tree.reached.get(&node) else {
+                self.middle = middle;
+                return false;
+            };
             if p == NO_PRED {
                 break;
             }
@@ -615,14 +641,14 @@ impl<'a> NetworkDistances<'a> {
             node = if d.forward { s.start } else { s.end };
         }
         middle.reverse();
-        let mut pieces = Vec::with_capacity(middle.len() + 2);
+        pieces.reserve(middle.len() + 2);
         let leave_fwd = xn == sa.end && sa.oneway.allows_forward();
         pieces.push((
             a.section,
             a.offset_m,
             if leave_fwd { sa.length_m } else { 0.0 },
         ));
-        for d in middle {
+        for d in &middle {
             let len = net.sections[d.section as usize].length_m;
             pieces.push(if d.forward {
                 (d.section, 0.0, len)
@@ -631,7 +657,8 @@ impl<'a> NetworkDistances<'a> {
             });
         }
         pieces.push((b.section, if fwd { 0.0 } else { sb.length_m }, b.offset_m));
-        Some(pieces)
+        self.middle = middle;
+        true
     }
 }
 

@@ -247,7 +247,7 @@ struct Streamer<'a, 'w, W: Write> {
 
 impl<'a, W: Write> Streamer<'a, '_, W> {
     fn start(&mut self, a: &mut Active<'a>) -> Result<()> {
-        let params = self.opts.hmm_params(self.net, &a.prefix);
+        let params = self.files.params(self.opts, &a.prefix);
         a.out.params = params;
         let m = match self.opts.method {
             Method::Hmm => {

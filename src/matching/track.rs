@@ -486,6 +486,8 @@ pub struct FileMatcher<'a> {
     fixes: Vec<Fix>,
     points: Vec<MatchedPoint>,
     filled: Vec<bool>,
+    /// σ̂'s scratch.
+    sigma_buf: Vec<f64>,
 }
 
 impl<'a> FileMatcher<'a> {
@@ -504,6 +506,7 @@ impl<'a> FileMatcher<'a> {
             fixes: Vec::new(),
             points: Vec::new(),
             filled: Vec::new(),
+            sigma_buf: Vec::new(),
         }
     }
 
@@ -522,6 +525,18 @@ impl<'a> FileMatcher<'a> {
         if let Some(d) = self.path_distances.as_mut() {
             d.clear();
         }
+    }
+
+    /// The HMM's parameters for a track ([`MatchOptions::hmm_params`],
+    /// σ̂ estimated in this matcher's scratch).
+    ///
+    /// [`MatchOptions::hmm_params`]: super::options::MatchOptions::hmm_params
+    pub fn params(
+        &mut self,
+        opts: &super::options::MatchOptions,
+        fixes: &[Fix],
+    ) -> super::HmmParams {
+        opts.hmm_params_with(self.net, fixes, &mut self.sigma_buf)
     }
 
     /// The network this matcher works on.
@@ -586,7 +601,7 @@ impl<'a> FileMatcher<'a> {
             let mut fixes = std::mem::take(&mut self.fixes);
             fixes.clear();
             fixes.extend(idx.iter().map(|&i| to_fix(net, &rows[i])));
-            let params = opts.hmm_params(net, &fixes);
+            let params = self.params(opts, &fixes);
             let mut points = std::mem::take(&mut self.points);
             points.clear();
             let (breaks, path) = match opts.method {
