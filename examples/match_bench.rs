@@ -5,9 +5,12 @@
 //! before each repeat (cold) or kept between repeats (warm); prints points
 //! per second (BENCHMARKS.md, "Matching").
 //!
-//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M]
+//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M|-] [warm]
 //! (RADIUS_M: `--radius-m`, e.g. a peer's search radius, instead of the
-//! radius taken from the track).
+//! radius taken from the track; `-`: from the track. `warm`: only the warm
+//! repeats, the first of them filling the cache, for counting the warm
+//! repeats' instructions alone under callgrind: a run of REPEATS + 1 minus
+//! one of 1).
 
 use std::time::Instant;
 use waymark::matching::inputs::read_track_file;
@@ -18,23 +21,28 @@ use waymark::network::{LoadOptions, Network};
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     anyhow::ensure!(
-        args.len() == 3 || args.len() == 4,
-        "usage: match_bench MAP TRACK REPEATS [RADIUS_M]"
+        (3..=4).contains(&args.len()) || (args.len() == 5 && args[4] == "warm"),
+        "usage: match_bench MAP TRACK REPEATS [RADIUS_M|-] [warm]"
     );
+    let warm_only = args.get(4).is_some();
     let net = Network::load(std::path::Path::new(&args[0]), &LoadOptions::default())?;
     let (rows, _) = read_track_file(std::path::Path::new(&args[1]))?;
     let repeats: usize = args[2].parse()?;
     let opts = MatchOptions {
-        radius_m: args.get(3).map(|r| r.parse()).transpose()?,
+        radius_m: args
+            .get(3)
+            .filter(|r| *r != "-")
+            .map(|r| r.parse())
+            .transpose()?,
         ..MatchOptions::default()
     };
     opts.validate()?;
-    let mut matched = 0;
+    let mut matched = usize::MAX;
     // Cold: each repeat starts an empty cache of network searches (as
     // `waymark match` does for its one file).
     let mut matcher = FileMatcher::new(&net);
     let t0 = Instant::now();
-    for _ in 0..repeats {
+    for _ in 0..if warm_only { 0 } else { repeats } {
         matcher.forget_searches();
         let (_, outcomes) = matcher.match_rows(&rows, &opts);
         matched = outcomes.iter().map(|o| o.matched).sum::<usize>();
@@ -52,7 +60,11 @@ fn main() -> anyhow::Result<()> {
     println!(
         "{{\"points\":{},\"matched\":{matched},\"repeats\":{repeats},\"match_points_per_s\":{:.0},\"warm_match_points_per_s\":{:.0}}}",
         rows.len(),
-        (rows.len() * repeats) as f64 / cold,
+        if warm_only {
+            0.0
+        } else {
+            (rows.len() * repeats) as f64 / cold
+        },
         (rows.len() * repeats) as f64 / warm
     );
     Ok(())
