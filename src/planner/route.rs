@@ -233,6 +233,7 @@ pub fn plan_with_stages(
             steps = budget.steps(),
             map_jumps = budget.jumps(),
             anchors = budget.work().anchors(),
+            searched = budget.work().searched(),
             replays = ?budget.work().replays(),
             "planner cost so far"
         );
@@ -314,6 +315,9 @@ pub fn plan_with_stages(
              requirement at the start of the route"
         )));
     }
+    // The placement searches' work (candidates tested), counted with the
+    // filter's.
+    let tested = std::cell::Cell::new(0);
     let placed = place_lazy_with_end(
         length,
         start_reach,
@@ -323,7 +327,9 @@ pub fn plan_with_stages(
         &is_existing,
         k,
         settings.min_spacing_m,
+        &tested,
     );
+    budget.work().add_searched(tested.take());
     phase("tag-free reaches and placement");
     tracing::debug!(
         computed = tag_free.computed(),
@@ -391,14 +397,17 @@ pub fn plan_with_stages(
                 reach_m: r,
             })
             .collect();
-        let Placement::Feasible(c2) = place_with(
+        let placed = place_with(
             length,
             start_reach,
             &cands2,
             &is_existing,
             k,
             settings.min_spacing_m,
-        ) else {
+            &tested,
+        );
+        budget.work().add_searched(tested.take());
+        let Placement::Feasible(c2) = placed else {
             break;
         };
         if c2 == basis {
@@ -498,7 +507,7 @@ pub fn plan_with_stages(
                 .lazy_reaches(&opt_sites, &mountings, req, Some(&optimistic_tick))
                 .certifying();
             let opt_at: Vec<f64> = opt_sites.iter().map(|s| s.distance_m).collect();
-            match place_lazy_with_end(
+            let placed = place_lazy_with_end(
                 length,
                 start_reach,
                 &opt_at,
@@ -507,7 +516,10 @@ pub fn plan_with_stages(
                 &is_existing,
                 k,
                 settings.min_spacing_m,
-            ) {
+                &tested,
+            );
+            budget.work().add_searched(tested.take());
+            match placed {
                 Placement::Feasible(c) => new_count(&c),
                 Placement::Infeasible { .. } => 0,
             }
