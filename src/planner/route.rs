@@ -499,8 +499,14 @@ pub fn plan_with_stages(
             .zip(&mountings)
             .map(|(s, &m)| (s.sample, m))
             .collect();
-        let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
-        let (_, opt_sites) = budget.snapshots(&all, settings.candidate_spacing_m, &at);
+        // Carried by the stretch maps where there are some (the stepped
+        // pass read a fix at every site: 1.0 pass on the paper's drive).
+        let opt_sites = budget
+            .optimistic_sites(&sites, &mountings)
+            .unwrap_or_else(|| {
+                let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
+                budget.snapshots(&all, settings.candidate_spacing_m, &at).1
+            });
         if opt_sites.len() == sites.len() {
             // Each site's snapshot has read a tag at every earlier site.
             let r = budget
