@@ -9,7 +9,7 @@ use super::forward;
 use super::placement::{place_lazy_with_end, place_with, Candidate, Placement};
 use super::plan::{Plan, PlannedTag};
 use super::settings::{site_speed_mps, Coverage, PlannerSettings};
-use super::validation::{robust_with_progress, validate_plan};
+use super::validation::{robust_all_read, robust_with_progress, validate_plan};
 use crate::error::{Error, Result};
 use crate::network::{Network, RoadAttributes};
 use crate::scenario::{RouteKind, Scenario};
@@ -461,22 +461,26 @@ pub fn plan_with_stages(
         forward::forward_greedy(&budget, &fwd_sites, k, req, settings.min_spacing_m, k + 1)
     };
     phase("forward placement");
+    // The all-read pass of the forward check, when kept: the plan's own.
+    let mut checked = None;
     if let Placement::Feasible(c3) = fw {
         if new_count(&c3) < new_count(&chosen) {
             let fixes3: Vec<(usize, Mounting)> = c3
                 .iter()
                 .map(|&i| (sites[i].sample, mountings[i]))
                 .collect();
-            if robust_with_progress(
+            let (ok, all) = robust_all_read(
                 &budget,
                 &fixes3,
                 k,
                 req,
                 settings.candidate_spacing_m,
                 Some(&check_tick),
-            ) {
+            );
+            if ok {
                 chosen = c3;
                 forward_used = true;
+                checked = Some(all);
             }
             phase("forward check");
         }
@@ -547,12 +551,16 @@ pub fn plan_with_stages(
     // latter, after it by the former), so that case keeps its own pass.
     let at: Vec<f64> = chosen.iter().map(|&i| sites[i].distance_m).collect();
     // Also the missed-read bound's all-read pass (its profile grid).
-    let all = budget.all_read_gridded(
-        &fixes,
-        settings.candidate_spacing_m,
-        &at,
-        super::output::MISSED_GRID_M,
-    );
+    // (The forward check's, when it checked this plan: the same pass.)
+    let all = match checked {
+        Some(a) if a.fixes == fixes && a.grid_m == super::output::MISSED_GRID_M => a,
+        _ => budget.all_read_gridded(
+            &fixes,
+            settings.candidate_spacing_m,
+            &at,
+            super::output::MISSED_GRID_M,
+        ),
+    };
     let own = if fixes.iter().all(|f| f.0 > 0) {
         all.sites.clone()
     } else {
