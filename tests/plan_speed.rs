@@ -306,3 +306,76 @@ fn reaches_stepped(budget: &Budget, sites: &[waymark::planner::Site], req: f64) 
         })
         .collect()
 }
+
+/// The lower bound's optimistic snapshots (a fix read at every site)
+/// carried by the stretch maps and the sites' prefix maps
+/// (`Budget::optimistic_sites`) against the stepped pass
+/// (`Budget::snapshots` with every fix): each carried covariance lies
+/// below the stepped one (generalized eigenvalue at most 1: the maps'
+/// covariances are lowered by 1e-9 relative, more than their round-off)
+/// and within 1e-6 of it, the reaches from them are the stepped ones, and
+/// the pass steps far fewer samples. Sites every 20 m (several to a
+/// stretch: stepped from the first one's fix) and every 100 m (one to a
+/// stretch: carried to each site).
+#[test]
+fn optimistic_snapshots_by_the_maps_are_the_stepped_ones() {
+    let scn = scenario("demo.toml");
+    let truth = TruthSource::new(&scn).expect("truth");
+    let budget = Budget::new(&scn, &truth, truth.network().map(|n| &**n));
+    let length = budget.length_m();
+    let sites_m: Vec<f64> = (1..)
+        .map(|j| 20.0 * j as f64)
+        .take_while(|&d| d < length)
+        .collect();
+    let (_, all_sites) = budget.tag_free(20.0, &sites_m);
+    for every in [1usize, 5] {
+        let sites: Vec<_> = all_sites
+            .iter()
+            .skip(every - 1)
+            .step_by(every)
+            .cloned()
+            .collect();
+        let mountings = vec![Mounting::RoadSurface; sites.len()];
+        let fixes: Vec<(usize, Mounting)> = sites
+            .iter()
+            .map(|s| (s.sample, Mounting::RoadSurface))
+            .collect();
+        let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
+        let s0 = budget.steps();
+        let (_, stepped) = budget.snapshots(&fixes, 20.0, &at);
+        let s1 = budget.steps();
+        let carried = budget.optimistic_sites(&sites, &mountings).expect("maps");
+        let s2 = budget.steps();
+        assert_eq!(stepped.len(), carried.len());
+        for (a, b) in stepped.iter().zip(&carried) {
+            assert_eq!((a.sample, a.distance_m), (b.sample, b.distance_m));
+            let up = generalized_lambda_max(b.filter.covariance(), a.filter.covariance());
+            let down = generalized_lambda_max(a.filter.covariance(), b.filter.covariance());
+            assert!(
+                up <= 1.0 && down <= 1.0 + 1e-6,
+                "every {every}, sample {}: {up} {down}",
+                a.sample
+            );
+        }
+        // The same reaches; the bound after each fix at most the stepped
+        // one, and within 1e-8 of it.
+        for req in [8.0, 20.0] {
+            let a = budget.reaches(&stepped, &mountings, req);
+            let b = budget.reaches(&carried, &mountings, req);
+            for (n, (x, y)) in a.iter().zip(&b).enumerate() {
+                assert_eq!(x.1, y.1, "every {every}, req {req}, site {n}");
+                assert!(y.0 <= x.0 && y.0 >= x.0 * (1.0 - 1e-8), "{x:?} {y:?}");
+            }
+        }
+        // Fewer steps: with several sites to a stretch (every 20 m) most
+        // of it is stepped from the first one's fix; with one (every
+        // 100 m) only the samples from each fix to the next boundary.
+        let fewer = if every == 1 { 1 } else { 4 };
+        assert!(
+            (s2 - s1) * fewer < s1 - s0,
+            "every {every}: {} vs {}",
+            s2 - s1,
+            s1 - s0
+        );
+    }
+}

@@ -318,8 +318,15 @@ impl<'a> Budget<'a> {
                 // A stretch starts at the first odometer epoch after a
                 // candidate site: a run from a fix there steps to it only.
                 let boundary = pending_site && i % r.sync_every() == 0;
+                let site_here = next_site < sites_m.len() && sites_m[next_site] <= a.distance_m;
                 pending_site &= !boundary;
-                pending_site |= next_site < sites_m.len() && sites_m[next_site] <= a.distance_m;
+                pending_site |= site_here;
+                if site_here {
+                    // The map from the stretch's start to the site (its
+                    // ops up to the site's sample; for
+                    // `Budget::optimistic_sites`).
+                    r.site_prefix(i, f);
+                }
                 r.visit(i, f, boundary, i + 1 == n);
             }
             take_sites(

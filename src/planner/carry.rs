@@ -1,9 +1,12 @@
 //! Runs of the route budget carried by the tag-free pass's stretch maps
 //! (module `stretch`) where they apply, stepped elsewhere: the same
-//! answers as stepping every sample (see `stretch` for why).
+//! answers as stepping every sample (see `stretch` for why); and the
+//! lower bound's optimistic snapshots carried by them
+//! ([`Budget::optimistic_sites`]).
 
 use super::budget::{Budget, Site};
 use super::stretch::INTERIOR_MARGIN;
+use crate::nav::ekf::Mat;
 use crate::nav::Filter;
 use crate::sim::tags::Mounting;
 
@@ -171,5 +174,114 @@ impl Budget<'_> {
         // apply (the same first sample above the level as stepping).
         let hit = self.first_above(last, &mut f, level_m);
         hit.is_some_and(|i| self.samples()[i - 1].avp.distance_m < self.length_m())
+    }
+}
+
+/// The relative amount a covariance carried by a map is lowered by in
+/// [`Budget::optimistic_sites`] (and each snapshot once more): a map's
+/// covariance and the stepped one differ by round-off (≈ 1e-12 relative,
+/// measured on the demo's sites; the stretch maps'
+/// [`super::stretch::INTERIOR_MARGIN`] is the same figure) and the
+/// carried filter's state by round-off too (at most 7e-11 relative
+/// in the covariance, measured), so the lowered one is below the stepped
+/// one and the lower bound's reaches from it are at least the stepped
+/// snapshots' (test `optimistic_snapshots_by_the_maps_are_the_stepped_ones`).
+const OPTIMISTIC_MARGIN: f64 = 1e-9;
+
+impl Budget<'_> {
+    /// The snapshots of [`Budget::snapshots`] with a fix of `mountings[j]`
+    /// read at every site (the lower bound's optimistic filters), from the
+    /// tag-free snapshots `sites` (the candidate sites of the tag-free
+    /// pass, or some of them, in route order), without stepping most of
+    /// the drive: from a boundary of the stretch maps, the covariance is
+    /// carried by the whole stretches' maps to the start of the stretch
+    /// holding the next site, then by that site's prefix map to the site
+    /// ([`super::stretch::Stretches::prefixes`]), and given to the
+    /// tag-free filter there; the fix and the samples up to the first
+    /// boundary after the odometer epoch that follows the last fix are
+    /// stepped (the fix shifts the propagation intervals until that
+    /// epoch, module `stretch`), with the fixes and snapshots of the sites
+    /// on the way. Each covariance carried by a map is lowered by
+    /// [`OPTIMISTIC_MARGIN`], and so is each snapshot, so that every
+    /// snapshot is at most the stepped pass's (a lower bound must never
+    /// come out above the stepped one by round-off). None when there are
+    /// no maps or a site lies at the drive's first sample.
+    pub fn optimistic_sites(&self, sites: &[Site], mountings: &[Mounting]) -> Option<Vec<Site>> {
+        let st = self.stretches()?;
+        let end = *st.bounds.last()?;
+        if st.bounds[0] != 0
+            || sites.first().is_some_and(|s| s.sample == 0)
+            || sites.windows(2).any(|w| w[1].sample < w[0].sample)
+            || sites.last().is_some_and(|s| s.sample > end)
+        {
+            return None;
+        }
+        let lower = |p: Mat| p * (1.0 - OPTIMISTIC_MARGIN);
+        // Each snapshot lowered too: stepped from a lowered covariance
+        // through fixes, the lowering fades where the fixes contract it,
+        // and the carried filter's state (the tag-free one's) differs from
+        // the stepped pass's by round-off (measured on the demo: up to
+        // 7e-11 relative above the stepped covariance without this).
+        let snapshot = |site: &Site, g: &Filter| {
+            let mut filter = g.clone();
+            filter.set_covariance(lower(*g.covariance()));
+            Site {
+                sample: site.sample,
+                distance_m: site.distance_m,
+                filter,
+            }
+        };
+        let mut out: Vec<Site> = Vec::with_capacity(sites.len());
+        // The all-read covariance at boundary `bounds[m]`.
+        let mut p = *st.filters[0].covariance();
+        let mut m = 0;
+        let mut j = 0;
+        while j < sites.len() {
+            let s = sites[j].sample;
+            // The stretch holding the site: bounds[ms] < s ≤ bounds[ms + 1].
+            let ms = st.bounds.partition_point(|&b| b < s) - 1;
+            for e in &st.elements[m..ms] {
+                p = lower(e.apply(&p));
+            }
+            let prefix = st.prefix_at(s)?;
+            p = lower(prefix.apply(&p));
+            self.work().add_maps(ms - m + 1);
+            let mut g = sites[j].filter.clone();
+            g.set_covariance(p);
+            // The sites at this sample, then their fixes.
+            let first = j;
+            while j < sites.len() && sites[j].sample == s {
+                out.push(snapshot(&sites[j], &g));
+                j += 1;
+            }
+            for &mt in &mountings[first..j] {
+                self.apply_fix(s, &mut g, mt);
+            }
+            // Step to the first boundary after the epoch after the last fix.
+            let target = |i: usize| st.first_after(i).map_or(end, |m| st.bounds[m]);
+            let mut to = target(s);
+            if s < end {
+                self.run(s, &mut g, |i, g| {
+                    let first = j;
+                    while j < sites.len() && sites[j].sample == i {
+                        out.push(snapshot(&sites[j], g));
+                        j += 1;
+                    }
+                    for &mt in &mountings[first..j] {
+                        self.apply_fix(i, g, mt);
+                    }
+                    if j > first {
+                        to = target(i);
+                    }
+                    i < to
+                });
+            }
+            if to >= end {
+                break;
+            }
+            m = st.bounds.partition_point(|&b| b < to);
+            p = *g.covariance();
+        }
+        (out.len() == sites.len()).then_some(out)
     }
 }

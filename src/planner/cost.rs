@@ -25,6 +25,18 @@ pub(super) const COMPOSE_STEPS: f64 = 6.0;
 /// ([`ANCHOR_STEPS`]: two 21-element rows against `P` and a 21×21 dot).
 pub(super) const NODE_PART_STEPS: f64 = 95.0;
 
+/// The cost of one candidate tested by the exact placement's search
+/// (`placement::search`: one table look-up, its window's expansion shared
+/// among the candidates it tests), in filter steps: on the paper's drive
+/// (the one route where the search is a noticeable share, 10.7 M and
+/// 14.0 M candidates tested by its two searches) a search re-run on its
+/// reaches, all computed, took 7.3–10 ns a candidate against 0.27–0.28 µs
+/// a step of one tag-free pass in the same run (two runs). On the short
+/// routes a search tests a few thousand candidates at 40–60 ns each
+/// (the windows' set-up is shared by fewer): this undercounts them by a
+/// few hundredths of a pass at most.
+pub(super) const SEARCH_TEST_STEPS: f64 = 0.035;
+
 /// The planner's work counters (all threads): filter steps and the
 /// stretch maps' operations, each counted in filter steps of the same
 /// measured cost for `Budget::passes` (the constants above).
@@ -39,6 +51,8 @@ pub(crate) struct Work {
     node_parts: AtomicU64,
     /// Covariance ops composed into stretch maps.
     composed: AtomicU64,
+    /// Candidates tested by the exact placement's searches.
+    searched: AtomicU64,
     /// Stretches replayed (stepped from their start) by carried runs, and
     /// those replayed whole (the run went on after them).
     replays: AtomicU64,
@@ -65,6 +79,16 @@ impl Work {
     /// Counts `n` maps applied without a test.
     pub(super) fn add_maps(&self, n: usize) {
         self.maps.fetch_add(n as u64, Relaxed);
+    }
+
+    /// Counts `n` candidates tested by a placement search.
+    pub(super) fn add_searched(&self, n: u64) {
+        self.searched.fetch_add(n, Relaxed);
+    }
+
+    /// Candidates tested by the placement searches.
+    pub(super) fn searched(&self) -> u64 {
+        self.searched.load(Relaxed)
     }
 
     pub(super) fn add_replay(&self) {
@@ -105,7 +129,8 @@ impl Work {
             + self.maps() as f64 * APPLY_STEPS
             + self.anchors() as f64 * ANCHOR_STEPS
             + self.node_parts.load(Relaxed) as f64 * NODE_PART_STEPS
-            + self.composed() as f64 * COMPOSE_STEPS;
+            + self.composed() as f64 * COMPOSE_STEPS
+            + self.searched() as f64 * SEARCH_TEST_STEPS;
         work / samples as f64
     }
 }

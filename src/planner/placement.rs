@@ -18,40 +18,148 @@
 
 use rustc_hash::FxHashMap;
 
-/// A window of the exact search: the candidate indices of the last k + 1
-/// tags (`START` before the first). Kept inline up to k = 3 (the scenario
-/// limit), compared and hashed element by element: the search explores
-/// every window once, and a heap allocation and a `memcmp` call per window
-/// were most of the paper plan's search time.
-#[derive(Clone, Debug)]
-struct Window(smallvec::SmallVec<[usize; 4]>);
+/// The start's slot in a window (before the first tag).
+const START: usize = usize::MAX;
 
-impl PartialEq for Window {
-    fn eq(&self, other: &Self) -> bool {
-        self.0.len() == other.0.len() && self.0.iter().zip(other.0.iter()).all(|(a, b)| a == b)
-    }
+/// A window of the exact search, the candidate indices of the last k + 1
+/// tags (`START` before the first), named by the table that holds it: its
+/// first k indices (its *prefix*, interned once) and the offset of its last
+/// index past the prefix's last (or from 0 after the start). Every window
+/// one step on from a window shares one prefix (the window less its oldest
+/// tag), so an expansion interns one prefix and then indexes a plain
+/// vector by the new tag's offset: no hash look-up per candidate (a hash
+/// map keyed by whole windows spent a third of the paper plan's time in
+/// its look-ups).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct WindowId {
+    prefix: u32,
+    offset: u32,
 }
 
-impl Eq for Window {}
+/// The start window (`START` k + 1 times), held apart from the table.
+const START_ID: WindowId = WindowId {
+    prefix: u32::MAX,
+    offset: 0,
+};
 
-impl std::hash::Hash for Window {
-    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
-        for &x in self.0.iter() {
-            h.write_usize(x);
+/// A window's search state: its distance (new tags; `u32::MAX` when not
+/// reached yet), the window it was reached from, and whether it has been
+/// taken off the queue.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    dist: u32,
+    parent: WindowId,
+    done: bool,
+}
+
+const UNSEEN: Entry = Entry {
+    dist: u32::MAX,
+    parent: START_ID,
+    done: false,
+};
+
+/// The search's windows: prefixes interned (k indices each, flattened)
+/// and, per prefix, the entries of its windows by offset.
+struct Table {
+    k: usize,
+    prefixes: Vec<usize>,
+    ids: FxHashMap<smallvec::SmallVec<[usize; 4]>, u32>,
+    entries: Vec<Vec<Entry>>,
+    start: Entry,
+}
+
+impl Table {
+    fn new(k: usize) -> Self {
+        Table {
+            k,
+            prefixes: Vec::new(),
+            ids: FxHashMap::default(),
+            entries: Vec::new(),
+            start: Entry {
+                dist: 0,
+                parent: START_ID,
+                done: false,
+            },
         }
     }
-}
 
-impl std::ops::Deref for Window {
-    type Target = [usize];
-    fn deref(&self) -> &[usize] {
-        &self.0
+    fn prefix(&self, p: u32) -> &[usize] {
+        let at = p as usize * self.k;
+        &self.prefixes[at..at + self.k]
     }
-}
 
-impl FromIterator<usize> for Window {
-    fn from_iter<I: IntoIterator<Item = usize>>(it: I) -> Self {
-        Window(it.into_iter().collect())
+    /// The first index a window of prefix `p` may end with.
+    fn base(&self, p: u32) -> usize {
+        match self.prefix(p).last() {
+            Some(&l) if l != START => l + 1,
+            _ => 0,
+        }
+    }
+
+    /// The window's indices, oldest first.
+    fn window(&self, id: WindowId) -> smallvec::SmallVec<[usize; 4]> {
+        if id == START_ID {
+            return std::iter::repeat_n(START, self.k + 1).collect();
+        }
+        let mut w: smallvec::SmallVec<[usize; 4]> =
+            self.prefix(id.prefix).iter().copied().collect();
+        w.push(self.base(id.prefix) + id.offset as usize);
+        w
+    }
+
+    /// The interned prefix `w` (k indices).
+    fn intern(&mut self, w: &[usize]) -> u32 {
+        if let Some(&p) = self.ids.get(w) {
+            return p;
+        }
+        let p = u32::try_from(self.entries.len()).expect("fewer than 2³² prefixes");
+        self.prefixes.extend_from_slice(w);
+        self.ids.insert(w.iter().copied().collect(), p);
+        self.entries.push(Vec::new());
+        p
+    }
+
+    fn get(&self, id: WindowId) -> Entry {
+        if id == START_ID {
+            return self.start;
+        }
+        self.entries[id.prefix as usize]
+            .get(id.offset as usize)
+            .copied()
+            .unwrap_or(UNSEEN)
+    }
+
+    fn get_mut(&mut self, id: WindowId) -> &mut Entry {
+        if id == START_ID {
+            return &mut self.start;
+        }
+        let e = &mut self.entries[id.prefix as usize];
+        let o = id.offset as usize;
+        if o >= e.len() {
+            e.resize(o + 1, UNSEEN);
+        }
+        &mut e[o]
+    }
+
+    /// The oldest index of every window reached (the start's included).
+    fn oldest_reached(&self) -> Vec<usize> {
+        let mut out = vec![START];
+        for (p, e) in self.entries.iter().enumerate() {
+            let p = p as u32;
+            for (o, x) in e.iter().enumerate() {
+                if x.dist != u32::MAX {
+                    out.push(
+                        self.window(WindowId {
+                            prefix: p,
+                            offset: o as u32,
+                        })[0],
+                    );
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 }
 
@@ -89,12 +197,23 @@ pub fn place(
     k: usize,
     min_spacing_m: f64,
 ) -> Placement {
-    place_with(length_m, start_reach_m, candidates, &[], k, min_spacing_m)
+    let tested = std::cell::Cell::new(0);
+    place_with(
+        length_m,
+        start_reach_m,
+        candidates,
+        &[],
+        k,
+        min_spacing_m,
+        &tested,
+    )
 }
 
 /// [`place`] with some candidates already installed (`existing[i]`): they
 /// are always in the plan, cost nothing and cannot be skipped; the search
-/// (0-1 breadth-first) minimises the number of new tags.
+/// (0-1 breadth-first) minimises the number of new tags. Adds the
+/// candidates the search tests to `tested` (its work, see
+/// [`super::cost::SEARCH_TEST_STEPS`]).
 pub fn place_with(
     length_m: f64,
     start_reach_m: f64,
@@ -102,16 +221,20 @@ pub fn place_with(
     existing: &[bool],
     k: usize,
     min_spacing_m: f64,
+    tested: &std::cell::Cell<u64>,
 ) -> Placement {
     let at: Vec<f64> = candidates.iter().map(|c| c.at_m).collect();
-    place_lazy(
+    let reach = |i: usize| candidates[i].reach_m;
+    place_lazy_with_end(
         length_m,
         start_reach_m,
         &at,
-        &|i| candidates[i].reach_m,
+        &reach,
+        &|i| reach(i) >= length_m,
         existing,
         k,
         min_spacing_m,
+        tested,
     )
 }
 
@@ -119,29 +242,8 @@ pub fn place_with(
 /// `reach(i)`, asked for only when the search needs them (in search
 /// order): the route planner computes a site's reach, a filter run, on
 /// first demand, and the search never looks at the reaches of sites it
-/// does not reach. Same result as [`place_with`] on the same reaches.
-pub fn place_lazy(
-    length_m: f64,
-    start_reach_m: f64,
-    at_m: &[f64],
-    reach: &dyn Fn(usize) -> f64,
-    existing: &[bool],
-    k: usize,
-    min_spacing_m: f64,
-) -> Placement {
-    place_lazy_with_end(
-        length_m,
-        start_reach_m,
-        at_m,
-        reach,
-        &|i| reach(i) >= length_m,
-        existing,
-        k,
-        min_spacing_m,
-    )
-}
-
-/// [`place_lazy`] with `reaches_end(i)` answering `reach(i) >= length_m`
+/// does not reach (same result as [`place_with`] on the same reaches);
+/// `reaches_end(i)` answers `reach(i) >= length_m`
 /// on its own, so that a caller can answer it without the reach itself
 /// (the route planner certifies many sites as falling short of the end
 /// by one filter run for several: `budget::LazyReaches::reaches_end`).
@@ -163,6 +265,7 @@ pub fn place_lazy_with_end(
     existing: &[bool],
     k: usize,
     min_spacing_m: f64,
+    tested: &std::cell::Cell<u64>,
 ) -> Placement {
     search(
         (length_m, start_reach_m),
@@ -173,12 +276,14 @@ pub fn place_lazy_with_end(
         k,
         min_spacing_m,
         true,
+        tested,
     )
 }
 
 /// The search of [`place_lazy_with_end`]; `layered` allows the check of
 /// whole layers before their expansion (off: each window expanded as it is
-/// checked, the form the tests compare it with).
+/// checked, the form the tests compare it with). Adds the candidates it
+/// tests (one per table look-up, see [`super::cost::SEARCH_TEST_STEPS`]) to `tested`.
 #[allow(clippy::too_many_arguments)]
 fn search(
     (length_m, start_reach_m): (f64, f64),
@@ -189,8 +294,8 @@ fn search(
     k: usize,
     min_spacing_m: f64,
     layered: bool,
+    tested: &std::cell::Cell<u64>,
 ) -> Placement {
-    const START: usize = usize::MAX;
     let is_existing = |i: usize| i != START && existing.get(i).copied().unwrap_or(false);
     let reach = |i: usize| {
         if i == START {
@@ -221,49 +326,42 @@ fn search(
     let first_existing = (0..n_candidates)
         .find(|&i| is_existing(i))
         .unwrap_or(usize::MAX);
-    let start: Window = std::iter::repeat_n(START, k + 1).collect();
     if start_reach_m >= length_m && first_existing == usize::MAX {
         return Placement::Feasible(vec![]);
     }
-    let mut dist: FxHashMap<Window, (usize, Option<Window>)> = FxHashMap::default();
-    dist.insert(start.clone(), (0, None));
+    let mut table = Table::new(k);
     let mut deque = std::collections::VecDeque::new();
-    deque.push_back(start);
-    let mut done = rustc_hash::FxHashSet::default();
-    let expand = |w: &Window,
-                  dist: &mut FxHashMap<Window, (usize, Option<Window>)>,
-                  deque: &mut std::collections::VecDeque<Window>| {
-        expand_with(
-            w,
-            dist,
-            deque,
-            &reach,
-            &is_existing,
-            at_m,
-            &next_existing,
-            first_existing,
-            min_spacing_m,
-        );
+    deque.push_back(START_ID);
+    let ctx = Expand {
+        reach: &reach,
+        is_existing: &is_existing,
+        at_m,
+        next_existing: &next_existing,
+        first_existing,
+        min_spacing_m,
     };
     // Every step costs one tag: check a layer whole before expanding it.
     let by_layers = layered && first_existing == usize::MAX;
-    let mut pending: Vec<Window> = Vec::new();
+    let mut pending: Vec<WindowId> = Vec::new();
     loop {
-        let w = match deque.pop_front() {
-            Some(w) => w,
+        let id = match deque.pop_front() {
+            Some(id) => id,
             // The layer is checked (by layers, the queue holds one layer
             // at a time): expand it, in the order it was checked.
             None if !pending.is_empty() => {
                 for p in std::mem::take(&mut pending) {
-                    expand(&p, &mut dist, &mut deque);
+                    ctx.expand(p, &mut table, &mut deque, tested);
                 }
                 continue;
             }
             None => break,
         };
-        if !done.insert(w.clone()) {
+        let e = table.get_mut(id);
+        if e.done {
             continue;
         }
+        e.done = true;
+        let w = table.window(id);
         let last = *w.last().expect("k+1 ≥ 1");
         let must = if last == START {
             first_existing
@@ -275,84 +373,101 @@ fn search(
         // tag lies ahead.
         if must == usize::MAX && w.iter().all(|&i| reaches_end(i)) {
             let mut out = Vec::new();
-            let mut s = Some(w);
-            while let Some(st) = s {
-                let l = *st.last().expect("non-empty");
-                if l == START {
-                    break;
-                }
-                out.push(l);
-                s = dist[&st].1.clone();
+            let mut s = id;
+            while s != START_ID {
+                out.push(*table.window(s).last().expect("non-empty"));
+                s = table.get(s).parent;
             }
             out.reverse();
             return Placement::Feasible(out);
         }
         if by_layers {
-            pending.push(w);
+            pending.push(id);
         } else {
-            expand(&w, &mut dist, &mut deque);
+            ctx.expand(id, &mut table, &mut deque, tested);
         }
     }
     // The furthest distance up to which some choice holds the bound even
     // with k missed reads: the furthest reach of the oldest tag of any
     // window the search got to (the start's included).
-    let covered = dist
-        .keys()
-        .map(|w| reach(w[0]))
+    let covered = table
+        .oldest_reached()
+        .into_iter()
+        .map(reach)
         .fold(start_reach_m, f64::max);
-    return Placement::Infeasible {
+    Placement::Infeasible {
         covered_to_m: covered.min(length_m),
-    };
+    }
+}
 
-    /// The windows one step on from `w`, queued (0-1 costs).
-    #[allow(clippy::too_many_arguments)]
-    fn expand_with(
-        w: &Window,
-        dist: &mut FxHashMap<Window, (usize, Option<Window>)>,
-        deque: &mut std::collections::VecDeque<Window>,
-        reach: &dyn Fn(usize) -> f64,
-        is_existing: &dyn Fn(usize) -> bool,
-        at_m: &[f64],
-        next_existing: &[usize],
-        first_existing: usize,
-        min_spacing_m: f64,
+/// What [`search`]'s expansion of a window looks at.
+struct Expand<'e> {
+    reach: &'e dyn Fn(usize) -> f64,
+    is_existing: &'e dyn Fn(usize) -> bool,
+    at_m: &'e [f64],
+    next_existing: &'e [usize],
+    first_existing: usize,
+    min_spacing_m: f64,
+}
+
+impl Expand<'_> {
+    /// The windows one step on from `id`, queued (0-1 costs).
+    fn expand(
+        &self,
+        id: WindowId,
+        table: &mut Table,
+        deque: &mut std::collections::VecDeque<WindowId>,
+        tested: &std::cell::Cell<u64>,
     ) {
-        let d = dist[w].0;
+        let (at_m, is_existing) = (self.at_m, self.is_existing);
+        let d = table.get(id).dist;
+        let w = table.window(id);
         let last = *w.last().expect("k+1 ≥ 1");
         let must = if last == START {
-            first_existing
+            self.first_existing
         } else {
-            next_existing[last]
+            self.next_existing[last]
         };
-        let limit = reach(w[0]);
+        let limit = (self.reach)(w[0]);
         let lo = if last == START { 0 } else { last + 1 };
+        // Every window one step on is `w[1..]` and a new last tag.
+        let prefix = table.intern(&w[1..]);
+        let base = table.base(prefix);
+        let mut n = 0u64;
         for (j, &c_at) in at_m.iter().enumerate().skip(lo) {
             if c_at > limit || j > must {
                 break;
             }
+            n += 1;
             if last != START && c_at <= at_m[last] {
                 continue;
             }
             if last != START
                 && !is_existing(j)
                 && !is_existing(last)
-                && c_at - at_m[last] < min_spacing_m
+                && c_at - at_m[last] < self.min_spacing_m
             {
                 continue;
             }
-            let nw: Window = w[1..].iter().copied().chain([j]).collect();
-            let cost = usize::from(!is_existing(j));
+            let nw = WindowId {
+                prefix,
+                offset: u32::try_from(j - base).expect("fewer than 2³² candidates"),
+            };
+            let cost = u32::from(!is_existing(j));
             let nd = d + cost;
-            if dist.get(&nw).is_some_and(|e| e.0 <= nd) {
+            let e = table.get_mut(nw);
+            if e.dist <= nd {
                 continue;
             }
-            dist.insert(nw.clone(), (nd, Some(w.clone())));
+            e.dist = nd;
+            e.parent = id;
             if cost == 0 {
                 deque.push_front(nw);
             } else {
                 deque.push_back(nw);
             }
         }
+        tested.set(tested.get() + n);
     }
 }
 
@@ -448,7 +563,7 @@ mod tests {
                 .map(|_| case % 3 == 1 && rng.random_bool(0.2))
                 .collect();
             let want = brute(l, s, &cands, &ex, k, sp);
-            match place_with(l, s, &cands, &ex, k, sp) {
+            match place_with(l, s, &cands, &ex, k, sp, &Default::default()) {
                 Placement::Feasible(ch) => {
                     assert!(
                         feasible_with(l, s, &cands, &ex, &ch, k, sp),
@@ -494,10 +609,30 @@ mod tests {
                 asked.set((asked.get().0 + 1, asked.get().1));
                 r[i]
             };
-            let a = search((l, s), &at, &reach, &|i| r[i] >= l, &[], k, sp, false);
+            let a = search(
+                (l, s),
+                &at,
+                &reach,
+                &|i| r[i] >= l,
+                &[],
+                k,
+                sp,
+                false,
+                &Default::default(),
+            );
             let n_old = asked.get().0;
             asked.set((0, 0));
-            let b = search((l, s), &at, &reach, &|i| r[i] >= l, &[], k, sp, true);
+            let b = search(
+                (l, s),
+                &at,
+                &reach,
+                &|i| r[i] >= l,
+                &[],
+                k,
+                sp,
+                true,
+                &Default::default(),
+            );
             assert_eq!(a, b, "case {case}");
             assert!(asked.get().0 <= n_old, "case {case}");
             fewer += usize::from(asked.get().0 < n_old);

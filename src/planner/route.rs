@@ -9,7 +9,7 @@ use super::forward;
 use super::placement::{place_lazy_with_end, place_with, Candidate, Placement};
 use super::plan::{Plan, PlannedTag};
 use super::settings::{site_speed_mps, Coverage, PlannerSettings};
-use super::validation::{robust_with_progress, validate_plan};
+use super::validation::{robust_all_read, robust_with_progress, validate_plan};
 use crate::error::{Error, Result};
 use crate::network::{Network, RoadAttributes};
 use crate::scenario::{RouteKind, Scenario};
@@ -233,6 +233,7 @@ pub fn plan_with_stages(
             steps = budget.steps(),
             map_jumps = budget.jumps(),
             anchors = budget.work().anchors(),
+            searched = budget.work().searched(),
             replays = ?budget.work().replays(),
             "planner cost so far"
         );
@@ -314,6 +315,9 @@ pub fn plan_with_stages(
              requirement at the start of the route"
         )));
     }
+    // The placement searches' work (candidates tested), counted with the
+    // filter's.
+    let tested = std::cell::Cell::new(0);
     let placed = place_lazy_with_end(
         length,
         start_reach,
@@ -323,7 +327,9 @@ pub fn plan_with_stages(
         &is_existing,
         k,
         settings.min_spacing_m,
+        &tested,
     );
+    budget.work().add_searched(tested.take());
     phase("tag-free reaches and placement");
     tracing::debug!(
         computed = tag_free.computed(),
@@ -391,14 +397,17 @@ pub fn plan_with_stages(
                 reach_m: r,
             })
             .collect();
-        let Placement::Feasible(c2) = place_with(
+        let placed = place_with(
             length,
             start_reach,
             &cands2,
             &is_existing,
             k,
             settings.min_spacing_m,
-        ) else {
+            &tested,
+        );
+        budget.work().add_searched(tested.take());
+        let Placement::Feasible(c2) = placed else {
             break;
         };
         if c2 == basis {
@@ -452,22 +461,26 @@ pub fn plan_with_stages(
         forward::forward_greedy(&budget, &fwd_sites, k, req, settings.min_spacing_m, k + 1)
     };
     phase("forward placement");
+    // The all-read pass of the forward check, when kept: the plan's own.
+    let mut checked = None;
     if let Placement::Feasible(c3) = fw {
         if new_count(&c3) < new_count(&chosen) {
             let fixes3: Vec<(usize, Mounting)> = c3
                 .iter()
                 .map(|&i| (sites[i].sample, mountings[i]))
                 .collect();
-            if robust_with_progress(
+            let (ok, all) = robust_all_read(
                 &budget,
                 &fixes3,
                 k,
                 req,
                 settings.candidate_spacing_m,
                 Some(&check_tick),
-            ) {
+            );
+            if ok {
                 chosen = c3;
                 forward_used = true;
+                checked = Some(all);
             }
             phase("forward check");
         }
@@ -490,15 +503,21 @@ pub fn plan_with_stages(
             .zip(&mountings)
             .map(|(s, &m)| (s.sample, m))
             .collect();
-        let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
-        let (_, opt_sites) = budget.snapshots(&all, settings.candidate_spacing_m, &at);
+        // Carried by the stretch maps where there are some (the stepped
+        // pass read a fix at every site: 1.0 pass on the paper's drive).
+        let opt_sites = budget
+            .optimistic_sites(&sites, &mountings)
+            .unwrap_or_else(|| {
+                let at: Vec<f64> = sites.iter().map(|s| s.distance_m).collect();
+                budget.snapshots(&all, settings.candidate_spacing_m, &at).1
+            });
         if opt_sites.len() == sites.len() {
             // Each site's snapshot has read a tag at every earlier site.
             let r = budget
                 .lazy_reaches(&opt_sites, &mountings, req, Some(&optimistic_tick))
                 .certifying();
             let opt_at: Vec<f64> = opt_sites.iter().map(|s| s.distance_m).collect();
-            match place_lazy_with_end(
+            let placed = place_lazy_with_end(
                 length,
                 start_reach,
                 &opt_at,
@@ -507,7 +526,10 @@ pub fn plan_with_stages(
                 &is_existing,
                 k,
                 settings.min_spacing_m,
-            ) {
+                &tested,
+            );
+            budget.work().add_searched(tested.take());
+            match placed {
                 Placement::Feasible(c) => new_count(&c),
                 Placement::Infeasible { .. } => 0,
             }
@@ -529,12 +551,16 @@ pub fn plan_with_stages(
     // latter, after it by the former), so that case keeps its own pass.
     let at: Vec<f64> = chosen.iter().map(|&i| sites[i].distance_m).collect();
     // Also the missed-read bound's all-read pass (its profile grid).
-    let all = budget.all_read_gridded(
-        &fixes,
-        settings.candidate_spacing_m,
-        &at,
-        super::output::MISSED_GRID_M,
-    );
+    // (The forward check's, when it checked this plan: the same pass.)
+    let all = match checked {
+        Some(a) if a.fixes == fixes && a.grid_m == super::output::MISSED_GRID_M => a,
+        _ => budget.all_read_gridded(
+            &fixes,
+            settings.candidate_spacing_m,
+            &at,
+            super::output::MISSED_GRID_M,
+        ),
+    };
     let own = if fixes.iter().all(|f| f.0 > 0) {
         all.sites.clone()
     } else {

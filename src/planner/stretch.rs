@@ -199,6 +199,10 @@ pub(super) struct Stretches {
     pub chi2: f64,
     /// Nodes of [`NODE_SIZES`] consecutive stretches, per level.
     pub nodes: Vec<Vec<LazyNode>>,
+    /// (sample, map) at each candidate site of the tag-free pass: the map
+    /// of the ops of samples `bounds[m]+1 ..= sample`, the stretch `m`
+    /// holding the site (`bounds[m] < sample ≤ bounds[m+1]`).
+    pub prefixes: Vec<(usize, Element)>,
 }
 
 /// Stretches per node, by level: a run crosses a whole node by its
@@ -319,6 +323,7 @@ impl Recorder {
                 sync_every,
                 chi2,
                 nodes: vec![],
+                prefixes: vec![],
             },
             cur: None,
             group: vec![],
@@ -414,6 +419,17 @@ impl Recorder {
             self.last_ops = 0;
             f.track_element();
         }
+    }
+
+    /// At a candidate site's sample `i`, before [`Recorder::visit`] there:
+    /// keeps the map composed since the stretch's start
+    /// ([`Stretches::prefixes`]).
+    pub fn site_prefix(&mut self, i: usize, f: &Filter) {
+        if self.st.prefixes.last().is_some_and(|x| x.0 == i) {
+            return;
+        }
+        let el = f.element().cloned().unwrap_or_default();
+        self.st.prefixes.push((i, el));
     }
 
     /// The stretches (None when the route's last sample was not visited).
@@ -600,6 +616,13 @@ impl Stretches {
             }
         }
         None
+    }
+
+    /// The map from the start of the stretch holding sample `i` to `i`
+    /// ([`Stretches::prefixes`]), when `i` is a candidate site's.
+    pub fn prefix_at(&self, i: usize) -> Option<&Element> {
+        let k = self.prefixes.partition_point(|x| x.0 < i);
+        self.prefixes.get(k).filter(|x| x.0 == i).map(|x| &x.1)
     }
 
     /// The first stretch a run at sample `from` can be carried from by the
