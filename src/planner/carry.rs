@@ -75,9 +75,9 @@ impl Budget<'_> {
             if !within {
                 self.work().add_replay();
                 self.work().add_replay_through();
-                let mut g = st.filters[m].clone();
-                g.set_covariance(p);
-                step(st.bounds[m], &mut g, st.bounds[m + 1], &mut worst);
+                let level = worst / (1.0 + INTERIOR_MARGIN);
+                let (start, mut g) = st.replay_start(m, &p, level, self.work());
+                step(start, &mut g, st.bounds[m + 1], &mut worst);
             }
         }
         worst
