@@ -220,7 +220,7 @@ fn stretch_maps_give_the_stepped_reaches() {
         let (s0, p0) = (budget.steps(), budget.passes());
         let stepped = reaches_stepped(&budget, &sites, req);
         let (s1, p1) = (budget.steps(), budget.passes());
-        let j0 = budget.jumps();
+        let (j0, r0) = (budget.jumps(), budget.restarts());
         let mapped = budget.reaches(&sites, &mountings, req);
         let (s2, p2) = (budget.steps(), budget.passes());
         let differ: Vec<_> = stepped
@@ -233,6 +233,9 @@ fn stretch_maps_give_the_stepped_reaches() {
         // Not all reaches run to the end: some cross inside the route.
         assert!(stepped.iter().any(|r| r.1 < length - 100.0));
         assert!(budget.jumps() > j0);
+        // Some replays started at a restart point inside their stretch:
+        // the equality above covers them.
+        assert!(budget.restarts() > r0);
         // Less work in all, the maps' building and applications counted.
         assert!((p2 - p1) * 2.0 < p1 - p0, "{} vs {}", p2 - p1, p1 - p0);
         assert!((s2 - s1) * 3 < s1 - s0, "{} vs {}", s2 - s1, s1 - s0);

@@ -181,6 +181,12 @@ impl<'a> Budget<'a> {
         self.work.maps()
     }
 
+    /// Stretch replays started at a restart point inside their stretch so
+    /// far (all threads).
+    pub fn restarts(&self) -> u64 {
+        self.work.restarts()
+    }
+
     /// The lane width (m) at sample `i`, when the route is on a map.
     pub fn lane_width_at(&self, i: usize) -> Option<f64> {
         let (net, route, scale) = self.road?;

@@ -57,6 +57,8 @@ pub(crate) struct Work {
     /// those replayed whole (the run went on after them).
     replays: AtomicU64,
     replays_through: AtomicU64,
+    /// Replays started at a restart point inside their stretch.
+    restarts: AtomicU64,
 }
 
 impl Work {
@@ -113,6 +115,14 @@ impl Work {
 
     pub(super) fn add_replay_through(&self) {
         self.replays_through.fetch_add(1, Relaxed);
+    }
+
+    pub(super) fn add_restart(&self) {
+        self.restarts.fetch_add(1, Relaxed);
+    }
+
+    pub(super) fn restarts(&self) -> u64 {
+        self.restarts.load(Relaxed)
     }
 
     /// Stretches replayed, and those of them replayed whole.

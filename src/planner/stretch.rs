@@ -32,6 +32,15 @@
 //! request ([`LazyNode`]): built up front, the routes of a few km paid
 //! about 0.2 passes for nodes no run or one run crossed.
 //!
+//! Restart points (seventh round). A stretch keeps, every [`SUB_SAMPLES`]
+//! samples or more (at odometer epochs), the tag-free filter there and the
+//! map of the stretch's ops up to it ([`Sub`]); a run that must replay a
+//! stretch starts at the last restart point whose anchors (below) all hold
+//! under its level from its covariance at the stretch's start, with the
+//! covariance carried there by that map: the samples skipped are provably
+//! under the level, where the caller's visit does nothing. Measured on the
+//! paper's drive: 6.90 → 5.99 M filter steps, 9.82 → 9.23 counted passes.
+//!
 //! The interior bound. Updates only lower a covariance and every op is
 //! monotone in the PSD order, and `(P⁻¹ + J)⁻¹ ≤ P`, so at any sample `t`
 //! of a stretch starting at `e` with covariance `P`, `P_t ≤ A_t P Aᵀ_t +
@@ -576,6 +585,7 @@ impl Stretches {
         work.add_map((ok + 1).min(need), k > 0);
         match k.checked_sub(1).map(|k| &it.subs[k]) {
             Some(sub) => {
+                work.add_restart();
                 let mut g = sub.filter.clone();
                 g.set_covariance(sub.prefix.apply(p));
                 (sub.sample, g)
