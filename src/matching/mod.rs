@@ -29,7 +29,7 @@ pub mod stream;
 pub(crate) mod synthetic;
 pub mod track;
 
-pub use hmm::{HmmMatcher, HmmParams};
+pub use hmm::{HmmMatcher, HmmModel, HmmParams};
 pub use incremental::{IncrementalMatcher, IncrementalParams};
 pub use paths::{MatrixScratch, NetworkDistances, OnSection};
 pub use synthetic::{along_route, route_truth, SyntheticTrack, TrackModel};

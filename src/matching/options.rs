@@ -21,7 +21,7 @@
 //! over the drift's default, at least 5 m (a worse track widens the
 //! emission).
 
-use super::{Fix, HmmParams};
+use super::{Fix, HmmModel, HmmParams};
 use crate::error::{Error, Result};
 use crate::network::Network;
 
@@ -39,6 +39,8 @@ pub enum Method {
 pub struct MatchOptions {
     /// The matcher.
     pub method: Method,
+    /// The HMM's probability model.
+    pub model: HmmModel,
     /// Candidate search radius (m); `None`: from the track.
     pub radius_m: Option<f64>,
     /// σ of the white part of the fix error (m); `None`: from the track.
@@ -56,6 +58,7 @@ impl Default for MatchOptions {
         let p = HmmParams::default();
         Self {
             method: Method::Hmm,
+            model: HmmModel::Drift,
             radius_m: None,
             sigma_m: None,
             max_speed_kmh: p.max_speed_mps * 3.6,
@@ -124,6 +127,7 @@ impl MatchOptions {
             max_speed_mps: self.max_speed_kmh / 3.6,
             gap_s: self.max_gap_s,
             gap_m: self.max_gap_m,
+            model: self.model,
             ..base
         }
     }

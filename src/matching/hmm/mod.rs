@@ -81,6 +81,7 @@
 mod candidates;
 mod drift;
 mod geometry;
+mod independent;
 mod matcher;
 mod params;
 mod probability;
@@ -89,4 +90,4 @@ mod state;
 mod transitions;
 
 pub use matcher::HmmMatcher;
-pub use params::{route_bound, HmmParams};
+pub use params::{route_bound, HmmModel, HmmParams};
