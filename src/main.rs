@@ -90,9 +90,9 @@ enum Command {
         /// Matcher.
         #[arg(long, value_enum, default_value = "hmm")]
         method: MatchMethod,
-        /// The HMM's probability model.
-        #[arg(long, value_enum, default_value = "drift")]
-        model: MatchModel,
+        /// The HMM's model: drift (per-survivor drift, smoothed confidence) or independent (Newson and Krumm: one emission per candidate, filtered confidence, less work per point).
+        #[arg(long, default_value = "drift")]
+        model: waymark::matching::HmmModel,
         /// Scores the complete path against the roads actually driven (CSV with road_id[,length_m]).
         #[arg(long, value_name = "TRUTH.csv")]
         truth: Option<PathBuf>,
@@ -202,15 +202,6 @@ enum MatchMethod {
     Incremental,
     /// Hidden-Markov matcher (Viterbi, network distances, bounded lag).
     Hmm,
-}
-
-/// The HMM's probability model (`match --model`).
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum MatchModel {
-    /// Per-survivor drift estimates, emissions per candidate pair, smoothed confidence.
-    Drift,
-    /// Newson and Krumm: one emission per candidate, Viterbi, filtered confidence (less work per point).
-    Independent,
 }
 
 #[derive(Subcommand)]
@@ -444,10 +435,7 @@ fn run(cli: Cli) -> Result<()> {
                         MatchMethod::Incremental => workflow::MatchMethod::Incremental,
                         MatchMethod::Hmm => workflow::MatchMethod::Hmm,
                     },
-                    model: match model {
-                        MatchModel::Drift => waymark::matching::HmmModel::Drift,
-                        MatchModel::Independent => waymark::matching::HmmModel::Independent,
-                    },
+                    model,
                     radius_m,
                     sigma_m,
                     max_speed_kmh,

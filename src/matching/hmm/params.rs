@@ -18,6 +18,19 @@ pub enum HmmModel {
     Independent,
 }
 
+impl std::str::FromStr for HmmModel {
+    type Err = String;
+
+    /// `drift` or `independent` (`match --model`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "drift" => Ok(HmmModel::Drift),
+            "independent" => Ok(HmmModel::Independent),
+            _ => Err("expected one of: drift, independent".into()),
+        }
+    }
+}
+
 /// Parameters of the HMM matcher.
 #[derive(Debug, Clone, Copy)]
 pub struct HmmParams {
