@@ -104,6 +104,19 @@ fn bench_track(c: &mut Criterion, group: &str, net: &Network, fixes: &[Fix]) {
             match_track(&mut m, fixes).len()
         })
     });
+    // `match --model independent`'s matcher (one emission per candidate, at
+    // most 8 candidates, filtered confidence).
+    let lean = HmmParams {
+        model: waymark::matching::HmmModel::Independent,
+        max_candidates: waymark::matching::options::INDEPENDENT_MAX_CANDIDATES,
+        ..HmmParams::default()
+    };
+    g.bench_function(BenchmarkId::new("hmm_independent", fixes.len()), |b| {
+        b.iter(|| {
+            let mut m = HmmMatcher::new(net, lean);
+            match_track(&mut m, fixes).len()
+        })
+    });
     g.finish();
 }
 

@@ -5,12 +5,12 @@
 //! before each repeat (cold) or kept between repeats (warm); prints points
 //! per second (BENCHMARKS.md, "Matching").
 //!
-//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M|-] [warm]
+//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent]
 //! (RADIUS_M: `--radius-m`, e.g. a peer's search radius, instead of the
 //! radius taken from the track; `-`: from the track. `warm`: only the warm
 //! repeats, the first of them filling the cache, for counting the warm
 //! repeats' instructions alone under callgrind: a run of REPEATS + 1 minus
-//! one of 1).
+//! one of 1. `independent`: `match --model independent`).
 
 use std::time::Instant;
 use waymark::matching::inputs::read_track_file;
@@ -20,11 +20,19 @@ use waymark::network::{LoadOptions, Network};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    let flags = args.get(4..).unwrap_or_default();
     anyhow::ensure!(
-        (3..=4).contains(&args.len()) || (args.len() == 5 && args[4] == "warm"),
-        "usage: match_bench MAP TRACK REPEATS [RADIUS_M|-] [warm]"
+        args.len() >= 3
+            && flags.iter().all(|f| f == "warm" || f == "independent")
+            && flags.len() <= 2,
+        "usage: match_bench MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent]"
     );
-    let warm_only = args.get(4).is_some();
+    let warm_only = flags.iter().any(|f| f == "warm");
+    let model = if flags.iter().any(|f| f == "independent") {
+        waymark::matching::HmmModel::Independent
+    } else {
+        waymark::matching::HmmModel::Drift
+    };
     let net = Network::load(std::path::Path::new(&args[0]), &LoadOptions::default())?;
     let (rows, _) = read_track_file(std::path::Path::new(&args[1]))?;
     let repeats: usize = args[2].parse()?;
@@ -34,6 +42,7 @@ fn main() -> anyhow::Result<()> {
             .filter(|r| *r != "-")
             .map(|r| r.parse())
             .transpose()?,
+        model,
         ..MatchOptions::default()
     };
     opts.validate()?;

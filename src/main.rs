@@ -90,6 +90,9 @@ enum Command {
         /// Matcher.
         #[arg(long, value_enum, default_value = "hmm")]
         method: MatchMethod,
+        /// The HMM's model: drift (per-survivor drift, smoothed confidence) or independent (Newson and Krumm: one emission per candidate, filtered confidence, less work per point).
+        #[arg(long, default_value = "drift")]
+        model: waymark::matching::HmmModel,
         /// Scores the complete path against the roads actually driven (CSV with road_id[,length_m]).
         #[arg(long, value_name = "TRUTH.csv")]
         truth: Option<PathBuf>,
@@ -412,6 +415,7 @@ fn run(cli: Cli) -> Result<()> {
             track,
             out: file,
             method,
+            model,
             truth,
             path,
             path_geojson,
@@ -431,6 +435,7 @@ fn run(cli: Cli) -> Result<()> {
                         MatchMethod::Incremental => workflow::MatchMethod::Incremental,
                         MatchMethod::Hmm => workflow::MatchMethod::Hmm,
                     },
+                    model,
                     radius_m,
                     sigma_m,
                     max_speed_kmh,

@@ -29,7 +29,7 @@ pub mod stream;
 pub(crate) mod synthetic;
 pub mod track;
 
-pub use hmm::{HmmMatcher, HmmParams};
+pub use hmm::{HmmMatcher, HmmModel, HmmParams};
 pub use incremental::{IncrementalMatcher, IncrementalParams};
 pub use paths::{MatrixScratch, NetworkDistances, OnSection};
 pub use synthetic::{along_route, route_truth, SyntheticTrack, TrackModel};
@@ -104,7 +104,9 @@ pub struct MatchedPoint {
     /// Distance from the fix to the matched point (m).
     pub distance_m: f64,
     /// Confidence in 0..=1 (the HMM's smoothed posterior probability of the
-    /// chosen road over its lag window; the incremental matcher's score f).
+    /// chosen road over its lag window, under [`HmmModel::Independent`] its
+    /// filtered share of the step's Viterbi scores; the incremental
+    /// matcher's score f).
     pub confidence: f64,
     /// Direction of travel along the section (`true`: its digitised
     /// direction), where the matcher decides it (the HMM).

@@ -3,7 +3,7 @@
 
 use super::drift::{emission, Drift};
 use super::geometry::{clamp_to_range, dist, nearest_on_pieces, with_raw};
-use super::params::{route_bound, HmmParams};
+use super::params::{route_bound, HmmModel, HmmParams};
 use super::probability::{argmax, normalise, softmax_into};
 use super::state::Step;
 use crate::matching::paths::NetworkDistances;
@@ -144,10 +144,19 @@ impl<'a> HmmMatcher<'a> {
 
     /// The common drift predicted to the fix at `p`.
     pub(super) fn common_drift(&self, p: [f64; 2]) -> Drift {
+        if self.independent() {
+            // The independent model's drift is its prior, always.
+            return Drift::prior(self.params.drift_sigma_m);
+        }
         match self.drift_at {
             Some(q) => self.predict(&self.drift, dist(p, q)),
             None => self.drift,
         }
+    }
+
+    /// Is the model [`HmmModel::Independent`]?
+    pub(super) fn independent(&self) -> bool {
+        self.params.model == HmmModel::Independent
     }
 
     /// The longest route a transition may take ([`route_bound`]).
@@ -184,7 +193,11 @@ impl<'a> HmmMatcher<'a> {
     ) {
         let mut post = std::mem::take(&mut self.post_buf);
         if !known {
-            self.front_posterior(&mut post);
+            if self.independent() {
+                self.front_filtered(&mut post);
+            } else {
+                self.front_posterior(&mut post);
+            }
         }
         let step = self.window.pop_front().expect("a step");
         let net = self.net;
@@ -264,6 +277,15 @@ impl<'a> HmmMatcher<'a> {
         self.smoother.clear();
         let mut ch = std::mem::take(&mut self.choice_buf);
         self.choices(self.window.len(), &mut ch);
+        if self.independent() {
+            // No backward pass: each step's filtered confidence.
+            for i in 0..ch.len() {
+                let next = ch.get(i + 1).copied();
+                self.emit_front(ch[i], next, false, out);
+            }
+            self.choice_buf = ch;
+            return;
+        }
         let (betas, at) = self.window_betas();
         for i in 0..ch.len() {
             // The posterior of step i, now at the window's front.
@@ -364,7 +386,12 @@ impl Matcher for HmmMatcher<'_> {
         }
 
         let chained = if self.pending_break.is_none() && !self.window.is_empty() {
-            if self.transition(&mut step) {
+            let reached = if self.independent() {
+                self.transition_independent(&mut step)
+            } else {
+                self.transition(&mut step)
+            };
+            if reached {
                 true
             } else {
                 self.pending_break = Some(BreakReason::NoPath);
@@ -395,7 +422,7 @@ impl Matcher for HmmMatcher<'_> {
                 c.anchor_m = 0.0;
                 c.anchor_road = c.road;
                 c.drift = common;
-                if self.params.track_drift {
+                if self.params.track_drift && !self.independent() {
                     let e = emission(&c.line, fix.enu, &common, r2);
                     c.drift.update(e.normal, e.nu, e.s);
                 }
@@ -403,7 +430,12 @@ impl Matcher for HmmMatcher<'_> {
                 step.back.push(0);
             }
             step.pair.clear();
-            softmax_into(&step.score, &mut step.alpha);
+            if self.independent() {
+                // No forward vector in the independent model.
+                step.alpha.clear();
+            } else {
+                softmax_into(&step.score, &mut step.alpha);
+            }
         }
         let best = argmax(&step.score) as usize;
         self.drift = step.cands[best].drift;

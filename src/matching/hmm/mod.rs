@@ -77,10 +77,20 @@
 //!   `lag` steps late anyway, so the later fixes inform it at no delay. The
 //!   oldest step's backward vector is kept incrementally (`smoother`), not
 //!   recomputed over the whole window for every step.
+//! - A leaner model, [`HmmModel::Independent`] (`match --model
+//!   independent`; module `independent`): Newson and Krumm's own, each
+//!   candidate's emission computed once (under the drift's prior: Gaussian
+//!   in its distance to the road, σ² = `drift_sigma_m`² + `sigma_m`²) and
+//!   the Viterbi over the pairs adding the transition only (same route
+//!   distances, bound and U-turn rule); no forward or backward vector, the
+//!   confidence the chosen road's share of the soft-max of its step's
+//!   Viterbi scores. It decides what the drift model decides with
+//!   `track_drift = false` (tests/matching_independent.rs).
 
 mod candidates;
 mod drift;
 mod geometry;
+mod independent;
 mod matcher;
 mod params;
 mod probability;
@@ -89,4 +99,4 @@ mod state;
 mod transitions;
 
 pub use matcher::HmmMatcher;
-pub use params::{route_bound, HmmParams};
+pub use params::{route_bound, HmmModel, HmmParams};

@@ -1,5 +1,36 @@
 //! The HMM matcher's parameters and their defaults.
 
+/// The HMM's probability model (`match --model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum HmmModel {
+    /// Per-survivor drift estimates: each candidate's emission under each
+    /// predecessor's drift (one per pair), and the smoothed
+    /// (forward–backward) confidence over the lag window. The default.
+    #[default]
+    Drift,
+    /// Newson and Krumm's (2009) model: one emission per candidate,
+    /// Gaussian in the fix's distance to the road (σ² = `drift_sigma_m`² +
+    /// `sigma_m`², the heading's part added), independent of the path into
+    /// it; a Viterbi over the pairs with the transition only; confidence
+    /// the chosen road's filtered max-product probability (the soft-max of
+    /// the decided step's Viterbi scores), no forward–backward pass. Less
+    /// work per point (see the module documentation).
+    Independent,
+}
+
+impl std::str::FromStr for HmmModel {
+    type Err = String;
+
+    /// `drift` or `independent` (`match --model`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "drift" => Ok(HmmModel::Drift),
+            "independent" => Ok(HmmModel::Independent),
+            _ => Err("expected one of: drift, independent".into()),
+        }
+    }
+}
+
 /// Parameters of the HMM matcher.
 #[derive(Debug, Clone, Copy)]
 pub struct HmmParams {
@@ -67,6 +98,9 @@ pub struct HmmParams {
     /// σ `drift_sigma_m`), i.e. the classic white-noise emission with σ
     /// √(`sigma_m`² + `drift_sigma_m`²).
     pub track_drift: bool,
+    /// The probability model ([`HmmModel`]); [`HmmModel::Independent`]
+    /// keeps the drift at its prior whatever `track_drift` says.
+    pub model: HmmModel,
 }
 
 impl Default for HmmParams {
@@ -107,6 +141,7 @@ impl Default for HmmParams {
             // issue's design case: 30 m on routes of a few hundred metres).
             drift_correlation_m: 400.0,
             track_drift: true,
+            model: HmmModel::Drift,
         }
     }
 }
