@@ -85,19 +85,24 @@ impl Plan {
         }
         // Each window's exact worst bound, its pass stopped once the rest of
         // the route cannot raise it (Budget::worst_bound_settled).
-        let worst = (0..n.saturating_sub(k - 1).max(1))
-            .into_par_iter()
-            .map(|d| {
-                budget.worst_bound_settled(
-                    fixes[d].0,
-                    all.sites[d].filter.clone(),
-                    all,
-                    d + k,
-                    f64::INFINITY,
-                    0.0,
-                )
-            })
-            .reduce(|| 0.0, f64::max);
+        let exact = |d: usize| {
+            budget.worst_bound_settled(
+                fixes[d].0,
+                all.sites[d].filter.clone(),
+                all,
+                d + k,
+                f64::INFINITY,
+                0.0,
+            )
+        };
+        let windows = n.saturating_sub(k - 1).max(1);
+        let worst = match candidate_windows(budget, &fixes, all, k, windows) {
+            Some(d) => d.into_par_iter().map(exact).reduce(|| 0.0, f64::max),
+            None => (0..windows)
+                .into_par_iter()
+                .map(exact)
+                .reduce(|| 0.0, f64::max),
+        };
         Some(all_read.max(worst))
     }
 
@@ -357,4 +362,89 @@ fn common_metadata(
         },
     );
     meta
+}
+
+/// The relative margin of [`candidate_windows`]' lower bounds and of its
+/// settle level: a covariance carried by the stretch maps and the stepped
+/// one differ by round-off (≈ 1e-12 relative, at most 7e-11 with the
+/// filter's state: module `carry`), and a window's worst bound is
+/// certified under a level with a 1e-9 margin
+/// ([`super::stretch::INTERIOR_MARGIN`], [`Budget::worst_bound_settled`]);
+/// 1e-8 is above both.
+const WINDOW_MARGIN: f64 = 1e-8;
+
+/// The windows of [`Plan::missed_bound_with`] (missed fixes
+/// `d..d + k`, for `d < windows`) whose exact worst bound may be the
+/// largest, or None without stretch maps (then every window is run
+/// exactly). Run exactly as before, they give the same missed-read bound
+/// bit for bit, for far fewer steps: the others are shown lower by runs
+/// that the maps carry almost everywhere.
+///
+/// 1. A lower bound `L_d` of each window's worst: its filter carried by
+///    the maps to the next read fix's sample, its bound there (a sample the
+///    exact run visits before that fix) lowered by [`WINDOW_MARGIN`].
+///    `low` is the largest of them and of the all-read bound (`grid_max`,
+///    part of the result), so `low` is at most the result.
+/// 2. Each window run with the settle level `s = low · (1 − margin)`
+///    ([`Budget::worst_bound_settled`]): a result at most `s` proves the
+///    window's worst at most `s` (up to the 1e-9 margins of the maps and
+///    the settle test), below `low`, so it cannot be the largest; the
+///    others are kept, and so is the window `low` came from (its worst is
+///    at least `low`), so the kept windows' largest, with the all-read
+///    bound, is the result.
+fn candidate_windows(
+    budget: &Budget<'_>,
+    fixes: &[(usize, Mounting)],
+    all: &AllRead,
+    k: usize,
+    windows: usize,
+) -> Option<Vec<usize>> {
+    use rayon::prelude::*;
+    budget.stretches()?;
+    let lows: Vec<f64> = (0..windows)
+        .into_par_iter()
+        .map(|d| {
+            let from = fixes[d].0;
+            match fixes.get(d + k) {
+                Some(&(to, _)) if to > from => {
+                    let g = budget.filter_at(from, all.sites[d].filter.clone(), to);
+                    budget.bound(&g.position_cov_enu()) * (1.0 - WINDOW_MARGIN)
+                }
+                _ => 0.0,
+            }
+        })
+        .collect();
+    let (best, low) =
+        lows.iter().enumerate().fold(
+            (None, all.grid_max),
+            |b, (d, &l)| {
+                if l > b.1 {
+                    (Some(d), l)
+                } else {
+                    b
+                }
+            },
+        );
+    let settle = low * (1.0 - WINDOW_MARGIN);
+    let kept = (0..windows)
+        .into_par_iter()
+        .filter(|&d| {
+            Some(d) == best
+                || budget.worst_bound_settled(
+                    fixes[d].0,
+                    all.sites[d].filter.clone(),
+                    all,
+                    d + k,
+                    f64::INFINITY,
+                    settle,
+                ) > settle
+        })
+        .collect::<Vec<usize>>();
+    tracing::debug!(
+        windows,
+        kept = kept.len(),
+        low,
+        "missed-read windows run exactly"
+    );
+    Some(kept)
 }
