@@ -433,7 +433,7 @@ fn missed_worst_runs_only_the_candidate_windows() {
                 })
                 .fold(0.0, f64::max);
             let s1 = budget.passes();
-            let fast = budget.missed_worst(&all, k);
+            let fast = budget.missed_worst(&all, k, f64::INFINITY);
             let s2 = budget.passes();
             // The same windows run the same way: equal up to the stretch
             // nodes a run may use once built (a node's map instead of its

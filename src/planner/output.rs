@@ -49,6 +49,18 @@ impl Plan {
     /// bound on a [`MISSED_GRID_M`] grid
     /// ([`Budget::all_read_gridded`]); the same numbers, one pass fewer.
     pub fn missed_bound_with(&self, budget: &Budget<'_>, all: Option<&AllRead>) -> Option<f64> {
+        self.missed_bound_reusing(budget, all.map(|a| (a, None)))
+    }
+
+    /// [`Plan::missed_bound_with`], also reusing the windows' largest bound
+    /// when given with `all` ([`Budget::missed_worst`] of `all` and the
+    /// plan's `k`, below the requirement: the forward check's, which
+    /// computed it).
+    pub(crate) fn missed_bound_reusing(
+        &self,
+        budget: &Budget<'_>,
+        all: Option<(&AllRead, Option<f64>)>,
+    ) -> Option<f64> {
         let k = self.tolerate_missed_reads;
         if k == 0 || self.tags.is_empty() {
             return None;
@@ -70,11 +82,11 @@ impl Plan {
             .map(|&(i, _)| samples[i].avp.distance_m)
             .collect();
         let own;
-        let all = match all {
-            Some(a) if a.fixes == fixes && a.grid_m == MISSED_GRID_M => a,
+        let (all, worst) = match all {
+            Some((a, w)) if a.fixes == fixes && a.grid_m == MISSED_GRID_M => (a, w),
             _ => {
                 own = budget.all_read(&fixes, MISSED_GRID_M, &at);
-                &own
+                (&own, None)
             }
         };
         let all_read = all.grid_max;
@@ -83,7 +95,7 @@ impl Plan {
             return None;
         }
         // Each window's exact worst bound (the candidates' only).
-        let worst = budget.missed_worst(all, k);
+        let worst = worst.unwrap_or_else(|| budget.missed_worst(all, k, f64::INFINITY));
         Some(all_read.max(worst))
     }
 
@@ -351,7 +363,9 @@ impl Budget<'_> {
     /// consecutive fixes missed: for each window (fixes `d..d + k` missed),
     /// its filter just before fix `d` run to the end with every later fix
     /// read, its pass stopped once the rest of the route cannot raise its
-    /// worst ([`Budget::worst_bound_settled`]); 0 without windows.
+    /// worst ([`Budget::worst_bound_settled`]); 0 without windows. When
+    /// it exceeds `stop_above_m`, some value above that (the runs stop
+    /// early); otherwise the runs are the same as with no stop.
     ///
     /// With the stretch maps, only the windows that may hold the largest
     /// are run so, and the value is the same as running them all, for less
@@ -367,7 +381,7 @@ impl Budget<'_> {
     ///    window's worst at most `s` (up to the 1e-9 margins of the maps and
     ///    of the settle test), below `max(w, a)`, so it cannot raise the
     ///    result; a window above `s` is run exactly.
-    pub fn missed_worst(&self, all: &AllRead, k: usize) -> f64 {
+    pub fn missed_worst(&self, all: &AllRead, k: usize, stop_above_m: f64) -> f64 {
         use rayon::prelude::*;
         let fixes = &all.fixes;
         let n = fixes.len();
@@ -380,7 +394,7 @@ impl Budget<'_> {
                 all.sites[d].filter.clone(),
                 all,
                 d + k,
-                f64::INFINITY,
+                stop_above_m,
                 settle,
             )
         };
@@ -422,6 +436,9 @@ impl Budget<'_> {
             .collect();
         let first = (0..windows).fold(0, |b, d| if probe[d] > probe[b] { d } else { b });
         let w = run(first, 0.0);
+        if w > stop_above_m {
+            return w;
+        }
         let settle = w.max(all.grid_max) * (1.0 - WINDOW_MARGIN);
         let rest = (0..windows)
             .into_par_iter()
