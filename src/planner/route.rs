@@ -469,7 +469,7 @@ pub fn plan_with_stages(
                 .iter()
                 .map(|&i| (sites[i].sample, mountings[i]))
                 .collect();
-            let (ok, all) = robust_all_read(
+            let (ok, all, worst) = robust_all_read(
                 &budget,
                 &fixes3,
                 k,
@@ -480,7 +480,7 @@ pub fn plan_with_stages(
             if ok {
                 chosen = c3;
                 forward_used = true;
-                checked = Some(all);
+                checked = Some((all, worst));
             }
             phase("forward check");
         }
@@ -552,13 +552,17 @@ pub fn plan_with_stages(
     let at: Vec<f64> = chosen.iter().map(|&i| sites[i].distance_m).collect();
     // Also the missed-read bound's all-read pass (its profile grid).
     // (The forward check's, when it checked this plan: the same pass.)
-    let all = match checked {
-        Some(a) if a.fixes == fixes && a.grid_m == super::output::MISSED_GRID_M => a,
-        _ => budget.all_read_gridded(
-            &fixes,
-            settings.candidate_spacing_m,
-            &at,
-            super::output::MISSED_GRID_M,
+    // (And the check's missed-read windows' largest bound.)
+    let (all, windows_worst) = match checked {
+        Some((a, w)) if a.fixes == fixes && a.grid_m == super::output::MISSED_GRID_M => (a, w),
+        _ => (
+            budget.all_read_gridded(
+                &fixes,
+                settings.candidate_spacing_m,
+                &at,
+                super::output::MISSED_GRID_M,
+            ),
+            None,
         ),
     };
     let own = if fixes.iter().all(|f| f.0 > 0) {
@@ -678,7 +682,8 @@ pub fn plan_with_stages(
     };
     // The largest bound with any k consecutive tags missed, on the same
     // covariance analysis.
-    plan.predicted_max_bound95_missed_m = plan.missed_bound_with(&budget, Some(&all));
+    plan.predicted_max_bound95_missed_m =
+        plan.missed_bound_reusing(&budget, Some((&all, windows_worst)));
     phase("missed-tag bound");
     plan.filter_passes = budget.passes();
     if validate {

@@ -115,7 +115,7 @@ pub fn robust_with_progress(
     every_m: f64,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> bool {
-    robust_all_read(budget, fixes, k, requirement_m, every_m, progress).0
+    robust_early(budget, fixes, k, requirement_m, every_m, progress).0
 }
 
 /// [`robust_with_progress`], also giving its all-read pass: the one a
@@ -123,8 +123,42 @@ pub fn robust_with_progress(
 /// and its missed-read bound (`Budget::all_read_gridded` with profile
 /// points every `every_m`, snapshots at the fixes and the
 /// `MISSED_GRID_M` grid), so that the plan reuses it (one filter pass
-/// less on the paper's drive).
+/// less on the paper's drive), and, when the check passes with `k > 0`,
+/// the largest bound of the windows of `k` missed fixes
+/// ([`Budget::missed_worst`], the missed-read bound's own, stopped above
+/// the requirement: the same check, and the plan reuses it).
 pub(crate) fn robust_all_read(
+    budget: &Budget<'_>,
+    fixes: &[(usize, Mounting)],
+    k: usize,
+    requirement_m: f64,
+    every_m: f64,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+) -> (bool, AllRead, Option<f64>) {
+    let at: Vec<f64> = fixes
+        .iter()
+        .map(|&(i, _)| budget.samples()[i].avp.distance_m)
+        .collect();
+    let all = budget.all_read_gridded(fixes, every_m, &at, super::record::MISSED_GRID_M);
+    if all.profile.iter().map(|p| p.bound95_m).fold(0.0, f64::max) > requirement_m {
+        return (false, all, None);
+    }
+    if k == 0 || fixes.is_empty() {
+        return (true, all, None);
+    }
+    if all.sites.len() != fixes.len() {
+        return (false, all, None);
+    }
+    let worst = budget.missed_worst(&all, k, requirement_m);
+    if let Some(p) = progress {
+        p(1, 1);
+    }
+    let ok = worst <= requirement_m;
+    (ok, all, ok.then_some(worst))
+}
+
+/// [`robust_with_progress`] with its all-read pass.
+fn robust_early(
     budget: &Budget<'_>,
     fixes: &[(usize, Mounting)],
     k: usize,
