@@ -253,6 +253,47 @@ pub fn process_noise_diag(noise: &NoiseModel) -> StateVec {
     q
 }
 
+/// Most entries of one row of F: 12 (the φ and δv rows; δp rows have 6,
+/// the others 1).
+const ROW_MAX: usize = 16;
+
+/// The entries of A = F T grouped by row (in their order within a row).
+struct ByRow<'a> {
+    a: &'a [(u8, u8, f64)],
+    count: [u8; N],
+    by_row: [[u8; ROW_MAX]; N],
+}
+
+impl ByRow<'_> {
+    /// `out` = X Φ^T = X + X A^T (X column-major, `x` its columns): column i
+    /// is column i of X plus f × column k of X over the entries (i, k, f)
+    /// of row i of A, in their order, accumulated in a local column.
+    #[inline(always)]
+    fn times_phi_t(&self, x: &[[f64; N]; N], out: &mut [[f64; N]; N]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            let es = &self.by_row[i][..self.count[i] as usize];
+            let Some((&e0, rest)) = es.split_first() else {
+                *o = x[i];
+                continue;
+            };
+            let (_, k, f) = self.a[e0 as usize];
+            let (xi, xk) = (&x[i], &x[k as usize]);
+            let mut col = [0.0; N];
+            for r in 0..N {
+                col[r] = xi[r] + f * xk[r];
+            }
+            for &e in rest {
+                let (_, k, f) = self.a[e as usize];
+                let xk = &x[k as usize];
+                for r in 0..N {
+                    col[r] += f * xk[r];
+                }
+            }
+            *o = col;
+        }
+    }
+}
+
 /// The covariance of the error state.
 #[derive(Debug, Clone)]
 pub struct Covariance {
@@ -298,6 +339,7 @@ impl Covariance {
     /// the result is bit for bit that of the column-by-column form with
     /// nalgebra's `axpy` it replaces (a test keeps that form and checks it),
     /// in about a third of the instructions.
+    #[allow(clippy::needless_range_loop)] // (i, j) indices of a matrix
     pub fn propagate(&mut self, m: &ErrorModelInput, t: f64) {
         let mut n = 0usize;
         let nz = &mut self.nz;
@@ -306,54 +348,36 @@ impl Covariance {
             n += 1;
         });
         let a = &self.nz[..n];
-        // Counting sort of the entries by row (stable).
-        let mut first = [0usize; N + 1];
-        for &(i, _, _) in a {
-            first[i as usize + 1] += 1;
+        // The entries by row, in their order (indices into `a`).
+        let mut count = [0u8; N];
+        let mut by_row = [[0u8; ROW_MAX]; N];
+        for (e, &(i, _, _)) in a.iter().enumerate() {
+            let c = &mut count[i as usize];
+            by_row[i as usize][*c as usize] = e as u8;
+            *c += 1;
         }
-        for i in 0..N {
-            first[i + 1] += first[i];
-        }
-        let mut next = first;
-        let mut by_row = [(0usize, 0.0f64); 160];
-        for &(i, k, x) in a {
-            by_row[next[i as usize]] = (k as usize, x);
-            next[i as usize] += 1;
-        }
-        let rows = |i: usize| &by_row[first[i]..first[i + 1]];
-        // Column i of X Φ^T = column i of X + Σ x × column k of X over the
-        // entries (i, k, x) of row i of A (X column-major, X's columns `x`).
-        let times_phi_t = |x: &[[f64; N]; N], out: &mut [[f64; N]; N]| {
-            for (i, col) in out.iter_mut().enumerate() {
-                *col = x[i];
-                for &(k, f) in rows(i) {
-                    let xk = &x[k];
-                    for r in 0..N {
-                        col[r] += f * xk[r];
-                    }
-                }
-            }
-        };
-        let mut d = [[0.0; N]; N];
-        times_phi_t(&self.p.data.0, &mut d);
-        let mut e = [[0.0; N]; N];
+        let rows = ByRow { a, count, by_row };
+        // D = P Φ^T.
+        let mut d = self.p.data.0;
+        rows.times_phi_t(&self.p.data.0, &mut d);
+        // E = D^T.
+        let mut e = d;
         for (i, col) in d.iter().enumerate() {
             for (j, &v) in col.iter().enumerate() {
                 e[j][i] = v;
             }
         }
-        // C = E Φ^T (into d, free now).
-        times_phi_t(&e, &mut d);
-        let c = &d;
-        // P = C + Q T, symmetrized.
-        let out = &mut self.p.data.0;
+        // C = E Φ^T, in P; then P = C + Q T, symmetrized.
+        let c = &mut self.p.data.0;
+        rows.times_phi_t(&e, c);
+        for i in 0..N {
+            c[i][i] += self.q[i] * t;
+        }
         for j in 0..N {
-            for i in 0..N {
-                out[j][i] = if i == j {
-                    c[i][i] + self.q[i] * t
-                } else {
-                    0.5 * (c[j][i] + c[i][j])
-                };
+            for i in 0..j {
+                let s = 0.5 * (c[j][i] + c[i][j]);
+                c[j][i] = s;
+                c[i][j] = s;
             }
         }
         if let Some(el) = self.element.as_mut() {
@@ -400,6 +424,7 @@ impl Covariance {
     /// estimate minus the measurement), rows `h`, noise `r` and gate threshold
     /// `gate` on ν^T S^{-1} ν. Returns the outcome and the error-state estimate
     /// (zero when rejected).
+    #[allow(clippy::needless_range_loop)] // (i, j) indices of a matrix
     pub fn update<const M: usize>(
         &mut self,
         z: &SVector<f64, M>,
@@ -433,15 +458,31 @@ impl Covariance {
         // K = P H^T S^{-1}
         let k = pht * si;
         let dx = k * z;
-        // P ← P − K (P H^T)^T: symmetric, so on the lower triangle (one
-        // rank-1 update per row of H) and mirrored.
-        for a in 0..M {
-            self.p.syger(-1.0, &k.column(a), &pht.column(a), 1.0);
+        // P ← P − K (P H^T)^T: symmetric, so its lower triangle, mirrored.
+        // Element (i, j), i ≥ j, is P_ij − (P H^T)_ja K_ia for a = 0, 1, …
+        // in turn: the operations of nalgebra's `syger(-1, K_a, (P H^T)_a,
+        // 1)` one row of H after the other, in their order. The updates run
+        // over whole columns (fixed length, which vectorizes); the upper
+        // triangle they also change is then overwritten by the mirror.
+        let ks: [[f64; N]; M] = std::array::from_fn(|a| k.column(a).into());
+        let ys: [[f64; N]; M] = std::array::from_fn(|a| pht.column(a).into());
+        let p = &mut self.p.data.0;
+        for (j, col) in p.iter_mut().enumerate() {
+            for a in 0..M {
+                let (y, ka) = (ys[a][j], &ks[a]);
+                for i in 0..N {
+                    col[i] -= y * ka[i];
+                }
+            }
         }
-        self.p.fill_upper_triangle_with_lower_triangle();
-        for i in 0..N {
-            if self.p[(i, i)] < 1e-30 {
-                self.p[(i, i)] = 1e-30;
+        for j in 1..N {
+            for i in 0..j {
+                p[j][i] = p[i][j];
+            }
+        }
+        for (i, col) in p.iter_mut().enumerate() {
+            if col[i] < 1e-30 {
+                col[i] = 1e-30;
             }
         }
         if let Some(el) = self.element.as_mut() {
@@ -541,6 +582,40 @@ mod tests {
             }
         }
         c
+    }
+
+    /// The gated update's covariance is bit for bit that of nalgebra's
+    /// `syger` form it replaced, and equals the Joseph-free textbook
+    /// P − K H P to round-off (relative 1e-12 of its largest entry).
+    #[test]
+    fn update_is_the_rank_one_form() {
+        let mut c = filled();
+        let p0 = c.p;
+        let mut h = Rows::<3>::zeros();
+        h[(0, DP + 1)] = 3.2e6;
+        h[(1, DP)] = 6.4e6;
+        h[(2, DP + 2)] = 1.0;
+        h[(2, BARO)] = 1.0;
+        let r = SMatrix::<f64, 3, 3>::from_diagonal(&nalgebra::Vector3::new(0.3, 0.2, 1.0));
+        let z = SVector::<f64, 3>::new(0.5, -0.2, 1.0);
+        let (o, _) = c.update(&z, &h, &r, f64::INFINITY);
+        assert!(o.accepted);
+        let pht = p0 * h.transpose();
+        let si = Cholesky::new(r + h * pht).expect("S > 0").inverse();
+        let k = pht * si;
+        let mut reference = p0;
+        for a in 0..3 {
+            reference.syger(-1.0, &k.column(a), &pht.column(a), 1.0);
+        }
+        reference.fill_upper_triangle_with_lower_triangle();
+        for i in 0..N {
+            reference[(i, i)] = reference[(i, i)].max(1e-30);
+        }
+        assert_eq!(c.p, reference, "bit for bit the syger form");
+        let textbook = p0 - k * h * p0;
+        let diff = (c.p - textbook).amax();
+        assert!(diff <= 1e-12 * p0.amax(), "{diff}");
+        assert!((c.p - p0).amax() > 1e-6 * p0.amax(), "the fix moves P");
     }
 
     /// The propagation is bit for bit the column form it replaced, and
