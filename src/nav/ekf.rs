@@ -424,7 +424,6 @@ impl Covariance {
     /// estimate minus the measurement), rows `h`, noise `r` and gate threshold
     /// `gate` on ν^T S^{-1} ν. Returns the outcome and the error-state estimate
     /// (zero when rejected).
-    #[allow(clippy::needless_range_loop)] // (i, j) indices of a matrix
     pub fn update<const M: usize>(
         &mut self,
         z: &SVector<f64, M>,
@@ -458,29 +457,23 @@ impl Covariance {
         // K = P H^T S^{-1}
         let k = pht * si;
         let dx = k * z;
-        // P ← P − K (P H^T)^T: symmetric, so its lower triangle, mirrored.
-        // Element (i, j), i ≥ j, is P_ij − (P H^T)_ja K_ia for a = 0, 1, …
-        // in turn: the operations of nalgebra's `syger(-1, K_a, (P H^T)_a,
-        // 1)` one row of H after the other, in their order. The updates run
-        // over whole columns (fixed length, which vectorizes); the upper
-        // triangle they also change is then overwritten by the mirror.
-        let ks: [[f64; N]; M] = std::array::from_fn(|a| k.column(a).into());
-        let ys: [[f64; N]; M] = std::array::from_fn(|a| pht.column(a).into());
+        // P ← P − K (P H^T)^T: symmetric, so on the lower triangle (one
+        // rank-1 update per row of H: P_ij −= (P H^T)_ja K_ia for i ≥ j,
+        // the operations of nalgebra's `syger(-1, K_a, (P H^T)_a, 1)` in
+        // its order, on fixed-size columns) and mirrored.
         let p = &mut self.p.data.0;
-        for (j, col) in p.iter_mut().enumerate() {
-            for a in 0..M {
-                let (y, ka) = (ys[a][j], &ks[a]);
-                for i in 0..N {
+        for a in 0..M {
+            let ka: [f64; N] = k.column(a).into();
+            let ya: [f64; N] = pht.column(a).into();
+            for (j, col) in p.iter_mut().enumerate() {
+                let y = ya[j];
+                for i in j..N {
                     col[i] -= y * ka[i];
                 }
             }
         }
-        for j in 1..N {
-            for i in 0..j {
-                p[j][i] = p[i][j];
-            }
-        }
-        for (i, col) in p.iter_mut().enumerate() {
+        self.p.fill_upper_triangle_with_lower_triangle();
+        for (i, col) in self.p.data.0.iter_mut().enumerate() {
             if col[i] < 1e-30 {
                 col[i] = 1e-30;
             }
