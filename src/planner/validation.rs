@@ -19,14 +19,30 @@ pub fn validate_plan(
     runs: u64,
     seed: u64,
 ) -> Result<Validation> {
-    let res = simulate_with(scn, truth, &plan.sim_tags(), runs.max(1), seed, None)?;
-    Ok(validation_of(
+    validate_plan_on(scn, truth, plan, &plan.sim_tags(), runs, seed).map(|(v, _)| v)
+}
+
+/// [`validate_plan`] with the tags `tags` simulated in place of the plan's
+/// own (`waymark plan` passes its tags as written to `tags.csv`, the
+/// coordinates installers get, and its installed tags), giving the
+/// simulated runs too (`waymark demo` takes its report's runs from them).
+pub(crate) fn validate_plan_on(
+    scn: &Scenario,
+    truth: &TruthSource,
+    plan: &Plan,
+    tags: &[crate::sim::tags::Tag],
+    runs: u64,
+    seed: u64,
+) -> Result<(Validation, crate::sim::SimResult)> {
+    let res = simulate_with(scn, truth, tags, runs.max(1), seed, None)?;
+    let v = validation_of(
         &res,
         plan,
         runs.max(1),
         seed,
         scn.planner().requirement_confidence,
-    ))
+    );
+    Ok((v, res))
 }
 
 /// The validation figures of simulated runs, with the rule of the

@@ -1,14 +1,14 @@
 //! `waymark demo`: the main job on the bundled map and scenario.
 
 use super::inputs::check_out_dir;
-use super::plan::{route_plan, write_route_plan, PlanOutcome};
+use super::plan::{route_plan_runs, write_route_plan, written_tags, PlanOutcome};
 use super::progress::Progress;
-use super::simulate::{simulate_loaded, SimulateJob, SimulateOutcome};
+use super::simulate::{first_runs, write_simulation, SimulateJob, SimulateOutcome};
 use crate::error::Result;
 use crate::planner::PlannerSettings;
 use crate::report::{write_report_on, ReportFiles};
 use crate::scenario::Scenario;
-use crate::sim::TruthSource;
+use crate::sim::{simulate_with, TruthSource};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -33,10 +33,15 @@ pub struct DemoOutcome {
 }
 
 /// The main job on `scenario` (the bundled `scenarios/demo.toml`): plans
-/// tags for its route and validates them, simulates the route with the
-/// planned tags as written to `tags.csv` (what installers get), and writes
-/// the HTML report, all into `out_dir`. The scenario, its map and route are
-/// loaded once, for the plan, the simulation and the report's map.
+/// tags for its route and validates them with the tags as written to
+/// `tags.csv` (what installers get), takes the simulation for the report
+/// from the validation's first [`DEMO_SIMULATION_RUNS`] runs (the same
+/// seed, so the same runs; simulated when the validation has fewer), and
+/// writes the HTML report, all into `out_dir`. The scenario, its map and
+/// route are loaded once, for the plan, the simulation and the report's
+/// map. On `scenarios/demo.toml` the simulation's files are those of
+/// `waymark simulate scenarios/demo.toml --tags OUT/tags.csv --runs 20`
+/// (a test checks it).
 pub fn demo_folder(
     scenario: &Path,
     out_dir: &Path,
@@ -48,20 +53,38 @@ pub fn demo_folder(
     let truth = TruthSource::new(&scn)?;
     let settings = PlannerSettings::from_scenario(&scn)?;
     let seed = scn.seed();
-    let plan = route_plan(&scn, &truth, &settings, false, seed, progress)?;
-    let plan = write_route_plan(scenario, out_dir, &scn, plan, t0)?;
-    progress.note(&format!(
-        "waymark demo: simulating the route with the planned tags ({DEMO_SIMULATION_RUNS} runs) for the report"
-    ));
-    let tags = out_dir.join("tags.csv");
+    let (plan, plan_time_s, runs) =
+        route_plan_runs(&scn, &truth, &settings, false, seed, progress)?;
+    // The simulation's tags: the planned tags as written to tags.csv (the
+    // validation's tags, `written_tags`).
+    let tags = written_tags(&scn, &plan)?;
+    let plan = write_route_plan(scenario, out_dir, &scn, (plan, plan_time_s), t0)?;
+    let tags_file = out_dir.join("tags.csv");
     let job = SimulateJob {
         scenario,
-        tags: Some(&tags),
+        tags: Some(&tags_file),
         runs: DEMO_SIMULATION_RUNS,
         seed: None,
         out_dir,
     };
-    let simulation = simulate_loaded(&job, &scn, &truth, progress, Instant::now())?;
+    let t_sim = Instant::now();
+    let result = match runs {
+        // The validation simulated these tags with the same seed: its first
+        // runs are the simulation's, not run again.
+        Some(res) if res.runs.len() as u64 >= DEMO_SIMULATION_RUNS => {
+            progress.note(&format!(
+                "waymark demo: the validation's first {DEMO_SIMULATION_RUNS} runs with the planned tags, for the report"
+            ));
+            first_runs(&scn, seed, res, DEMO_SIMULATION_RUNS)
+        }
+        _ => {
+            progress.note(&format!(
+                "waymark demo: simulating the route with the planned tags ({DEMO_SIMULATION_RUNS} runs) for the report"
+            ));
+            simulate_with(&scn, &truth, &tags, DEMO_SIMULATION_RUNS, seed, None)?
+        }
+    };
+    let simulation = write_simulation(&job, &scn, result, t_sim)?;
     let loaded = truth
         .network()
         .zip(truth.route())
@@ -88,4 +111,44 @@ pub fn demo_folder(
         ],
         elapsed_s: t0.elapsed().as_secs_f64(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::workflow::{simulate_folder, Silent};
+
+    /// The demo's simulation (the validation's first runs) is the
+    /// simulation `waymark simulate scenarios/demo.toml --tags OUT/tags.csv
+    /// --runs 20` runs: its files are the same, byte for byte.
+    #[test]
+    fn demo_simulation_is_the_simulation_of_the_written_tags() {
+        let scenario = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/demo.toml");
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (demo, sim) = (dir.path().join("demo"), dir.path().join("sim"));
+        let o = demo_folder(&scenario, &demo, &Silent).expect("demo");
+        let v = match &o.plan.plan {
+            super::super::plan::PlanFiles::Route(f) => f.plan.validation.clone(),
+            _ => None,
+        };
+        assert!(v.is_some_and(|v| v.runs > DEMO_SIMULATION_RUNS));
+        let tags = demo.join("tags.csv");
+        let job = SimulateJob {
+            scenario: &scenario,
+            tags: Some(&tags),
+            runs: DEMO_SIMULATION_RUNS,
+            seed: None,
+            out_dir: &sim,
+        };
+        let s = simulate_folder(&job, &Silent).expect("simulate");
+        assert_eq!(s.result.runs.len() as u64, DEMO_SIMULATION_RUNS);
+        let mut files = s.files.clone();
+        files.retain(|f| *f != "inputs.json" && *f != "scenario.toml");
+        assert!(files.len() >= 5, "{files:?}");
+        for f in files {
+            let a = std::fs::read(demo.join(f)).expect("demo file");
+            let b = std::fs::read(sim.join(f)).expect("simulation file");
+            assert!(a == b, "{f} differs");
+        }
+    }
 }

@@ -9,10 +9,13 @@ use crate::fsio::write_atomic;
 use crate::planner::network::{
     plan_network_on, scenario_network, validate_network_plan, NetworkPlan,
 };
+use crate::planner::validation::validate_plan_on;
 use crate::planner::{
-    plan_with_stages, uniform_baseline, validate_plan, Coverage, Plan, PlanStage, PlannerSettings,
+    plan_with_stages, uniform_baseline, Coverage, Plan, PlanStage, PlannerSettings,
 };
 use crate::scenario::Scenario;
+use crate::sim::tags::{parse_tags_csv, Tag};
+use crate::sim::SimResult;
 use crate::sim::TruthSource;
 use crate::tags::{ExportMetadata, TagRecord};
 use crate::trajectory::NetworkHeights;
@@ -248,6 +251,54 @@ pub(super) fn route_plan(
     seed: u64,
     progress: &dyn Progress,
 ) -> Result<(Plan, f64)> {
+    route_plan_runs(scn, truth, settings, baseline, seed, progress).map(|(p, t, _)| (p, t))
+}
+
+/// The tags a route plan's validation simulates: its new tags as written
+/// to `tags.csv` (exported, formatted and read back, so the coordinates and
+/// heights installers get, to the file's precision), each with the lane
+/// width the plan found at its site (a property of the road, which the
+/// file does not carry), and its installed tags as the plan keeps them, in
+/// the plan's order. `waymark simulate --tags tags.csv` on the same
+/// scenario simulates the same tags when the plan keeps no installed tags
+/// and the lane widths do not change the RFID model's figures (road-surface
+/// tags on map routes: the lateral error comes from the truth).
+pub(super) fn written_tags(scn: &Scenario, plan: &Plan) -> Result<Vec<Tag>> {
+    let (recs, meta) = plan.export(scn)?;
+    let file = Path::new("tags.csv");
+    let mut written = parse_tags_csv(file, &tags_csv(&recs, &meta))?.into_iter();
+    let mut tags = plan.sim_tags();
+    for (tag, planned) in tags.iter_mut().zip(&plan.tags) {
+        if planned.existing {
+            continue;
+        }
+        let w = written.next().filter(|w| w.id == tag.id).ok_or_else(|| {
+            Error::format(file, format!("tag {} is not where the plan has it", tag.id))
+        })?;
+        *tag = Tag {
+            lane_width_m: planned.lane_width_m,
+            ..w
+        };
+    }
+    if let Some(extra) = written.next() {
+        return Err(Error::format(
+            file,
+            format!("tag {} is not in the plan", extra.id),
+        ));
+    }
+    Ok(tags)
+}
+
+/// [`route_plan`], also giving the validation's runs (of the tags
+/// [`written_tags`] gives), when it validated.
+pub(super) fn route_plan_runs(
+    scn: &Scenario,
+    truth: &TruthSource,
+    settings: &PlannerSettings,
+    baseline: bool,
+    seed: u64,
+    progress: &dyn Progress,
+) -> Result<(Plan, f64, Option<SimResult>)> {
     let t0 = Instant::now();
     super::limits::check_route_plan_size(scn, truth, settings)?;
     progress.note(&format!(
@@ -277,19 +328,19 @@ pub(super) fn route_plan(
         p.predicted_max_bound95_missed_m = p.missed_bound(scn, truth);
     }
     let t_plan = t0.elapsed().as_secs_f64();
+    let mut runs = None;
     if settings.validation_runs > 0 {
         progress.note(&format!(
             "waymark plan: validating {} tag(s) by {} Monte Carlo run(s)",
             p.tag_count(),
             settings.validation_runs
         ));
-        p.validation = Some(validate_plan(
-            scn,
-            truth,
-            &p,
-            settings.validation_runs,
-            seed,
-        )?);
+        // A diverged plan is named as such before its tags are written.
+        super::finite::check_plan(&scn.path, &p)?;
+        let tags = written_tags(scn, &p)?;
+        let (v, res) = validate_plan_on(scn, truth, &p, &tags, settings.validation_runs, seed)?;
+        p.validation = Some(v);
+        runs = Some(res);
     }
     if baseline {
         progress.note("waymark plan: searching the uniform-spacing baseline");
@@ -302,7 +353,7 @@ pub(super) fn route_plan(
             0.99,
         )?;
     }
-    Ok((p, t_plan))
+    Ok((p, t_plan, runs))
 }
 
 /// Writes a route plan's folder.

@@ -81,6 +81,29 @@ pub(super) fn simulate_loaded(
     if job.runs > 1 {
         progress.finish();
     }
+    write_simulation(job, scn, result, t0)
+}
+
+/// The first `n` runs of `result` (of seed `seed`) with their own summary:
+/// what a simulation of `n` runs with the same seed, scenario and tags
+/// gives (each run depends on the base seed and its index only).
+pub(super) fn first_runs(scn: &Scenario, seed: u64, mut result: SimResult, n: u64) -> SimResult {
+    result.runs.retain(|r| r.run < n);
+    let summary = crate::sim::metrics::summarize(scn, seed, &result.runs);
+    SimResult {
+        runs: result.runs,
+        summary,
+    }
+}
+
+/// Writes the simulation folder of `result` (simulated for `job`): the
+/// files [`simulate_folder`] writes.
+pub(super) fn write_simulation(
+    job: &SimulateJob,
+    scn: &Scenario,
+    result: SimResult,
+    t0: Instant,
+) -> Result<SimulateOutcome> {
     clear_outputs(job.out_dir, SIMULATION_OUTPUTS, false)?;
     output::write(job.out_dir, &result)?;
     let rule = requirement_rule(&result, scn.planner().requirement_confidence);
