@@ -108,7 +108,10 @@ fn graphhopper_traces_under_the_independent_model() {
     assert_eq!(s["recall_count"].as_f64().unwrap(), 1.0, "{s}");
     // The points' roads are the default model's, point by point; the
     // confidences are a filtered probability, in 0..=1.
-    let (_, _, default) = run("issue-70.osm", "issue-70.gpx", "drift", &[]);
+    let (default_json, _, default) = run("issue-70.osm", "issue-70.gpx", "drift", &[]);
+    // The JSON says which model ran.
+    assert_eq!(json["model"], "independent");
+    assert_eq!(default_json["model"], "drift");
     assert_eq!(matched.len(), 18, "a header and 17 points");
     assert_eq!(matched.len(), default.len());
     let col = |name: &str| matched[0].iter().position(|c| c == name).unwrap();

@@ -78,6 +78,10 @@ pub struct MatchOutcome {
     pub out: String,
     /// The matcher (`hmm` or `incremental`).
     pub method: &'static str,
+    /// The HMM's probability model (`drift` or `independent`); absent for
+    /// the incremental matcher.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<&'static str>,
     /// The track file's format (`csv`, `gpx` or `geojson`).
     pub format: &'static str,
     /// Search radius and white-noise σ used (m), per track in file order
@@ -127,6 +131,11 @@ fn method_name(m: Method) -> &'static str {
         Method::Incremental => "incremental",
         Method::Hmm => "hmm",
     }
+}
+
+/// The HMM's model name, none for the incremental matcher.
+fn model_name(o: &MatchOptions) -> Option<&'static str> {
+    (o.method == Method::Hmm).then(|| o.model.as_str())
 }
 
 /// The output's folder is checked before any work, made when writing.
@@ -245,6 +254,7 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
         track: job.track.display().to_string(),
         out: job.out_file.display().to_string(),
         method: method_name(job.options.method),
+        model: model_name(&job.options),
         format: format.as_str(),
         radius_m: outcomes.iter().map(|o| o.params.search_radius_m).collect(),
         sigma_m: outcomes.iter().map(|o| o.params.sigma_m).collect(),
@@ -356,6 +366,7 @@ fn streamed(
         track: job.track.display().to_string(),
         out: job.out_file.display().to_string(),
         method: method_name(job.options.method),
+        model: model_name(&job.options),
         format: TrackFormat::Csv.as_str(),
         radius_m: r.tracks.iter().map(|o| o.params.search_radius_m).collect(),
         sigma_m: r.tracks.iter().map(|o| o.params.sigma_m).collect(),

@@ -18,6 +18,16 @@ pub enum HmmModel {
     Independent,
 }
 
+impl HmmModel {
+    /// The model's name as `match --model` takes it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            HmmModel::Drift => "drift",
+            HmmModel::Independent => "independent",
+        }
+    }
+}
+
 impl std::str::FromStr for HmmModel {
     type Err = String;
 
