@@ -11,10 +11,9 @@
 //! distance, the U-turn test and one subtraction; no emission (a `ln` and a
 //! division), no `exp`, no forward or backward product.
 
-use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::softmax_into;
-use super::state::{Step, ANCHOR_M};
+use super::state::{Cand, Step};
 
 impl HmmMatcher<'_> {
     /// The Viterbi recursion from the window's last step into `step` under
@@ -22,31 +21,10 @@ impl HmmMatcher<'_> {
     /// any previous one. The route distances, their bound and the U-turn
     /// rule are the drift model's ([`Self::transition`]).
     pub(super) fn transition_independent(&mut self, step: &mut Step) -> bool {
-        let prev = self.window.back().expect("a previous step");
-        let gc = dist(step.fix.enu, prev.fix.enu);
-        let bound = self.route_bound(gc, step.fix.t_s - prev.fix.t_s);
-        let backtrack = self.params.backtrack_m;
-        let inv_beta = 1.0 / (self.params.beta_m + self.params.beta_per_m * gc);
+        let (gc, bound, inv_beta, bufs) = self.route_distances(step);
         let uturn = self.params.uturn_penalty_m;
-        for c in &prev.cands {
-            for (n, _) in self.paths.exits(c.at).into_iter().flatten() {
-                self.paths.ensure(n, bound);
-            }
-        }
         let prev = self.window.back().expect("a previous step");
         let (np, nc) = (prev.cands.len(), step.cands.len());
-        let mut bufs = std::mem::take(&mut self.trans_buf);
-        bufs.from.clear();
-        bufs.from.extend(prev.cands.iter().map(|c| c.at));
-        bufs.at.clear();
-        bufs.at.extend(step.cands.iter().map(|c| c.at));
-        self.paths.point_distance_matrix(
-            &bufs.from,
-            &bufs.at,
-            backtrack,
-            &mut bufs.scratch,
-            &mut bufs.dist,
-        );
         debug_assert_eq!(bufs.dist.len(), np * nc);
         step.score.clear();
         step.back.clear();
@@ -69,21 +47,12 @@ impl HmmMatcher<'_> {
                     continue;
                 }
                 // The drift model's U-turn rule, unchanged.
-                let dot = |u: [f64; 2]| u[0] * c.dir[0] + u[1] * c.dir[1];
-                let turned = (dot(p.dir) < -0.5 && d < uturn)
-                    || (dot(p.anchor_dir) < -0.5
-                        && p.anchor_m + d < 2.0 * ANCHOR_M
-                        && p.anchor_road == c.road);
-                let charged = if turned { d + uturn } else { d };
+                let charged = c.charged_from(p, d, uturn);
                 let s = from - (charged - gc).abs() * inv_beta;
                 if s > best {
                     best = s;
                     arg = i as u32;
-                    anchor = if p.anchor_m + d > ANCHOR_M {
-                        (p.dir, d, p.road)
-                    } else {
-                        (p.anchor_dir, p.anchor_m + d, p.anchor_road)
-                    };
+                    anchor = Cand::anchor_through(p, d);
                 }
             }
             if best > f64::NEG_INFINITY {

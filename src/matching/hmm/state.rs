@@ -29,6 +29,40 @@ pub(super) struct Cand {
     pub(super) drift: Drift,
 }
 
+impl Cand {
+    /// The route distance `d_m` from predecessor `p` to this candidate as a
+    /// transition charges it: `uturn_m` more when the vehicle would face the
+    /// other way after a short drive, a U-turn at a node or round a small
+    /// loop, in one transition (facing against `p` within `uturn_m`) or over
+    /// a few (facing against `p`'s anchor within 2 [`ANCHOR_M`] on the
+    /// anchor's road). Both models' rule.
+    #[inline]
+    pub(super) fn charged_from(&self, p: &Cand, d_m: f64, uturn_m: f64) -> f64 {
+        let dot = |u: [f64; 2]| u[0] * self.dir[0] + u[1] * self.dir[1];
+        let turned = (dot(p.dir) < -0.5 && d_m < uturn_m)
+            || (dot(p.anchor_dir) < -0.5
+                && p.anchor_m + d_m < 2.0 * ANCHOR_M
+                && p.anchor_road == self.road);
+        if turned {
+            d_m + uturn_m
+        } else {
+            d_m
+        }
+    }
+
+    /// The anchor (direction, distance back, road) a candidate takes over
+    /// from its best predecessor `p`, `d_m` back along the route: `p`'s own
+    /// place once the anchor would lie more than [`ANCHOR_M`] back.
+    #[inline]
+    pub(super) fn anchor_through(p: &Cand, d_m: f64) -> ([f64; 2], f64, RoadId) {
+        if p.anchor_m + d_m > ANCHOR_M {
+            (p.dir, d_m, p.road)
+        } else {
+            (p.anchor_dir, p.anchor_m + d_m, p.anchor_road)
+        }
+    }
+}
+
 /// Distance back along the path at which the earlier direction of travel is
 /// compared with the current one to recognise U-turns (m).
 pub(super) const ANCHOR_M: f64 = 40.0;

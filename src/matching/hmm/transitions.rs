@@ -5,10 +5,42 @@ use super::drift::{emission, Drift, Emission};
 use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::{normalise, softmax_into};
-use super::state::{Step, ANCHOR_M};
+use super::state::{Cand, Step, TransBuf};
 use std::collections::VecDeque;
 
 impl HmmMatcher<'_> {
+    /// The common part of both models' transitions into `step`: the
+    /// great-circle distance from the window's last fix, the longest route
+    /// a transition may take, 1/β, and the buffers holding the route
+    /// distance of every predecessor × candidate pair (`dist`,
+    /// predecessor-major; the searches they need made first). The caller
+    /// puts the buffers back in `self.trans_buf`.
+    pub(super) fn route_distances(&mut self, step: &Step) -> (f64, f64, f64, TransBuf) {
+        let prev = self.window.back().expect("a previous step");
+        let gc = dist(step.fix.enu, prev.fix.enu);
+        let bound = self.route_bound(gc, step.fix.t_s - prev.fix.t_s);
+        let inv_beta = 1.0 / (self.params.beta_m + self.params.beta_per_m * gc);
+        for c in &prev.cands {
+            for (n, _) in self.paths.exits(c.at).into_iter().flatten() {
+                self.paths.ensure(n, bound);
+            }
+        }
+        let prev = self.window.back().expect("a previous step");
+        let mut bufs = std::mem::take(&mut self.trans_buf);
+        bufs.from.clear();
+        bufs.from.extend(prev.cands.iter().map(|c| c.at));
+        bufs.at.clear();
+        bufs.at.extend(step.cands.iter().map(|c| c.at));
+        self.paths.point_distance_matrix(
+            &bufs.from,
+            &bufs.at,
+            self.params.backtrack_m,
+            &mut bufs.scratch,
+            &mut bufs.dist,
+        );
+        (gc, bound, inv_beta, bufs)
+    }
+
     /// Viterbi recursion from the window's last step into `step`; false when
     /// no candidate can be reached from any previous one. Each candidate's
     /// emission is evaluated under the drift carried by each predecessor
@@ -16,17 +48,8 @@ impl HmmMatcher<'_> {
     /// takes over the winning predecessor's drift, updated with its own
     /// across-road innovation (per-survivor estimation).
     pub(super) fn transition(&mut self, step: &mut Step) -> bool {
-        let prev = self.window.back().expect("a previous step");
-        let gc = dist(step.fix.enu, prev.fix.enu);
-        let bound = self.route_bound(gc, step.fix.t_s - prev.fix.t_s);
-        let backtrack = self.params.backtrack_m;
-        let inv_beta = 1.0 / (self.params.beta_m + self.params.beta_per_m * gc);
+        let (gc, bound, inv_beta, mut bufs) = self.route_distances(step);
         let r2 = self.params.sigma_m * self.params.sigma_m;
-        for c in &prev.cands {
-            for (n, _) in self.paths.exits(c.at).into_iter().flatten() {
-                self.paths.ensure(n, bound);
-            }
-        }
         let mut preds = std::mem::take(&mut self.pred_buf);
         preds.clear();
         let prev = self.window.back().expect("a previous step");
@@ -43,19 +66,6 @@ impl HmmMatcher<'_> {
         let (np, nc) = (prev.cands.len(), step.cands.len());
         step.pair.clear();
         step.pair.resize(np * nc, f64::NEG_INFINITY);
-        // Route distances of every predecessor × candidate pair.
-        let mut bufs = std::mem::take(&mut self.trans_buf);
-        bufs.from.clear();
-        bufs.from.extend(prev.cands.iter().map(|c| c.at));
-        bufs.at.clear();
-        bufs.at.extend(step.cands.iter().map(|c| c.at));
-        self.paths.point_distance_matrix(
-            &bufs.from,
-            &bufs.at,
-            backtrack,
-            &mut bufs.scratch,
-            &mut bufs.dist,
-        );
         // The two directions of a section share its line, so their emissions
         // under a predecessor's drift are equal: computed once per segment.
         bufs.twin.clear();
@@ -81,18 +91,7 @@ impl HmmMatcher<'_> {
                 if d > bound {
                     continue;
                 }
-                // Facing the other way after a short drive: a U-turn (at a
-                // node or round a small loop, in one transition or over a few).
-                let dot = |u: [f64; 2]| u[0] * c.dir[0] + u[1] * c.dir[1];
-                let turned = (dot(p.dir) < -0.5 && d < self.params.uturn_penalty_m)
-                    || (dot(p.anchor_dir) < -0.5
-                        && p.anchor_m + d < 2.0 * ANCHOR_M
-                        && p.anchor_road == c.road);
-                let charged = if turned {
-                    d + self.params.uturn_penalty_m
-                } else {
-                    d
-                };
+                let charged = c.charged_from(p, d, self.params.uturn_penalty_m);
                 let shared = if twin == u32::MAX {
                     None
                 } else {
@@ -110,11 +109,7 @@ impl HmmMatcher<'_> {
                     best = s;
                     arg = i as u32;
                     innovation = Some(e);
-                    anchor = if p.anchor_m + d > ANCHOR_M {
-                        (p.dir, d, p.road)
-                    } else {
-                        (p.anchor_dir, p.anchor_m + d, p.anchor_road)
-                    };
+                    anchor = Cand::anchor_through(p, d);
                 }
             }
             if let Some(e) = innovation {
