@@ -153,6 +153,12 @@ fn uniform_baseline_search_within_twenty_passes() {
         b.filter_passes
     );
     assert!(b.tried.len() >= 3, "{:?}", b.tried);
+    // Issue 14 point 2, "plus its own Monte Carlo validation": the search
+    // bisects on the covariance check and simulates only the spacing it
+    // found (here it passes the Monte Carlo), not every spacing on the way.
+    let simulated: Vec<_> = b.tried.iter().filter(|t| !t.1.is_nan()).collect();
+    assert_eq!(simulated.len(), 1, "{:?}", b.tried);
+    assert_eq!(simulated[0].0, b.spacing_m, "{:?}", b.tried);
 }
 
 /// Sites shown short of the route's end by shared runs (one run reading the

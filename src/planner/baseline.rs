@@ -77,7 +77,11 @@ impl UniformSites {
 /// standard as a plan: the covariance analysis keeps the predicted 95 %
 /// bound within the requirement with every tag read and with any
 /// `tolerate_missed_reads` consecutive tags missed, and the Monte Carlo
-/// validation keeps at least `min_fraction` of distance within it.
+/// validation keeps at least `min_fraction` of distance within it. The
+/// bisection runs on the covariance check (a few filter passes); the Monte
+/// Carlo validates only the longest spacing passing it, and shorter ones,
+/// again by bisection, only should that one fail: one validation in the
+/// usual case, where every spacing the search crossed used to be simulated.
 pub fn uniform_baseline(
     scn: &Scenario,
     truth: &TruthSource,
@@ -96,8 +100,10 @@ pub fn uniform_baseline(
         _ => None,
     };
     let budget = Budget::new(scn, truth, net);
-    let mut tried = Vec::new();
-    let mut check = |n: u64| -> Result<(bool, Option<Validation>, usize)> {
+    let mut tried: Vec<(f64, f64)> = Vec::new();
+    // The covariance check of tags every `n` candidate spacings (a few
+    // filter passes' work at most).
+    let covariance_ok = |n: u64, tried: &mut Vec<(f64, f64)>| -> bool {
         let spacing = n as f64 * step;
         let tags = uniform_tags(truth, scn, settings, spacing);
         // The same sites as samples (the budget's samples are the truth's,
@@ -111,10 +117,16 @@ pub fn uniform_baseline(
             .zip(&tags)
             .map(|((i, _), t)| (i, t.mounting))
             .collect();
-        if !robust(&budget, &fixes, k, req, step) {
-            tried.push((spacing, f64::NAN));
-            return Ok((false, None, tags.len()));
-        }
+        let ok = robust(&budget, &fixes, k, req, step);
+        tried.push((spacing, f64::NAN));
+        ok
+    };
+    // The Monte Carlo validation of tags every `n` candidate spacings:
+    // whether it keeps `min_fraction` of distance within the requirement,
+    // the validation, and the tag count.
+    let validate = |n: u64, tried: &mut Vec<(f64, f64)>| -> Result<(bool, Validation, usize)> {
+        let spacing = n as f64 * step;
+        let tags = uniform_tags(truth, scn, settings, spacing);
         let p = Plan {
             scenario: scn.name().to_string(),
             requirement_m: req,
@@ -145,31 +157,54 @@ pub fn uniform_baseline(
             seed,
             scn.planner().requirement_confidence,
         );
-        tried.push((spacing, v.fraction_within_requirement));
-        Ok((
-            v.fraction_within_requirement >= min_fraction,
-            Some(v),
-            tags.len(),
-        ))
+        match tried.iter_mut().find(|t| t.0 == spacing) {
+            Some(t) => t.1 = v.fraction_within_requirement,
+            None => tried.push((spacing, v.fraction_within_requirement)),
+        }
+        Ok((v.fraction_within_requirement >= min_fraction, v, tags.len()))
     };
     let hi_n = ((length / step).ceil() as u64).max(1);
-    // The smallest spacing must pass, else there is no baseline.
-    let (ok, mut best_v, mut best_c) = check(1)?;
-    if !ok {
+    // The longest spacing that passes the covariance check, by bisection
+    // (the cheap test first; the smallest spacing must pass, else there is
+    // no baseline).
+    if !covariance_ok(1, &mut tried) {
         return Ok(None);
     }
     let (mut lo, mut hi) = (1u64, hi_n + 1);
     // Invariant: lo passes; hi does not (or is beyond the route).
     while hi - lo > 1 {
         let mid = (lo + hi) / 2;
-        let (ok, v, c) = check(mid)?;
-        if ok {
+        if covariance_ok(mid, &mut tried) {
             lo = mid;
-            best_v = v;
-            best_c = c;
         } else {
             hi = mid;
         }
+    }
+    // Its Monte Carlo validation: usually the only one the search runs.
+    // Should it keep too little distance within the requirement, the
+    // longest shorter spacing that does, by bisection over the Monte Carlo
+    // alone (shorter spacings pass the covariance check: a longer spacing
+    // never does better).
+    let (ok, v, c) = validate(lo, &mut tried)?;
+    let (mut best_v, mut best_c) = (ok.then_some(v), c);
+    if best_v.is_none() {
+        let (mut good, mut bad) = (0u64, lo);
+        // Invariant: `good` passes (0: none found yet); `bad` does not.
+        while bad - good > 1 {
+            let mid = good + (bad - good) / 2;
+            let (ok, v, c) = validate(mid, &mut tried)?;
+            if ok {
+                good = mid;
+                best_v = Some(v);
+                best_c = c;
+            } else {
+                bad = mid;
+            }
+        }
+        if good == 0 {
+            return Ok(None);
+        }
+        lo = good;
     }
     tried.sort_by(|a, b| a.0.total_cmp(&b.0));
     tracing::info!(

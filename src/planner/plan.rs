@@ -241,8 +241,12 @@ pub struct UniformBaseline {
     pub tolerate_missed_reads: usize,
     /// Its validation.
     pub validation: Validation,
-    /// Spacings tried (m) and their fractions within the requirement (NaN:
-    /// failed the covariance check, not simulated).
+    /// Spacings tried (m) and their fractions within the requirement by
+    /// the Monte Carlo (NaN: not simulated). The search bisects on the
+    /// covariance check and simulates only the longest spacing passing it
+    /// (and, should that fail the Monte Carlo, shorter ones by bisection),
+    /// so NaN marks a spacing that failed the covariance check or one
+    /// shorter than a simulated spacing that passed.
     pub tried: Vec<(f64, f64)>,
     /// The search's covariance checks in filter passes over the route
     /// ([`Plan::filter_passes`]; its Monte Carlo runs not counted).
