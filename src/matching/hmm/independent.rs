@@ -12,7 +12,7 @@
 //! division), no `exp`, no forward or backward product.
 
 use super::matcher::HmmMatcher;
-use super::probability::softmax_into;
+use super::probability::{shift_max_to_zero, softmax_into};
 use super::state::{Cand, Step};
 
 impl HmmMatcher<'_> {
@@ -59,19 +59,13 @@ impl HmmMatcher<'_> {
                 any = true;
                 best += c.emission;
             }
-            c.anchor_dir = anchor.0;
-            c.anchor_m = anchor.1;
-            c.anchor_road = anchor.2;
+            c.set_anchor(anchor);
             step.score.push(best);
             step.back.push(arg);
         }
         self.trans_buf = bufs;
         if any {
-            // Renormalise so scores stay near zero on long tracks.
-            let m = step.score.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            for s in &mut step.score {
-                *s -= m;
-            }
+            shift_max_to_zero(&mut step.score);
         }
         any
     }

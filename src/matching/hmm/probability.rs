@@ -22,6 +22,15 @@ pub(super) fn normalise(v: &mut [f64]) -> bool {
     true
 }
 
+/// Shifts log scores so that the largest is 0 (Viterbi scores stay near
+/// zero on long tracks). Only called when some score is finite.
+pub(super) fn shift_max_to_zero(v: &mut [f64]) {
+    let m = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    for s in v {
+        *s -= m;
+    }
+}
+
 /// Probabilities from log scores into `out` (all zero if none is finite).
 pub(super) fn softmax_into(scores: &[f64], out: &mut Vec<f64>) {
     let m = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);

@@ -50,6 +50,14 @@ impl Cand {
         }
     }
 
+    /// Sets this candidate's anchor (direction, distance back, road).
+    #[inline]
+    pub(super) fn set_anchor(&mut self, (dir, m, road): ([f64; 2], f64, RoadId)) {
+        self.anchor_dir = dir;
+        self.anchor_m = m;
+        self.anchor_road = road;
+    }
+
     /// The anchor (direction, distance back, road) a candidate takes over
     /// from its best predecessor `p`, `d_m` back along the route: `p`'s own
     /// place once the anchor would lie more than [`ANCHOR_M`] back.

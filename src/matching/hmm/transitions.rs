@@ -4,7 +4,7 @@
 use super::drift::{emission, Drift, Emission};
 use super::geometry::dist;
 use super::matcher::HmmMatcher;
-use super::probability::{normalise, softmax_into};
+use super::probability::{normalise, shift_max_to_zero, softmax_into};
 use super::state::{Cand, Step, TransBuf};
 use std::collections::VecDeque;
 
@@ -119,20 +119,14 @@ impl HmmMatcher<'_> {
                     c.drift.update(e.normal, e.nu, e.s);
                 }
             }
-            c.anchor_dir = anchor.0;
-            c.anchor_m = anchor.1;
-            c.anchor_road = anchor.2;
+            c.set_anchor(anchor);
             step.score.push(best);
             step.back.push(arg);
         }
         self.trans_buf = bufs;
         self.pred_buf = preds;
         if any {
-            // Renormalise so scores stay near zero on long tracks.
-            let m = step.score.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            for s in &mut step.score {
-                *s -= m;
-            }
+            shift_max_to_zero(&mut step.score);
             // Forward (sum-product) recursion on the same weights.
             let m = step.pair.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             for w in &mut step.pair {
