@@ -24,6 +24,7 @@ mod matching;
 mod plan;
 mod progress;
 mod simulate;
+mod summary;
 
 pub use demo::{demo_folder, DemoOutcome};
 pub use init::{init_scenario, InitOutcome};
