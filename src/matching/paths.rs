@@ -706,7 +706,9 @@ impl<'a> NetworkDistances<'a> {
     /// cached ([`Self::ensure`]).
     #[inline]
     pub(crate) fn source(&mut self, node: NodeId, bound_m: f64) -> Source<'_, 'a> {
-        self.ensure(node, bound_m);
+        if !self.cache.get(&node).is_some_and(|t| t.bound >= bound_m) {
+            self.ensure(node, bound_m);
+        }
         let paths: &Self = self;
         Source {
             tree: paths.cache.get(&node).map(|t| &t.reached),
