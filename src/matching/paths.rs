@@ -124,6 +124,8 @@ pub struct MatrixScratch {
     /// Directed points: each source's one exit, each target's one entry.
     exit1: Vec<(u32, f64)>,
     entry1: Vec<(u32, f64)>,
+    /// The pairwise recursion's order of the sources.
+    order: Vec<u32>,
 }
 
 impl MatrixScratch {
@@ -137,7 +139,16 @@ impl MatrixScratch {
             entries: Vec::with_capacity(n),
             exit1: Vec::with_capacity(n),
             entry1: Vec::with_capacity(n),
+            order: Vec::with_capacity(n),
         }
+    }
+
+    /// Buffers for a recursion over the pairs one at a time
+    /// ([`NetworkDistances::source`]) instead of the matrix: an order of
+    /// the sources, and each target's entry node and distance
+    /// ([`NetworkDistances::directed_entry`]).
+    pub(crate) fn pair_buffers(&mut self) -> (&mut Vec<u32>, &mut Vec<(NodeId, f64)>) {
+        (&mut self.order, &mut self.entry1)
     }
 }
 
@@ -662,6 +673,91 @@ impl<'a> NetworkDistances<'a> {
     }
 }
 
+/// The HMM's route distances one pair at a time (the independent model's
+/// max-product recursion needs few of its predecessor × candidate pairs):
+/// the same arithmetic as [`NetworkDistances::point_distance_matrix`]'s
+/// directed cells, with a search looked up once per predecessor.
+impl<'a> NetworkDistances<'a> {
+    /// A directed point's exit node and the distance to it (what
+    /// [`Self::exits`] gives for its direction).
+    #[inline]
+    pub(crate) fn directed_exit(&self, a: OnSection) -> (NodeId, f64) {
+        let s = &self.net.sections[a.section as usize];
+        if a.forward == Some(true) {
+            (s.end, (s.length_m - a.offset_m).max(0.0))
+        } else {
+            (s.start, a.offset_m.max(0.0))
+        }
+    }
+
+    /// A directed point's entry node and the distance from it (what
+    /// [`Self::entries`] gives for its direction).
+    #[inline]
+    pub(crate) fn directed_entry(&self, b: OnSection) -> (NodeId, f64) {
+        let s = &self.net.sections[b.section as usize];
+        if b.forward == Some(true) {
+            (s.start, b.offset_m.max(0.0))
+        } else {
+            (s.end, (s.length_m - b.offset_m).max(0.0))
+        }
+    }
+
+    /// The search from `node`, made first unless one reaching `bound_m` is
+    /// cached ([`Self::ensure`]).
+    #[inline]
+    pub(crate) fn source(&mut self, node: NodeId, bound_m: f64) -> Source<'_, 'a> {
+        if !self.cache.get(&node).is_some_and(|t| t.bound >= bound_m) {
+            self.ensure(node, bound_m);
+        }
+        let paths: &Self = self;
+        Source {
+            tree: paths.cache.get(&node).map(|t| &t.reached),
+            node,
+            paths,
+        }
+    }
+}
+
+/// One cached search, from a directed point's exit node
+/// ([`NetworkDistances::source`]).
+#[derive(Debug)]
+pub(crate) struct Source<'s, 'a> {
+    paths: &'s NetworkDistances<'a>,
+    tree: Option<&'s Reached>,
+    node: NodeId,
+}
+
+impl Source<'_, '_> {
+    /// The route distance from directed point `a`, `xc` before this
+    /// search's node (its [`NetworkDistances::directed_exit`]), to directed
+    /// point `b`, entered from node `en` `ec` before it
+    /// ([`NetworkDistances::directed_entry`]): `point_distance_matrix`'s
+    /// cell, bit for bit.
+    #[inline]
+    pub(crate) fn directed_distance(
+        &self,
+        a: OnSection,
+        xc: f64,
+        b: OnSection,
+        (en, ec): (NodeId, f64),
+        backtrack_m: f64,
+    ) -> Option<f64> {
+        let p = self.paths;
+        let mut best = if a.section == b.section {
+            p.along_section(a, b, backtrack_m)
+        } else {
+            None
+        };
+        if let Some(&(d, _, first)) = self.tree.and_then(|t| t.get(&en)) {
+            let total = xc + d + ec + p.uturn(a, b, self.node, en, first);
+            if best.is_none_or(|b| total < b) {
+                best = Some(total);
+            }
+        }
+        best
+    }
+}
+
 /// The index of node `n` in `v`, appended when absent (the few distinct
 /// nodes of a step's candidates: a linear scan beats hashing).
 fn slot(v: &mut Vec<NodeId>, n: NodeId) -> u32 {
@@ -775,6 +871,61 @@ mod tests {
             }
         }
         assert!(reached > directed.len() * directed.len() / 2, "{reached}");
+    }
+
+    /// The pairs one at a time (`source` and `directed_distance`) give
+    /// the matrix's directed cells bit for bit, on every pair of directed
+    /// points on the block (ends, inside, U-turns, one-way) and with two
+    /// backtrack tolerances.
+    #[test]
+    fn directed_pairs_equal_the_matrix() {
+        let net = block();
+        let mut p = NetworkDistances::new(&net);
+        p.uturn_penalty_m = 300.0;
+        let mut points = Vec::new();
+        for s in 0..net.sections.len() as u32 {
+            let sec = &net.sections[s as usize];
+            for off in [0.0, 0.3 * sec.length_m, 0.31 * sec.length_m, sec.length_m] {
+                for f in [true, false] {
+                    if (f && sec.oneway.allows_forward()) || (!f && sec.oneway.allows_backward()) {
+                        points.push(OnSection {
+                            section: s,
+                            offset_m: off,
+                            forward: Some(f),
+                        });
+                    }
+                }
+            }
+        }
+        let mut scratch = MatrixScratch::with_capacity(4);
+        let mut out = Vec::new();
+        let mut some = 0;
+        for (bound, backtrack) in [(256.0, 15.0), (1000.0, 0.0)] {
+            for a in &points {
+                for (n, _) in p.exits(*a).into_iter().flatten() {
+                    p.ensure(n, bound);
+                }
+            }
+            p.point_distance_matrix(&points, &points, backtrack, &mut scratch, &mut out);
+            for (i, &a) in points.iter().enumerate() {
+                let (xn, xc) = p.directed_exit(a);
+                assert_eq!(Some((xn, xc)), p.exits(a).into_iter().flatten().next());
+                for (k, &b) in points.iter().enumerate() {
+                    let en = p.directed_entry(b);
+                    let e = p.entries(b).into_iter().flatten().next().unwrap();
+                    assert_eq!((e.0, e.1), en);
+                    let got = p
+                        .source(xn, bound)
+                        .directed_distance(a, xc, b, en, backtrack);
+                    assert_eq!(
+                        got.map(f64::to_bits),
+                        out[i * points.len() + k].map(f64::to_bits)
+                    );
+                    some += usize::from(got.is_some());
+                }
+            }
+        }
+        assert!(some > points.len() * points.len(), "{some}");
     }
 
     #[test]
