@@ -89,6 +89,34 @@ pub(super) struct Emission {
 /// uncertain does not gain from that uncertainty.
 #[inline]
 pub(super) fn emission(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Emission {
+    let (quad, normal, nu, s) = emission_parts(line, raw, d, r2);
+    Emission {
+        log_p: quad - 0.5 * (s / r2).ln(),
+        normal,
+        nu,
+        s,
+    }
+}
+
+/// [`emission`]'s log-likelihood alone, its `ln` taken by `ln` (e.g. a
+/// cache of exact logarithms: [`super::candidates::LnCache`]); the same
+/// number when `ln` is `f64::ln`.
+#[inline]
+pub(super) fn emission_log_p_with(
+    line: &Line,
+    raw: [f64; 2],
+    d: &Drift,
+    r2: f64,
+    ln: impl FnOnce(f64) -> f64,
+) -> f64 {
+    let (quad, _, _, s) = emission_parts(line, raw, d, r2);
+    quad - 0.5 * ln(s / r2)
+}
+
+/// [`emission`] but its log term: the quadratic part of the
+/// log-likelihood, the unit normal, the innovation and its variance S.
+#[inline(always)]
+fn emission_parts(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> (f64, [f64; 2], f64, f64) {
     let u = line.u;
     let n = [-u[1], u[0]];
     let rel = [
@@ -105,17 +133,12 @@ pub(super) fn emission(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Emissi
         0.0
     };
     let s_n = d.var(n) + r2;
-    let log_p = if over == 0.0 {
+    let quad = if over == 0.0 {
         -0.5 * across * across / s_n
     } else {
         -0.5 * (across * across / s_n + over * over / (d.var(u) + r2))
-    } - 0.5 * (s_n / r2).ln();
-    Emission {
-        log_p,
-        normal: n,
-        nu: across,
-        s: s_n,
-    }
+    };
+    (quad, n, across, s_n)
 }
 
 /// A segment as a start point, unit direction and length (ENU, m): the form
