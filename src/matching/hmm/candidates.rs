@@ -9,48 +9,9 @@ use crate::matching::paths::OnSection;
 use crate::matching::{project, Fix};
 use crate::network::{Network, SectionId, SegmentId};
 
-/// Natural logarithms already taken, by their argument's bits
-/// (direct-mapped on the low bits): `ln(x)` is exactly `x.ln()`. Under the
-/// isotropic prior (the independent model's drift, always) the emission's
-/// `−½ ln(S/r²)` has the same argument for every candidate of a track up
-/// to the last bits of S (each road's direction rounds it a little
-/// differently), so a handful of entries answer nearly every candidate
-/// where `ln` took ~60 instructions each (callgrind, FMM example).
-#[derive(Debug, Clone)]
-pub(super) struct LnCache {
-    keys: [u64; 8],
-    vals: [f64; 8],
-}
-
-impl Default for LnCache {
-    fn default() -> Self {
-        // Every slot holds ln(1) = 0, exact (1.0 maps to slot 0; the other
-        // slots' key never matches an argument that maps to them).
-        Self {
-            keys: [1.0f64.to_bits(); 8],
-            vals: [0.0; 8],
-        }
-    }
-}
-
-impl LnCache {
-    /// `x.ln()`, exactly.
-    #[inline]
-    pub(super) fn ln(&mut self, x: f64) -> f64 {
-        let bits = x.to_bits();
-        let slot = (bits & 7) as usize;
-        if self.keys[slot] == bits {
-            return self.vals[slot];
-        }
-        let v = x.ln();
-        self.keys[slot] = bits;
-        self.vals[slot] = v;
-        v
-    }
-}
-
 /// Does a drift have the prior's isotropic covariance (the same variance
-/// across every road, so the emission's log term repeats: [`LnCache`])?
+/// across every road, so the emission's log term repeats:
+/// [`super::drift::LnCache`])?
 #[inline]
 fn isotropic(d: &Drift) -> bool {
     d.cov[1] == 0.0 && d.cov[0] == d.cov[2]

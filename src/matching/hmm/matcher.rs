@@ -33,7 +33,7 @@ pub struct HmmMatcher<'a> {
     pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
     /// The candidates' ranking keys, and the logarithms they took.
     pub(super) key_buf: Vec<(f64, u32)>,
-    pub(super) ln_cache: super::candidates::LnCache,
+    pub(super) ln_cache: super::drift::LnCache,
     pub(super) post_buf: Vec<f64>,
     /// The backward pass's two vectors.
     pub(super) beta_bufs: [Vec<f64>; 2],
