@@ -160,12 +160,17 @@ pub fn estimate_sigma_m_with(net: &Network, fixes: &[Fix], d: &mut Vec<f64>) -> 
     let step = (fixes.len() / 2000).max(1);
     d.clear();
     d.reserve(fixes.len().div_ceil(step));
+    let mut previous = None;
     d.extend(
         fixes
             .iter()
             .step_by(step)
             .filter(|f| f.enu[0].is_finite() && f.enu[1].is_finite())
-            .filter_map(|f| nearest_road_m(net, f.enu, AUTO_RADIUS_M[1])),
+            .filter_map(|f| {
+                let found = nearest_road_m(net, f.enu, AUTO_RADIUS_M[1], first_radius_m(previous));
+                previous = found.or(previous);
+                found
+            }),
     );
     if d.is_empty() {
         return None;
@@ -176,13 +181,15 @@ pub fn estimate_sigma_m_with(net: &Network, fixes: &[Fix], d: &mut Vec<f64>) -> 
 }
 
 /// Distance (m) from `p` to its nearest road when that is at most `max_m`:
-/// grid queries of growing radius (16 m, 64 m, ..., `max_m`), the first
-/// that finds a segment giving the nearest (the query keeps every segment
-/// within its radius, by the same point–segment distance). Most fixes lie
-/// near a road, so this visits a few cells where a nearest-neighbour
-/// search of the R-tree costs several times more (callgrind).
-fn nearest_road_m(net: &Network, p: [f64; 2], max_m: f64) -> Option<f64> {
-    let mut r = 16.0f64.min(max_m);
+/// grid queries of growing radius (`start_m`, 4 `start_m`, ..., `max_m`),
+/// the first that finds a segment giving the nearest (the query keeps every
+/// segment within its radius, by the same point–segment distance, so any
+/// first radius gives the same number: the least distance over all the
+/// segments). Most fixes lie near a road, so this visits a few cells where
+/// a nearest-neighbour search of the R-tree costs several times more
+/// (callgrind).
+fn nearest_road_m(net: &Network, p: [f64; 2], max_m: f64, start_m: f64) -> Option<f64> {
+    let mut r = start_m.min(max_m);
     loop {
         // The grid's own nearest within `r` (one pass over the cells, the
         // distance computed once per segment): 6 % of matching alone on the
@@ -198,10 +205,64 @@ fn nearest_road_m(net: &Network, p: [f64; 2], max_m: f64) -> Option<f64> {
     }
 }
 
+/// The first radius of σ̂'s nearest-road query for a fix (m): 16 m, or
+/// twice the previous fix's distance when that is more. A noisy track
+/// (the FMM example's fixes lie 20-100 m from their roads) then finds its
+/// road in one query instead of two or three (16 m, 64 m, 256 m); the
+/// number found is the same whatever the first radius.
+fn first_radius_m(previous: Option<f64>) -> f64 {
+    previous.map_or(16.0, |d| (2.0 * d).max(16.0))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::network::geometry::point_segment_distance;
+
+    /// The nearest road is the same number, bit for bit, whatever the
+    /// first radius of the growing queries (the former 16 m, and the
+    /// previous fix's distance's twice): on the real maps and a bundled
+    /// one, inside and beyond each map (up to 60 % of its box each side),
+    /// with σ̂'s cut-off (300 m) and shorter ones.
+    #[test]
+    fn nearest_road_is_the_same_whatever_the_first_radius() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let (mut some, mut none) = (0, 0);
+        for map in [
+            "tests/data/small.osm",
+            "tests/data/real/fmm-network.geojson",
+            "tests/data/real/issue-70.osm",
+            "tests/data/real/issue-13.osm",
+        ] {
+            let net = Network::load(&root.join(map), &Default::default()).unwrap();
+            let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
+            for i in 0..=40 {
+                for j in 0..=40 {
+                    let p = [
+                        x0 + (x1 - x0) * (-0.6 + 2.2 * f64::from(i) / 40.0) + 0.37,
+                        y0 + (y1 - y0) * (-0.6 + 2.2 * f64::from(j) / 40.0) - 0.21,
+                    ];
+                    for max_m in [300.0, 100.0, 20.0] {
+                        let want = nearest_road_m(&net, p, max_m, 16.0);
+                        for prev in [0.5, 3.0, 11.0, 30.0, 47.0, 90.0, 140.0, 280.0] {
+                            let got = nearest_road_m(&net, p, max_m, first_radius_m(Some(prev)));
+                            assert_eq!(
+                                got.map(f64::to_bits),
+                                want.map(f64::to_bits),
+                                "{map} {p:?} {max_m} {prev}"
+                            );
+                        }
+                        if want.is_some() {
+                            some += 1;
+                        } else {
+                            none += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(some > 2000 && none > 2000, "{some} {none}");
+    }
 
     /// The grid's nearest road is the R-tree's, at the same distance, up to
     /// the cut-off; beyond it, none.
@@ -219,7 +280,7 @@ mod tests {
                     y0 + (y1 - y0) * (-0.2 + 1.4 * f64::from(j) / 40.0),
                 ];
                 let want = net.rtree.nearest(p).map(|(_, d)| d).filter(|d| *d <= 60.0);
-                let got = nearest_road_m(&net, p, 60.0);
+                let got = nearest_road_m(&net, p, 60.0, 16.0);
                 assert_eq!(got, want, "{p:?}");
                 // The grid's one-pass nearest is, bit for bit, the least
                 // distance over the segments its radius query lists.

@@ -282,6 +282,49 @@ impl GridIndex {
         (d2 <= r2).then(|| d2.sqrt())
     }
 
+    /// Each segment within `radius` metres of `p`, in the order
+    /// [`Self::within_radius_into`] lists them, with the fraction along it
+    /// (0 at its start) of its point closest to `p` and the distance (m) to
+    /// that point: `f(id, t, distance)`. The closest point and the distance
+    /// are the ones the radius test computes (one pass: a caller that needs
+    /// them does not project the listed segments again).
+    pub fn for_each_within(
+        &self,
+        p: [f64; 2],
+        radius: f64,
+        mut f: impl FnMut(SegmentId, f64, f64),
+    ) {
+        let min = [p[0] - radius, p[1] - radius];
+        let max = [p[0] + radius, p[1] + radius];
+        let r2 = radius * radius;
+        let pc = coord(p);
+        if max[0] < self.min[0]
+            || max[1] < self.min[1]
+            || min[0] > self.min[0] + self.cell[0] * f64::from(self.n)
+            || min[1] > self.min[1] + self.cell[1] * f64::from(self.n)
+        {
+            return;
+        }
+        let (qx0, qy0) = (self.cell_x(min[0]), self.cell_y(min[1]));
+        let (qx1, qy1) = (self.cell_x(max[0]), self.cell_y(max[1]));
+        for cx in qx0..=qx1 {
+            let row = &self.code_of[(cx * self.n) as usize..((cx + 1) * self.n) as usize];
+            for cy in qy0..=qy1 {
+                for e in self.cell_entries(row[cy as usize] as usize) {
+                    // Report from the first visited cell the segment is in.
+                    if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
+                        continue;
+                    }
+                    let (t, q) = closest_on_segment(&e.line, pc);
+                    let d2 = norm_sq(pc.x - q.x, pc.y - q.y);
+                    if d2 <= r2 {
+                        f(e.id, t, d2.sqrt());
+                    }
+                }
+            }
+        }
+    }
+
     /// Segments within `radius` metres of `p`.
     pub fn within_radius(&self, p: [f64; 2], radius: f64) -> Vec<SegmentId> {
         let mut out = Vec::new();
@@ -300,5 +343,52 @@ impl GridIndex {
         let mut out = Vec::new();
         self.in_box_into(min, max, &mut out);
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::Network;
+
+    /// `for_each_within` reports the segments `within_radius` lists, in
+    /// the same order, each with the closest point's fraction and the
+    /// distance a projection onto the segment gives, bit for bit.
+    #[test]
+    fn for_each_within_lists_the_radius_query_with_its_projection() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
+        let net = Network::load(&path, &Default::default()).unwrap();
+        let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
+        let mut listed = 0;
+        for i in 0..=30 {
+            for j in 0..=30 {
+                let p = [
+                    x0 + (x1 - x0) * (-0.3 + 1.6 * f64::from(i) / 30.0),
+                    y0 + (y1 - y0) * (-0.3 + 1.6 * f64::from(j) / 30.0),
+                ];
+                for r in [15.0, 80.0, 279.0] {
+                    let want: Vec<_> = net
+                        .grid
+                        .within_radius(p, r)
+                        .into_iter()
+                        .map(|s| {
+                            let (t, q) =
+                                closest_on_segment(&net.segments[s as usize].line(), coord(p));
+                            (
+                                s,
+                                t.to_bits(),
+                                norm_sq(p[0] - q.x, p[1] - q.y).sqrt().to_bits(),
+                            )
+                        })
+                        .collect();
+                    let mut got = Vec::new();
+                    net.grid
+                        .for_each_within(p, r, |s, t, d| got.push((s, t.to_bits(), d.to_bits())));
+                    assert_eq!(got, want, "{p:?} {r}");
+                    listed += got.len();
+                }
+            }
+        }
+        assert!(listed > 1000, "{listed}");
     }
 }

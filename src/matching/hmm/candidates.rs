@@ -1,15 +1,69 @@
 //! Candidates of a fix: the nearest point of each section within the search
 //! radius, one state per permitted direction, ranked by emission.
 
-use super::drift::{emission, Drift, Line};
-use super::geometry::directed_cos;
+use super::drift::{emission, emission_log_p_with, Drift, Line};
+use super::geometry::directed_cos_sc;
 use super::matcher::HmmMatcher;
 use super::state::{Cand, Step};
 use crate::matching::paths::OnSection;
 use crate::matching::{project, Fix};
+use crate::network::{Network, SectionId, SegmentId};
+
+/// Does a drift have the prior's isotropic covariance (the same variance
+/// across every road, so the emission's log term repeats:
+/// [`super::drift::LnCache`])?
+#[inline]
+fn isotropic(d: &Drift) -> bool {
+    d.cov[1] == 0.0 && d.cov[0] == d.cov[2]
+}
+
+/// The nearest segment of each section: (section, segment, distance, t),
+/// in the order the sections are first found; a nearer segment of a
+/// section found later replaces the earlier one in place.
+#[inline]
+fn note_nearest(
+    nearest: &mut Vec<(SectionId, SegmentId, f64, f64)>,
+    net: &Network,
+    seg: SegmentId,
+    t: f64,
+    dist: f64,
+) {
+    let section = net.segments[seg as usize].section;
+    match nearest.iter_mut().find(|n| n.0 == section) {
+        Some(n) => {
+            if dist < n.2 {
+                *n = (section, seg, dist, t);
+            }
+        }
+        None => nearest.push((section, seg, dist, t)),
+    }
+}
+
+/// A candidate's heading term: κ (cos − 1), 0 without a heading.
+#[inline]
+fn heading_term(
+    net: &Network,
+    seg: SegmentId,
+    heading: Option<((f64, f64), f64)>,
+    forward: bool,
+) -> f64 {
+    match heading {
+        Some((sc, kappa)) => kappa * (directed_cos_sc(net, seg, sc, forward) - 1.0),
+        None => 0.0,
+    }
+}
 
 impl HmmMatcher<'_> {
     /// Candidates of a fix into `cands`, placed and ranked with the drift `d`.
+    ///
+    /// Ranked on small keys, built once: each section's nearest segment
+    /// gives its emission and, per permitted direction, a key (emission
+    /// with the heading's part, the candidate's place in the order found);
+    /// only the best `max_candidates` keys become [`Cand`]s. Without a
+    /// drift mean (the independent model, and a chain's start) the radius
+    /// query hands over the closest point and the distance it computed.
+    /// The same candidates, in the same order, with the same numbers as
+    /// building every candidate first (tested against that below).
     pub(super) fn candidates(
         &mut self,
         fix: &Fix,
@@ -19,82 +73,60 @@ impl HmmMatcher<'_> {
     ) {
         let net = self.net;
         cands.clear();
-        self.seg_buf.clear();
-        net.grid
-            .within_radius_into(fix.enu, self.params.search_radius_m, &mut self.seg_buf);
         let r2 = self.params.sigma_m * self.params.sigma_m;
         let corrected = [fix.enu[0] - d.mean[0], fix.enu[1] - d.mean[1]];
         // The nearest segment of each section to the fix less the drift.
         let mut nearest = std::mem::take(&mut self.near_buf);
         nearest.clear();
-        for &seg in &self.seg_buf {
-            let (t, _, dist) = project(net, seg, corrected);
-            let section = net.segments[seg as usize].section;
-            match nearest.iter_mut().find(|n| n.0 == section) {
-                Some(n) => {
-                    if dist < n.2 {
-                        *n = (section, seg, dist, t);
-                    }
-                }
-                None => nearest.push((section, seg, dist, t)),
-            }
-        }
-        for &(section, seg, _, t) in &nearest {
-            let s = &net.segments[seg as usize];
-            let line = Line::of(net, seg);
-            let base = emission(&line, fix.enu, d, r2).log_p;
-            let offset_m = s.section_offset_m + t * s.length_m;
-            let oneway = net.sections[section as usize].oneway;
-            // One state per permitted direction of the section.
-            for forward in [true, false] {
-                if !(if forward {
-                    oneway.allows_forward()
-                } else {
-                    oneway.allows_backward()
-                }) {
-                    continue;
-                }
-                let h = match heading {
-                    Some((h, kappa)) => kappa * (directed_cos(net, seg, h, forward) - 1.0),
-                    None => 0.0,
-                };
-                let sign = if forward { 1.0 } else { -1.0 };
-                cands.push(Cand {
-                    seg,
-                    line,
-                    at: OnSection {
-                        section,
-                        offset_m,
-                        forward: Some(forward),
-                    },
-                    emission: base + h,
-                    heading: h,
-                    dir: [sign * line.u[0], sign * line.u[1]],
-                    anchor_dir: [0.0; 2],
-                    anchor_m: 0.0,
-                    road: s.road,
-                    anchor_road: s.road,
-                    drift: *d,
+        if corrected[0].to_bits() == fix.enu[0].to_bits()
+            && corrected[1].to_bits() == fix.enu[1].to_bits()
+        {
+            net.grid
+                .for_each_within(fix.enu, self.params.search_radius_m, |seg, t, dist| {
+                    note_nearest(&mut nearest, net, seg, t, dist);
                 });
+        } else {
+            self.seg_buf.clear();
+            net.grid
+                .within_radius_into(fix.enu, self.params.search_radius_m, &mut self.seg_buf);
+            for &seg in &self.seg_buf {
+                let (t, _, dist) = project(net, seg, corrected);
+                note_nearest(&mut nearest, net, seg, t, dist);
             }
         }
-        self.near_buf = nearest;
-        // The best `max_candidates` by emission, ties in the order found (a
-        // total order, so the selection does not depend on the sorting
-        // algorithm); sorted as keys, the candidates moved once.
-        let order = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+        // The heading's unit vector once per fix.
+        let heading = heading.map(|(h, kappa)| (h.sin_cos(), kappa));
+        let iso = isotropic(d);
+        // Keys: (emission, 2 × index in `nearest` + 1 for the backward
+        // direction), which orders ties as building every candidate in
+        // turn (sections in the order found, forward first) did.
         let mut keys = std::mem::take(&mut self.key_buf);
         keys.clear();
-        keys.extend(
-            cands
-                .iter()
-                .enumerate()
-                .map(|(i, c)| (c.emission, i as u32)),
-        );
+        for (j, &(section, seg, _, _)) in nearest.iter().enumerate() {
+            let line = Line::of(net, seg);
+            let base = if iso {
+                let cache = &mut self.ln_cache;
+                emission_log_p_with(&line, fix.enu, d, r2, |x| cache.ln(x))
+            } else {
+                emission(&line, fix.enu, d, r2).log_p
+            };
+            let oneway = net.sections[section as usize].oneway;
+            // One state per permitted direction of the section.
+            if oneway.allows_forward() {
+                let h = heading_term(net, seg, heading, true);
+                keys.push((base + h, 2 * j as u32));
+            }
+            if oneway.allows_backward() {
+                let h = heading_term(net, seg, heading, false);
+                keys.push((base + h, 2 * j as u32 + 1));
+            }
+        }
+        // The best `max_candidates` by emission, ties in the order found (a
+        // total order, so the selection does not depend on the sorting
+        // algorithm).
+        let order = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
         let k = self.params.max_candidates.min(keys.len());
-        if k == 0 {
-            cands.clear();
-        } else {
+        if k > 0 {
             if keys.len() > k {
                 keys.select_nth_unstable_by(k - 1, order);
                 keys.truncate(k);
@@ -109,15 +141,35 @@ impl HmmMatcher<'_> {
             } else {
                 ratio.clamp(0.0, 1.0)
             };
-            let floor = keys[0].0 + ratio.ln();
+            let floor = keys[0].0 + self.ln_cache.ln(ratio);
             let kept = keys.partition_point(|k| k.0 >= floor);
             keys.truncate(kept);
-            let mut sorted = std::mem::take(&mut self.cand_buf);
-            sorted.clear();
-            sorted.extend(keys.iter().map(|&(_, i)| cands[i as usize]));
-            std::mem::swap(cands, &mut sorted);
-            self.cand_buf = sorted;
+            for &(em, code) in &keys {
+                let (section, seg, _, t) = nearest[(code >> 1) as usize];
+                let forward = code & 1 == 0;
+                let s = &net.segments[seg as usize];
+                let line = Line::of(net, seg);
+                let sign = if forward { 1.0 } else { -1.0 };
+                cands.push(Cand {
+                    seg,
+                    line,
+                    at: OnSection {
+                        section,
+                        offset_m: s.section_offset_m + t * s.length_m,
+                        forward: Some(forward),
+                    },
+                    emission: em,
+                    heading: heading_term(net, seg, heading, forward),
+                    dir: [sign * line.u[0], sign * line.u[1]],
+                    anchor_dir: [0.0; 2],
+                    anchor_m: 0.0,
+                    road: s.road,
+                    anchor_road: s.road,
+                    drift: *d,
+                });
+            }
         }
+        self.near_buf = nearest;
         self.key_buf = keys;
     }
 
@@ -152,7 +204,186 @@ impl HmmMatcher<'_> {
 mod tests {
     use super::super::{HmmMatcher, HmmParams};
     use super::*;
-    use crate::network::Network;
+
+    /// The candidates as built before ranking on keys: every section's
+    /// nearest segment projected again, every candidate built in full, the
+    /// best selected and copied (the former code, kept as the reference).
+    fn candidates_reference(
+        m: &mut HmmMatcher,
+        fix: &Fix,
+        heading: Option<(f64, f64)>,
+        d: &Drift,
+    ) -> Vec<Cand> {
+        use crate::matching::hmm::geometry::directed_cos;
+        let net = m.net;
+        let mut cands = Vec::new();
+        let seg_buf = net.grid.within_radius(fix.enu, m.params.search_radius_m);
+        let r2 = m.params.sigma_m * m.params.sigma_m;
+        let corrected = [fix.enu[0] - d.mean[0], fix.enu[1] - d.mean[1]];
+        let mut nearest: Vec<(SectionId, SegmentId, f64, f64)> = Vec::new();
+        for &seg in &seg_buf {
+            let (t, _, dist) = project(net, seg, corrected);
+            let section = net.segments[seg as usize].section;
+            match nearest.iter_mut().find(|n| n.0 == section) {
+                Some(n) => {
+                    if dist < n.2 {
+                        *n = (section, seg, dist, t);
+                    }
+                }
+                None => nearest.push((section, seg, dist, t)),
+            }
+        }
+        for &(section, seg, _, t) in &nearest {
+            let s = &net.segments[seg as usize];
+            let line = Line::of(net, seg);
+            let base = emission(&line, fix.enu, d, r2).log_p;
+            let offset_m = s.section_offset_m + t * s.length_m;
+            let oneway = net.sections[section as usize].oneway;
+            for forward in [true, false] {
+                if !(if forward {
+                    oneway.allows_forward()
+                } else {
+                    oneway.allows_backward()
+                }) {
+                    continue;
+                }
+                let h = match heading {
+                    Some((h, kappa)) => kappa * (directed_cos(net, seg, h, forward) - 1.0),
+                    None => 0.0,
+                };
+                let sign = if forward { 1.0 } else { -1.0 };
+                cands.push(Cand {
+                    seg,
+                    line,
+                    at: OnSection {
+                        section,
+                        offset_m,
+                        forward: Some(forward),
+                    },
+                    emission: base + h,
+                    heading: h,
+                    dir: [sign * line.u[0], sign * line.u[1]],
+                    anchor_dir: [0.0; 2],
+                    anchor_m: 0.0,
+                    road: s.road,
+                    anchor_road: s.road,
+                    drift: *d,
+                });
+            }
+        }
+        let order = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+        let mut keys: Vec<(f64, u32)> = cands
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (c.emission, i as u32))
+            .collect();
+        let k = m.params.max_candidates.min(keys.len());
+        if k == 0 {
+            return Vec::new();
+        }
+        if keys.len() > k {
+            keys.select_nth_unstable_by(k - 1, order);
+            keys.truncate(k);
+        }
+        keys.sort_unstable_by(order);
+        let ratio = m.params.min_emission_ratio;
+        let ratio = if ratio.is_nan() {
+            0.0
+        } else {
+            ratio.clamp(0.0, 1.0)
+        };
+        let floor = keys[0].0 + ratio.ln();
+        let kept = keys.partition_point(|k| k.0 >= floor);
+        keys.truncate(kept);
+        keys.iter().map(|&(_, i)| cands[i as usize]).collect()
+    }
+
+    /// Ranking on keys and building the kept candidates only (with the
+    /// radius query's own projection, the heading's `sin_cos` once per fix
+    /// and the cached logarithms) gives the reference's candidates, in the
+    /// same order, every number bit for bit (compared by their `Debug`
+    /// text, which tells every two `f64` apart): on the real maps and a
+    /// bundled one, fixes on a lattice over and beyond each map (up to
+    /// half its box each side), with and without a heading, under the
+    /// prior (the independent model, a chain's start) and under drifts
+    /// with a mean and an anisotropic covariance (the drift model), with
+    /// both models' candidate caps and several radii and ratios.
+    #[test]
+    fn ranking_on_keys_gives_the_reference_candidates() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let (mut fixes, mut found, mut capped) = (0usize, 0usize, 0usize);
+        for map in [
+            "tests/data/small.osm",
+            "tests/data/real/fmm-network.geojson",
+            "tests/data/real/issue-70.osm",
+            "tests/data/real/issue-13.osm",
+        ] {
+            let net = Network::load(&root.join(map), &Default::default()).unwrap();
+            let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
+            let drifts = [
+                Drift::prior(19.4),
+                Drift::prior(7.3),
+                Drift {
+                    mean: [4.5, -2.25],
+                    cov: [30.0, 6.5, 120.0],
+                },
+                Drift {
+                    mean: [0.0, 0.0],
+                    cov: [50.0, -3.0, 20.0],
+                },
+            ];
+            for (pi, (radius, max_c, ratio)) in [
+                (279.0, 8, 1e-6),
+                (100.0, 10, 1e-6),
+                (50.0, 8, 0.0),
+                (300.0, 1000, 0.5),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let params = HmmParams {
+                    search_radius_m: radius,
+                    max_candidates: max_c,
+                    min_emission_ratio: ratio,
+                    sigma_m: 4.0 + pi as f64,
+                    ..HmmParams::default()
+                };
+                let mut fast = HmmMatcher::new(&net, params);
+                let mut slow = HmmMatcher::new(&net, params);
+                let mut got = Vec::new();
+                for i in 0..=24 {
+                    for j in 0..=24 {
+                        let p = [
+                            x0 + (x1 - x0) * (-0.5 + 2.0 * f64::from(i) / 24.0) + 0.13,
+                            y0 + (y1 - y0) * (-0.5 + 2.0 * f64::from(j) / 24.0) - 0.29,
+                        ];
+                        let fix = Fix {
+                            t_s: 0.0,
+                            enu: p,
+                            heading_rad: None,
+                        };
+                        let n = (i * 25 + j) as usize;
+                        let d = &drifts[n % drifts.len()];
+                        let heading = match n % 3 {
+                            0 => None,
+                            1 => Some((0.1 * n as f64, 2.0)),
+                            _ => Some((-0.37 * n as f64, 0.5)),
+                        };
+                        fast.candidates(&fix, heading, d, &mut got);
+                        let want = candidates_reference(&mut slow, &fix, heading, d);
+                        assert_eq!(format!("{got:?}"), format!("{want:?}"), "{map} {p:?} {pi}");
+                        fixes += 1;
+                        found += usize::from(!got.is_empty());
+                        capped += usize::from(got.len() == max_c);
+                    }
+                }
+            }
+        }
+        assert!(
+            found > 2000 && fixes - found > 1000 && capped > 50,
+            "{fixes} {found} {capped}"
+        );
+    }
 
     /// The emission-ratio rule drops exactly the candidates below the
     /// fix's best × `min_emission_ratio`, keeping the others in the same

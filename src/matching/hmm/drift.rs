@@ -89,6 +89,34 @@ pub(super) struct Emission {
 /// uncertain does not gain from that uncertainty.
 #[inline]
 pub(super) fn emission(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Emission {
+    let (quad, normal, nu, s) = emission_parts(line, raw, d, r2);
+    Emission {
+        log_p: quad - 0.5 * (s / r2).ln(),
+        normal,
+        nu,
+        s,
+    }
+}
+
+/// [`emission`]'s log-likelihood alone, its `ln` taken by `ln` (e.g. a
+/// cache of exact logarithms: [`LnCache`]); the same
+/// number when `ln` is `f64::ln`.
+#[inline]
+pub(super) fn emission_log_p_with(
+    line: &Line,
+    raw: [f64; 2],
+    d: &Drift,
+    r2: f64,
+    ln: impl FnOnce(f64) -> f64,
+) -> f64 {
+    let (quad, _, _, s) = emission_parts(line, raw, d, r2);
+    quad - 0.5 * ln(s / r2)
+}
+
+/// [`emission`] but its log term: the quadratic part of the
+/// log-likelihood, the unit normal, the innovation and its variance S.
+#[inline(always)]
+fn emission_parts(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> (f64, [f64; 2], f64, f64) {
     let u = line.u;
     let n = [-u[1], u[0]];
     let rel = [
@@ -105,16 +133,51 @@ pub(super) fn emission(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Emissi
         0.0
     };
     let s_n = d.var(n) + r2;
-    let log_p = if over == 0.0 {
+    let quad = if over == 0.0 {
         -0.5 * across * across / s_n
     } else {
         -0.5 * (across * across / s_n + over * over / (d.var(u) + r2))
-    } - 0.5 * (s_n / r2).ln();
-    Emission {
-        log_p,
-        normal: n,
-        nu: across,
-        s: s_n,
+    };
+    (quad, n, across, s_n)
+}
+
+/// Natural logarithms already taken, by their argument's bits
+/// (direct-mapped on the low bits): `ln(x)` is exactly `x.ln()`. Under the
+/// isotropic prior (the independent model's drift, always) the emission's
+/// `−½ ln(S/r²)` has the same argument for every candidate of a track up
+/// to the last bits of S (each road's direction rounds it a little
+/// differently), so a handful of entries answer nearly every candidate
+/// where `ln` took ~60 instructions each (callgrind, FMM example).
+#[derive(Debug, Clone)]
+pub(super) struct LnCache {
+    keys: [u64; 8],
+    vals: [f64; 8],
+}
+
+impl Default for LnCache {
+    fn default() -> Self {
+        // Every slot holds ln(1) = 0, exact (1.0 maps to slot 0; the other
+        // slots' key never matches an argument that maps to them).
+        Self {
+            keys: [1.0f64.to_bits(); 8],
+            vals: [0.0; 8],
+        }
+    }
+}
+
+impl LnCache {
+    /// `x.ln()`, exactly.
+    #[inline]
+    pub(super) fn ln(&mut self, x: f64) -> f64 {
+        let bits = x.to_bits();
+        let slot = (bits & 7) as usize;
+        if self.keys[slot] == bits {
+            return self.vals[slot];
+        }
+        let v = x.ln();
+        self.keys[slot] = bits;
+        self.vals[slot] = v;
+        v
     }
 }
 

@@ -21,14 +21,26 @@ pub(super) fn with_raw(mut m: MatchedPoint, raw: [f64; 2]) -> MatchedPoint {
 }
 
 /// Cosine between a heading and a segment's direction of travel.
+#[cfg(test)]
 pub(super) fn directed_cos(net: &Network, seg: SegmentId, heading_rad: f64, forward: bool) -> f64 {
+    directed_cos_sc(net, seg, heading_rad.sin_cos(), forward)
+}
+
+/// [`directed_cos`] given the heading's `sin_cos()` (taken once per fix,
+/// not once per candidate): the same number.
+#[inline]
+pub(super) fn directed_cos_sc(
+    net: &Network,
+    seg: SegmentId,
+    (sh, ch): (f64, f64),
+    forward: bool,
+) -> f64 {
     let s = &net.segments[seg as usize];
     let (dx, dy) = (s.b[0] - s.a[0], s.b[1] - s.a[1]);
     let len = norm(dx, dy);
     if len <= 0.0 {
         return 0.0;
     }
-    let (sh, ch) = heading_rad.sin_cos();
     let c = (dx * sh + dy * ch) / len;
     if forward {
         c

@@ -31,9 +31,9 @@ pub struct HmmMatcher<'a> {
     pub(super) drift_at: Option<[f64; 2]>,
     pub(super) seg_buf: Vec<SegmentId>,
     pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
-    /// The candidates' ranking keys, and the candidates in ranked order.
+    /// The candidates' ranking keys, and the logarithms they took.
     pub(super) key_buf: Vec<(f64, u32)>,
-    pub(super) cand_buf: Vec<super::state::Cand>,
+    pub(super) ln_cache: super::drift::LnCache,
     pub(super) post_buf: Vec<f64>,
     /// The backward pass's two vectors.
     pub(super) beta_bufs: [Vec<f64>; 2],
@@ -78,7 +78,7 @@ impl<'a> HmmMatcher<'a> {
             seg_buf: Vec::with_capacity(64),
             near_buf: Vec::with_capacity(64),
             key_buf: Vec::with_capacity(64),
-            cand_buf: Vec::with_capacity(64),
+            ln_cache: Default::default(),
             post_buf: Vec::with_capacity(params.max_candidates),
             beta_bufs: [
                 Vec::with_capacity(params.max_candidates),
