@@ -1,7 +1,8 @@
-//! Matching throughput on one track file: `FileMatcher::match_rows` (the
+//! Matching throughput on one track file: `FileMatcher::match_rows_into` (the
 //! HMM with the default options, the complete path included) run REPEATS
 //! times after the map is loaded, by one matcher kept across the repeats (as
-//! a peer's matcher object is), with its cache of network searches emptied
+//! a peer's matcher object is), into one output kept across them too (its
+//! memory reused, as a server's would be), with its cache of network searches emptied
 //! before each repeat (cold) or kept between repeats (warm); prints points
 //! per second (BENCHMARKS.md, "Matching").
 //!
@@ -15,7 +16,7 @@
 use std::time::Instant;
 use waymark::matching::inputs::read_track_file;
 use waymark::matching::options::MatchOptions;
-use waymark::matching::track::FileMatcher;
+use waymark::matching::track::{FileMatch, FileMatcher};
 use waymark::network::{LoadOptions, Network};
 
 fn main() -> anyhow::Result<()> {
@@ -50,11 +51,12 @@ fn main() -> anyhow::Result<()> {
     // Cold: each repeat starts an empty cache of network searches (as
     // `waymark match` does for its one file).
     let mut matcher = FileMatcher::new(&net);
+    let mut out = FileMatch::default();
     let t0 = Instant::now();
     for _ in 0..if warm_only { 0 } else { repeats } {
         matcher.forget_searches();
-        let (_, outcomes) = matcher.match_rows(&rows, &opts);
-        matched = outcomes.iter().map(|o| o.matched).sum::<usize>();
+        matcher.match_rows_into(&rows, &opts, &mut out);
+        matched = out.tracks.iter().map(|o| o.matched).sum::<usize>();
     }
     let cold = t0.elapsed().as_secs_f64();
     // Warm: the cache kept between repeats (as fastmm's UBODT, built once
@@ -62,8 +64,8 @@ fn main() -> anyhow::Result<()> {
     matcher.forget_searches();
     let t0 = Instant::now();
     for _ in 0..repeats {
-        let (_, outcomes) = matcher.match_rows(&rows, &opts);
-        matched = matched.min(outcomes.iter().map(|o| o.matched).sum::<usize>());
+        matcher.match_rows_into(&rows, &opts, &mut out);
+        matched = matched.min(out.tracks.iter().map(|o| o.matched).sum::<usize>());
     }
     let warm = t0.elapsed().as_secs_f64();
     println!(
