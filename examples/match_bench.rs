@@ -6,12 +6,14 @@
 //! before each repeat (cold) or kept between repeats (warm); prints points
 //! per second (BENCHMARKS.md, "Matching").
 //!
-//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent]
+//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent] [fresh]
 //! (RADIUS_M: `--radius-m`, e.g. a peer's search radius, instead of the
 //! radius taken from the track; `-`: from the track. `warm`: only the warm
 //! repeats, the first of them filling the cache, for counting the warm
 //! repeats' instructions alone under callgrind: a run of REPEATS + 1 minus
-//! one of 1. `independent`: `match --model independent`).
+//! one of 1. `independent`: `match --model independent`. `fresh`: a new
+//! output for each repeat, `FileMatcher::match_rows`, as before the eighth
+//! round).
 
 use std::time::Instant;
 use waymark::matching::inputs::read_track_file;
@@ -24,10 +26,13 @@ fn main() -> anyhow::Result<()> {
     let flags = args.get(4..).unwrap_or_default();
     anyhow::ensure!(
         args.len() >= 3
-            && flags.iter().all(|f| f == "warm" || f == "independent")
-            && flags.len() <= 2,
-        "usage: match_bench MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent]"
+            && flags
+                .iter()
+                .all(|f| f == "warm" || f == "independent" || f == "fresh")
+            && flags.len() <= 3,
+        "usage: match_bench MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent] [fresh]"
     );
+    let fresh = flags.iter().any(|f| f == "fresh");
     let warm_only = flags.iter().any(|f| f == "warm");
     let model = if flags.iter().any(|f| f == "independent") {
         waymark::matching::HmmModel::Independent
@@ -55,7 +60,11 @@ fn main() -> anyhow::Result<()> {
     let t0 = Instant::now();
     for _ in 0..if warm_only { 0 } else { repeats } {
         matcher.forget_searches();
-        matcher.match_rows_into(&rows, &opts, &mut out);
+        if fresh {
+            out.tracks = matcher.match_rows(&rows, &opts).1;
+        } else {
+            matcher.match_rows_into(&rows, &opts, &mut out);
+        }
         matched = out.tracks.iter().map(|o| o.matched).sum::<usize>();
     }
     let cold = t0.elapsed().as_secs_f64();
@@ -64,7 +73,11 @@ fn main() -> anyhow::Result<()> {
     matcher.forget_searches();
     let t0 = Instant::now();
     for _ in 0..repeats {
-        matcher.match_rows_into(&rows, &opts, &mut out);
+        if fresh {
+            out.tracks = matcher.match_rows(&rows, &opts).1;
+        } else {
+            matcher.match_rows_into(&rows, &opts, &mut out);
+        }
         matched = matched.min(out.tracks.iter().map(|o| o.matched).sum::<usize>());
     }
     let warm = t0.elapsed().as_secs_f64();
