@@ -598,8 +598,16 @@ impl<'a> NetworkDistances<'a> {
     ) -> bool {
         pieces.clear();
         let exits = self.exits(a);
+        let searches = self.searches;
         for (xn, _) in exits.into_iter().flatten() {
             self.ensure(xn, bound_m);
+        }
+        if self.searches != searches {
+            // A search may have emptied a full cache, and the other exit's
+            // tree with it: search that again (there is room now).
+            for (xn, _) in exits.into_iter().flatten() {
+                self.ensure(xn, bound_m);
+            }
         }
         let entries = self.entries(b);
         let mut best: Option<(f64, Option<Via>)> =
