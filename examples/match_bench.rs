@@ -1,21 +1,24 @@
-//! Matching throughput on one track file: `FileMatcher::match_rows` (the
+//! Matching throughput on one track file: `FileMatcher::match_rows_into` (the
 //! HMM with the default options, the complete path included) run REPEATS
 //! times after the map is loaded, by one matcher kept across the repeats (as
-//! a peer's matcher object is), with its cache of network searches emptied
+//! a peer's matcher object is), into one output kept across them too (its
+//! memory reused, as a server's would be), with its cache of network searches emptied
 //! before each repeat (cold) or kept between repeats (warm); prints points
 //! per second (BENCHMARKS.md, "Matching").
 //!
-//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent]
+//! Usage: cargo run --release --example match_bench -- MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent] [fresh]
 //! (RADIUS_M: `--radius-m`, e.g. a peer's search radius, instead of the
 //! radius taken from the track; `-`: from the track. `warm`: only the warm
 //! repeats, the first of them filling the cache, for counting the warm
 //! repeats' instructions alone under callgrind: a run of REPEATS + 1 minus
-//! one of 1. `independent`: `match --model independent`).
+//! one of 1. `independent`: `match --model independent`. `fresh`: a new
+//! output for each repeat, `FileMatcher::match_rows`, as before the eighth
+//! round).
 
 use std::time::Instant;
 use waymark::matching::inputs::read_track_file;
 use waymark::matching::options::MatchOptions;
-use waymark::matching::track::FileMatcher;
+use waymark::matching::track::{FileMatch, FileMatcher};
 use waymark::network::{LoadOptions, Network};
 
 fn main() -> anyhow::Result<()> {
@@ -23,10 +26,13 @@ fn main() -> anyhow::Result<()> {
     let flags = args.get(4..).unwrap_or_default();
     anyhow::ensure!(
         args.len() >= 3
-            && flags.iter().all(|f| f == "warm" || f == "independent")
-            && flags.len() <= 2,
-        "usage: match_bench MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent]"
+            && flags
+                .iter()
+                .all(|f| f == "warm" || f == "independent" || f == "fresh")
+            && flags.len() <= 3,
+        "usage: match_bench MAP TRACK REPEATS [RADIUS_M|-] [warm] [independent] [fresh]"
     );
+    let fresh = flags.iter().any(|f| f == "fresh");
     let warm_only = flags.iter().any(|f| f == "warm");
     let model = if flags.iter().any(|f| f == "independent") {
         waymark::matching::HmmModel::Independent
@@ -50,11 +56,16 @@ fn main() -> anyhow::Result<()> {
     // Cold: each repeat starts an empty cache of network searches (as
     // `waymark match` does for its one file).
     let mut matcher = FileMatcher::new(&net);
+    let mut out = FileMatch::default();
     let t0 = Instant::now();
     for _ in 0..if warm_only { 0 } else { repeats } {
         matcher.forget_searches();
-        let (_, outcomes) = matcher.match_rows(&rows, &opts);
-        matched = outcomes.iter().map(|o| o.matched).sum::<usize>();
+        if fresh {
+            out.tracks = matcher.match_rows(&rows, &opts).1;
+        } else {
+            matcher.match_rows_into(&rows, &opts, &mut out);
+        }
+        matched = out.tracks.iter().map(|o| o.matched).sum::<usize>();
     }
     let cold = t0.elapsed().as_secs_f64();
     // Warm: the cache kept between repeats (as fastmm's UBODT, built once
@@ -62,8 +73,12 @@ fn main() -> anyhow::Result<()> {
     matcher.forget_searches();
     let t0 = Instant::now();
     for _ in 0..repeats {
-        let (_, outcomes) = matcher.match_rows(&rows, &opts);
-        matched = matched.min(outcomes.iter().map(|o| o.matched).sum::<usize>());
+        if fresh {
+            out.tracks = matcher.match_rows(&rows, &opts).1;
+        } else {
+            matcher.match_rows_into(&rows, &opts, &mut out);
+        }
+        matched = matched.min(out.tracks.iter().map(|o| o.matched).sum::<usize>());
     }
     let warm = t0.elapsed().as_secs_f64();
     println!(

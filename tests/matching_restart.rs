@@ -190,3 +190,83 @@ fn a_file_matcher_kept_across_streamed_files_matches_as_a_new_one() {
         }
     }
 }
+
+/// `FileMatcher::match_rows_into` with one `FileMatch` kept across files
+/// (its outcomes, row lists and paths' section lists reused, extra outcomes
+/// dropped) gives what a new `match_rows` gives for each file, both models:
+/// the same MATCHED.csv text, tracks in order of first appearance (as
+/// `group_tracks` gives them), breaks, unmatched runs, complete paths and
+/// parameters. The files have 1, 3, 12 (more than the grouping's linear
+/// scan, ids interleaved) and 2 tracks (one revisited after the other).
+#[test]
+fn a_kept_file_match_is_filled_as_a_new_one() {
+    use waymark::matching::inputs::read_track_file;
+    use waymark::matching::options::MatchOptions;
+    use waymark::matching::track::{
+        group_tracks, match_rows, matched_csv, FileMatch, FileMatcher, TrackRow,
+    };
+    use waymark::matching::HmmModel;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real");
+    for (map, track) in [
+        ("issue-13.osm", "issue-13.gpx"),
+        ("fmm-network.geojson", "fmm-trips.geojson"),
+    ] {
+        let net = Network::load(&dir.join(map), &LoadOptions::default()).unwrap();
+        let (rows, _) = read_track_file(&dir.join(track)).unwrap();
+        let with_ids = |id: &dyn Fn(usize) -> String| -> Vec<TrackRow> {
+            rows.iter()
+                .enumerate()
+                .map(|(i, r)| TrackRow {
+                    track_id: id(i),
+                    ..r.clone()
+                })
+                .collect()
+        };
+        let n = rows.len();
+        let files = [
+            with_ids(&|_| String::new()),
+            rows.clone(),
+            with_ids(&|i| format!("t{}", i % 12)),
+            with_ids(&|i| {
+                if i < n / 3 || i >= 2 * n / 3 {
+                    "a"
+                } else {
+                    "b"
+                }
+                .into()
+            }),
+            rows.clone(),
+        ];
+        for model in [HmmModel::Drift, HmmModel::Independent] {
+            let opts = MatchOptions {
+                model,
+                ..MatchOptions::default()
+            };
+            let mut kept = FileMatcher::new(&net);
+            let mut out = FileMatch::default();
+            for rows in &files {
+                kept.forget_searches();
+                kept.match_rows_into(rows, &opts, &mut out);
+                let (want_pts, want) = match_rows(&net, rows, &opts);
+                assert_eq!(
+                    matched_csv(&net, rows, &out.points),
+                    matched_csv(&net, rows, &want_pts)
+                );
+                let groups = group_tracks(rows);
+                assert_eq!(out.tracks.len(), groups.len());
+                assert_eq!(want.len(), groups.len());
+                for ((x, y), (id, idx)) in out.tracks.iter().zip(&want).zip(&groups) {
+                    assert_eq!((&x.track_id, &x.rows), (id, idx));
+                    assert_eq!(x.track_id, y.track_id);
+                    assert_eq!(x.rows, y.rows);
+                    assert_eq!(x.matched, y.matched);
+                    assert_eq!(x.breaks, y.breaks);
+                    assert_eq!(x.unmatched, y.unmatched);
+                    assert_eq!(x.path, y.path);
+                    assert_eq!(format!("{:?}", x.params), format!("{:?}", y.params));
+                }
+                assert!(out.tracks.iter().map(|t| t.matched).sum::<usize>() > 0);
+            }
+        }
+    }
+}

@@ -68,14 +68,10 @@ pub fn complete_path_with(
     breaks: &[Break],
     params: &HmmParams,
 ) -> Vec<PathStep> {
-    let mut sorted = breaks.to_vec();
-    sorted.sort_by_key(|b| b.after.0);
     let mut b = PathBuilder::default();
-    for p in points {
-        b.push(paths, net, p, &sorted, params);
-    }
-    b.finish(paths, net, &sorted, params);
-    b.steps
+    let mut steps = Vec::new();
+    b.complete_into(paths, net, points, breaks, params, &mut steps);
+    steps
 }
 
 /// The complete path built point by point as the matcher emits them (a
@@ -96,6 +92,9 @@ pub struct PathBuilder {
     last_piece: Option<u32>,
     /// The pieces of the last join (kept: no allocation per join).
     join_buf: Vec<(SectionId, f64, f64)>,
+    /// Emptied section lists of earlier steps ([`Self::recycle`]), taken by
+    /// new stretches before any is allocated.
+    spare: Vec<Vec<(SectionId, f64, f64)>>,
 }
 
 /// Whether the matcher broke the track before point `index` (`breaks`
@@ -105,6 +104,67 @@ fn broke_at(breaks: &[Break], index: u64) -> bool {
 }
 
 impl PathBuilder {
+    /// The complete path of one whole track into `out` (emptied first):
+    /// what [`complete_path_with`] gives, with this builder's buffers (its
+    /// state is reset first; `steps` is left empty). Section lists of the
+    /// steps in `out` are kept for the new steps ([`Self::recycle`]), so a
+    /// kept builder and output allocate nothing once grown.
+    pub fn complete_into(
+        &mut self,
+        paths: &mut NetworkDistances,
+        net: &Network,
+        points: &[MatchedPoint],
+        breaks: &[Break],
+        params: &HmmParams,
+        out: &mut Vec<PathStep>,
+    ) {
+        self.recycle(out);
+        self.recycle_steps();
+        self.held = None;
+        self.piece = 0;
+        self.cur = None;
+        self.open = None;
+        self.number = 0;
+        self.last_piece = None;
+        // The matchers record their breaks in order: no sorted copy then.
+        let sorted;
+        let breaks = if breaks.is_sorted_by_key(|b| b.after.0) {
+            breaks
+        } else {
+            let mut v = breaks.to_vec();
+            v.sort_by_key(|b| b.after.0);
+            sorted = v;
+            &sorted[..]
+        };
+        std::mem::swap(&mut self.steps, out);
+        // Each point with its successor (what `push` then `finish` give,
+        // without holding a copy of each point).
+        for (i, p) in points.iter().enumerate() {
+            self.point(paths, net, p, points.get(i + 1), breaks, params);
+        }
+        if let Some(st) = self.open.take() {
+            self.close(st);
+        }
+        std::mem::swap(&mut self.steps, out);
+    }
+
+    /// Takes the steps of `steps` (left empty), keeping their section
+    /// lists for the stretches built next.
+    pub fn recycle(&mut self, steps: &mut Vec<PathStep>) {
+        for st in steps.drain(..) {
+            let mut secs = st.sections;
+            secs.clear();
+            self.spare.push(secs);
+        }
+    }
+
+    /// [`Self::recycle`] of this builder's own [`Self::steps`].
+    fn recycle_steps(&mut self) {
+        let mut steps = std::mem::take(&mut self.steps);
+        self.recycle(&mut steps);
+        self.steps = steps;
+    }
+
     /// The next point of the track, in order; `breaks`: the matcher's
     /// breaks so far (a point's break is recorded before it is emitted).
     pub fn push(
@@ -209,9 +269,9 @@ impl PathBuilder {
                 return;
             }
         }
-        // Room for a few sections from the start (most stretches hold one to
-        // four): no reallocation as the stretch grows.
-        let mut secs = Vec::with_capacity(4);
+        // A recycled list, else room for a few sections from the start
+        // (most stretches hold one to four): no reallocation as it grows.
+        let mut secs = self.spare.pop().unwrap_or_else(|| Vec::with_capacity(4));
         secs.push((sec, f, t));
         if let Some(st) = self.open.replace((piece, road, rf, rt, secs)) {
             self.close(st);

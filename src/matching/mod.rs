@@ -199,7 +199,14 @@ pub struct UnmatchedSpan {
 
 /// Runs of unmatched points in a matched track.
 pub fn unmatched_spans(points: &[MatchedPoint]) -> Vec<UnmatchedSpan> {
-    let mut out: Vec<UnmatchedSpan> = Vec::new();
+    let mut out = Vec::new();
+    unmatched_spans_into(points, &mut out);
+    out
+}
+
+/// [`unmatched_spans`] into `out` (emptied first).
+pub fn unmatched_spans_into(points: &[MatchedPoint], out: &mut Vec<UnmatchedSpan>) {
+    out.clear();
     let mut prev_unmatched = false;
     for p in points {
         if p.state.is_matched() {
@@ -219,7 +226,6 @@ pub fn unmatched_spans(points: &[MatchedPoint]) -> Vec<UnmatchedSpan> {
         }
         prev_unmatched = true;
     }
-    out
 }
 
 /// Orthogonal projection of `p` onto segment `seg`: (parameter t in 0..=1,

@@ -608,18 +608,31 @@ impl<'a> NetworkDistances<'a> {
         pieces: &mut Vec<(SectionId, f64, f64)>,
     ) -> bool {
         pieces.clear();
-        for (xn, _) in self.exits(a).into_iter().flatten() {
+        let exits = self.exits(a);
+        let searches = self.searches;
+        for (xn, _) in exits.into_iter().flatten() {
             self.ensure(xn, bound_m);
         }
+        if self.searches != searches {
+            // A search may have emptied a full cache, and the other exit's
+            // tree with it: search that again (there is room now).
+            for (xn, _) in exits.into_iter().flatten() {
+                self.ensure(xn, bound_m);
+            }
+        }
+        let entries = self.entries(b);
         let mut best: Option<(f64, Option<Via>)> =
             self.along_section(a, b, backtrack_m).map(|d| (d, None));
-        for (xn, xc) in self.exits(a).into_iter().flatten() {
+        // The search tree of the best exit, kept (no second lookup).
+        let mut best_tree = None;
+        for (xn, xc) in exits.into_iter().flatten() {
             let tree = &self.cache[&xn];
-            for (en, ec, fwd) in self.entries(b).into_iter().flatten() {
+            for (en, ec, fwd) in entries.into_iter().flatten() {
                 if let Some(&(d, _, first)) = tree.reached.get(&en) {
                     let total = xc + d + ec + self.uturn(a, b, xn, en, first);
                     if best.as_ref().is_none_or(|b| total < b.0) {
                         best = Some((total, Some((xn, xc, en, fwd))));
+                        best_tree = Some(tree);
                     }
                 }
             }
@@ -627,14 +640,13 @@ impl<'a> NetworkDistances<'a> {
         let Some((_, via)) = best else {
             return false;
         };
-        let Some((xn, _, en, fwd)) = via else {
+        let (Some((xn, _, en, fwd)), Some(tree)) = (via, best_tree) else {
             pieces.push((a.section, a.offset_m, b.offset_m));
             return true;
         };
         let net = self.net;
         let sa = &net.sections[a.section as usize];
         let sb = &net.sections[b.section as usize];
-        let tree = &self.cache[&xn];
         let mut middle = std::mem::take(&mut self.middle);
         middle.clear();
         let mut node = en;

@@ -435,6 +435,32 @@ pub struct TrackOutcome {
     pub params: super::HmmParams,
 }
 
+impl TrackOutcome {
+    /// An empty outcome (to be filled by [`FileMatcher::match_rows_into`]).
+    fn empty() -> Self {
+        TrackOutcome {
+            track_id: String::new(),
+            rows: Vec::new(),
+            matched: 0,
+            breaks: Vec::new(),
+            unmatched: Vec::new(),
+            path: Vec::new(),
+            params: super::HmmParams::default(),
+        }
+    }
+}
+
+/// The match of a file's rows ([`FileMatcher::match_rows_into`]): one point
+/// per row, in row order, and what happened to each track, in order of
+/// first appearance. Kept between files, its memory is reused.
+#[derive(Debug, Clone, Default)]
+pub struct FileMatch {
+    /// The match of each row.
+    pub points: Vec<MatchedPoint>,
+    /// Each track's outcome.
+    pub tracks: Vec<TrackOutcome>,
+}
+
 /// Matches every track of a file; the result has one point per row, in row order.
 pub fn match_rows(
     net: &Network,
@@ -488,6 +514,8 @@ pub struct FileMatcher<'a> {
     filled: Vec<bool>,
     /// σ̂'s scratch.
     sigma_buf: Vec<f64>,
+    /// The complete paths' builder (its buffers kept across tracks).
+    path_builder: super::cpath::PathBuilder,
 }
 
 impl<'a> FileMatcher<'a> {
@@ -507,6 +535,7 @@ impl<'a> FileMatcher<'a> {
             points: Vec::new(),
             filled: Vec::new(),
             sigma_buf: Vec::new(),
+            path_builder: Default::default(),
         }
     }
 
@@ -580,31 +609,45 @@ impl<'a> FileMatcher<'a> {
         rows: &[TrackRow],
         opts: &super::options::MatchOptions,
     ) -> (Vec<MatchedPoint>, Vec<TrackOutcome>) {
+        let mut out = FileMatch::default();
+        self.match_rows_into(rows, opts, &mut out);
+        (out.points, out.tracks)
+    }
+
+    /// [`Self::match_rows`] into `out` (its contents replaced), reusing its
+    /// memory: matching file after file (a server, a benchmark's repeats)
+    /// into one `FileMatch` allocates nothing once it has grown.
+    pub fn match_rows_into(
+        &mut self,
+        rows: &[TrackRow],
+        opts: &super::options::MatchOptions,
+        out: &mut FileMatch,
+    ) {
         use super::{IncrementalMatcher, IncrementalParams, Matcher};
         let net = self.net;
+        let n = self.group_into(rows, &mut out.tracks);
         // Rows not in any track's output yet hold a placeholder.
-        let mut all: Vec<MatchedPoint> = vec![
-            MatchedPoint::unmatched(
-                0,
-                &Fix {
-                    t_s: f64::NAN,
-                    enu: [f64::NAN; 2],
-                    heading_rad: None,
-                }
-            );
-            rows.len()
-        ];
+        let placeholder = MatchedPoint::unmatched(
+            0,
+            &Fix {
+                t_s: f64::NAN,
+                enu: [f64::NAN; 2],
+                heading_rad: None,
+            },
+        );
+        out.points.clear();
+        out.points.resize(rows.len(), placeholder);
         self.filled.clear();
         self.filled.resize(rows.len(), false);
-        let mut outcomes = Vec::new();
-        for (track_id, idx) in group_tracks(rows) {
+        for outcome in &mut out.tracks[..n] {
+            let idx = &outcome.rows;
             let mut fixes = std::mem::take(&mut self.fixes);
             fixes.clear();
             fixes.extend(idx.iter().map(|&i| to_fix(net, &rows[i])));
             let params = self.params(opts, &fixes);
             let mut points = std::mem::take(&mut self.points);
             points.clear();
-            let (breaks, path) = match opts.method {
+            match opts.method {
                 Method::Incremental => {
                     let mut m = IncrementalMatcher::new(
                         net,
@@ -620,53 +663,127 @@ impl<'a> FileMatcher<'a> {
                         m.push(f, &mut points);
                     }
                     m.finish(&mut points);
-                    let b = m.breaks().to_vec();
-                    let path = super::cpath::complete_path(net, &points, &b, &params);
-                    (b, path)
+                    outcome.breaks.clear();
+                    outcome.breaks.extend_from_slice(m.breaks());
+                    // What `cpath::complete_path` gives: its own searches.
+                    let mut d = super::NetworkDistances::new(net);
+                    d.uturn_penalty_m = params.uturn_penalty_m;
+                    self.path_builder.complete_into(
+                        &mut d,
+                        net,
+                        &points,
+                        &outcome.breaks,
+                        &params,
+                        &mut outcome.path,
+                    );
                 }
                 Method::Hmm => {
-                    let m = self.hmm_for(params);
-                    let m = self.hmm.insert(m);
+                    // The kept matcher restarted in place (its buffers and
+                    // searches kept), else a new one on the cache.
+                    match self.hmm.as_mut() {
+                        Some(m) => m.restart(params),
+                        None => {
+                            self.hmm = Some(super::HmmMatcher::with_distances(
+                                net,
+                                params,
+                                self.distances.take().expect("the cache"),
+                            ))
+                        }
+                    }
+                    let m = self.hmm.as_mut().expect("a matcher");
                     for f in &fixes {
                         m.push(f, &mut points);
                     }
                     m.finish(&mut points);
-                    let b = m.breaks().to_vec();
-                    let path = super::cpath::complete_path_with(
+                    outcome.breaks.clear();
+                    outcome.breaks.extend_from_slice(m.breaks());
+                    self.path_builder.complete_into(
                         m.distances_mut(),
                         net,
                         &points,
-                        &b,
+                        &outcome.breaks,
                         &params,
+                        &mut outcome.path,
                     );
-                    (b, path)
                 }
-            };
-            let matched = points.iter().filter(|p| p.state.is_matched()).count();
-            let unmatched = super::unmatched_spans(&points);
+            }
+            outcome.matched = points.iter().filter(|p| p.state.is_matched()).count();
+            super::unmatched_spans_into(&points, &mut outcome.unmatched);
             for p in &points {
                 let i = idx[p.index as usize];
-                all[i] = *p;
+                out.points[i] = *p;
                 self.filled[i] = true;
             }
+            outcome.params = params;
             self.points = points;
             self.fixes = fixes;
-            outcomes.push(TrackOutcome {
-                track_id,
-                rows: idx,
-                matched,
-                breaks,
-                unmatched,
-                path,
-                params,
-            });
         }
-        for (i, p) in all.iter_mut().enumerate() {
+        for (i, p) in out.points.iter_mut().enumerate() {
             if !self.filled[i] {
                 *p = MatchedPoint::unmatched(i as u64, &to_fix(net, &rows[i]));
             }
         }
-        (all, outcomes)
+    }
+
+    /// [`group_tracks`] into `tracks`' ids and rows (the outcomes there
+    /// reused, extra ones dropped): the number of tracks.
+    fn group_into(&mut self, rows: &[TrackRow], tracks: &mut Vec<TrackOutcome>) -> usize {
+        // Tracks by id once there are more than a few (a linear scan
+        // before: no hashing, no allocation).
+        const SCAN: usize = 8;
+        let mut at: FxHashMap<&str, usize> = FxHashMap::default();
+        let mut n = 0;
+        // The group of the previous row, whose id the next row most often
+        // shares (tracks come in runs).
+        let mut last: Option<(&str, usize)> = None;
+        for (i, r) in rows.iter().enumerate() {
+            let id = r.track_id.as_str();
+            let k = match last {
+                Some((l, k)) if l == id => k,
+                _ => {
+                    let found = if n <= SCAN {
+                        tracks[..n].iter().position(|t| t.track_id == id)
+                    } else {
+                        if at.is_empty() {
+                            for (k, t) in tracks[..n].iter().enumerate() {
+                                at.insert(rows[t.rows[0]].track_id.as_str(), k);
+                            }
+                        }
+                        at.get(id).copied()
+                    };
+                    match found {
+                        Some(k) => k,
+                        None => {
+                            if n == tracks.len() {
+                                tracks.push(TrackOutcome::empty());
+                            }
+                            let t = &mut tracks[n];
+                            t.track_id.clear();
+                            t.track_id.push_str(id);
+                            t.rows.clear();
+                            if !at.is_empty() {
+                                at.insert(id, n);
+                            }
+                            n += 1;
+                            n - 1
+                        }
+                    }
+                }
+            };
+            if last.is_none_or(|(_, j)| j != k) {
+                // Room for the whole run of rows of this track at once.
+                let run = rows[i..].iter().take_while(|q| q.track_id == id).count();
+                tracks[k].rows.reserve(run);
+            }
+            last = Some((id, k));
+            tracks[k].rows.push(i);
+        }
+        // Extra outcomes of an earlier file: their paths' section lists kept.
+        for t in tracks.drain(n..) {
+            let mut path = t.path;
+            self.path_builder.recycle(&mut path);
+        }
+        n
     }
 }
 

@@ -46,6 +46,8 @@ pub struct HmmMatcher<'a> {
     /// another, and where each starts (a flush's single backward pass).
     pub(super) choice_buf: Vec<u32>,
     pub(super) beta_flat: (Vec<f64>, Vec<usize>),
+    /// The decided path between two steps (kept: no allocation per step).
+    pub(super) path_buf: Vec<(SectionId, f64, f64)>,
 }
 
 impl<'a> HmmMatcher<'a> {
@@ -90,6 +92,7 @@ impl<'a> HmmMatcher<'a> {
             trans_buf: super::state::TransBuf::with_capacity(params.max_candidates),
             choice_buf: Vec::with_capacity(params.lag + 1),
             beta_flat: (Vec::new(), Vec::new()),
+            path_buf: Vec::new(),
         }
     }
 
@@ -201,7 +204,7 @@ impl<'a> HmmMatcher<'a> {
         }
         let step = self.window.pop_front().expect("a step");
         let net = self.net;
-        let c = step.cands[choice as usize];
+        let c = &step.cands[choice as usize];
         // The smoothed probability of the chosen road (both directions,
         // every section of it).
         let confidence = step
@@ -219,33 +222,41 @@ impl<'a> HmmMatcher<'a> {
             enu: [f.enu[0] - b[0], f.enu[1] - b[1]],
             ..*f
         };
-        let mut point = with_raw(
-            matched_on(
-                net,
-                step.index,
-                &corrected(&step.fix),
-                c.seg,
-                MatchState::Matched,
-                confidence,
-            ),
-            step.fix.enu,
+        let mut m = matched_on(
+            net,
+            step.index,
+            &corrected(&step.fix),
+            c.seg,
+            MatchState::Matched,
+            confidence,
         );
+        // No drift (the independent model's, always): the fix corrected is
+        // the fix as given (but for the sign of a zero), and so is the
+        // distance to it, bit for bit.
+        let mut point = if b == [0.0; 2] {
+            m.fix = step.fix.enu;
+            m
+        } else {
+            with_raw(m, step.fix.enu)
+        };
         point.forward = c.at.forward;
         out.push(point);
         self.last_matched = Some((step.index, step.fix.t_s));
         if !step.pending.is_empty() {
-            let pieces = next_choice.and_then(|nc| {
+            let mut pieces = std::mem::take(&mut self.path_buf);
+            let on_path = next_choice.is_some_and(|nc| {
                 let next = self.window.front().expect("the next step");
                 let b = next.cands[nc as usize].at;
                 let gc = dist(next.fix.enu, step.fix.enu);
                 let bound = self.route_bound(gc, next.fix.t_s - step.fix.t_s);
-                self.paths.path(c.at, b, bound, self.params.backtrack_m)
+                self.paths
+                    .path_into(c.at, b, bound, self.params.backtrack_m, &mut pieces)
             });
-            let on_path = pieces.is_some();
-            let pieces = pieces.unwrap_or_else(|| {
+            if !on_path {
                 let len = net.sections[c.at.section as usize].length_m;
-                vec![(c.at.section, 0.0, len)]
-            });
+                pieces.clear();
+                pieces.push((c.at.section, 0.0, len));
+            }
             let mut cursor = 0usize;
             for (index, raw) in &step.pending {
                 let fix = corrected(raw);
@@ -265,6 +276,7 @@ impl<'a> HmmMatcher<'a> {
                 out.push(with_raw(m, raw.enu));
                 self.last_matched = Some((*index, fix.t_s));
             }
+            self.path_buf = pieces;
         }
         self.spare.push(step);
     }
