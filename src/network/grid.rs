@@ -180,14 +180,20 @@ impl GridIndex {
 
     #[inline]
     fn cell_x(&self, x: f64) -> u32 {
-        let c = ((x - self.min[0]) * self.inv_cell[0]).floor();
-        c.clamp(0.0, f64::from(self.n - 1)) as u32
+        // Clamped, then truncated: the floor's cell for every value (within
+        // the grid, truncation is the floor; below it both give 0, above it
+        // both n − 1; NaN gives 0 either way), without a call to `floor`
+        // (not inlined on the baseline x86-64 target: 2 % of matching).
+        ((x - self.min[0]) * self.inv_cell[0]).clamp(0.0, f64::from(self.n - 1)) as u32
     }
 
     #[inline]
     fn cell_y(&self, y: f64) -> u32 {
-        let c = ((y - self.min[1]) * self.inv_cell[1]).floor();
-        c.clamp(0.0, f64::from(self.n - 1)) as u32
+        // Clamped, then truncated: the floor's cell for every value (within
+        // the grid, truncation is the floor; below it both give 0, above it
+        // both n − 1; NaN gives 0 either way), without a call to `floor`
+        // (not inlined on the baseline x86-64 target: 2 % of matching).
+        ((y - self.min[1]) * self.inv_cell[1]).clamp(0.0, f64::from(self.n - 1)) as u32
     }
 
     /// The cell of a point (clamped to the grid).
@@ -350,6 +356,42 @@ impl GridIndex {
 mod tests {
     use super::*;
     use crate::network::Network;
+
+    /// A coordinate's cell is the floor's, clamped to the grid, for values
+    /// inside, on the edges of, below and above the grid and for NaN.
+    #[test]
+    fn cells_are_the_clamped_floor() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
+        let net = Network::load(&path, &Default::default()).unwrap();
+        let g = &net.grid;
+        let floor_cell = |v: f64| v.floor().clamp(0.0, f64::from(g.n - 1)) as u32;
+        let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
+        let mut checked = 0;
+        for i in -300..=1300 {
+            let f = f64::from(i) / 1000.0;
+            for (x, y) in [
+                (x0 + (x1 - x0) * f, y0 + (y1 - y0) * f),
+                // Exactly on cell edges, and just either side of them.
+                (
+                    g.min[0] + f64::from(i) * g.cell[0],
+                    g.min[1] + f64::from(i) * g.cell[1],
+                ),
+                (
+                    g.min[0] + f64::from(i) * g.cell[0] * (1.0 - 1e-15),
+                    g.min[1] + f64::from(i) * g.cell[1] * (1.0 + 1e-15),
+                ),
+            ] {
+                let want = (
+                    floor_cell((x - g.min[0]) * g.inv_cell[0]),
+                    floor_cell((y - g.min[1]) * g.inv_cell[1]),
+                );
+                assert_eq!(g.cell_of([x, y]), want, "({x}, {y})");
+                checked += 1;
+            }
+        }
+        assert_eq!(g.cell_of([f64::NAN, f64::NAN]), (0, 0));
+        assert!(checked > 4000);
+    }
 
     /// `for_each_within` reports the segments `within_radius` lists, in
     /// the same order, each with the closest point's fraction and the
