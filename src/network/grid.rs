@@ -213,16 +213,11 @@ impl GridIndex {
         ]
     }
 
-    /// Visits every segment whose bounding box's cells meet the query box's cells,
-    /// once each; `keep` decides whether it is reported into `out`.
+    /// Visits every segment whose bounding box's cells meet the query box's
+    /// cells, once each (from the first visited cell it is registered in),
+    /// in the order of the cells and their entries.
     #[inline]
-    fn visit(
-        &self,
-        min: [f64; 2],
-        max: [f64; 2],
-        out: &mut Vec<SegmentId>,
-        keep: impl Fn(&Line<f64>) -> bool,
-    ) {
+    fn visit_entries(&self, min: [f64; 2], max: [f64; 2], mut f: impl FnMut(&Entry)) {
         if max[0] < self.min[0]
             || max[1] < self.min[1]
             || min[0] > self.min[0] + self.cell[0] * f64::from(self.n)
@@ -240,12 +235,26 @@ impl GridIndex {
                     if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
                         continue;
                     }
-                    if keep(&e.line) {
-                        out.push(e.id);
-                    }
+                    f(e);
                 }
             }
         }
+    }
+
+    /// [`Self::visit_entries`], the segments `keep` accepts appended to `out`.
+    #[inline]
+    fn visit(
+        &self,
+        min: [f64; 2],
+        max: [f64; 2],
+        out: &mut Vec<SegmentId>,
+        keep: impl Fn(&Line<f64>) -> bool,
+    ) {
+        self.visit_entries(min, max, |e| {
+            if keep(&e.line) {
+                out.push(e.id);
+            }
+        });
     }
 
     /// Segments within `radius` metres of point `p` (distance to the segment
@@ -275,17 +284,15 @@ impl GridIndex {
         let max = [p[0] + radius, p[1] + radius];
         let r2 = radius * radius;
         let pc = coord(p);
-        let best = std::cell::Cell::new(f64::INFINITY);
-        self.visit(min, max, &mut Vec::new(), |l| {
-            let (_, q) = closest_on_segment(l, pc);
+        let mut best = f64::INFINITY;
+        self.visit_entries(min, max, |e| {
+            let (_, q) = closest_on_segment(&e.line, pc);
             let d2 = norm_sq(pc.x - q.x, pc.y - q.y);
-            if d2 <= r2 && d2 < best.get() {
-                best.set(d2);
+            if d2 <= r2 && d2 < best {
+                best = d2;
             }
-            false
         });
-        let d2 = best.get();
-        (d2 <= r2).then(|| d2.sqrt())
+        (best <= r2).then(|| best.sqrt())
     }
 
     /// Each segment within `radius` metres of `p`, in the order
@@ -304,31 +311,13 @@ impl GridIndex {
         let max = [p[0] + radius, p[1] + radius];
         let r2 = radius * radius;
         let pc = coord(p);
-        if max[0] < self.min[0]
-            || max[1] < self.min[1]
-            || min[0] > self.min[0] + self.cell[0] * f64::from(self.n)
-            || min[1] > self.min[1] + self.cell[1] * f64::from(self.n)
-        {
-            return;
-        }
-        let (qx0, qy0) = (self.cell_x(min[0]), self.cell_y(min[1]));
-        let (qx1, qy1) = (self.cell_x(max[0]), self.cell_y(max[1]));
-        for cx in qx0..=qx1 {
-            let row = &self.code_of[(cx * self.n) as usize..((cx + 1) * self.n) as usize];
-            for cy in qy0..=qy1 {
-                for e in self.cell_entries(row[cy as usize] as usize) {
-                    // Report from the first visited cell the segment is in.
-                    if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
-                        continue;
-                    }
-                    let (t, q) = closest_on_segment(&e.line, pc);
-                    let d2 = norm_sq(pc.x - q.x, pc.y - q.y);
-                    if d2 <= r2 {
-                        f(e.id, t, d2.sqrt());
-                    }
-                }
+        self.visit_entries(min, max, |e| {
+            let (t, q) = closest_on_segment(&e.line, pc);
+            let d2 = norm_sq(pc.x - q.x, pc.y - q.y);
+            if d2 <= r2 {
+                f(e.id, t, d2.sqrt());
             }
-        }
+        });
     }
 
     /// Segments within `radius` metres of `p`.
