@@ -73,3 +73,58 @@ fn a_path_is_found_when_the_cache_fills_between_a_points_exits() {
         assert_eq!(got, want, "first exit cached: {first_cached}");
     }
 }
+
+/// `NetworkDistances::ensure_exits` (what the drift model's transitions
+/// call before reading their route-distance matrix) holds every point's
+/// searches at once, also when the cache fills part-way: with the cache one
+/// search short of full, the second exit's search empties it, which used to
+/// drop the first exit's tree, so the matrix read that predecessor's pairs
+/// as out of reach.
+#[test]
+fn every_exit_is_held_when_the_cache_fills_part_way() {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/gothenburg-roads.geojson");
+    let net = Network::load(&p, &LoadOptions::default()).unwrap();
+    assert!(net.nodes.len() > CACHE_NODES + 10, "{}", net.nodes.len());
+    // Three two-way sections with six distinct end nodes: six exits.
+    let mut points = Vec::new();
+    let mut nodes = std::collections::BTreeSet::new();
+    for (k, s) in net.sections.iter().enumerate() {
+        let two_way = s.oneway.allows_forward() && s.oneway.allows_backward();
+        if two_way && s.start != s.end && !nodes.contains(&s.start) && !nodes.contains(&s.end) {
+            nodes.insert(s.start);
+            nodes.insert(s.end);
+            points.push(OnSection {
+                section: k as u32,
+                offset_m: s.length_m / 2.0,
+                forward: None,
+            });
+            if points.len() == 3 {
+                break;
+            }
+        }
+    }
+    assert_eq!(nodes.len(), 6);
+    let bound = 1_000.0;
+    let mut d = NetworkDistances::new(&net);
+    let others: Vec<u32> = (0..net.nodes.len() as u32)
+        .filter(|n| !nodes.contains(n))
+        .take(CACHE_NODES - 1)
+        .collect();
+    for &n in &others {
+        d.ensure(n, 1.0);
+    }
+    d.ensure_exits(points.iter().copied(), bound);
+    // The cache was emptied during the call (the case under test) ...
+    assert_eq!(d.node_distance(others[0], others[0]), None);
+    // ... and every exit's search is held, as a new cache would hold it.
+    for &n in &nodes {
+        assert_eq!(d.node_distance(n, n), Some(0.0), "node {n}");
+    }
+    // Without the cache filling, the same searches and nothing else.
+    let mut fresh = NetworkDistances::new(&net);
+    fresh.ensure_exits(points.iter().copied(), bound);
+    for &n in &nodes {
+        assert_eq!(fresh.node_distance(n, n), Some(0.0), "node {n}");
+    }
+    assert_eq!(fresh.searches, 6);
+}

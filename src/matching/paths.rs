@@ -171,6 +171,9 @@ pub struct NetworkDistances<'a> {
     spare_entries: usize,
     /// Searches run (cache misses), for diagnostics.
     pub searches: u64,
+    /// Times the cache was emptied (a caller that needs several searches
+    /// held at once checks it: [`Self::ensure_exits`]).
+    clears: u64,
     /// Added to the distance of a path between two directed points that
     /// turns round at a node straight back onto the section it left (m).
     pub uturn_penalty_m: f64,
@@ -203,12 +206,43 @@ impl<'a> NetworkDistances<'a> {
             spare: Vec::new(),
             spare_entries: 0,
             searches: 0,
+            clears: 0,
             uturn_penalty_m: 0.0,
         }
     }
 
     /// Makes sure distances from `from` up to at least `bound_m` are cached.
     pub fn ensure(&mut self, from: NodeId, bound_m: f64) {
+        self.ensure_with(from, bound_m, true);
+    }
+
+    /// The searches from every exit of `points` up to at least `bound_m`,
+    /// all cached at once (what a table of route distances between them and
+    /// other points reads). A search that finds the cache full empties it,
+    /// dropping the searches made before it in the same call: those are
+    /// then made again, without emptying the cache (it holds at most these
+    /// points' searches beyond its limits, until the next search empties it).
+    pub fn ensure_exits<I>(&mut self, points: I, bound_m: f64)
+    where
+        I: Iterator<Item = OnSection> + Clone,
+    {
+        let clears = self.clears;
+        for p in points.clone() {
+            for (n, _) in self.exits(p).into_iter().flatten() {
+                self.ensure_with(n, bound_m, true);
+            }
+        }
+        if self.clears != clears {
+            for p in points {
+                for (n, _) in self.exits(p).into_iter().flatten() {
+                    self.ensure_with(n, bound_m, false);
+                }
+            }
+        }
+    }
+
+    /// [`Self::ensure`]; `may_clear`: a full cache may be emptied first.
+    fn ensure_with(&mut self, from: NodeId, bound_m: f64, may_clear: bool) {
         if let Some(t) = self.cache.get(&from) {
             if t.bound >= bound_m {
                 return;
@@ -218,7 +252,7 @@ impl<'a> NetworkDistances<'a> {
         while bound < bound_m {
             bound *= 2.0;
         }
-        if self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES {
+        if may_clear && (self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES) {
             self.clear();
         }
         let tree = self.search(from, bound);
@@ -238,6 +272,7 @@ impl<'a> NetworkDistances<'a> {
         }
         self.cache = cache;
         self.entries = 0;
+        self.clears += 1;
     }
 
     /// Keeps a dropped search's table for the next search, within

@@ -20,11 +20,11 @@ impl HmmMatcher<'_> {
         let gc = dist(step.fix.enu, prev.fix.enu);
         let bound = self.route_bound(gc, step.fix.t_s - prev.fix.t_s);
         let inv_beta = 1.0 / (self.params.beta_m + self.params.beta_per_m * gc);
-        for c in &prev.cands {
-            for (n, _) in self.paths.exits(c.at).into_iter().flatten() {
-                self.paths.ensure(n, bound);
-            }
-        }
+        // Every predecessor's searches held at once, also when the cache
+        // fills part-way (a search emptying it would drop the earlier ones,
+        // and the matrix would read those pairs as out of reach).
+        self.paths
+            .ensure_exits(prev.cands.iter().map(|c| c.at), bound);
         let prev = self.window.back().expect("a previous step");
         let mut bufs = std::mem::take(&mut self.trans_buf);
         bufs.from.clear();
