@@ -77,17 +77,20 @@ pub struct NetworkPlanFile {
     pub tag_files: ExportMetadata,
 }
 
+/// Counts by kind in words ("3 road_surface, 1 wall"; "none" when empty),
+/// as the plan summaries print tags by mounting.
+pub(super) fn counts_by_kind(m: &BTreeMap<String, usize>) -> String {
+    let v: Vec<String> = m.iter().map(|(k, v)| format!("{v} {k}")).collect();
+    if v.is_empty() {
+        "none".to_string()
+    } else {
+        v.join(", ")
+    }
+}
+
 impl NetworkPlanFile {
     /// The plan in words, line by line, as `waymark plan` prints it.
     pub fn summary(&self) -> Vec<String> {
-        let by = |m: &BTreeMap<String, usize>| -> String {
-            let v: Vec<String> = m.iter().map(|(k, v)| format!("{v} {k}")).collect();
-            if v.is_empty() {
-                "none".to_string()
-            } else {
-                v.join(", ")
-            }
-        };
         let mut lines = Vec::new();
         let p = &self.plan;
         let f = self;
@@ -97,7 +100,7 @@ impl NetworkPlanFile {
                  method: {}; lower bound {} tag(s); verified: {}",
                 p.scenario,
                 f.tag_count,
-                by(&f.tags_by_mounting),
+                counts_by_kind(&f.tags_by_mounting),
                 if p.existing_kept > 0 { format!(" + {} installed", p.existing_kept) } else { String::new() },
                 p.directed_edges,
                 p.directed_length_km,

@@ -2,9 +2,8 @@
 //! for scripts that read them): the library formats them, the binary only
 //! writes them where `--json` and `--quiet` say.
 
-use super::plan::{PlanFiles, PlanOutcome};
+use super::plan::{counts_by_kind, PlanFiles, PlanOutcome};
 use super::simulate::SimulateOutcome;
-use std::collections::BTreeMap;
 
 impl PlanOutcome {
     /// `waymark plan`'s summary: the plan, its validation, with `baseline`
@@ -12,21 +11,13 @@ impl PlanOutcome {
     pub fn summary(&self, baseline: bool) -> Vec<String> {
         let o = self;
         let mut lines = Vec::new();
-        let by = |m: &BTreeMap<String, usize>| -> String {
-            let v: Vec<String> = m.iter().map(|(k, v)| format!("{v} {k}")).collect();
-            if v.is_empty() {
-                "none".to_string()
-            } else {
-                v.join(", ")
-            }
-        };
         match &o.plan {
             PlanFiles::Route(f) => {
                 let p = &f.plan;
                 lines.push(format!("{}: {} new tag(s) ({}){} over {:.1} km, total cost {:.1}, max gap {:.0} m; requirement {} m with {} missed read(s) tolerated; predicted max 95 % bound {:.2} m (all read); lower bound {} new tag(s){}; method: {}",
                 p.scenario,
                 f.tag_count,
-                by(&f.tags_by_mounting),
+                counts_by_kind(&f.tags_by_mounting),
                 if f.existing_tags_kept > 0 {
                     format!(" + {} installed", f.existing_tags_kept)
                 } else {
