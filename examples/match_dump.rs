@@ -3,9 +3,15 @@
 //! network and points (BENCHMARKS.md, "Matching": the fastmm comparison).
 //!
 //! Usage: cargo run --release --example match_dump -- MAP TRACK OUT.json
+//!
+//! Beside the sections and the tracks it writes each track's search radius
+//! and σ̂ as `waymark match` takes them from the track by default
+//! (`"radius_m"`, `"sigma_hat_m"`), so the other matcher can be run at
+//! Waymark's own radius (`fastmm_compare.py ... auto`).
 
 use std::fmt::Write as _;
 use waymark::matching::inputs::read_track_file;
+use waymark::matching::options::{estimate_sigma_m, MatchOptions};
 use waymark::matching::track::{group_tracks, to_fix};
 use waymark::network::{LoadOptions, Network, Oneway};
 
@@ -40,14 +46,19 @@ fn main() -> anyhow::Result<()> {
         );
     }
     s.push_str("],\"tracks\":{");
+    let mut radii = String::new();
     for (k, (id, idx)) in group_tracks(&rows).iter().enumerate() {
-        let fixes: Vec<[f64; 3]> = idx
-            .iter()
-            .map(|&i| {
-                let f = to_fix(&net, &rows[i]);
-                [f.enu[0], f.enu[1], f.t_s]
-            })
-            .collect();
+        let all: Vec<_> = idx.iter().map(|&i| to_fix(&net, &rows[i])).collect();
+        let params = MatchOptions::default().hmm_params(&net, &all);
+        let _ = write!(
+            radii,
+            "{}{}:{{\"radius_m\":{},\"sigma_hat_m\":{}}}",
+            if k > 0 { "," } else { "" },
+            serde_json::to_string(id)?,
+            params.search_radius_m,
+            estimate_sigma_m(&net, &all).map_or("null".to_string(), |v| v.to_string())
+        );
+        let fixes: Vec<[f64; 3]> = all.iter().map(|f| [f.enu[0], f.enu[1], f.t_s]).collect();
         let _ = write!(
             s,
             "{}{}:{}",
@@ -56,6 +67,8 @@ fn main() -> anyhow::Result<()> {
             serde_json::to_string(&fixes)?.replace("null", "NaN")
         );
     }
+    s.push_str("},\"params\":{");
+    s.push_str(&radii);
     s.push_str("}}");
     std::fs::write(&args[2], s)?;
     Ok(())

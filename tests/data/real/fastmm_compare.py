@@ -4,6 +4,9 @@ Waymark matches, and scores both complete paths against the same truth.
 Usage: python3 fastmm_compare.py DUMP.json TRUTH.csv|- RADIUS_M GPS_ERROR_M [REPEATS]
   DUMP.json: from `cargo run --release --example match_dump -- MAP TRACK DUMP.json`
   TRUTH.csv: road_id[,length_m] (as `waymark match --truth`), or - for none.
+  RADIUS_M, GPS_ERROR_M: a number, or `auto` for each track's own search
+  radius and sigma-hat as `waymark match` takes them from the track (the
+  dump's "params").
 Prints one JSON line: precision/recall by length (and by count), matched
 share of points, points per second for matching alone and for the whole
 run (network, UBODT and matching), as Waymark's `match --json` reports them.
@@ -14,7 +17,18 @@ t_start = time.perf_counter()
 import fastmm  # noqa: E402
 
 dump = json.load(open(sys.argv[1]))
-truth_path, radius, gps_error = sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
+truth_path = sys.argv[2]
+
+
+def setting(arg, key):
+    """A fixed number, or the track's own (`auto`: the dump's params)."""
+    if arg == "auto":
+        return lambda tid: dump["params"][tid][key]
+    return lambda tid, v=float(arg): v
+
+
+radius_of = setting(sys.argv[3], "radius_m")
+gps_error_of = setting(sys.argv[4], "sigma_hat_m")
 # Matching alone is timed over REPEATS runs of every track (the score is the
 # first run's); the whole run's rate counts one run.
 repeats = int(sys.argv[5]) if len(sys.argv) > 5 else 1
@@ -39,6 +53,7 @@ fmm = fastmm.FastMapMatch(net, fastmm.TransitionMode.SHORTEST,
 lengths, points, matched, t_match = {}, 0, 0, 0.0
 for tid, fixes in dump["tracks"].items():
     traj = fastmm.Trajectory.from_xy_tuples([(x, y) for x, y, _ in fixes])
+    radius, gps_error = radius_of(tid), gps_error_of(tid)
     t0 = time.perf_counter()
     res = fmm.match(traj, max_candidates=8, candidate_search_radius=radius,
                     gps_error=gps_error)
