@@ -3,20 +3,11 @@
 //! the map alone, its guarantee, validation, coverage map and reasons; and
 //! bad input, each one clear error naming the file and the field.
 
+mod common;
+
+use common::{repo, run};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
-fn run(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_waymark"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("binary runs")
-}
 
 /// The Helsinki trips scenario, edited, in `dir` (map path made absolute).
 fn scenario_file(dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {

@@ -3,16 +3,12 @@
 //! (tests/data/real/README.md), with the accuracy the default model reaches
 //! there (tests/cli_match_real.rs), and its option checked.
 
+mod common;
+
+use common::real_data as data;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn data(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/real")
-        .join(name)
-        .display()
-        .to_string()
-}
 
 fn waymark(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_waymark"))

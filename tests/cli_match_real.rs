@@ -3,16 +3,12 @@
 //! (GPX, OpenStreetMap extracts) and FMM's example (its network, trips and
 //! committed complete path, scaled to metres).
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn data(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/real")
-        .join(name)
-        .display()
-        .to_string()
-}
+use common::real_data as data;
+
+use std::path::PathBuf;
+use std::process::Command;
 
 /// Runs `waymark match --json` with a complete path; the JSON and the path rows.
 fn run(map: &str, track: &str, extra: &[&str]) -> (serde_json::Value, Vec<Vec<String>>) {

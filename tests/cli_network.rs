@@ -1,24 +1,12 @@
 //! The real `waymark` binary on the bundled maps and on bad input, run in a
 //! temporary folder.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_waymark"))
-}
+use common::{bin, repo, run};
 
-fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
-fn run(args: &[&str], dir: &Path) -> Output {
-    bin()
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("binary runs")
-}
+use std::path::Path;
+use std::process::Output;
 
 fn inspect_json(map: &Path) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();

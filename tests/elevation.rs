@@ -4,16 +4,15 @@
 //! files, tunnels interpolated between their portals, and bad input refused
 //! through the binary.
 
+mod common;
+
+use common::{repo, run};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use tiff::encoder::{colortype, TiffEncoder};
 use tiff::tags::Tag;
 use waymark::elevation::{HeightProfile, MAX_DEM_PIXELS};
 use waymark::{Dem, Network, Scenario, TruthSource};
-
-fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
 
 /// Centre of the plane's tilt (the Helsinki map's middle).
 const LAT_C: f64 = 60.1716;
@@ -542,14 +541,6 @@ fn tunnels_are_interpolated_between_their_portals() {
     let smoothed = waymark::trajectory::route_heights(&net, &route, &dem).unwrap();
     let mid = 0.5 * (ca + cb);
     assert!(at(mid) - smoothed.height_at(mid) > 30.0);
-}
-
-fn run(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_waymark"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("binary runs")
 }
 
 /// Plans the test scenario in `dir` into `dir/out` and returns tags.csv's

@@ -2,21 +2,12 @@
 //! with `--tags`, the filter's sigma columns in errors.csv, the summary's
 //! Monte Carlo and consistency fields, and bad tag files.
 
+mod common;
+
+use common::{repo, run};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use waymark::sim::{Scenario, TruthSource};
-
-fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
-fn run(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_waymark"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("binary runs")
-}
 
 /// The nees-consistency drive without its own tags.
 fn scenario_without_tags(dir: &Path) -> PathBuf {

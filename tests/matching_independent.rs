@@ -6,60 +6,23 @@
 //! prior (`track_drift = false`), the same probability model computed the
 //! long way (each pair's emission under its predecessor's predicted prior).
 
+mod common;
+
+use common::{helsinki, sparse_drives};
 use waymark::matching::cpath::complete_path;
 use waymark::matching::evaluate::score;
 use waymark::matching::options::MatchOptions;
 use waymark::matching::path_out::path_lengths;
-use waymark::matching::{
-    along_route, match_track, HmmMatcher, HmmModel, Matcher, SyntheticTrack, TrackModel,
-};
-use waymark::network::{LoadOptions, Network};
-use waymark::route::plan_route;
+use waymark::matching::{match_track, HmmMatcher, HmmModel, Matcher, SyntheticTrack};
+use waymark::network::Network;
 
-fn helsinki() -> Network {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf");
-    Network::load(&p, &LoadOptions::default()).unwrap()
-}
-
-/// Seeded drives between random nodes at least 1.5 km apart (the sparse
-/// test's), each as tracks with a fix every `spacings` metres (5 m noise).
+/// The sparse test's seeded drives ([`common::sparse_drives`]), each as
+/// tracks with a fix every `spacings` metres, labelled.
 fn tracks(net: &Network, spacings: &[(f64, u64)]) -> Vec<(String, SyntheticTrack)> {
-    use rand::{Rng, SeedableRng};
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
-    let lat_lon = |e: [f64; 2]| {
-        let g = net.frame.to_geodetic([e[0], e[1], 0.0]);
-        [g.lat_deg(), g.lon_deg()]
-    };
-    let mut routes = Vec::new();
-    while routes.len() < 6 {
-        let a = net.nodes[rng.random_range(0..net.nodes.len())].enu;
-        let b = net.nodes[rng.random_range(0..net.nodes.len())].enu;
-        if (a[0] - b[0]).hypot(a[1] - b[1]) < 1500.0 {
-            continue;
-        }
-        if let Ok(r) = plan_route(net, &[lat_lon(a), lat_lon(b)]) {
-            routes.push(r);
-        }
-    }
-    let mut out = Vec::new();
-    for (r, route) in routes.iter().enumerate() {
-        for &(spacing, seed) in spacings {
-            let track = along_route(
-                net,
-                route,
-                &TrackModel {
-                    spacing_m: spacing,
-                    speed_mps: 10.0,
-                    drift_max_m: 0.0,
-                    noise_sigma_m: 5.0,
-                    heading_sigma_deg: None,
-                    seed,
-                },
-            );
-            out.push((format!("route {r}, {spacing} m apart"), track));
-        }
-    }
-    out
+    sparse_drives(net, spacings)
+        .into_iter()
+        .map(|(case, _, track)| (case, track))
+        .collect()
 }
 
 /// Precision and recall by length over all the tracks, and the pieces of

@@ -1,24 +1,14 @@
 //! The tag planner: `waymark plan` as a real binary on the bundled Helsinki
 //! map, the library's budget and placement on the same route, and bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use common::{repo, run};
+
 use waymark::planner::Budget;
 use waymark::planner::{plan_with, PlannerSettings};
 use waymark::sim::{Scenario, TruthSource};
 use waymark::tags::TagPayload;
-
-fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
-fn run(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_waymark"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("binary runs")
-}
 
 fn scenario_with(name: &str, edit: impl Fn(String) -> String) -> Scenario {
     let path = repo(name);

@@ -2,24 +2,15 @@
 //! real binary on the bundled Helsinki map, the library's plan checked by the
 //! walk DP, re-planning with the plan installed, and bad input.
 
+mod common;
+
+use common::{repo, run};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use waymark::planner::network::cover::check;
 use waymark::planner::network::{plan_network, plan_network_on, scenario_network};
 use waymark::planner::PlannerSettings;
 use waymark::sim::Scenario;
-
-fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
-fn run(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_waymark"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("binary runs")
-}
 
 /// The Helsinki network scenario, edited, written next to a copy-free map
 /// path (absolute) in `dir`.

@@ -2,21 +2,12 @@
 //! checked against closed-form inertial error physics, dead-reckoning error
 //! budgets and the rotation-modulation claim; and on bad input.
 
+mod common;
+
+use common::{repo, run};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use waymark::geodesy::{meridian_radius, normal_gravity, prime_vertical_radius};
-
-fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
-fn run(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_waymark"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("binary runs")
-}
 
 /// One row of errors.csv.
 #[derive(Debug, Clone, Copy)]
