@@ -1,10 +1,10 @@
 //! The Viterbi state: a candidate (one section and direction of travel)
 //! and a step of the lag window.
 
-use super::drift::{Drift, Emission, Line};
+use super::drift::{Drift, Emission, Line, LnCache};
 use crate::matching::paths::{MatrixScratch, OnSection};
 use crate::matching::Fix;
-use crate::network::{RoadId, SegmentId};
+use crate::network::{NodeId, RoadId, SegmentId};
 
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Cand {
@@ -102,10 +102,22 @@ pub(super) struct TransBuf {
     pub(super) scratch: MatrixScratch,
     /// Route distances, predecessor-major.
     pub(super) dist: Vec<Option<f64>>,
-    /// For each candidate, an earlier one on the same segment (or `u32::MAX`).
+    /// For each candidate, the first one on the same segment (itself if
+    /// none).
     pub(super) twin: Vec<u32>,
-    /// Emissions computed, candidate-major.
+    /// For each predecessor, the first one whose predicted drift is the
+    /// same bit for bit (itself if none).
+    pub(super) class: Vec<u32>,
+    /// Emissions computed, by (candidate, predecessor), candidate-major.
     pub(super) em: Vec<Option<Emission>>,
+    /// The emissions' logarithms.
+    pub(super) ln: LnCache,
+    /// Each candidate's entry node and the distance from it (directed
+    /// states).
+    pub(super) entries: Vec<(NodeId, f64)>,
+    /// Each candidate's best predecessor's route distance and emission slot.
+    pub(super) win_d: Vec<f64>,
+    pub(super) win_em: Vec<u32>,
 }
 
 impl TransBuf {
@@ -117,7 +129,12 @@ impl TransBuf {
             scratch: MatrixScratch::with_capacity(n),
             dist: Vec::with_capacity(n * n),
             twin: Vec::with_capacity(n),
+            class: Vec::with_capacity(n),
             em: Vec::with_capacity(n * n),
+            ln: LnCache::default(),
+            entries: Vec::with_capacity(n),
+            win_d: Vec::with_capacity(n),
+            win_em: Vec::with_capacity(n),
         }
     }
 }
