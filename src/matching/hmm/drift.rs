@@ -83,7 +83,7 @@ impl Drift {
 /// The emission of a fix on a segment under a predicted drift: the
 /// log-likelihood, and the across-road innovation (unit normal, innovation,
 /// its variance) for the drift update.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Emission {
     pub(super) log_p: f64,
     pub(super) normal: [f64; 2],

@@ -39,10 +39,11 @@ impl Cand {
     #[inline]
     pub(super) fn charged_from(&self, p: &Cand, d_m: f64, uturn_m: f64) -> f64 {
         let dot = |u: [f64; 2]| u[0] * self.dir[0] + u[1] * self.dir[1];
-        let turned = (dot(p.dir) < -0.5 && d_m < uturn_m)
-            || (dot(p.anchor_dir) < -0.5
+        // (The cheap tests first: the same booleans.)
+        let turned = (d_m < uturn_m && dot(p.dir) < -0.5)
+            || (p.anchor_road == self.road
                 && p.anchor_m + d_m < 2.0 * ANCHOR_M
-                && p.anchor_road == self.road);
+                && dot(p.anchor_dir) < -0.5);
         if turned {
             d_m + uturn_m
         } else {
@@ -108,8 +109,10 @@ pub(super) struct TransBuf {
     /// For each predecessor, the first one whose predicted drift is the
     /// same bit for bit (itself if none).
     pub(super) class: Vec<u32>,
-    /// Emissions computed, by (candidate, predecessor), candidate-major.
-    pub(super) em: Vec<Option<Emission>>,
+    /// Emissions computed, by (candidate, predecessor), candidate-major,
+    /// and which slots this step filled.
+    pub(super) em: Vec<Emission>,
+    pub(super) em_set: Vec<bool>,
     /// The emissions' logarithms.
     pub(super) ln: LnCache,
     /// Each candidate's entry node and the distance from it (directed
@@ -131,6 +134,7 @@ impl TransBuf {
             twin: Vec::with_capacity(n),
             class: Vec::with_capacity(n),
             em: Vec::with_capacity(n * n),
+            em_set: Vec::with_capacity(n * n),
             ln: LnCache::default(),
             entries: Vec::with_capacity(n),
             win_d: Vec::with_capacity(n),

@@ -1,7 +1,7 @@
 //! Transitions: the Viterbi recursion with per-survivor drift estimates,
 //! and the forward–backward smoothing over the lag window.
 
-use super::drift::{emission_with, Drift};
+use super::drift::{emission_with, Drift, Emission};
 use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::{normalise, shift_max_to_zero, softmax_into};
@@ -128,8 +128,13 @@ impl HmmMatcher<'_> {
                 .extend(step.cands.iter().map(|c| paths.directed_entry(c.at)));
         }
         // Emissions by (first candidate on the segment, drift class).
-        bufs.em.clear();
-        bufs.em.resize(nc * np, None);
+        // (Slots are marked when filled; the emissions' memory is only
+        // grown, never cleared.)
+        bufs.em_set.clear();
+        bufs.em_set.resize(nc * np, false);
+        if bufs.em.len() < nc * np {
+            bufs.em.resize(nc * np, Emission::default());
+        }
         // Each candidate's best score so far, its predecessor, the route
         // distance and the emission's slot: predecessors in index order,
         // the first maximum kept (as a scan of each candidate's
@@ -169,13 +174,13 @@ impl HmmMatcher<'_> {
                 }
                 let charged = c.charged_from(p, d, uturn);
                 let at = bufs.twin[k] as usize * np + class;
-                let e = match bufs.em[at] {
-                    Some(e) => e,
-                    None => {
-                        let e = emission_with(&c.line, step.fix.enu, &preds[i], r2, |x| ln.ln(x));
-                        bufs.em[at] = Some(e);
-                        e
-                    }
+                let e = if bufs.em_set[at] {
+                    bufs.em[at]
+                } else {
+                    let e = emission_with(&c.line, step.fix.enu, &preds[i], r2, |x| ln.ln(x));
+                    bufs.em[at] = e;
+                    bufs.em_set[at] = true;
+                    e
                 };
                 let psi = e.log_p + c.heading - (charged - gc).abs() * inv_beta;
                 step.pair[i * nc + k] = psi;
@@ -195,7 +200,7 @@ impl HmmMatcher<'_> {
                 let arg = step.back[k] as usize;
                 c.drift = preds[arg];
                 if track {
-                    let e = bufs.em[bufs.win_em[k] as usize].expect("the winner's emission");
+                    let e = bufs.em[bufs.win_em[k] as usize];
                     c.drift.update(e.normal, e.nu, e.s);
                 }
                 c.set_anchor(Cand::anchor_through(&prev.cands[arg], bufs.win_d[k]));
