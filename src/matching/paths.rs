@@ -749,6 +749,18 @@ impl<'a> NetworkDistances<'a> {
         }
     }
 
+    /// The cached search from `node` as it is (none: no pair through it
+    /// is reached, as in [`Self::point_distance_matrix`]); the caller made
+    /// it first ([`Self::ensure_exits`]).
+    #[inline]
+    pub(crate) fn cached_source(&self, node: NodeId) -> Source<'_, 'a> {
+        Source {
+            tree: self.cache.get(&node).map(|t| &t.reached),
+            node,
+            paths: self,
+        }
+    }
+
     /// The search from `node`, made first unless one reaching `bound_m` is
     /// cached ([`Self::ensure`]).
     #[inline]
@@ -779,8 +791,8 @@ impl Source<'_, '_> {
     /// search's node (its [`NetworkDistances::directed_exit`]), to directed
     /// point `b`, entered from node `en` `ec` before it
     /// ([`NetworkDistances::directed_entry`]): `point_distance_matrix`'s
-    /// cell, bit for bit.
-    #[inline]
+    /// cell, bit for bit. (Always inlined: both models' pair loops call it.)
+    #[inline(always)]
     pub(crate) fn directed_distance(
         &self,
         a: OnSection,

@@ -47,6 +47,17 @@ impl Drift {
         }
     }
 
+    /// Equal bit for bit (so every function of it gives the same number).
+    #[inline]
+    pub(super) fn same_bits(&self, o: &Drift) -> bool {
+        let eq = |x: f64, y: f64| x.to_bits() == y.to_bits();
+        eq(self.mean[0], o.mean[0])
+            && eq(self.mean[1], o.mean[1])
+            && eq(self.cov[0], o.cov[0])
+            && eq(self.cov[1], o.cov[1])
+            && eq(self.cov[2], o.cov[2])
+    }
+
     /// Variance along the unit vector `u`.
     #[inline]
     pub(super) fn var(&self, u: [f64; 2]) -> f64 {
@@ -72,7 +83,7 @@ impl Drift {
 /// The emission of a fix on a segment under a predicted drift: the
 /// log-likelihood, and the across-road innovation (unit normal, innovation,
 /// its variance) for the drift update.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Emission {
     pub(super) log_p: f64,
     pub(super) normal: [f64; 2],
@@ -89,9 +100,22 @@ pub(super) struct Emission {
 /// uncertain does not gain from that uncertainty.
 #[inline]
 pub(super) fn emission(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> Emission {
+    emission_with(line, raw, d, r2, f64::ln)
+}
+
+/// [`emission`], its `ln` taken by `ln` (e.g. a cache of exact
+/// logarithms: [`LnCache`]); the same numbers when `ln` is `f64::ln`.
+#[inline]
+pub(super) fn emission_with(
+    line: &Line,
+    raw: [f64; 2],
+    d: &Drift,
+    r2: f64,
+    ln: impl FnOnce(f64) -> f64,
+) -> Emission {
     let (quad, normal, nu, s) = emission_parts(line, raw, d, r2);
     Emission {
-        log_p: quad - 0.5 * (s / r2).ln(),
+        log_p: quad - 0.5 * ln(s / r2),
         normal,
         nu,
         s,

@@ -1,10 +1,10 @@
 //! The Viterbi state: a candidate (one section and direction of travel)
 //! and a step of the lag window.
 
-use super::drift::{Drift, Emission, Line};
+use super::drift::{Drift, Emission, Line, LnCache};
 use crate::matching::paths::{MatrixScratch, OnSection};
 use crate::matching::Fix;
-use crate::network::{RoadId, SegmentId};
+use crate::network::{NodeId, RoadId, SegmentId};
 
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Cand {
@@ -39,10 +39,11 @@ impl Cand {
     #[inline]
     pub(super) fn charged_from(&self, p: &Cand, d_m: f64, uturn_m: f64) -> f64 {
         let dot = |u: [f64; 2]| u[0] * self.dir[0] + u[1] * self.dir[1];
-        let turned = (dot(p.dir) < -0.5 && d_m < uturn_m)
-            || (dot(p.anchor_dir) < -0.5
+        // (The cheap tests first: the same booleans.)
+        let turned = (d_m < uturn_m && dot(p.dir) < -0.5)
+            || (p.anchor_road == self.road
                 && p.anchor_m + d_m < 2.0 * ANCHOR_M
-                && p.anchor_road == self.road);
+                && dot(p.anchor_dir) < -0.5);
         if turned {
             d_m + uturn_m
         } else {
@@ -102,10 +103,24 @@ pub(super) struct TransBuf {
     pub(super) scratch: MatrixScratch,
     /// Route distances, predecessor-major.
     pub(super) dist: Vec<Option<f64>>,
-    /// For each candidate, an earlier one on the same segment (or `u32::MAX`).
+    /// For each candidate, the first one on the same segment (itself if
+    /// none).
     pub(super) twin: Vec<u32>,
-    /// Emissions computed, candidate-major.
-    pub(super) em: Vec<Option<Emission>>,
+    /// For each predecessor, the first one whose predicted drift is the
+    /// same bit for bit (itself if none).
+    pub(super) class: Vec<u32>,
+    /// Emissions computed, by (candidate, predecessor), candidate-major,
+    /// and which slots this step filled.
+    pub(super) em: Vec<Emission>,
+    pub(super) em_set: Vec<bool>,
+    /// The emissions' logarithms.
+    pub(super) ln: LnCache,
+    /// Each candidate's entry node and the distance from it (directed
+    /// states).
+    pub(super) entries: Vec<(NodeId, f64)>,
+    /// Each candidate's best predecessor's route distance and emission slot.
+    pub(super) win_d: Vec<f64>,
+    pub(super) win_em: Vec<u32>,
 }
 
 impl TransBuf {
@@ -117,7 +132,13 @@ impl TransBuf {
             scratch: MatrixScratch::with_capacity(n),
             dist: Vec::with_capacity(n * n),
             twin: Vec::with_capacity(n),
+            class: Vec::with_capacity(n),
             em: Vec::with_capacity(n * n),
+            em_set: Vec::with_capacity(n * n),
+            ln: LnCache::default(),
+            entries: Vec::with_capacity(n),
+            win_d: Vec::with_capacity(n),
+            win_em: Vec::with_capacity(n),
         }
     }
 }
