@@ -34,6 +34,14 @@ pub struct GridIndex {
     /// Hilbert code of each cell, row-major (`x * n + y`): a look-up table so a
     /// query does not recompute codes.
     code_of: Vec<u32>,
+    /// `home_start[code]..home_start[code + 1]` indexes `home` for the cell
+    /// with that code.
+    home_start: Vec<u32>,
+    /// Each segment's registration in its first cell (lowest x, lowest y of
+    /// its bounding box) alone, in Hilbert-code order of those cells, in
+    /// the order of `items` within a cell: all a query reports from a cell
+    /// past its first row and column.
+    home: Vec<Entry>,
 }
 
 /// One registration of a segment in a cell, with the geometry inline so a
@@ -97,6 +105,8 @@ impl GridIndex {
             cell_start: Vec::new(),
             items: Vec::new(),
             code_of: Vec::new(),
+            home_start: Vec::new(),
+            home: Vec::new(),
         };
         let cells = (n as usize) * (n as usize);
         let mut code_of = vec![0u32; cells];
@@ -139,9 +149,32 @@ impl GridIndex {
                 }
             }
         }
+        // Each segment once, in its first cell (segments in id order, as in
+        // `items`).
+        let mut home_start = vec![0u32; cells + 1];
+        for r in &ranges {
+            home_start[code_of[(r[0] * n + r[1]) as usize] as usize + 1] += 1;
+        }
+        for i in 1..home_start.len() {
+            home_start[i] += home_start[i - 1];
+        }
+        let mut fill = home_start.clone();
+        let mut home = vec![blank; segments.len()];
+        for (id, (r, s)) in ranges.iter().zip(segments).enumerate() {
+            let code = code_of[(r[0] * n + r[1]) as usize] as usize;
+            home[fill[code] as usize] = Entry {
+                line: s.line(),
+                id: id as SegmentId,
+                cx0: r[0] as u16,
+                cy0: r[1] as u16,
+            };
+            fill[code] += 1;
+        }
         grid.cell_start = counts;
         grid.items = items;
         grid.code_of = code_of;
+        grid.home_start = home_start;
+        grid.home = home;
         Ok(grid)
     }
 
@@ -176,6 +209,13 @@ impl GridIndex {
     #[inline]
     fn cell_entries(&self, code: usize) -> &[Entry] {
         &self.items[self.cell_start[code] as usize..self.cell_start[code + 1] as usize]
+    }
+
+    /// The registrations in the cell with that code of the segments whose
+    /// first cell it is, in the order of [`Self::cell_entries`].
+    #[inline]
+    fn home_entries(&self, code: usize) -> &[Entry] {
+        &self.home[self.home_start[code] as usize..self.home_start[code + 1] as usize]
     }
 
     #[inline]
@@ -230,7 +270,18 @@ impl GridIndex {
         for cx in qx0..=qx1 {
             let row = &self.code_of[(cx * self.n) as usize..((cx + 1) * self.n) as usize];
             for cy in qy0..=qy1 {
-                for e in self.cell_entries(row[cy as usize] as usize) {
+                let code = row[cy as usize] as usize;
+                if cx != qx0 && cy != qy0 {
+                    // Past the first column and row, the first visited
+                    // cell of a segment in this one is this one exactly when
+                    // it is the segment's own first cell: its home entries,
+                    // in the same order.
+                    for e in self.home_entries(code) {
+                        f(e);
+                    }
+                    continue;
+                }
+                for e in self.cell_entries(code) {
                     // Report from the first visited cell the segment is in.
                     if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
                         continue;

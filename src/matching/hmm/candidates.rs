@@ -17,39 +17,60 @@ fn isotropic(d: &Drift) -> bool {
     d.cov[1] == 0.0 && d.cov[0] == d.cov[2]
 }
 
+/// Scratch of the candidate search, kept by the matcher: where each
+/// section stands in the list of nearest segments, and each listed
+/// section's line and heading terms.
+#[derive(Debug, Default, Clone)]
+pub(super) struct CandScratch {
+    /// By section id: its index in the nearest list, [`NOT_LISTED`] when
+    /// not in it (every entry is reset after each search).
+    slot: Vec<u32>,
+    /// By index in the nearest list: the segment's line and the heading
+    /// terms of its two directions (forward, backward).
+    lines: Vec<(Line, f64, f64)>,
+}
+
+/// A section not in the nearest list.
+const NOT_LISTED: u32 = u32::MAX;
+
 /// The nearest segment of each section: (section, segment, distance, t),
 /// in the order the sections are first found; a nearer segment of a
-/// section found later replaces the earlier one in place.
+/// section found later replaces the earlier one in place. `slot` holds each
+/// listed section's index (a look-up instead of a scan of the list).
 #[inline]
 fn note_nearest(
     nearest: &mut Vec<(SectionId, SegmentId, f64, f64)>,
+    slot: &mut [u32],
     net: &Network,
     seg: SegmentId,
     t: f64,
     dist: f64,
 ) {
     let section = net.segments[seg as usize].section;
-    match nearest.iter_mut().find(|n| n.0 == section) {
-        Some(n) => {
-            if dist < n.2 {
-                *n = (section, seg, dist, t);
-            }
+    let at = &mut slot[section as usize];
+    if *at == NOT_LISTED {
+        *at = nearest.len() as u32;
+        nearest.push((section, seg, dist, t));
+    } else {
+        let n = &mut nearest[*at as usize];
+        if dist < n.2 {
+            *n = (section, seg, dist, t);
         }
-        None => nearest.push((section, seg, dist, t)),
     }
 }
 
-/// A candidate's heading term: κ (cos − 1), 0 without a heading.
+/// A section's heading terms, κ (cos − 1), forward and backward: 0
+/// without a heading. The backward cosine is the forward one negated, as
+/// [`directed_cos_sc`] gives it (its 0 for a zero-length segment and a
+/// negated 0 give the same term), so the cosine is taken once.
 #[inline]
-fn heading_term(
-    net: &Network,
-    seg: SegmentId,
-    heading: Option<((f64, f64), f64)>,
-    forward: bool,
-) -> f64 {
+fn heading_terms(net: &Network, seg: SegmentId, heading: Option<((f64, f64), f64)>) -> (f64, f64) {
     match heading {
-        Some((sc, kappa)) => kappa * (directed_cos_sc(net, seg, sc, forward) - 1.0),
-        None => 0.0,
+        Some((sc, kappa)) => {
+            let c = directed_cos_sc(net, seg, sc, true);
+            (kappa * (c - 1.0), kappa * (-c - 1.0))
+        }
+        None => (0.0, 0.0),
     }
 }
 
@@ -64,6 +85,7 @@ impl HmmMatcher<'_> {
     /// query hands over the closest point and the distance it computed.
     /// The same candidates, in the same order, with the same numbers as
     /// building every candidate first (tested against that below).
+    #[inline(never)]
     pub(super) fn candidates(
         &mut self,
         fix: &Fix,
@@ -78,12 +100,18 @@ impl HmmMatcher<'_> {
         // The nearest segment of each section to the fix less the drift.
         let mut nearest = std::mem::take(&mut self.near_buf);
         nearest.clear();
+        let mut scratch = std::mem::take(&mut self.cand_scratch);
+        if scratch.slot.len() != net.sections.len() {
+            scratch.slot.clear();
+            scratch.slot.resize(net.sections.len(), NOT_LISTED);
+        }
+        let slot = &mut scratch.slot;
         if corrected[0].to_bits() == fix.enu[0].to_bits()
             && corrected[1].to_bits() == fix.enu[1].to_bits()
         {
             net.grid
                 .for_each_within(fix.enu, self.params.search_radius_m, |seg, t, dist| {
-                    note_nearest(&mut nearest, net, seg, t, dist);
+                    note_nearest(&mut nearest, slot, net, seg, t, dist);
                 });
         } else {
             self.seg_buf.clear();
@@ -91,8 +119,11 @@ impl HmmMatcher<'_> {
                 .within_radius_into(fix.enu, self.params.search_radius_m, &mut self.seg_buf);
             for &seg in &self.seg_buf {
                 let (t, _, dist) = project(net, seg, corrected);
-                note_nearest(&mut nearest, net, seg, t, dist);
+                note_nearest(&mut nearest, slot, net, seg, t, dist);
             }
+        }
+        for n in &nearest {
+            slot[n.0 as usize] = NOT_LISTED;
         }
         // The heading's unit vector once per fix.
         let heading = heading.map(|(h, kappa)| (h.sin_cos(), kappa));
@@ -102,6 +133,8 @@ impl HmmMatcher<'_> {
         // turn (sections in the order found, forward first) did.
         let mut keys = std::mem::take(&mut self.key_buf);
         keys.clear();
+        let lines = &mut scratch.lines;
+        lines.clear();
         for (j, &(section, seg, _, _)) in nearest.iter().enumerate() {
             let line = Line::of(net, seg);
             let base = if iso {
@@ -111,15 +144,15 @@ impl HmmMatcher<'_> {
                 emission(&line, fix.enu, d, r2).log_p
             };
             let oneway = net.sections[section as usize].oneway;
+            let (hf, hb) = heading_terms(net, seg, heading);
             // One state per permitted direction of the section.
             if oneway.allows_forward() {
-                let h = heading_term(net, seg, heading, true);
-                keys.push((base + h, 2 * j as u32));
+                keys.push((base + hf, 2 * j as u32));
             }
             if oneway.allows_backward() {
-                let h = heading_term(net, seg, heading, false);
-                keys.push((base + h, 2 * j as u32 + 1));
+                keys.push((base + hb, 2 * j as u32 + 1));
             }
+            lines.push((line, hf, hb));
         }
         // The best `max_candidates` by emission, ties in the order found (a
         // total order, so the selection does not depend on the sorting
@@ -145,10 +178,11 @@ impl HmmMatcher<'_> {
             let kept = keys.partition_point(|k| k.0 >= floor);
             keys.truncate(kept);
             for &(em, code) in &keys {
-                let (section, seg, _, t) = nearest[(code >> 1) as usize];
+                let j = (code >> 1) as usize;
+                let (section, seg, _, t) = nearest[j];
+                let (line, hf, hb) = lines[j];
                 let forward = code & 1 == 0;
                 let s = &net.segments[seg as usize];
-                let line = Line::of(net, seg);
                 let sign = if forward { 1.0 } else { -1.0 };
                 cands.push(Cand {
                     seg,
@@ -159,7 +193,7 @@ impl HmmMatcher<'_> {
                         forward: Some(forward),
                     },
                     emission: em,
-                    heading: heading_term(net, seg, heading, forward),
+                    heading: if forward { hf } else { hb },
                     dir: [sign * line.u[0], sign * line.u[1]],
                     anchor_dir: [0.0; 2],
                     anchor_m: 0.0,
@@ -171,6 +205,7 @@ impl HmmMatcher<'_> {
         }
         self.near_buf = nearest;
         self.key_buf = keys;
+        self.cand_scratch = scratch;
     }
 
     pub(super) fn new_step(&mut self, index: u64, fix: Fix) -> Step {

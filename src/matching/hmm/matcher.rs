@@ -33,6 +33,8 @@ pub struct HmmMatcher<'a> {
     pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
     /// The candidates' ranking keys, and the logarithms they took.
     pub(super) key_buf: Vec<(f64, u32)>,
+    /// The candidate search's section look-up and lines.
+    pub(super) cand_scratch: super::candidates::CandScratch,
     pub(super) ln_cache: super::drift::LnCache,
     pub(super) post_buf: Vec<f64>,
     /// The backward pass's two vectors.
@@ -80,6 +82,7 @@ impl<'a> HmmMatcher<'a> {
             seg_buf: Vec::with_capacity(64),
             near_buf: Vec::with_capacity(64),
             key_buf: Vec::with_capacity(64),
+            cand_scratch: Default::default(),
             ln_cache: Default::default(),
             post_buf: Vec::with_capacity(params.max_candidates),
             beta_bufs: [
