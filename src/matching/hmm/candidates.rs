@@ -17,6 +17,43 @@ fn isotropic(d: &Drift) -> bool {
     d.cov[1] == 0.0 && d.cov[0] == d.cov[2]
 }
 
+/// The candidates' ranking: emission (with the heading's part) down, ties
+/// by the key's code (the order found) up. A total order: a sorted list of
+/// keys is the same whatever the algorithm.
+#[inline]
+fn key_order(a: &(f64, u32), b: &(f64, u32)) -> std::cmp::Ordering {
+    b.0.total_cmp(&a.0).then(a.1.cmp(&b.1))
+}
+
+/// Most keys sorted whole by insertion (fewer instructions than selecting
+/// the best `k` first at the FMM example's 5-25 keys per fix).
+const INSERTION_KEYS: usize = 16;
+
+/// The best `k` (at least 1, at most `keys.len()`) of `keys`, in
+/// [`key_order`]: a few sorted whole by insertion, more selected first,
+/// then sorted (the same list either way, the order being total).
+#[inline]
+fn best_keys(keys: &mut Vec<(f64, u32)>, k: usize) {
+    if keys.len() <= INSERTION_KEYS {
+        for i in 1..keys.len() {
+            let x = keys[i];
+            let mut j = i;
+            while j > 0 && key_order(&x, &keys[j - 1]).is_lt() {
+                keys[j] = keys[j - 1];
+                j -= 1;
+            }
+            keys[j] = x;
+        }
+        keys.truncate(k);
+        return;
+    }
+    if keys.len() > k {
+        keys.select_nth_unstable_by(k - 1, key_order);
+        keys.truncate(k);
+    }
+    keys.sort_unstable_by(key_order);
+}
+
 /// Scratch of the candidate search, kept by the matcher: where each
 /// section stands in the list of nearest segments, and each listed
 /// section's line and heading terms.
@@ -157,14 +194,9 @@ impl HmmMatcher<'_> {
         // The best `max_candidates` by emission, ties in the order found (a
         // total order, so the selection does not depend on the sorting
         // algorithm).
-        let order = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
         let k = self.params.max_candidates.min(keys.len());
         if k > 0 {
-            if keys.len() > k {
-                keys.select_nth_unstable_by(k - 1, order);
-                keys.truncate(k);
-            }
-            keys.sort_unstable_by(order);
+            best_keys(&mut keys, k);
             // Far less likely than the best: dropped (`min_emission_ratio`).
             // The ratio is taken within [0, 1] (NaN as 0), so the best is
             // always kept and a ratio out of range never empties the set.
@@ -339,14 +371,17 @@ mod tests {
     /// same order, every number bit for bit (compared by their `Debug`
     /// text, which tells every two `f64` apart): on the real maps and a
     /// bundled one, fixes on a lattice over and beyond each map (up to
-    /// half its box each side), with and without a heading, under the
+    /// half its box each side) and on and beside up to 200 nodes of each
+    /// (junctions: several sections' nearest point is the same node, and
+    /// keys of different sections tie, so their order is the order found),
+    /// with and without a heading, under the
     /// prior (the independent model, a chain's start) and under drifts
     /// with a mean and an anisotropic covariance (the drift model), with
     /// both models' candidate caps and several radii and ratios.
     #[test]
     fn ranking_on_keys_gives_the_reference_candidates() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        let (mut fixes, mut found, mut capped) = (0usize, 0usize, 0usize);
+        let (mut fixes, mut found, mut capped, mut tied) = (0usize, 0usize, 0usize, 0usize);
         for map in [
             "tests/data/small.osm",
             "tests/data/real/fmm-network.geojson",
@@ -355,6 +390,22 @@ mod tests {
         ] {
             let net = Network::load(&root.join(map), &Default::default()).unwrap();
             let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
+            // A lattice over and beyond the map (up to half its box each
+            // side), and every node (where several sections' nearest point
+            // is the same node) with a point 0.7 m off it.
+            let mut points = Vec::new();
+            for i in 0..=24 {
+                for j in 0..=24 {
+                    points.push([
+                        x0 + (x1 - x0) * (-0.5 + 2.0 * f64::from(i) / 24.0) + 0.13,
+                        y0 + (y1 - y0) * (-0.5 + 2.0 * f64::from(j) / 24.0) - 0.29,
+                    ]);
+                }
+            }
+            for node in net.nodes.iter().step_by(net.nodes.len().div_ceil(200)) {
+                points.push(node.enu);
+                points.push([node.enu[0] + 0.7, node.enu[1] - 0.7]);
+            }
             let drifts = [
                 Drift::prior(19.4),
                 Drift::prior(7.3),
@@ -386,38 +437,86 @@ mod tests {
                 let mut fast = HmmMatcher::new(&net, params);
                 let mut slow = HmmMatcher::new(&net, params);
                 let mut got = Vec::new();
-                for i in 0..=24 {
-                    for j in 0..=24 {
-                        let p = [
-                            x0 + (x1 - x0) * (-0.5 + 2.0 * f64::from(i) / 24.0) + 0.13,
-                            y0 + (y1 - y0) * (-0.5 + 2.0 * f64::from(j) / 24.0) - 0.29,
-                        ];
-                        let fix = Fix {
-                            t_s: 0.0,
-                            enu: p,
-                            heading_rad: None,
-                        };
-                        let n = (i * 25 + j) as usize;
-                        let d = &drifts[n % drifts.len()];
-                        let heading = match n % 3 {
-                            0 => None,
-                            1 => Some((0.1 * n as f64, 2.0)),
-                            _ => Some((-0.37 * n as f64, 0.5)),
-                        };
-                        fast.candidates(&fix, heading, d, &mut got);
-                        let want = candidates_reference(&mut slow, &fix, heading, d);
-                        assert_eq!(format!("{got:?}"), format!("{want:?}"), "{map} {p:?} {pi}");
-                        fixes += 1;
-                        found += usize::from(!got.is_empty());
-                        capped += usize::from(got.len() == max_c);
-                    }
+                for (n, &p) in points.iter().enumerate() {
+                    let fix = Fix {
+                        t_s: 0.0,
+                        enu: p,
+                        heading_rad: None,
+                    };
+                    let d = &drifts[n % drifts.len()];
+                    let heading = match n % 3 {
+                        0 => None,
+                        1 => Some((0.1 * n as f64, 2.0)),
+                        _ => Some((-0.37 * n as f64, 0.5)),
+                    };
+                    fast.candidates(&fix, heading, d, &mut got);
+                    let want = candidates_reference(&mut slow, &fix, heading, d);
+                    assert_eq!(format!("{got:?}"), format!("{want:?}"), "{map} {p:?} {pi}");
+                    fixes += 1;
+                    found += usize::from(!got.is_empty());
+                    capped += usize::from(got.len() == max_c);
+                    // Equal keys of different sections: their order is the
+                    // order the sections were found in.
+                    tied += usize::from(got.windows(2).any(|w| {
+                        w[0].emission.to_bits() == w[1].emission.to_bits()
+                            && w[0].at.section != w[1].at.section
+                    }));
                 }
             }
         }
+        println!("{fixes} fixes, {found} with candidates, {capped} capped, {tied} with tied keys");
         assert!(
-            found > 2000 && fixes - found > 1000 && capped > 50,
-            "{fixes} {found} {capped}"
+            fixes >= 10_000 && found > 2000 && fixes - found > 1000 && capped > 50 && tied > 50,
+            "{fixes} {found} {capped} {tied}"
         );
+    }
+
+    /// The best `k` keys by insertion (a few) or selection (more) are the
+    /// best `k` of the whole list sorted, in order: random lists of 1-40
+    /// keys from a few values (many ties, broken by the code), with −0,
+    /// +0, infinities and NaNs of both signs, every `k`.
+    #[test]
+    fn best_keys_are_the_sorted_lists_head() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
+        let values = [
+            -3.5,
+            -1.0,
+            -0.0,
+            0.0,
+            2.25,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NAN,
+            -f64::NAN,
+        ];
+        let mut checked = 0;
+        for _ in 0..4000 {
+            let n = rng.random_range(1..=40usize);
+            let mut keys: Vec<(f64, u32)> = (0..n)
+                .map(|_| values[rng.random_range(0..values.len())])
+                .zip(0u32..)
+                .collect();
+            // Codes in no order, as a fix's two directions and sections
+            // interleave after pruning.
+            for i in (1..n).rev() {
+                let j = rng.random_range(0..=i);
+                let c = keys[i].1;
+                keys[i].1 = keys[j].1;
+                keys[j].1 = c;
+            }
+            let mut sorted = keys.clone();
+            sorted.sort_by(key_order);
+            for k in 1..=n {
+                let mut got = keys.clone();
+                best_keys(&mut got, k);
+                let bits =
+                    |v: &[(f64, u32)]| v.iter().map(|x| (x.0.to_bits(), x.1)).collect::<Vec<_>>();
+                assert_eq!(bits(&got), bits(&sorted[..k]), "{keys:?} {k}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 50_000, "{checked}");
     }
 
     /// The emission-ratio rule drops exactly the candidates below the
