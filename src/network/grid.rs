@@ -34,13 +34,13 @@ pub struct GridIndex {
     /// Hilbert code of each cell, row-major (`x * n + y`): a look-up table so a
     /// query does not recompute codes.
     code_of: Vec<u32>,
-    /// `home_start[code]..home_start[code + 1]` indexes `home` for the cell
-    /// with that code.
+    /// `home_start[x * n + y]..home_start[x * n + y + 1]` indexes `home`
+    /// for the cell (x, y).
     home_start: Vec<u32>,
     /// Each segment's registration in its first cell (lowest x, lowest y of
-    /// its bounding box) alone, in Hilbert-code order of those cells, in
-    /// the order of `items` within a cell: all a query reports from a cell
-    /// past its first row and column.
+    /// its bounding box) alone, cells in row-major order (`x * n + y`: a
+    /// column's cells one after another), in the order of `items` within a
+    /// cell: all a query reports from a cell past its first row and column.
     home: Vec<Entry>,
 }
 
@@ -150,10 +150,10 @@ impl GridIndex {
             }
         }
         // Each segment once, in its first cell (segments in id order, as in
-        // `items`).
+        // `items`); cells row-major.
         let mut home_start = vec![0u32; cells + 1];
         for r in &ranges {
-            home_start[code_of[(r[0] * n + r[1]) as usize] as usize + 1] += 1;
+            home_start[(r[0] * n + r[1]) as usize + 1] += 1;
         }
         for i in 1..home_start.len() {
             home_start[i] += home_start[i - 1];
@@ -161,7 +161,7 @@ impl GridIndex {
         let mut fill = home_start.clone();
         let mut home = vec![blank; segments.len()];
         for (id, (r, s)) in ranges.iter().zip(segments).enumerate() {
-            let code = code_of[(r[0] * n + r[1]) as usize] as usize;
+            let code = (r[0] * n + r[1]) as usize;
             home[fill[code] as usize] = Entry {
                 line: s.line(),
                 id: id as SegmentId,
@@ -211,11 +211,14 @@ impl GridIndex {
         &self.items[self.cell_start[code] as usize..self.cell_start[code + 1] as usize]
     }
 
-    /// The registrations in the cell with that code of the segments whose
-    /// first cell it is, in the order of [`Self::cell_entries`].
+    /// The registrations in cells `y0..=y1` of column `x` of the segments
+    /// whose first cell each is: cell by cell, each in the order of
+    /// [`Self::cell_entries`].
     #[inline]
-    fn home_entries(&self, code: usize) -> &[Entry] {
-        &self.home[self.home_start[code] as usize..self.home_start[code + 1] as usize]
+    fn home_entries(&self, x: u32, y0: u32, y1: u32) -> &[Entry] {
+        let row = (x * self.n) as usize;
+        &self.home[self.home_start[row + y0 as usize] as usize
+            ..self.home_start[row + y1 as usize + 1] as usize]
     }
 
     #[inline]
@@ -269,23 +272,24 @@ impl GridIndex {
         let (qx1, qy1) = (self.cell_x(max[0]), self.cell_y(max[1]));
         for cx in qx0..=qx1 {
             let row = &self.code_of[(cx * self.n) as usize..((cx + 1) * self.n) as usize];
-            for cy in qy0..=qy1 {
-                let code = row[cy as usize] as usize;
-                if cx != qx0 && cy != qy0 {
-                    // Past the first column and row, the first visited
-                    // cell of a segment in this one is this one exactly when
-                    // it is the segment's own first cell: its home entries,
-                    // in the same order.
-                    for e in self.home_entries(code) {
-                        f(e);
-                    }
-                    continue;
-                }
-                for e in self.cell_entries(code) {
+            // The first column whole, then the first row's cell of each
+            // column, with the first-cell test.
+            let edge_y1 = if cx == qx0 { qy1 } else { qy0 };
+            for cy in qy0..=edge_y1 {
+                for e in self.cell_entries(row[cy as usize] as usize) {
                     // Report from the first visited cell the segment is in.
                     if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
                         continue;
                     }
+                    f(e);
+                }
+            }
+            // Past the first column and row, the first visited cell of a
+            // segment in a cell is that cell exactly when it is the
+            // segment's own first cell: the column's home entries, cell by
+            // cell in the same order, in one run.
+            if cx != qx0 && qy1 > qy0 {
+                for e in self.home_entries(cx, qy0 + 1, qy1) {
                     f(e);
                 }
             }
@@ -528,10 +532,11 @@ mod home_tests {
             let four = GridIndex::build(&net.segments, net.model.bbox, Some(4)).unwrap();
             for g in [&net.grid, &one, &four] {
                 assert_eq!(g.home.len(), net.segments.len());
-                for code in 0..(g.n * g.n) as usize {
-                    for e in g.home_entries(code) {
-                        let c = g.code_of[(u32::from(e.cx0) * g.n + u32::from(e.cy0)) as usize];
-                        assert_eq!(c as usize, code);
+                for x in 0..g.n {
+                    for y in 0..g.n {
+                        for e in g.home_entries(x, y, y) {
+                            assert_eq!((u32::from(e.cx0), u32::from(e.cy0)), (x, y));
+                        }
                     }
                 }
                 let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();

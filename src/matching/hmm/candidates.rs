@@ -29,20 +29,45 @@ fn key_order(a: &(f64, u32), b: &(f64, u32)) -> std::cmp::Ordering {
 /// the best `k` first at the FMM example's 5-25 keys per fix).
 const INSERTION_KEYS: usize = 16;
 
+/// A key as one integer whose ascending order is [`key_order`]: the
+/// emission's bits mapped as [`f64::total_cmp`] orders them, inverted (so
+/// the largest comes first), above the code.
+#[inline]
+fn pack_key((em, code): (f64, u32)) -> u128 {
+    let l = em.to_bits() as i64;
+    let l = l ^ ((((l >> 63) as u64) >> 1) as i64);
+    let ascending = (l as u64) ^ (1 << 63);
+    (u128::from(!ascending) << 32) | u128::from(code)
+}
+
+/// [`pack_key`]'s inverse (the emission's bits restored exactly).
+#[inline]
+fn unpack_key(p: u128) -> (f64, u32) {
+    let l = (!((p >> 32) as u64) ^ (1 << 63)) as i64;
+    let bits = l ^ ((((l >> 63) as u64) >> 1) as i64);
+    (f64::from_bits(bits as u64), p as u32)
+}
+
 /// The best `k` (at least 1, at most `keys.len()`) of `keys`, in
-/// [`key_order`]: a few sorted whole by insertion, more selected first,
-/// then sorted (the same list either way, the order being total).
+/// [`key_order`]: a few sorted whole by insertion on [`pack_key`]'s
+/// integers, more selected first, then sorted (the same list either way,
+/// the order being total).
 #[inline]
 fn best_keys(keys: &mut Vec<(f64, u32)>, k: usize) {
     if keys.len() <= INSERTION_KEYS {
-        for i in 1..keys.len() {
-            let x = keys[i];
+        let mut packed = [0u128; INSERTION_KEYS];
+        let n = keys.len();
+        for (i, &key) in keys.iter().enumerate() {
+            let x = pack_key(key);
             let mut j = i;
-            while j > 0 && key_order(&x, &keys[j - 1]).is_lt() {
-                keys[j] = keys[j - 1];
+            while j > 0 && x < packed[j - 1] {
+                packed[j] = packed[j - 1];
                 j -= 1;
             }
-            keys[j] = x;
+            packed[j] = x;
+        }
+        for (key, &p) in keys.iter_mut().zip(&packed[..n]) {
+            *key = unpack_key(p);
         }
         keys.truncate(k);
         return;
