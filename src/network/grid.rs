@@ -273,25 +273,35 @@ impl GridIndex {
         for cx in qx0..=qx1 {
             let row = &self.code_of[(cx * self.n) as usize..((cx + 1) * self.n) as usize];
             // The first column whole, then the first row's cell of each
-            // column, with the first-cell test.
+            // column, with the first-cell test; past the first column and
+            // row, the first visited cell of a segment in a cell is that
+            // cell exactly when it is the segment's own first cell: the
+            // column's home entries, cell by cell in the same order, in one
+            // run. (One loop calling `f`, so it is inlined once.)
             let edge_y1 = if cx == qx0 { qy1 } else { qy0 };
-            for cy in qy0..=edge_y1 {
-                for e in self.cell_entries(row[cy as usize] as usize) {
+            let home = cx != qx0 && qy1 > qy0;
+            let mut cy = qy0;
+            loop {
+                let check = cy <= edge_y1;
+                let entries = if check {
+                    self.cell_entries(row[cy as usize] as usize)
+                } else if home {
+                    self.home_entries(cx, qy0 + 1, qy1)
+                } else {
+                    break;
+                };
+                for e in entries {
                     // Report from the first visited cell the segment is in.
-                    if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
+                    if check && (cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0))
+                    {
                         continue;
                     }
                     f(e);
                 }
-            }
-            // Past the first column and row, the first visited cell of a
-            // segment in a cell is that cell exactly when it is the
-            // segment's own first cell: the column's home entries, cell by
-            // cell in the same order, in one run.
-            if cx != qx0 && qy1 > qy0 {
-                for e in self.home_entries(cx, qy0 + 1, qy1) {
-                    f(e);
+                if !check {
+                    break;
                 }
+                cy += 1;
             }
         }
     }

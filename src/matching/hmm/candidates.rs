@@ -79,19 +79,6 @@ fn best_keys(keys: &mut Vec<(f64, u32)>, k: usize) {
     keys.sort_unstable_by(key_order);
 }
 
-/// Scratch of the candidate search, kept by the matcher: where each
-/// section stands in the list of nearest segments, and each listed
-/// section's line and heading terms.
-#[derive(Debug, Default, Clone)]
-pub(super) struct CandScratch {
-    /// By section id: its index in the nearest list, [`NOT_LISTED`] when
-    /// not in it (every entry is reset after each search).
-    slot: Vec<u32>,
-    /// By index in the nearest list: the segment's line and the heading
-    /// terms of its two directions (forward, backward).
-    lines: Vec<(Line, f64, f64)>,
-}
-
 /// A section not in the nearest list.
 const NOT_LISTED: u32 = u32::MAX;
 
@@ -162,18 +149,17 @@ impl HmmMatcher<'_> {
         // The nearest segment of each section to the fix less the drift.
         let mut nearest = std::mem::take(&mut self.near_buf);
         nearest.clear();
-        let mut scratch = std::mem::take(&mut self.cand_scratch);
-        if scratch.slot.len() != net.sections.len() {
-            scratch.slot.clear();
-            scratch.slot.resize(net.sections.len(), NOT_LISTED);
+        let mut slot = std::mem::take(&mut self.near_slot);
+        if slot.len() != net.sections.len() {
+            slot.clear();
+            slot.resize(net.sections.len(), NOT_LISTED);
         }
-        let slot = &mut scratch.slot;
         if corrected[0].to_bits() == fix.enu[0].to_bits()
             && corrected[1].to_bits() == fix.enu[1].to_bits()
         {
             net.grid
                 .for_each_within(fix.enu, self.params.search_radius_m, |seg, t, dist| {
-                    note_nearest(&mut nearest, slot, net, seg, t, dist);
+                    note_nearest(&mut nearest, &mut slot, net, seg, t, dist);
                 });
         } else {
             self.seg_buf.clear();
@@ -181,7 +167,7 @@ impl HmmMatcher<'_> {
                 .within_radius_into(fix.enu, self.params.search_radius_m, &mut self.seg_buf);
             for &seg in &self.seg_buf {
                 let (t, _, dist) = project(net, seg, corrected);
-                note_nearest(&mut nearest, slot, net, seg, t, dist);
+                note_nearest(&mut nearest, &mut slot, net, seg, t, dist);
             }
         }
         for n in &nearest {
@@ -195,7 +181,7 @@ impl HmmMatcher<'_> {
         // turn (sections in the order found, forward first) did.
         let mut keys = std::mem::take(&mut self.key_buf);
         keys.clear();
-        let lines = &mut scratch.lines;
+        let mut lines = std::mem::take(&mut self.near_lines);
         lines.clear();
         for (j, &(section, seg, _, _)) in nearest.iter().enumerate() {
             let line = Line::of(net, seg);
@@ -262,7 +248,8 @@ impl HmmMatcher<'_> {
         }
         self.near_buf = nearest;
         self.key_buf = keys;
-        self.cand_scratch = scratch;
+        self.near_slot = slot;
+        self.near_lines = lines;
     }
 
     pub(super) fn new_step(&mut self, index: u64, fix: Fix) -> Step {
