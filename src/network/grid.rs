@@ -34,6 +34,14 @@ pub struct GridIndex {
     /// Hilbert code of each cell, row-major (`x * n + y`): a look-up table so a
     /// query does not recompute codes.
     code_of: Vec<u32>,
+    /// `home_start[x * n + y]..home_start[x * n + y + 1]` indexes `home`
+    /// for the cell (x, y).
+    home_start: Vec<u32>,
+    /// Each segment's registration in its first cell (lowest x, lowest y of
+    /// its bounding box) alone, cells in row-major order (`x * n + y`: a
+    /// column's cells one after another), in the order of `items` within a
+    /// cell: all a query reports from a cell past its first row and column.
+    home: Vec<Entry>,
 }
 
 /// One registration of a segment in a cell, with the geometry inline so a
@@ -97,6 +105,8 @@ impl GridIndex {
             cell_start: Vec::new(),
             items: Vec::new(),
             code_of: Vec::new(),
+            home_start: Vec::new(),
+            home: Vec::new(),
         };
         let cells = (n as usize) * (n as usize);
         let mut code_of = vec![0u32; cells];
@@ -139,9 +149,32 @@ impl GridIndex {
                 }
             }
         }
+        // Each segment once, in its first cell (segments in id order, as in
+        // `items`); cells row-major.
+        let mut home_start = vec![0u32; cells + 1];
+        for r in &ranges {
+            home_start[(r[0] * n + r[1]) as usize + 1] += 1;
+        }
+        for i in 1..home_start.len() {
+            home_start[i] += home_start[i - 1];
+        }
+        let mut fill = home_start.clone();
+        let mut home = vec![blank; segments.len()];
+        for (id, (r, s)) in ranges.iter().zip(segments).enumerate() {
+            let code = (r[0] * n + r[1]) as usize;
+            home[fill[code] as usize] = Entry {
+                line: s.line(),
+                id: id as SegmentId,
+                cx0: r[0] as u16,
+                cy0: r[1] as u16,
+            };
+            fill[code] += 1;
+        }
         grid.cell_start = counts;
         grid.items = items;
         grid.code_of = code_of;
+        grid.home_start = home_start;
+        grid.home = home;
         Ok(grid)
     }
 
@@ -176,6 +209,16 @@ impl GridIndex {
     #[inline]
     fn cell_entries(&self, code: usize) -> &[Entry] {
         &self.items[self.cell_start[code] as usize..self.cell_start[code + 1] as usize]
+    }
+
+    /// The registrations in cells `y0..=y1` of column `x` of the segments
+    /// whose first cell each is: cell by cell, each in the order of
+    /// [`Self::cell_entries`].
+    #[inline]
+    fn home_entries(&self, x: u32, y0: u32, y1: u32) -> &[Entry] {
+        let row = (x * self.n) as usize;
+        &self.home[self.home_start[row + y0 as usize] as usize
+            ..self.home_start[row + y1 as usize + 1] as usize]
     }
 
     #[inline]
@@ -229,14 +272,36 @@ impl GridIndex {
         let (qx1, qy1) = (self.cell_x(max[0]), self.cell_y(max[1]));
         for cx in qx0..=qx1 {
             let row = &self.code_of[(cx * self.n) as usize..((cx + 1) * self.n) as usize];
-            for cy in qy0..=qy1 {
-                for e in self.cell_entries(row[cy as usize] as usize) {
+            // The first column whole, then the first row's cell of each
+            // column, with the first-cell test; past the first column and
+            // row, the first visited cell of a segment in a cell is that
+            // cell exactly when it is the segment's own first cell: the
+            // column's home entries, cell by cell in the same order, in one
+            // run. (One loop calling `f`, so it is inlined once.)
+            let edge_y1 = if cx == qx0 { qy1 } else { qy0 };
+            let home = cx != qx0 && qy1 > qy0;
+            let mut cy = qy0;
+            loop {
+                let check = cy <= edge_y1;
+                let entries = if check {
+                    self.cell_entries(row[cy as usize] as usize)
+                } else if home {
+                    self.home_entries(cx, qy0 + 1, qy1)
+                } else {
+                    break;
+                };
+                for e in entries {
                     // Report from the first visited cell the segment is in.
-                    if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
+                    if check && (cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0))
+                    {
                         continue;
                     }
                     f(e);
                 }
+                if !check {
+                    break;
+                }
+                cy += 1;
             }
         }
     }
@@ -421,5 +486,129 @@ mod tests {
             }
         }
         assert!(listed > 1000, "{listed}");
+    }
+}
+
+#[cfg(test)]
+mod home_tests {
+    use super::*;
+    use crate::network::Network;
+
+    /// The box visitor as it was before the home entries: every entry of
+    /// every cell tested against the first-cell rule (kept as the
+    /// reference).
+    fn visit_reference(g: &GridIndex, min: [f64; 2], max: [f64; 2], mut f: impl FnMut(&Entry)) {
+        if max[0] < g.min[0]
+            || max[1] < g.min[1]
+            || min[0] > g.min[0] + g.cell[0] * f64::from(g.n)
+            || min[1] > g.min[1] + g.cell[1] * f64::from(g.n)
+        {
+            return;
+        }
+        let (qx0, qy0) = (g.cell_x(min[0]), g.cell_y(min[1]));
+        let (qx1, qy1) = (g.cell_x(max[0]), g.cell_y(max[1]));
+        for cx in qx0..=qx1 {
+            for cy in qy0..=qy1 {
+                for e in g.cell_entries(g.code_of[(cx * g.n + cy) as usize] as usize) {
+                    if cx != u32::from(e.cx0).max(qx0) || cy != u32::from(e.cy0).max(qy0) {
+                        continue;
+                    }
+                    f(e);
+                }
+            }
+        }
+    }
+
+    /// Every query (the radius list, its one-pass form with the
+    /// projection, the nearest, the box) gives what the reference visitor
+    /// gives: the same segments in the same order, every number bit for
+    /// bit. On the real maps, a bundled one on their own grids and on grids
+    /// of 1 × 1 and 4 × 4 cells, points on a lattice over and beyond each map (up to
+    /// half its box each side) and on every node, radii from 1 m to 1 km
+    /// (boxes from one cell to the whole grid); each segment's home entry
+    /// is in its first cell, once.
+    #[test]
+    fn home_entries_give_the_reference_visit() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let (mut queries, mut listed) = (0usize, 0usize);
+        for map in [
+            "tests/data/small.osm",
+            "tests/data/real/fmm-network.geojson",
+            "tests/data/real/issue-70.osm",
+            "tests/data/real/issue-13.osm",
+        ] {
+            let net = Network::load(&root.join(map), &Default::default()).unwrap();
+            let one = GridIndex::build(&net.segments, net.model.bbox, Some(1)).unwrap();
+            let four = GridIndex::build(&net.segments, net.model.bbox, Some(4)).unwrap();
+            for g in [&net.grid, &one, &four] {
+                assert_eq!(g.home.len(), net.segments.len());
+                for x in 0..g.n {
+                    for y in 0..g.n {
+                        for e in g.home_entries(x, y, y) {
+                            assert_eq!((u32::from(e.cx0), u32::from(e.cy0)), (x, y));
+                        }
+                    }
+                }
+                let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
+                let mut points: Vec<[f64; 2]> = net.nodes.iter().map(|n| n.enu).collect();
+                for i in 0..=20 {
+                    for j in 0..=20 {
+                        points.push([
+                            x0 + (x1 - x0) * (-0.5 + 2.0 * f64::from(i) / 20.0) + 0.31,
+                            y0 + (y1 - y0) * (-0.5 + 2.0 * f64::from(j) / 20.0) - 0.17,
+                        ]);
+                    }
+                }
+                for p in points {
+                    for r in [1.0, 16.0, 64.0, 102.5, 279.0, 1000.0] {
+                        let (min, max) = ([p[0] - r, p[1] - r], [p[0] + r, p[1] + r]);
+                        let mut want = Vec::new();
+                        visit_reference(g, min, max, |e| want.push(e.id));
+                        let mut got = Vec::new();
+                        g.visit_entries(min, max, |e| got.push(e.id));
+                        assert_eq!(got, want, "{map} {p:?} {r}");
+                        let pc = coord(p);
+                        let measured: Vec<_> = want
+                            .iter()
+                            .filter_map(|&id| {
+                                let (t, q) =
+                                    closest_on_segment(&net.segments[id as usize].line(), pc);
+                                let d2 = norm_sq(pc.x - q.x, pc.y - q.y);
+                                (d2 <= r * r).then_some((id, t.to_bits(), d2))
+                            })
+                            .collect();
+                        let mut within = Vec::new();
+                        g.within_radius_into(p, r, &mut within);
+                        let ids: Vec<_> = measured.iter().map(|m| m.0).collect();
+                        assert_eq!(within, ids, "{map} {p:?} {r}");
+                        let mut each = Vec::new();
+                        g.for_each_within(p, r, |id, t, d| {
+                            each.push((id, t.to_bits(), d.to_bits()))
+                        });
+                        let want_each: Vec<_> = measured
+                            .iter()
+                            .map(|&(id, t, d2)| (id, t, d2.sqrt().to_bits()))
+                            .collect();
+                        assert_eq!(each, want_each, "{map} {p:?} {r}");
+                        let nearest = measured.iter().map(|m| m.2).min_by(f64::total_cmp);
+                        assert_eq!(
+                            g.nearest_within(p, r).map(f64::to_bits),
+                            nearest.map(|d2| d2.sqrt().to_bits()),
+                            "{map} {p:?} {r}"
+                        );
+                        let r = rect(min, max);
+                        let boxed: Vec<_> = want
+                            .iter()
+                            .copied()
+                            .filter(|&id| r.intersects(&net.segments[id as usize].line()))
+                            .collect();
+                        assert_eq!(g.in_box(min, max), boxed, "{map} {p:?}");
+                        queries += 1;
+                        listed += want.len();
+                    }
+                }
+            }
+        }
+        assert!(queries > 10_000 && listed > 100_000, "{queries} {listed}");
     }
 }

@@ -50,6 +50,7 @@ pub(super) fn directed_cos_sc(
 }
 
 /// The nearest segment to `p` on the path pieces: (piece index, segment).
+#[inline]
 pub(super) fn nearest_on_pieces(
     net: &Network,
     pieces: &[(SectionId, f64, f64)],
@@ -96,6 +97,7 @@ pub(super) fn point_at(net: &Network, seg: SegmentId, section_offset: f64) -> [f
 }
 
 /// Moves a matched point into the section offset range `lo..=hi` if outside it.
+#[inline]
 pub(super) fn clamp_to_range(
     net: &Network,
     m: &mut MatchedPoint,

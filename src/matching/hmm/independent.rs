@@ -26,6 +26,7 @@ impl HmmMatcher<'_> {
     /// search made and looked up once), and no predecessor × candidate
     /// matrix is built: the same scores, back-pointers and anchors as the
     /// full recursion (checked in the tests below).
+    #[inline(never)]
     pub(super) fn transition_independent(&mut self, step: &mut Step) -> bool {
         let prev = self.window.back().expect("a previous step");
         let gc = dist(step.fix.enu, prev.fix.enu);

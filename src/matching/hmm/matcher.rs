@@ -33,6 +33,12 @@ pub struct HmmMatcher<'a> {
     pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
     /// The candidates' ranking keys, and the logarithms they took.
     pub(super) key_buf: Vec<(f64, u32)>,
+    /// The candidate search's scratch: by section id, its index in
+    /// `near_buf` (`u32::MAX` when not listed; reset after each search);
+    /// by index in `near_buf`, the segment's line and the heading terms of
+    /// its two directions.
+    pub(super) near_slot: Vec<u32>,
+    pub(super) near_lines: Vec<(super::drift::Line, f64, f64)>,
     pub(super) ln_cache: super::drift::LnCache,
     pub(super) post_buf: Vec<f64>,
     /// The backward pass's two vectors.
@@ -80,6 +86,8 @@ impl<'a> HmmMatcher<'a> {
             seg_buf: Vec::with_capacity(64),
             near_buf: Vec::with_capacity(64),
             key_buf: Vec::with_capacity(64),
+            near_slot: Vec::new(),
+            near_lines: Vec::new(),
             ln_cache: Default::default(),
             post_buf: Vec::with_capacity(params.max_candidates),
             beta_bufs: [
