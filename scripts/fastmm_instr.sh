@@ -23,4 +23,4 @@ instr() {
   echo $s
 }
 i1=$(instr 1); i201=$(instr 201)
-python3 -c "import sys; a,b,p=map(int,sys.argv[1:]); print(f'fastmm r {sys.argv[4]} σ {sys.argv[5]}: {(b-a)/200/p:,.0f} instructions per point ({p} points)')" "$i1" "$i201" "$pts" "$r" "$g"
+python3 -c "import sys; a,b,p=map(int,sys.argv[1:4]); print(f'fastmm r {sys.argv[4]} σ {sys.argv[5]}: {(b-a)/200/p:,.0f} instructions per point ({p} points)')" "$i1" "$i201" "$pts" "$r" "$g"
