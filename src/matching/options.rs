@@ -226,37 +226,23 @@ mod tests {
     /// with σ̂'s cut-off (300 m) and shorter ones.
     #[test]
     fn nearest_road_is_the_same_whatever_the_first_radius() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
         let (mut some, mut none) = (0, 0);
-        for map in [
-            "tests/data/small.osm",
-            "tests/data/real/fmm-network.geojson",
-            "tests/data/real/issue-70.osm",
-            "tests/data/real/issue-13.osm",
-        ] {
-            let net = Network::load(&root.join(map), &Default::default()).unwrap();
-            let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
-            for i in 0..=40 {
-                for j in 0..=40 {
-                    let p = [
-                        x0 + (x1 - x0) * (-0.6 + 2.2 * f64::from(i) / 40.0) + 0.37,
-                        y0 + (y1 - y0) * (-0.6 + 2.2 * f64::from(j) / 40.0) - 0.21,
-                    ];
-                    for max_m in [300.0, 100.0, 20.0] {
-                        let want = nearest_road_m(&net, p, max_m, 16.0);
-                        for prev in [0.5, 3.0, 11.0, 30.0, 47.0, 90.0, 140.0, 280.0] {
-                            let got = nearest_road_m(&net, p, max_m, first_radius_m(Some(prev)));
-                            assert_eq!(
-                                got.map(f64::to_bits),
-                                want.map(f64::to_bits),
-                                "{map} {p:?} {max_m} {prev}"
-                            );
-                        }
-                        if want.is_some() {
-                            some += 1;
-                        } else {
-                            none += 1;
-                        }
+        for (map, net) in crate::network::fixtures::query_maps() {
+            for p in crate::network::fixtures::lattice(&net, 40, 0.6, [0.37, -0.21]) {
+                for max_m in [300.0, 100.0, 20.0] {
+                    let want = nearest_road_m(&net, p, max_m, 16.0);
+                    for prev in [0.5, 3.0, 11.0, 30.0, 47.0, 90.0, 140.0, 280.0] {
+                        let got = nearest_road_m(&net, p, max_m, first_radius_m(Some(prev)));
+                        assert_eq!(
+                            got.map(f64::to_bits),
+                            want.map(f64::to_bits),
+                            "{map} {p:?} {max_m} {prev}"
+                        );
+                    }
+                    if want.is_some() {
+                        some += 1;
+                    } else {
+                        none += 1;
                     }
                 }
             }

@@ -492,7 +492,6 @@ mod tests {
 #[cfg(test)]
 mod home_tests {
     use super::*;
-    use crate::network::Network;
 
     /// The box visitor as it was before the home entries: every entry of
     /// every cell tested against the first-cell rule (kept as the
@@ -529,15 +528,8 @@ mod home_tests {
     /// is in its first cell, once.
     #[test]
     fn home_entries_give_the_reference_visit() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
         let (mut queries, mut listed) = (0usize, 0usize);
-        for map in [
-            "tests/data/small.osm",
-            "tests/data/real/fmm-network.geojson",
-            "tests/data/real/issue-70.osm",
-            "tests/data/real/issue-13.osm",
-        ] {
-            let net = Network::load(&root.join(map), &Default::default()).unwrap();
+        for (map, net) in crate::network::fixtures::query_maps() {
             let one = GridIndex::build(&net.segments, net.model.bbox, Some(1)).unwrap();
             let four = GridIndex::build(&net.segments, net.model.bbox, Some(4)).unwrap();
             for g in [&net.grid, &one, &four] {
@@ -549,16 +541,13 @@ mod home_tests {
                         }
                     }
                 }
-                let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
                 let mut points: Vec<[f64; 2]> = net.nodes.iter().map(|n| n.enu).collect();
-                for i in 0..=20 {
-                    for j in 0..=20 {
-                        points.push([
-                            x0 + (x1 - x0) * (-0.5 + 2.0 * f64::from(i) / 20.0) + 0.31,
-                            y0 + (y1 - y0) * (-0.5 + 2.0 * f64::from(j) / 20.0) - 0.17,
-                        ]);
-                    }
-                }
+                points.extend(crate::network::fixtures::lattice(
+                    &net,
+                    20,
+                    0.5,
+                    [0.31, -0.17],
+                ));
                 for p in points {
                     for r in [1.0, 16.0, 64.0, 102.5, 279.0, 1000.0] {
                         let (min, max) = ([p[0] - r, p[1] - r], [p[0] + r, p[1] + r]);

@@ -315,3 +315,45 @@ pub const PARALLEL_INDEX_SEGMENTS: usize = 4096;
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
+
+/// Fixtures the unit tests of the spatial queries share (the grid's and
+/// the matcher's): the maps they run on and the points they query.
+#[cfg(test)]
+pub(crate) mod fixtures {
+    use super::Network;
+
+    /// A bundled toy map and the three real ones of `tests/data/real`
+    /// (FMM's example network, GraphHopper's issue 70 and 13 maps), with
+    /// their paths.
+    pub(crate) fn query_maps() -> Vec<(&'static str, Network)> {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        [
+            "tests/data/small.osm",
+            "tests/data/real/fmm-network.geojson",
+            "tests/data/real/issue-70.osm",
+            "tests/data/real/issue-13.osm",
+        ]
+        .into_iter()
+        .map(|map| {
+            let net = Network::load(&root.join(map), &Default::default())
+                .unwrap_or_else(|e| panic!("{map}: {e}"));
+            (map, net)
+        })
+        .collect()
+    }
+
+    /// An `(n + 1) × (n + 1)` lattice over the map's box and `margin` of
+    /// its size beyond each side (0.5: half the box), shifted by `shift`
+    /// metres so that no point sits on a grid line; row by row in x, then
+    /// y.
+    pub(crate) fn lattice(net: &Network, n: u32, margin: f64, shift: [f64; 2]) -> Vec<[f64; 2]> {
+        let ([x0, y0], [x1, y1]) = net.enu_bounds().expect("a map with segments");
+        let at = |lo: f64, hi: f64, k: u32| {
+            lo + (hi - lo) * (-margin + (1.0 + 2.0 * margin) * f64::from(k) / f64::from(n))
+        };
+        (0..=n)
+            .flat_map(|i| (0..=n).map(move |j| (i, j)))
+            .map(|(i, j)| [at(x0, x1, i) + shift[0], at(y0, y1, j) + shift[1]])
+            .collect()
+    }
+}

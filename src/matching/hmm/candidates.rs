@@ -395,28 +395,12 @@ mod tests {
     /// both models' candidate caps and several radii and ratios.
     #[test]
     fn ranking_on_keys_gives_the_reference_candidates() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
         let (mut fixes, mut found, mut capped, mut tied) = (0usize, 0usize, 0usize, 0usize);
-        for map in [
-            "tests/data/small.osm",
-            "tests/data/real/fmm-network.geojson",
-            "tests/data/real/issue-70.osm",
-            "tests/data/real/issue-13.osm",
-        ] {
-            let net = Network::load(&root.join(map), &Default::default()).unwrap();
-            let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
+        for (map, net) in crate::network::fixtures::query_maps() {
             // A lattice over and beyond the map (up to half its box each
             // side), and every node (where several sections' nearest point
             // is the same node) with a point 0.7 m off it.
-            let mut points = Vec::new();
-            for i in 0..=24 {
-                for j in 0..=24 {
-                    points.push([
-                        x0 + (x1 - x0) * (-0.5 + 2.0 * f64::from(i) / 24.0) + 0.13,
-                        y0 + (y1 - y0) * (-0.5 + 2.0 * f64::from(j) / 24.0) - 0.29,
-                    ]);
-                }
-            }
+            let mut points = crate::network::fixtures::lattice(&net, 24, 0.5, [0.13, -0.29]);
             for node in net.nodes.iter().step_by(net.nodes.len().div_ceil(200)) {
                 points.push(node.enu);
                 points.push([node.enu[0] + 0.7, node.enu[1] - 0.7]);
