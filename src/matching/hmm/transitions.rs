@@ -148,6 +148,14 @@ impl HmmMatcher<'_> {
         bufs.win_em.clear();
         bufs.win_em.resize(nc, 0);
         let ln = &mut bufs.ln;
+        // The per-candidate vectors as slices of the candidates' number
+        // (their indices checked once, not per pair).
+        let (score, back) = (&mut step.score[..nc], &mut step.back[..nc]);
+        let (win_d, win_em) = (&mut bufs.win_d[..nc], &mut bufs.win_em[..nc]);
+        let twin = &bufs.twin[..nc];
+        let entries = &bufs.entries[..if directed { nc } else { 0 }];
+        let (em, em_set) = (&mut bufs.em[..nc * np], &mut bufs.em_set[..nc * np]);
+        let cands = &step.cands[..nc];
         for (i, p) in prev.cands.iter().enumerate() {
             let from = prev.score[i];
             if from == f64::NEG_INFINITY {
@@ -160,9 +168,11 @@ impl HmmMatcher<'_> {
             };
             let src = paths.cached_source(xn);
             let class = bufs.class[i] as usize;
-            for (k, c) in step.cands.iter().enumerate() {
+            let pred = &preds[i];
+            let row = &mut step.pair[i * nc..(i + 1) * nc];
+            for (k, c) in cands.iter().enumerate() {
                 let d = if directed {
-                    src.directed_distance(p.at, xc, c.at, bufs.entries[k], backtrack)
+                    src.directed_distance(p.at, xc, c.at, entries[k], backtrack)
                 } else {
                     bufs.dist[i * nc + k]
                 };
@@ -173,23 +183,23 @@ impl HmmMatcher<'_> {
                     continue;
                 }
                 let charged = c.charged_from(p, d, uturn);
-                let at = bufs.twin[k] as usize * np + class;
-                let e = if bufs.em_set[at] {
-                    bufs.em[at]
+                let at = twin[k] as usize * np + class;
+                let log_p = if em_set[at] {
+                    em[at].log_p
                 } else {
-                    let e = emission_with(&c.line, step.fix.enu, &preds[i], r2, |x| ln.ln(x));
-                    bufs.em[at] = e;
-                    bufs.em_set[at] = true;
-                    e
+                    let e = emission_with(&c.line, step.fix.enu, pred, r2, |x| ln.ln(x));
+                    em[at] = e;
+                    em_set[at] = true;
+                    e.log_p
                 };
-                let psi = e.log_p + c.heading - (charged - gc).abs() * inv_beta;
-                step.pair[i * nc + k] = psi;
+                let psi = log_p + c.heading - (charged - gc).abs() * inv_beta;
+                row[k] = psi;
                 let s = from + psi;
-                if s > step.score[k] {
-                    step.score[k] = s;
-                    step.back[k] = i as u32;
-                    bufs.win_d[k] = d;
-                    bufs.win_em[k] = at as u32;
+                if s > score[k] {
+                    score[k] = s;
+                    back[k] = i as u32;
+                    win_d[k] = d;
+                    win_em[k] = at as u32;
                 }
             }
         }
