@@ -327,7 +327,15 @@ pub(super) fn step_beta(window: &VecDeque<Step>, beta: &mut Vec<f64>, next: &mut
 fn forward(step: &mut Step, prev_alpha: &[f64]) {
     shift_max_to_zero(&mut step.score);
     let nc = step.cands.len();
-    let m = step.pair.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    // The largest log-weight: `f64::max`'s fold but for the sign of a zero
+    // (which `w − m` does not see: exp(±0) = 1, and `w − 0 = w − (−0)`
+    // for any other `w`); NaN skipped as `f64::max` skips it.
+    let mut m = f64::NEG_INFINITY;
+    for &w in &step.pair {
+        if w > m {
+            m = w;
+        }
+    }
     step.alpha.clear();
     step.alpha.resize(nc, 0.0);
     let alpha = &mut step.alpha[..nc];
