@@ -249,14 +249,13 @@ impl HmmMatcher<'_> {
             let (head, tail) = flat.split_at_mut(at[t]);
             let beta = &tail[..nc];
             let next = &mut head[at[t - 1]..at[t - 1] + np];
-            if st.pair.len() == np * nc {
-                for (i, x) in next.iter_mut().enumerate() {
-                    *x = st.pair[i * nc..(i + 1) * nc]
-                        .iter()
-                        .zip(beta)
-                        .map(|(w, b)| w * b)
-                        .sum::<f64>();
+            if st.pair.len() == np * nc && nc > 0 {
+                for (x, row) in next.iter_mut().zip(st.pair.chunks_exact(nc)) {
+                    *x = row.iter().zip(beta).map(|(w, b)| w * b).sum::<f64>();
                 }
+            } else if st.pair.len() == np * nc {
+                // (No candidate: every row's sum is empty.)
+                next.iter_mut().for_each(|x| *x = std::iter::empty::<f64>().sum());
             }
             // (A chain's first step: ones, normalised as the others.)
             if !normalise(next) {
