@@ -255,7 +255,8 @@ impl HmmMatcher<'_> {
                 }
             } else if st.pair.len() == np * nc {
                 // (No candidate: every row's sum is empty.)
-                next.iter_mut().for_each(|x| *x = std::iter::empty::<f64>().sum());
+                next.iter_mut()
+                    .for_each(|x| *x = std::iter::empty::<f64>().sum());
             }
             // (A chain's first step: ones, normalised as the others.)
             if !normalise(next) {
