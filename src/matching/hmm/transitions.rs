@@ -387,6 +387,9 @@ pub(super) mod check {
         pub(crate) by_both: usize,
         /// Steps no candidate of which is reached.
         pub(crate) unreached: usize,
+        /// Steps where the common drift (that of the candidate search)
+        /// equals the best predecessor's predicted drift bit for bit.
+        pub(crate) common_is_best: usize,
     }
 
     thread_local! {
@@ -421,6 +424,18 @@ pub(super) mod check {
             return;
         };
         let mut n = [0usize; 4];
+        // The common drift that placed and ranked this step's candidates,
+        // against the best predecessor's drift predicted to this fix.
+        let common_is_best = {
+            let prev = m.window.back().expect("a previous step");
+            let best = super::super::probability::argmax(&prev.score) as usize;
+            let gc = super::dist(full.fix.enu, prev.fix.enu);
+            let phi = Drift::decay(gc, m.params.drift_correlation_m.max(1e-6));
+            let pred = prev.cands[best]
+                .drift
+                .predict_by(phi, m.params.drift_sigma_m);
+            pred.same_bits(&m.common_drift(full.fix.enu))
+        };
         let full_any = reference(m, &mut full, &mut n);
         assert_eq!(any, full_any, "reached");
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -446,6 +461,7 @@ pub(super) mod check {
         st.by_class += n[2];
         st.by_both += n[3];
         st.unreached += usize::from(!any);
+        st.common_is_best += usize::from(common_is_best);
         STATS.set(Some(st));
     }
 
@@ -664,5 +680,10 @@ mod tests {
             "{real:?}"
         );
         assert!(all.unreached > 0, "{all:?}");
+        // The candidate search's drift is the best predecessor's predicted
+        // drift at every step (so its emissions are the transition's for
+        // that predecessor's class: a sharing the candidate search could
+        // offer).
+        assert_eq!(all.common_is_best, all.steps, "{all:?}");
     }
 }
