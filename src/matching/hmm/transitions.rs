@@ -148,6 +148,14 @@ impl HmmMatcher<'_> {
         bufs.win_em.clear();
         bufs.win_em.resize(nc, 0);
         let ln = &mut bufs.ln;
+        // The per-candidate vectors as slices of the candidates' number
+        // (their indices checked once, not per pair).
+        let (score, back) = (&mut step.score[..nc], &mut step.back[..nc]);
+        let (win_d, win_em) = (&mut bufs.win_d[..nc], &mut bufs.win_em[..nc]);
+        let twin = &bufs.twin[..nc];
+        let entries = &bufs.entries[..if directed { nc } else { 0 }];
+        let (em, em_set) = (&mut bufs.em[..nc * np], &mut bufs.em_set[..nc * np]);
+        let cands = &step.cands[..nc];
         for (i, p) in prev.cands.iter().enumerate() {
             let from = prev.score[i];
             if from == f64::NEG_INFINITY {
@@ -160,9 +168,11 @@ impl HmmMatcher<'_> {
             };
             let src = paths.cached_source(xn);
             let class = bufs.class[i] as usize;
-            for (k, c) in step.cands.iter().enumerate() {
+            let pred = &preds[i];
+            let row = &mut step.pair[i * nc..(i + 1) * nc];
+            for (k, c) in cands.iter().enumerate() {
                 let d = if directed {
-                    src.directed_distance(p.at, xc, c.at, bufs.entries[k], backtrack)
+                    src.directed_distance(p.at, xc, c.at, entries[k], backtrack)
                 } else {
                     bufs.dist[i * nc + k]
                 };
@@ -173,23 +183,23 @@ impl HmmMatcher<'_> {
                     continue;
                 }
                 let charged = c.charged_from(p, d, uturn);
-                let at = bufs.twin[k] as usize * np + class;
-                let e = if bufs.em_set[at] {
-                    bufs.em[at]
+                let at = twin[k] as usize * np + class;
+                let log_p = if em_set[at] {
+                    em[at].log_p
                 } else {
-                    let e = emission_with(&c.line, step.fix.enu, &preds[i], r2, |x| ln.ln(x));
-                    bufs.em[at] = e;
-                    bufs.em_set[at] = true;
-                    e
+                    let e = emission_with(&c.line, step.fix.enu, pred, r2, |x| ln.ln(x));
+                    em[at] = e;
+                    em_set[at] = true;
+                    e.log_p
                 };
-                let psi = e.log_p + c.heading - (charged - gc).abs() * inv_beta;
-                step.pair[i * nc + k] = psi;
+                let psi = log_p + c.heading - (charged - gc).abs() * inv_beta;
+                row[k] = psi;
                 let s = from + psi;
-                if s > step.score[k] {
-                    step.score[k] = s;
-                    step.back[k] = i as u32;
-                    bufs.win_d[k] = d;
-                    bufs.win_em[k] = at as u32;
+                if s > score[k] {
+                    score[k] = s;
+                    back[k] = i as u32;
+                    win_d[k] = d;
+                    win_em[k] = at as u32;
                 }
             }
         }
@@ -239,14 +249,14 @@ impl HmmMatcher<'_> {
             let (head, tail) = flat.split_at_mut(at[t]);
             let beta = &tail[..nc];
             let next = &mut head[at[t - 1]..at[t - 1] + np];
-            if st.pair.len() == np * nc {
-                for (i, x) in next.iter_mut().enumerate() {
-                    *x = st.pair[i * nc..(i + 1) * nc]
-                        .iter()
-                        .zip(beta)
-                        .map(|(w, b)| w * b)
-                        .sum::<f64>();
+            if st.pair.len() == np * nc && nc > 0 {
+                for (x, row) in next.iter_mut().zip(st.pair.chunks_exact(nc)) {
+                    *x = row.iter().zip(beta).map(|(w, b)| w * b).sum::<f64>();
                 }
+            } else if st.pair.len() == np * nc {
+                // (No candidate: every row's sum is empty.)
+                next.iter_mut()
+                    .for_each(|x| *x = std::iter::empty::<f64>().sum());
             }
             // (A chain's first step: ones, normalised as the others.)
             if !normalise(next) {
@@ -308,23 +318,39 @@ pub(super) fn step_beta(window: &VecDeque<Step>, beta: &mut Vec<f64>, next: &mut
 /// `step.pair` (made weights, scaled to a largest of 1, in place); the
 /// Viterbi scores shifted to a largest of 0. Only when some candidate is
 /// reached.
+///
+/// One pass over the rows after the largest log-weight: each row's weights
+/// made and, when its predecessor's forward probability is positive,
+/// added to the candidates' in the same order (predecessor by
+/// predecessor) as the two passes it replaced (`check::forward_two_passes`,
+/// compared in the tests): the same numbers.
 fn forward(step: &mut Step, prev_alpha: &[f64]) {
     shift_max_to_zero(&mut step.score);
     let nc = step.cands.len();
-    let m = step.pair.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    for w in &mut step.pair {
-        // exp(−∞) = 0 without the call (pairs out of reach).
-        *w = if *w == f64::NEG_INFINITY {
-            0.0
-        } else {
-            (*w - m).exp()
-        };
+    // The largest log-weight: `f64::max`'s fold but for the sign of a zero
+    // (which `w − m` does not see: exp(±0) = 1, and `w − 0 = w − (−0)`
+    // for any other `w`); NaN skipped as `f64::max` skips it.
+    let mut m = f64::NEG_INFINITY;
+    for &w in &step.pair {
+        if w > m {
+            m = w;
+        }
     }
     step.alpha.clear();
     step.alpha.resize(nc, 0.0);
-    for (i, a) in prev_alpha.iter().enumerate() {
-        if *a > 0.0 {
-            for (x, w) in step.alpha.iter_mut().zip(&step.pair[i * nc..(i + 1) * nc]) {
+    let alpha = &mut step.alpha[..nc];
+    for (i, row) in step.pair.chunks_exact_mut(nc.max(1)).enumerate() {
+        for w in row.iter_mut() {
+            // exp(−∞) = 0 without the call (pairs out of reach).
+            *w = if *w == f64::NEG_INFINITY {
+                0.0
+            } else {
+                (*w - m).exp()
+            };
+        }
+        let a = prev_alpha.get(i).copied().unwrap_or(0.0);
+        if a > 0.0 {
+            for (x, w) in alpha.iter_mut().zip(&*row) {
                 *x += a * w;
             }
         }
@@ -342,8 +368,8 @@ fn forward(step: &mut Step, prev_alpha: &[f64]) {
 pub(super) mod check {
     use super::super::drift::{emission, Drift, Emission};
     use super::super::matcher::HmmMatcher;
+    use super::super::probability::{normalise, shift_max_to_zero, softmax_into};
     use super::super::state::{Cand, Step};
-    use super::forward;
     use std::cell::Cell;
 
     /// What the comparisons covered.
@@ -361,6 +387,9 @@ pub(super) mod check {
         pub(crate) by_both: usize,
         /// Steps no candidate of which is reached.
         pub(crate) unreached: usize,
+        /// Steps where the common drift (that of the candidate search)
+        /// equals the best predecessor's predicted drift bit for bit.
+        pub(crate) common_is_best: usize,
     }
 
     thread_local! {
@@ -395,6 +424,18 @@ pub(super) mod check {
             return;
         };
         let mut n = [0usize; 4];
+        // The common drift that placed and ranked this step's candidates,
+        // against the best predecessor's drift predicted to this fix.
+        let common_is_best = {
+            let prev = m.window.back().expect("a previous step");
+            let best = super::super::probability::argmax(&prev.score) as usize;
+            let gc = super::dist(full.fix.enu, prev.fix.enu);
+            let phi = Drift::decay(gc, m.params.drift_correlation_m.max(1e-6));
+            let pred = prev.cands[best]
+                .drift
+                .predict_by(phi, m.params.drift_sigma_m);
+            pred.same_bits(&m.common_drift(full.fix.enu))
+        };
         let full_any = reference(m, &mut full, &mut n);
         assert_eq!(any, full_any, "reached");
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -420,6 +461,7 @@ pub(super) mod check {
         st.by_class += n[2];
         st.by_both += n[3];
         st.unreached += usize::from(!any);
+        st.common_is_best += usize::from(common_is_best);
         STATS.set(Some(st));
     }
 
@@ -510,9 +552,36 @@ pub(super) mod check {
         }
         m.trans_buf = bufs;
         if any {
-            forward(step, &prev.alpha);
+            forward_two_passes(step, &prev.alpha);
         }
         any
+    }
+
+    /// The forward recursion as it was: every pair's weight made, then the
+    /// rows added up (the code `super::forward` replaced).
+    fn forward_two_passes(step: &mut Step, prev_alpha: &[f64]) {
+        shift_max_to_zero(&mut step.score);
+        let nc = step.cands.len();
+        let m = step.pair.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        for w in &mut step.pair {
+            *w = if *w == f64::NEG_INFINITY {
+                0.0
+            } else {
+                (*w - m).exp()
+            };
+        }
+        step.alpha.clear();
+        step.alpha.resize(nc, 0.0);
+        for (i, a) in prev_alpha.iter().enumerate() {
+            if *a > 0.0 {
+                for (x, w) in step.alpha.iter_mut().zip(&step.pair[i * nc..(i + 1) * nc]) {
+                    *x += a * w;
+                }
+            }
+        }
+        if !normalise(&mut step.alpha) {
+            softmax_into(&step.score, &mut step.alpha);
+        }
     }
 }
 
@@ -611,5 +680,10 @@ mod tests {
             "{real:?}"
         );
         assert!(all.unreached > 0, "{all:?}");
+        // The candidate search's drift is the best predecessor's predicted
+        // drift at every step (so its emissions are the transition's for
+        // that predecessor's class: a sharing the candidate search could
+        // offer).
+        assert_eq!(all.common_is_best, all.steps, "{all:?}");
     }
 }
