@@ -14,7 +14,10 @@
 //! small network's dense table is a copy of the labels. Nodes are settled
 //! in the same (distance, node) order as the `BinaryHeap` search this
 //! replaced, with the same relaxations in the same order: the same trees,
-//! bit for bit (compared with that search, kept in the tests below).
+//! bit for bit (compared with that search, kept in the tests below). Dead
+//! ends are labelled but not queued: settling one would relax only the
+//! section back to the settled node it was reached from, which changes
+//! nothing.
 
 use crate::network::{DirectedSection, Network, NodeId};
 use rustc_hash::FxHashMap;
@@ -179,6 +182,11 @@ pub(super) struct Searcher {
     /// the first search; empty before).
     offsets: Vec<u32>,
     arcs: Vec<Arc>,
+    /// Nodes whose every section leads to one same other node (dead ends):
+    /// reached only from that node, after it is settled, and leading
+    /// only back to it, so settling one relaxes nothing; they are
+    /// labelled but never queued.
+    leaf: Vec<bool>,
     /// Labels by node (unreached outside a search).
     labels: Vec<Label>,
     touched: Vec<NodeId>,
@@ -209,6 +217,28 @@ impl Searcher {
             }
             self.offsets.push(self.arcs.len() as u32);
         }
+        self.leaf.clear();
+        for node in 0..n as NodeId {
+            // The one other end of its sections (loops aside), all of
+            // them of a length that cannot shorten a path.
+            let mut other = None;
+            let mut leaf = true;
+            for i in net.topology.incidences(node) {
+                let s = &net.sections[i.section as usize];
+                let o = if s.start == node { s.end } else { s.start };
+                if s.length_m.is_nan()
+                    || s.length_m < 0.0
+                    || other.is_some_and(|p| p != o && o != node)
+                {
+                    leaf = false;
+                    break;
+                }
+                if o != node {
+                    other = Some(o);
+                }
+            }
+            self.leaf.push(leaf && other.is_some());
+        }
         self.labels.clear();
         self.labels.resize(n, UNREACHED);
     }
@@ -230,7 +260,8 @@ impl Searcher {
         if self.offsets.len() != net.nodes.len() + 1 {
             self.build(net);
         }
-        let (offsets, arcs, labels) = (&self.offsets[..], &self.arcs[..], &mut self.labels[..]);
+        let (offsets, arcs, leaf) = (&self.offsets[..], &self.arcs[..], &self.leaf[..]);
+        let labels = &mut self.labels[..];
         let (heap, touched) = (&mut self.heap, &mut self.touched);
         labels[from as usize].0 = 0.0;
         touched.push(from);
@@ -250,7 +281,9 @@ impl Searcher {
                     }
                     let first = if node == from { arc.code / 2 } else { here.2 };
                     *l = (c, arc.code, first);
-                    heap.push(c, arc.next);
+                    if !leaf[arc.next as usize] {
+                        heap.push(c, arc.next);
+                    }
                 }
             }
         }
