@@ -15,9 +15,9 @@
 //! in the same (distance, node) order as the `BinaryHeap` search this
 //! replaced, with the same relaxations in the same order: the same trees,
 //! bit for bit (compared with that search, kept in the tests below). Dead
-//! ends are labelled but not queued: settling one would relax only the
-//! section back to the settled node it was reached from, which changes
-//! nothing.
+//! ends, and nodes whose shortest departure leads beyond the bound, are
+//! labelled but not queued: settling one would relax nothing (a dead end
+//! only the section back to the settled node it was reached from).
 
 use crate::network::{DirectedSection, Network, NodeId};
 use rustc_hash::FxHashMap;
@@ -182,11 +182,15 @@ pub(super) struct Searcher {
     /// the first search; empty before).
     offsets: Vec<u32>,
     arcs: Vec<Arc>,
-    /// Nodes whose every section leads to one same other node (dead ends):
-    /// reached only from that node, after it is settled, and leading
-    /// only back to it, so settling one relaxes nothing; they are
-    /// labelled but never queued.
-    leaf: Vec<bool>,
+    /// By node, what its distance plus this must not exceed the bound by
+    /// for settling it to relax anything: its shortest departure's length
+    /// (no departure: infinite; a NaN length: −∞, always queued), or
+    /// infinite for a dead end (every section to one same other node: it
+    /// is reached only from that node, after it is settled, and leads only
+    /// back to it). A node whose settling would relax nothing is labelled
+    /// but not queued. (Floating-point addition is monotone: a departure
+    /// no shorter than the shortest gives a sum no smaller.)
+    rim: Vec<f64>,
     /// Labels by node (unreached outside a search).
     labels: Vec<Label>,
     touched: Vec<NodeId>,
@@ -217,7 +221,7 @@ impl Searcher {
             }
             self.offsets.push(self.arcs.len() as u32);
         }
-        self.leaf.clear();
+        self.rim.clear();
         for node in 0..n as NodeId {
             // The one other end of its sections (loops aside), all of
             // them of a length that cannot shorten a path.
@@ -237,7 +241,16 @@ impl Searcher {
                     other = Some(o);
                 }
             }
-            self.leaf.push(leaf && other.is_some());
+            let out = &self.arcs[self.offsets[node as usize] as usize..];
+            let out =
+                &out[..(self.offsets[node as usize + 1] - self.offsets[node as usize]) as usize];
+            self.rim.push(if leaf && other.is_some() {
+                f64::INFINITY
+            } else if out.iter().any(|a| a.len.is_nan()) {
+                f64::NEG_INFINITY
+            } else {
+                out.iter().map(|a| a.len).fold(f64::INFINITY, f64::min)
+            });
         }
         self.labels.clear();
         self.labels.resize(n, UNREACHED);
@@ -260,7 +273,7 @@ impl Searcher {
         if self.offsets.len() != net.nodes.len() + 1 {
             self.build(net);
         }
-        let (offsets, arcs, leaf) = (&self.offsets[..], &self.arcs[..], &self.leaf[..]);
+        let (offsets, arcs, rim) = (&self.offsets[..], &self.arcs[..], &self.rim[..]);
         let labels = &mut self.labels[..];
         let (heap, touched) = (&mut self.heap, &mut self.touched);
         labels[from as usize].0 = 0.0;
@@ -281,7 +294,7 @@ impl Searcher {
                     }
                     let first = if node == from { arc.code / 2 } else { here.2 };
                     *l = (c, arc.code, first);
-                    if !leaf[arc.next as usize] {
+                    if c + rim[arc.next as usize] <= bound {
                         heap.push(c, arc.next);
                     }
                 }
