@@ -25,6 +25,7 @@ pub mod inputs;
 pub mod options;
 pub mod path_out;
 mod paths;
+mod search;
 pub mod stream;
 pub(crate) mod synthetic;
 pub mod track;

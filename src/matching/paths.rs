@@ -8,20 +8,15 @@
 //! sparse tracks reach many nodes each), so memory stays bounded on long
 //! tracks.
 
+use super::search::{Reached, Searcher, Tree, NO_PRED};
 use crate::network::{DirectedSection, Network, NodeId, SectionId};
 use rustc_hash::FxHashMap;
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
 
 /// Smallest search bound (m).
 pub const MIN_BOUND_M: f64 = 256.0;
 /// Searches kept before the cache is emptied.
 pub const CACHE_NODES: usize = 4096;
-/// Reached nodes kept in all before the cache is emptied (about 24 bytes
-/// each: some 50 MB).
-pub const CACHE_ENTRIES: usize = 2_000_000;
-
-const NO_PRED: u32 = u32::MAX;
+pub use super::search::CACHE_ENTRIES;
 
 /// A path's way through the network: exit node, cost to it, entry node, entry direction.
 type Via = (NodeId, f64, NodeId, bool);
@@ -36,77 +31,6 @@ pub struct OnSection {
     /// Direction of travel: `Some(true)` in the digitised direction,
     /// `Some(false)` against it, `None` either (as the section permits).
     pub forward: Option<bool>,
-}
-
-/// One search's result: distance and predecessor (directed section code) by node.
-#[derive(Debug, Default)]
-struct Tree {
-    bound: f64,
-    /// Distance, predecessor (directed section code) and the first section
-    /// taken from the source, by node.
-    reached: Reached,
-}
-
-/// A search's reached nodes: a hash table, or, when the search reached at
-/// least a quarter of the network's nodes (small networks), a table indexed
-/// by node (a look-up without hashing; at most 4 entries per reached node,
-/// so memory stays within a few times the hash table's).
-#[derive(Debug)]
-enum Reached {
-    Sparse(FxHashMap<NodeId, (f64, u32, u32)>),
-    /// By node; an infinite distance: not reached.
-    Dense(Vec<(f64, u32, u32)>),
-}
-
-impl Default for Reached {
-    fn default() -> Self {
-        Reached::Sparse(FxHashMap::default())
-    }
-}
-
-impl Reached {
-    #[inline]
-    fn get(&self, n: &NodeId) -> Option<&(f64, u32, u32)> {
-        match self {
-            Reached::Sparse(m) => m.get(n),
-            Reached::Dense(v) => v.get(*n as usize).filter(|r| r.0.is_finite()),
-        }
-    }
-
-    /// Entries held (for the cache's size bound).
-    fn len(&self) -> usize {
-        match self {
-            Reached::Sparse(m) => m.len(),
-            Reached::Dense(v) => v.len(),
-        }
-    }
-
-    /// Entries its memory holds.
-    fn capacity(&self) -> usize {
-        match self {
-            Reached::Sparse(m) => m.capacity(),
-            Reached::Dense(v) => v.capacity(),
-        }
-    }
-}
-
-#[derive(Debug, Copy, Clone, PartialEq)]
-struct Item {
-    cost: f64,
-    node: NodeId,
-}
-impl Eq for Item {}
-impl Ord for Item {
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.cost
-            .total_cmp(&self.cost)
-            .then_with(|| o.node.cmp(&self.node))
-    }
-}
-impl PartialOrd for Item {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
 }
 
 /// Scratch space of [`NetworkDistances::point_distance_matrix`] (kept by
@@ -157,18 +81,11 @@ impl MatrixScratch {
 pub struct NetworkDistances<'a> {
     net: &'a Network,
     cache: FxHashMap<NodeId, Tree>,
-    dist: Vec<f64>,
-    pred: Vec<u32>,
-    first: Vec<u32>,
-    touched: Vec<NodeId>,
+    /// The search's memory and spare tables ([`Searcher`]).
+    searcher: Searcher,
     /// A path's sections between its two ends (scratch of `path_into`).
     middle: Vec<DirectedSection>,
-    heap: BinaryHeap<Item>,
     entries: usize,
-    /// Tables of searches dropped from the cache, reused by the next
-    /// searches (their entries in all at most [`CACHE_ENTRIES`]).
-    spare: Vec<Reached>,
-    spare_entries: usize,
     /// Searches run (cache misses), for diagnostics.
     pub searches: u64,
     /// Times the cache was emptied (a caller that needs several searches
@@ -177,10 +94,6 @@ pub struct NetworkDistances<'a> {
     /// Added to the distance of a path between two directed points that
     /// turns round at a node straight back onto the section it left (m).
     pub uturn_penalty_m: f64,
-}
-
-fn code(d: DirectedSection) -> u32 {
-    d.section * 2 + u32::from(d.forward)
 }
 
 fn decode(c: u32) -> DirectedSection {
@@ -196,15 +109,9 @@ impl<'a> NetworkDistances<'a> {
         Self {
             net,
             cache: FxHashMap::default(),
-            dist: vec![f64::INFINITY; net.nodes.len()],
-            pred: vec![NO_PRED; net.nodes.len()],
-            first: vec![NO_PRED; net.nodes.len()],
-            touched: Vec::new(),
+            searcher: Searcher::default(),
             middle: Vec::new(),
-            heap: BinaryHeap::new(),
             entries: 0,
-            spare: Vec::new(),
-            spare_entries: 0,
             searches: 0,
             clears: 0,
             uturn_penalty_m: 0.0,
@@ -255,11 +162,12 @@ impl<'a> NetworkDistances<'a> {
         if may_clear && (self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES) {
             self.clear();
         }
-        let tree = self.search(from, bound);
+        self.searches += 1;
+        let tree = self.searcher.search(self.net, from, bound);
         self.entries += tree.reached.len();
         if let Some(old) = self.cache.insert(from, tree) {
             self.entries -= old.reached.len();
-            self.recycle(old.reached);
+            self.searcher.recycle(old.reached);
         }
     }
 
@@ -268,105 +176,11 @@ impl<'a> NetworkDistances<'a> {
     pub fn clear(&mut self) {
         let mut cache = std::mem::take(&mut self.cache);
         for (_, t) in cache.drain() {
-            self.recycle(t.reached);
+            self.searcher.recycle(t.reached);
         }
         self.cache = cache;
         self.entries = 0;
         self.clears += 1;
-    }
-
-    /// Keeps a dropped search's table for the next search, within
-    /// [`CACHE_ENTRIES`] entries in all.
-    fn recycle(&mut self, r: Reached) {
-        let n = r.capacity();
-        if self.spare_entries + n <= CACHE_ENTRIES {
-            self.spare_entries += n;
-            self.spare.push(r);
-        }
-    }
-
-    fn search(&mut self, from: NodeId, bound: f64) -> Tree {
-        self.searches += 1;
-        let net = self.net;
-        self.dist[from as usize] = 0.0;
-        self.touched.push(from);
-        self.heap.push(Item {
-            cost: 0.0,
-            node: from,
-        });
-        while let Some(Item { cost, node }) = self.heap.pop() {
-            if cost > self.dist[node as usize] {
-                continue;
-            }
-            let first = self.first[node as usize];
-            for d in net.topology.departures(&net.model, node) {
-                let s = &net.sections[d.section as usize];
-                let next = if d.forward { s.end } else { s.start };
-                let c = cost + s.length_m;
-                if c <= bound && c < self.dist[next as usize] {
-                    if self.dist[next as usize].is_infinite() {
-                        self.touched.push(next);
-                    }
-                    self.dist[next as usize] = c;
-                    self.pred[next as usize] = code(d);
-                    self.first[next as usize] = if node == from { d.section } else { first };
-                    self.heap.push(Item {
-                        cost: c,
-                        node: next,
-                    });
-                }
-            }
-        }
-        // Every node touched was settled (within the bound): the tree, in a
-        // table of exactly its size (small searches on small networks must
-        // not pay for a large table each).
-        let dense = 4 * self.touched.len() >= net.nodes.len();
-        // A spare table of the same kind (the last one kept), else a new one.
-        let spare = self
-            .spare
-            .iter()
-            .rposition(|r| matches!(r, Reached::Dense(_)) == dense)
-            .map(|k| {
-                let r = self.spare.swap_remove(k);
-                self.spare_entries -= r.capacity();
-                r
-            });
-        let reached = if dense {
-            let mut v = match spare {
-                Some(Reached::Dense(mut v)) => {
-                    v.clear();
-                    v.resize(net.nodes.len(), (f64::INFINITY, NO_PRED, NO_PRED));
-                    v
-                }
-                _ => vec![(f64::INFINITY, NO_PRED, NO_PRED); net.nodes.len()],
-            };
-            for &n in &self.touched {
-                let i = n as usize;
-                v[i] = (self.dist[i], self.pred[i], self.first[i]);
-            }
-            Reached::Dense(v)
-        } else {
-            let mut m = match spare {
-                Some(Reached::Sparse(mut m)) => {
-                    m.clear();
-                    m.reserve(self.touched.len());
-                    m
-                }
-                _ => FxHashMap::with_capacity_and_hasher(self.touched.len(), Default::default()),
-            };
-            for &n in &self.touched {
-                let i = n as usize;
-                m.insert(n, (self.dist[i], self.pred[i], self.first[i]));
-            }
-            Reached::Sparse(m)
-        };
-        for &n in &self.touched {
-            self.dist[n as usize] = f64::INFINITY;
-            self.pred[n as usize] = NO_PRED;
-            self.first[n as usize] = NO_PRED;
-        }
-        self.touched.clear();
-        Tree { bound, reached }
     }
 
     /// Cached distance from node `from` to node `to`; `None` when not reached
