@@ -149,6 +149,7 @@
 #![warn(unnameable_types)]
 
 pub mod attitude;
+pub mod decimal;
 pub mod elevation;
 pub mod error;
 pub mod export;

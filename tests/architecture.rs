@@ -13,7 +13,15 @@ use std::path::{Path, PathBuf};
 /// The layers, lowest first. A module may import its own layer or lower ones;
 /// imports inside one layer must not form a circle.
 const LAYERS: &[&[&str]] = &[
-    &["geodesy", "attitude", "error", "units", "fsio", "elevation"],
+    &[
+        "geodesy",
+        "attitude",
+        "decimal",
+        "error",
+        "units",
+        "fsio",
+        "elevation",
+    ],
     &["network", "nav", "tags"],
     &["route", "matching", "sensors", "trajectory"],
     &["scenario"],

@@ -6,6 +6,7 @@
 //! with the file and line.
 
 use super::{Fix, MatchedPoint};
+use crate::decimal::push_fixed;
 use crate::error::{Error, Result};
 use crate::geodesy::Geodetic;
 use crate::network::Network;
@@ -364,11 +365,15 @@ pub fn matched_lat_lon(net: &Network, m: &MatchedPoint) -> Option<[f64; 2]> {
     ])
 }
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
+/// Appends `field` as a CSV field: quoted (inner quotes doubled) when it
+/// holds a comma, a quote or a line break; as it is otherwise.
+fn push_csv_field(s: &mut String, field: &str) {
+    if field.contains([',', '"', '\n']) {
+        s.push('"');
+        s.push_str(&field.replace('"', "\"\""));
+        s.push('"');
     } else {
-        s.to_owned()
+        s.push_str(field);
     }
 }
 
@@ -376,9 +381,13 @@ fn csv_field(s: &str) -> String {
 pub const MATCHED_HEADER: &str =
     "track_id,t_s,lat,lon,road_id,offset_m,distance_m,state,confidence\n";
 
-/// Appends MATCHED.csv's row for input row `r` matched as `m`.
+/// Appends MATCHED.csv's row for input row `r` matched as `m`. The fixed
+/// decimals are written by [`push_fixed`] (the same text as `{:.7}` and
+/// the like, without core's formatting machinery: a third of a long
+/// track's instructions before).
 pub fn matched_row(s: &mut String, net: &Network, r: &TrackRow, m: &MatchedPoint) {
-    let _ = write!(s, "{},", csv_field(&r.track_id));
+    push_csv_field(s, &r.track_id);
+    s.push(',');
     if r.t_s.is_finite() {
         let _ = write!(s, "{}", r.t_s);
     }
@@ -386,15 +395,20 @@ pub fn matched_row(s: &mut String, net: &Network, r: &TrackRow, m: &MatchedPoint
     match matched_lat_lon(net, m) {
         Some([lat, lon]) => {
             let road = &net.roads[m.road.unwrap_or(0) as usize].attributes.id;
-            let _ = writeln!(
-                s,
-                "{lat:.7},{lon:.7},{},{:.2},{:.2},{},{:.3}",
-                csv_field(road),
-                m.road_offset_m,
-                m.distance_m,
-                m.state.as_str(),
-                m.confidence
-            );
+            push_fixed(s, lat, 7);
+            s.push(',');
+            push_fixed(s, lon, 7);
+            s.push(',');
+            push_csv_field(s, road);
+            s.push(',');
+            push_fixed(s, m.road_offset_m, 2);
+            s.push(',');
+            push_fixed(s, m.distance_m, 2);
+            s.push(',');
+            s.push_str(m.state.as_str());
+            s.push(',');
+            push_fixed(s, m.confidence, 3);
+            s.push('\n');
         }
         None => {
             let _ = writeln!(s, ",,,,,{},0", m.state.as_str());
@@ -803,8 +817,14 @@ mod tests {
             fields("\"x,y\",\"say \"\"hi\"\"\","),
             ["x,y", "say \"hi\"", ""]
         );
-        assert_eq!(csv_field("a,b"), "\"a,b\"");
-        assert_eq!(csv_field("plain"), "plain");
+        let field = |f: &str| {
+            let mut s = String::new();
+            push_csv_field(&mut s, f);
+            s
+        };
+        assert_eq!(field("a,b"), "\"a,b\"");
+        assert_eq!(field("say \"hi\""), "\"say \"\"hi\"\"\"");
+        assert_eq!(field("plain"), "plain");
     }
 
     #[test]

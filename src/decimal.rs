@@ -1,0 +1,173 @@
+//! Decimal text of a number with a fixed count of decimals: exactly the
+//! characters of `format!("{x:.p$}")`, without the formatting machinery.
+//!
+//! MATCHED.csv writes five such numbers per row, and core's exact
+//! formatting (Grisu with a Dragon fallback, through `fmt::write`) was a
+//! third of `waymark match`'s instructions on long tracks. The crates for
+//! fast float text (`ryu`, `dtoa`) give the shortest round-trip text, not a
+//! fixed count of decimals with std's rounding, so this is written here.
+//!
+//! Exactness: a finite `f64` is `m · 2^e` exactly (integer `m < 2^53`).
+//! For `|x| < 10^9` and at most 9 decimals, `m · 10^p < 2^83` is an exact
+//! `u128`, and shifting it right by `-e` with the remainder compared with
+//! half rounds the exact binary value half to even, as std does. A
+//! negative number keeps its sign when it rounds to zero (`-0.000`), as
+//! std's text does, and so does `-0.0`. Anything else (more decimals,
+//! larger magnitudes, NaN, infinities) is handed to `format!` itself.
+
+use std::fmt::Write;
+
+/// Most decimals the exact integer path takes.
+const MAX_DECIMALS: u32 = 9;
+/// Magnitudes below this take the integer path (the rounded value times
+/// 10^9 then stays below 10^18 < 2^64).
+const MAX_MAGNITUDE: f64 = 1e9;
+
+/// Appends `x` with `decimals` digits after the point, the same text as
+/// `write!(s, "{x:.decimals$}")`.
+///
+/// ```
+/// let mut s = String::new();
+/// waymark::decimal::push_fixed(&mut s, 59.3293371, 7);
+/// s.push(',');
+/// waymark::decimal::push_fixed(&mut s, 0.125, 2); // half to even
+/// s.push(',');
+/// waymark::decimal::push_fixed(&mut s, -0.0001, 3); // the sign kept
+/// assert_eq!(s, "59.3293371,0.12,-0.000");
+/// ```
+pub fn push_fixed(s: &mut String, x: f64, decimals: u32) {
+    if decimals > MAX_DECIMALS || x.is_nan() || x.abs() >= MAX_MAGNITUDE {
+        let _ = write!(s, "{x:.*}", decimals as usize);
+        return;
+    }
+    let bits = x.to_bits();
+    let biased = ((bits >> 52) & 0x7ff) as i32;
+    let fraction = bits & ((1u64 << 52) - 1);
+    // x = m · 2^e exactly; |x| < 10^9 < 2^30 makes e ≤ 29 − 52 < 0.
+    let (m, e) = if biased == 0 {
+        (fraction, -1074)
+    } else {
+        (fraction | (1u64 << 52), biased - 1075)
+    };
+    let shift = (-e) as u32;
+    let scaled = u128::from(m) * u128::from(10u64.pow(decimals));
+    // scaled < 2^53 · 10^9 < 2^83: beyond a shift of 84 bits it is below
+    // half a unit, so it rounds to 0.
+    let q = if shift > 84 {
+        0
+    } else {
+        let q = scaled >> shift;
+        let r = scaled & ((1u128 << shift) - 1);
+        let half = 1u128 << (shift - 1);
+        if r > half || (r == half && q & 1 == 1) {
+            q + 1
+        } else {
+            q
+        }
+    } as u64;
+    if bits >> 63 == 1 {
+        s.push('-');
+    }
+    let unit = 10u64.pow(decimals);
+    push_digits(s, q / unit, 1);
+    if decimals > 0 {
+        s.push('.');
+        push_digits(s, q % unit, decimals as usize);
+    }
+}
+
+/// Appends `n` in decimal, zero-padded to at least `width` digits.
+fn push_digits(s: &mut String, mut n: u64, width: usize) {
+    let mut buf = [b'0'; 20];
+    let mut at = buf.len();
+    while n > 0 {
+        at -= 1;
+        buf[at] = b'0' + (n % 10) as u8;
+        n /= 10;
+    }
+    at = at.min(buf.len() - width);
+    // Only ASCII digits were written.
+    s.push_str(std::str::from_utf8(&buf[at..]).unwrap_or_default());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn both(x: f64, p: u32) {
+        let mut got = String::new();
+        push_fixed(&mut got, x, p);
+        let want = format!("{x:.*}", p as usize);
+        assert_eq!(got, want, "{x:e} ({:#x}) with {p} decimals", x.to_bits());
+    }
+
+    /// Exact ties (k + ½ units of the last decimal, representable in
+    /// binary), zeros of both signs, the smallest subnormal, values that
+    /// round up across a power of ten, the edges of the integer path and
+    /// the cases handed to `format!`: the same text as std's.
+    #[test]
+    fn edge_cases_give_std_text() {
+        for p in 0..=12u32 {
+            for x in [
+                0.0,
+                -0.0,
+                0.5,
+                1.5,
+                2.5,
+                -2.5,
+                0.125,
+                0.375,
+                -0.125,
+                0.25,
+                f64::from_bits(1),
+                -f64::from_bits(1),
+                9.999_999_999_5,
+                99.995,
+                0.000_000_000_1,
+                -0.000_000_000_1,
+                999_999_999.999_999_9,
+                -999_999_999.999_999_9,
+                1e9,
+                -1e9,
+                1e300,
+                f64::NAN,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                179.999_999_95,
+                -179.999_999_95,
+            ] {
+                both(x, p);
+            }
+            // Ties of the last decimal: (2k + 1) / 2^(j) with j ≥ 1 lands
+            // on half a unit whenever 10^p · that is a half-integer.
+            for j in 1..=12 {
+                for k in 0..64u32 {
+                    let x = f64::from(2 * k + 1) / f64::from(1u32 << j);
+                    both(x, p);
+                    both(-x, p);
+                }
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+        /// Any bit pattern (every magnitude, NaN, subnormals) and any
+        /// count of decimals up to 12: std's text.
+        #[test]
+        fn any_bits_give_std_text(bits in any::<u64>(), p in 0u32..=12) {
+            both(f64::from_bits(bits), p);
+        }
+
+        /// Coordinates, offsets, distances and confidences as MATCHED.csv
+        /// writes them: std's text.
+        #[test]
+        fn map_values_give_std_text(x in -400.0f64..400.0, y in 0.0f64..1e7, p in 0u32..=9) {
+            both(x, p);
+            both(y, p);
+            both(x / 1e6, p);
+        }
+    }
+}
