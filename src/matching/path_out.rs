@@ -4,16 +4,10 @@
 
 use super::cpath::PathStep;
 use super::evaluate::RoadLengths;
+use super::track::push_csv_field;
+use crate::decimal::push_fixed;
 use crate::network::Network;
 use std::fmt::Write as _;
-
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_owned()
-    }
-}
 
 /// PATH.csv text for tracks of (track id, path):
 /// `track_id,seq,road_id,from_offset_m,to_offset_m,length_m`, `seq`
@@ -23,15 +17,14 @@ pub fn path_csv(net: &Network, tracks: &[(&str, &[PathStep])]) -> String {
     let mut s = String::from("track_id,seq,road_id,from_offset_m,to_offset_m,length_m\n");
     for (id, path) in tracks {
         for (k, p) in path.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "{},{k},{},{:.2},{:.2},{:.2}",
-                csv_field(id),
-                csv_field(&net.roads[p.road as usize].attributes.id),
-                p.from_offset_m,
-                p.to_offset_m,
-                p.length_m()
-            );
+            push_csv_field(&mut s, id);
+            let _ = write!(s, ",{k},");
+            push_csv_field(&mut s, &net.roads[p.road as usize].attributes.id);
+            for x in [p.from_offset_m, p.to_offset_m, p.length_m()] {
+                s.push(',');
+                push_fixed(&mut s, x, 2);
+            }
+            s.push('\n');
         }
     }
     s

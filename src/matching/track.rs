@@ -367,7 +367,7 @@ pub fn matched_lat_lon(net: &Network, m: &MatchedPoint) -> Option<[f64; 2]> {
 
 /// Appends `field` as a CSV field: quoted (inner quotes doubled) when it
 /// holds a comma, a quote or a line break; as it is otherwise.
-fn push_csv_field(s: &mut String, field: &str) {
+pub(crate) fn push_csv_field(s: &mut String, field: &str) {
     if field.contains([',', '"', '\n']) {
         s.push('"');
         s.push_str(&field.replace('"', "\"\""));
