@@ -256,41 +256,34 @@ mod tests {
     fn nearest_road_from_the_grid_equals_the_r_trees() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
         let net = Network::load(&path, &Default::default()).unwrap();
-        let ([x0, y0], [x1, y1]) = net.enu_bounds().unwrap();
         let (mut near, mut far) = (0, 0);
-        for i in 0..=40 {
-            for j in 0..=40 {
-                // Beyond the map's box too (up to a fifth of it each side).
-                let p = [
-                    x0 + (x1 - x0) * (-0.2 + 1.4 * f64::from(i) / 40.0),
-                    y0 + (y1 - y0) * (-0.2 + 1.4 * f64::from(j) / 40.0),
-                ];
-                let want = net.rtree.nearest(p).map(|(_, d)| d).filter(|d| *d <= 60.0);
-                let got = nearest_road_m(&net, p, 60.0, 16.0);
-                assert_eq!(got, want, "{p:?}");
-                // The grid's one-pass nearest is, bit for bit, the least
-                // distance over the segments its radius query lists.
-                for r in [16.0, 40.0, 64.0] {
-                    let listed = net
-                        .grid
-                        .within_radius(p, r)
-                        .iter()
-                        .map(|&s| {
-                            let sg = &net.segments[s as usize];
-                            point_segment_distance(p, sg.a, sg.b)
-                        })
-                        .min_by(f64::total_cmp);
-                    assert_eq!(
-                        net.grid.nearest_within(p, r).map(f64::to_bits),
-                        listed.map(f64::to_bits),
-                        "{p:?} {r}"
-                    );
-                }
-                if got.is_some() {
-                    near += 1;
-                } else {
-                    far += 1;
-                }
+        // Beyond the map's box too (up to a fifth of it each side).
+        for p in crate::network::fixtures::lattice(&net, 40, 0.2, [0.0, 0.0]) {
+            let want = net.rtree.nearest(p).map(|(_, d)| d).filter(|d| *d <= 60.0);
+            let got = nearest_road_m(&net, p, 60.0, 16.0);
+            assert_eq!(got, want, "{p:?}");
+            // The grid's one-pass nearest is, bit for bit, the least
+            // distance over the segments its radius query lists.
+            for r in [16.0, 40.0, 64.0] {
+                let listed = net
+                    .grid
+                    .within_radius(p, r)
+                    .iter()
+                    .map(|&s| {
+                        let sg = &net.segments[s as usize];
+                        point_segment_distance(p, sg.a, sg.b)
+                    })
+                    .min_by(f64::total_cmp);
+                assert_eq!(
+                    net.grid.nearest_within(p, r).map(f64::to_bits),
+                    listed.map(f64::to_bits),
+                    "{p:?} {r}"
+                );
+            }
+            if got.is_some() {
+                near += 1;
+            } else {
+                far += 1;
             }
         }
         assert!(near > 100 && far > 100, "{near} {far}");
