@@ -22,6 +22,19 @@ const MAX_DECIMALS: u32 = 9;
 /// Magnitudes below this take the integer path (the rounded value times
 /// 10^9 then stays below 10^18 < 2^64).
 const MAX_MAGNITUDE: f64 = 1e9;
+/// 10^p for p up to `MAX_DECIMALS` (a look-up, not a power per number).
+const POW10: [u64; MAX_DECIMALS as usize + 1] = [
+    1,
+    10,
+    100,
+    1_000,
+    10_000,
+    100_000,
+    1_000_000,
+    10_000_000,
+    100_000_000,
+    1_000_000_000,
+];
 
 /// Appends `x` with `decimals` digits after the point, the same text as
 /// `write!(s, "{x:.decimals$}")`.
@@ -50,7 +63,7 @@ pub fn push_fixed(s: &mut String, x: f64, decimals: u32) {
         (fraction | (1u64 << 52), biased - 1075)
     };
     let shift = (-e) as u32;
-    let scaled = u128::from(m) * u128::from(10u64.pow(decimals));
+    let scaled = u128::from(m) * u128::from(POW10[decimals as usize]);
     // scaled < 2^53 · 10^9 < 2^83: beyond a shift of 84 bits it is below
     // half a unit, so it rounds to 0.
     let q = if shift > 84 {
@@ -68,27 +81,58 @@ pub fn push_fixed(s: &mut String, x: f64, decimals: u32) {
     if bits >> 63 == 1 {
         s.push('-');
     }
-    let unit = 10u64.pow(decimals);
-    push_digits(s, q / unit, 1);
-    if decimals > 0 {
+    // The digits of the scaled integer once (`itoa`: two digits per step,
+    // no UTF-8 check of its own output), the point put `decimals` digits
+    // from the right: `q = int · 10^p + frac`, `frac < 10^p`, so the text
+    // of `q` is the integer part's followed by the fraction's padded to
+    // `p` digits whenever the integer part is not 0; when it is, `q` has
+    // at most `p` digits and is padded with zeros after "0.".
+    let mut buf = itoa::Buffer::new();
+    let digits = buf.format(q);
+    let p = decimals as usize;
+    if p == 0 {
+        s.push_str(digits);
+    } else if digits.len() > p {
+        let (int, frac) = digits.split_at(digits.len() - p);
+        s.push_str(int);
         s.push('.');
-        push_digits(s, q % unit, decimals as usize);
+        s.push_str(frac);
+    } else {
+        s.push_str("0.");
+        s.push_str(&ZEROS[..p - digits.len()]);
+        s.push_str(digits);
     }
 }
 
-/// Appends `n` in decimal, zero-padded to at least `width` digits.
-fn push_digits(s: &mut String, mut n: u64, width: usize) {
-    let mut buf = [b'0'; 20];
-    let mut at = buf.len();
-    while n > 0 {
-        at -= 1;
-        buf[at] = b'0' + (n % 10) as u8;
-        n /= 10;
+/// Appends `x` as `write!(s, "{x}")` writes it (std's shortest text that
+/// reads back as `x`, never an exponent). Whole numbers below 2^53, as the
+/// times of 1 Hz tracks are, take an integer path: std writes them as
+/// their integer's digits ("-0" for negative zero); the rest go to
+/// `write!` itself.
+///
+/// ```
+/// let mut s = String::new();
+/// for x in [17.0, -0.0, 0.25, 1e21] {
+///     waymark::decimal::push_display(&mut s, x);
+///     s.push(' ');
+/// }
+/// assert_eq!(s, "17 -0 0.25 1000000000000000000000 ");
+/// ```
+pub fn push_display(s: &mut String, x: f64) {
+    // 2^53: every whole f64 below it is an exact i64.
+    const EXACT: f64 = 9_007_199_254_740_992.0;
+    if x.abs() < EXACT && x.fract() == 0.0 {
+        if x == 0.0 && x.is_sign_negative() {
+            s.push('-');
+        }
+        s.push_str(itoa::Buffer::new().format(x as i64));
+    } else {
+        let _ = write!(s, "{x}");
     }
-    at = at.min(buf.len() - width);
-    // Only ASCII digits were written.
-    s.push_str(std::str::from_utf8(&buf[at..]).unwrap_or_default());
 }
+
+/// Zeros to pad a fraction with (at most `MAX_DECIMALS` of them).
+const ZEROS: &str = "000000000";
 
 #[cfg(test)]
 mod tests {
@@ -151,6 +195,43 @@ mod tests {
         }
     }
 
+    fn display_both(x: f64) {
+        let mut got = String::new();
+        push_display(&mut got, x);
+        assert_eq!(got, format!("{x}"), "{x:e} ({:#x})", x.to_bits());
+    }
+
+    #[test]
+    fn whole_numbers_give_std_display_text() {
+        let big = 9_007_199_254_740_992.0f64;
+        for x in [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            59.0,
+            1e15,
+            -1e15,
+            big - 1.0,
+            -(big - 1.0),
+            big,
+            -big,
+            big + 2.0,
+            1e21,
+            0.5,
+            -0.5,
+            1e-300,
+            f64::from_bits(1),
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            1_764_579_600.0,
+            1_764_579_600.25,
+        ] {
+            display_both(x);
+        }
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(20_000))]
 
@@ -163,6 +244,23 @@ mod tests {
 
         /// Coordinates, offsets, distances and confidences as MATCHED.csv
         /// writes them: std's text.
+        #[test]
+        fn any_bits_give_std_display_text(bits in any::<u64>()) {
+            display_both(f64::from_bits(bits));
+        }
+
+        #[test]
+        fn times_give_std_display_text(t in -1e10f64..4e9, k in 0u32..4) {
+            // Whole seconds, and tenths, halves and hundredths of them.
+            let x = match k {
+                0 => t.round(),
+                1 => (t * 10.0).round() / 10.0,
+                2 => (t * 2.0).round() / 2.0,
+                _ => (t * 100.0).round() / 100.0,
+            };
+            display_both(x);
+        }
+
         #[test]
         fn map_values_give_std_text(x in -400.0f64..400.0, y in 0.0f64..1e7, p in 0u32..=9) {
             both(x, p);

@@ -510,6 +510,56 @@ fn stream_with<W: Write>(
 mod tests {
     use super::*;
 
+    /// Every record of a table (the header first) with its line number.
+    fn table_records(text: &str) -> Vec<(usize, Vec<String>)> {
+        let path = Path::new("t.csv");
+        let Some(mut t) = CsvTable::open(path, text).unwrap() else {
+            return Vec::new();
+        };
+        let mut out = vec![(t.header_line, t.names.clone())];
+        while let Some((line, r)) = t.next_record(path).unwrap() {
+            out.push((line, r.iter().map(str::to_owned).collect()));
+        }
+        out
+    }
+
+    /// The table's fields, trimmed by `str::trim` into a record kept across
+    /// reads, are the csv crate's own `Trim::All` fields (the former
+    /// reader's): spaces, tabs, vertical tabs, form feeds, carriage
+    /// returns, Unicode spaces (no-break, ideographic), quoted fields with
+    /// blanks inside and around the quotes, empty and quoted empty fields,
+    /// CRLF line ends, non-ASCII text; blank lines and lines of blanks are
+    /// skipped with the line numbers counted as before.
+    #[test]
+    fn trimmed_fields_are_the_csv_crates_trim_all() {
+        let texts = [
+            "t_s,lat,lon\n0,60.1,24.9\n1, 60.2 ,\t24.8\t\n",
+            " t_s , lat,lon \r\n\x0b2\x0c,\u{a0}60.3\u{3000},24.7\r\n",
+            "a,b,c\n\" x \",\"\",\"  \"\n\"q,r\", s\u{2003} ,\u{e9}t\u{e9}\n",
+            "a,b\n, \n\t,\u{85}x\u{85}\n",
+        ];
+        for text in texts {
+            let mut want = Vec::new();
+            let mut rdr = csv::ReaderBuilder::new()
+                .has_headers(false)
+                .flexible(true)
+                .trim(csv::Trim::All)
+                .from_reader(text.as_bytes());
+            for r in rdr.records() {
+                want.push(r.unwrap().iter().map(str::to_owned).collect::<Vec<_>>());
+            }
+            let got: Vec<_> = table_records(text).into_iter().map(|(_, f)| f).collect();
+            assert_eq!(got, want, "{text:?}");
+        }
+        // Blank lines and lines of blanks skipped, `""` kept, lines counted.
+        let got = table_records("\n  \nt_s\n\n0\n \t \n1\n\"\"\n");
+        let f = |v: &str| vec![v.to_string()];
+        assert_eq!(
+            got,
+            vec![(3, f("t_s")), (5, f("0")), (7, f("1")), (8, f(""))]
+        );
+    }
+
     #[test]
     fn an_endless_line_is_an_error_not_a_memory_sink() {
         let dir = tempfile::tempdir().unwrap();

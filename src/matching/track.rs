@@ -6,7 +6,7 @@
 //! with the file and line.
 
 use super::{Fix, MatchedPoint};
-use crate::decimal::push_fixed;
+use crate::decimal::{push_display, push_fixed};
 use crate::error::{Error, Result};
 use crate::geodesy::Geodetic;
 use crate::network::Network;
@@ -46,6 +46,13 @@ pub(crate) struct CsvTable<'a> {
     pub names: Vec<String>,
     text: &'a str,
     reader: csv::Reader<&'a [u8]>,
+    /// The record as read, and its fields trimmed (what callers see). The
+    /// csv crate's own trimming (`Trim::All`) makes two new records per
+    /// record read (its byte and string trims allocate); trimming here
+    /// into a record kept across reads gives the same fields (`str::trim`:
+    /// the Unicode whitespace csv's string trim removes, which includes
+    /// the ASCII whitespace of its byte trim) without allocating.
+    raw: csv::StringRecord,
     record: csv::StringRecord,
     /// Lines of the file before `text` (a chunk of a streamed file).
     line_offset: usize,
@@ -69,7 +76,6 @@ impl<'a> CsvTable<'a> {
         let reader = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
-            .trim(csv::Trim::All)
             .from_reader(text.as_bytes());
         let mut t = CsvTable {
             header_line: 0,
@@ -77,6 +83,7 @@ impl<'a> CsvTable<'a> {
             names: Vec::new(),
             text,
             reader,
+            raw: csv::StringRecord::new(),
             record: csv::StringRecord::new(),
             line_offset: 0,
         };
@@ -99,7 +106,6 @@ impl<'a> CsvTable<'a> {
         let reader = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
-            .trim(csv::Trim::All)
             .from_reader(text.as_bytes());
         CsvTable {
             header_line: 0,
@@ -107,6 +113,7 @@ impl<'a> CsvTable<'a> {
             names,
             text,
             reader,
+            raw: csv::StringRecord::new(),
             record: csv::StringRecord::new(),
             line_offset,
         }
@@ -116,7 +123,7 @@ impl<'a> CsvTable<'a> {
     /// where it starts, or `None` at the end.
     fn advance(&mut self, path: &Path) -> Result<Option<(usize, usize)>> {
         loop {
-            let more = self.reader.read_record(&mut self.record).map_err(|e| {
+            let more = self.reader.read_record(&mut self.raw).map_err(|e| {
                 let line = e.position().map_or(0, |p| p.line() as usize) + self.line_offset;
                 Error::table(path, line, format!("not readable as CSV ({e})"))
             })?;
@@ -126,7 +133,7 @@ impl<'a> CsvTable<'a> {
             // The record's position is where the previous one ended: skip
             // the line ends (and empty lines) before its first byte.
             let (mut line, mut start) = self
-                .record
+                .raw
                 .position()
                 .map_or((1, 0), |p| (p.line() as usize, p.byte() as usize));
             for &b in &self.text.as_bytes()[start..] {
@@ -138,14 +145,18 @@ impl<'a> CsvTable<'a> {
                 start += 1;
             }
             // A line of blanks reads as one empty field: skip it (but not `""`).
-            if self.record.len() == 1
-                && self.record[0].is_empty()
+            if self.raw.len() == 1
+                && self.raw[0].trim().is_empty()
                 && self.text[start..]
                     .split('\n')
                     .next()
                     .is_some_and(|l| l.trim().is_empty())
             {
                 continue;
+            }
+            self.record.clear();
+            for field in &self.raw {
+                self.record.push_field(field.trim());
             }
             return Ok(Some((line + self.line_offset, start)));
         }
@@ -389,7 +400,7 @@ pub fn matched_row(s: &mut String, net: &Network, r: &TrackRow, m: &MatchedPoint
     push_csv_field(s, &r.track_id);
     s.push(',');
     if r.t_s.is_finite() {
-        let _ = write!(s, "{}", r.t_s);
+        push_display(s, r.t_s);
     }
     s.push(',');
     match matched_lat_lon(net, m) {
