@@ -6,7 +6,8 @@
 # process (--trace-children=yes), tests/data/real/fastmm_compare.py with 201
 # repeats minus one with 1 (network, UBODT and interpreter start cancel),
 # / 200 / points. `auto`: the track's own radius / sigma-hat as Waymark takes
-# them (fastmm_compare.py's doc).
+# them (fastmm_compare.py's doc). REPEATS=N in the environment: N + 1
+# repeats minus 1 instead of 201 minus 1 (e.g. 10 for a long track).
 set -euo pipefail
 md=$1; map=$2; track=$3; truth=$4; r=$5; g=$6
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
@@ -22,5 +23,6 @@ instr() {
   rm -f "$tmp"/cg.*
   echo $s
 }
-i1=$(instr 1); i201=$(instr 201)
-python3 -c "import sys; a,b,p=map(int,sys.argv[1:4]); print(f'fastmm r {sys.argv[4]} σ {sys.argv[5]}: {(b-a)/200/p:,.0f} instructions per point ({p} points)')" "$i1" "$i201" "$pts" "$r" "$g"
+n=${REPEATS:-200}
+i1=$(instr 1); i201=$(instr $((n + 1)))
+python3 -c "import sys; a,b,p,n=map(int,sys.argv[1:5]); print(f'fastmm r {sys.argv[5]} σ {sys.argv[6]}: {(b-a)/n/p:,.0f} instructions per point ({p} points)')" "$i1" "$i201" "$pts" "$n" "$r" "$g"
