@@ -186,6 +186,7 @@ impl HmmMatcher<'_> {
         keys.clear();
         let mut lines = std::mem::take(&mut self.near_lines);
         lines.clear();
+        self.rank_drift = *d;
         for (j, &(section, seg, _, _)) in nearest.iter().enumerate() {
             let line = Line::of(net, seg);
             let base = if iso {
@@ -203,7 +204,7 @@ impl HmmMatcher<'_> {
             if oneway.allows_backward() {
                 keys.push((base + hb, 2 * j as u32 + 1));
             }
-            lines.push((line, hf, hb));
+            lines.push((line, hf, hb, base));
         }
         // The best `max_candidates` by emission, ties in the order found (a
         // total order, so the selection does not depend on the sorting
@@ -226,7 +227,7 @@ impl HmmMatcher<'_> {
             for &(em, code) in &keys {
                 let j = (code >> 1) as usize;
                 let (section, seg, _, t) = nearest[j];
-                let (line, hf, hb) = lines[j];
+                let (line, hf, hb, _) = lines[j];
                 let forward = code & 1 == 0;
                 let s = &net.segments[seg as usize];
                 let sign = if forward { 1.0 } else { -1.0 };

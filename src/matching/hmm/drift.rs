@@ -157,18 +157,44 @@ pub(super) fn emission_log_p_with(
     quad - 0.5 * ln(s / r2)
 }
 
-/// [`emission`] but its log term: the quadratic part of the
-/// log-likelihood, the unit normal, the innovation and its variance S.
+/// [`emission`]'s across-road innovation alone (for the drift update):
+/// the unit normal, the innovation and its variance S, by the same
+/// operations as [`emission`], so the same bits; no logarithm.
+#[inline]
+pub(super) fn innovation(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> ([f64; 2], f64, f64) {
+    let (_, n, across, _, s_n) = across_parts(line, raw, d, r2);
+    (n, across, s_n)
+}
+
+/// The fix less the drift's mean relative to the line's start, the unit
+/// normal, the innovation across the road, the direction's products and
+/// the innovation's variance S ([`emission_parts`], [`innovation`]).
 #[inline(always)]
-fn emission_parts(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> (f64, [f64; 2], f64, f64) {
+fn across_parts(
+    line: &Line,
+    raw: [f64; 2],
+    d: &Drift,
+    r2: f64,
+) -> ([f64; 2], [f64; 2], f64, [f64; 3], f64) {
     let u = line.u;
     let n = [-u[1], u[0]];
     let rel = [
         raw[0] - d.mean[0] - line.a[0],
         raw[1] - d.mean[1] - line.a[1],
     ];
-    let along = rel[0] * u[0] + rel[1] * u[1];
     let across = rel[0] * n[0] + rel[1] * n[1];
+    let q = products(u);
+    let s_n = d.var_across(q) + r2;
+    (rel, n, across, q, s_n)
+}
+
+/// [`emission`] but its log term: the quadratic part of the
+/// log-likelihood, the unit normal, the innovation and its variance S.
+#[inline(always)]
+fn emission_parts(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> (f64, [f64; 2], f64, f64) {
+    let u = line.u;
+    let (rel, n, across, q, s_n) = across_parts(line, raw, d, r2);
+    let along = rel[0] * u[0] + rel[1] * u[1];
     let over = if along < 0.0 {
         along
     } else if along > line.len {
@@ -176,8 +202,6 @@ fn emission_parts(line: &Line, raw: [f64; 2], d: &Drift, r2: f64) -> (f64, [f64;
     } else {
         0.0
     };
-    let q = products(u);
-    let s_n = d.var_across(q) + r2;
     let quad = if over == 0.0 {
         -0.5 * across * across / s_n
     } else {
@@ -314,6 +338,57 @@ mod tests {
         }
         let far = d.predict(1e6, 400.0, 19.4);
         assert!(far.mean[0].abs() < 1e-9 && (far.cov[0] - 19.4 * 19.4).abs() < 1e-6);
+    }
+
+    /// [`innovation`] is [`emission`]'s normal, innovation and variance bit
+    /// for bit: seeded lines (zero-length ones among them), fixes before,
+    /// along and beyond them, drifts with and without a mean, isotropic
+    /// and not.
+    #[test]
+    fn the_innovation_alone_is_the_emissions() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
+        for j in 0..20_000 {
+            let (dx, dy): (f64, f64) =
+                (rng.random_range(-50.0..50.0), rng.random_range(-50.0..50.0));
+            let len = if j % 7 == 0 { 0.0 } else { dx.hypot(dy) };
+            let u = if len > 1e-9 {
+                [dx / len, dy / len]
+            } else {
+                [1.0, 0.0]
+            };
+            let line = Line::new(
+                [rng.random_range(-1e3..1e3), rng.random_range(-1e3..1e3)],
+                u,
+                len,
+            );
+            let raw = [
+                line.a[0] + rng.random_range(-80.0..80.0),
+                line.a[1] + rng.random_range(-80.0..80.0),
+            ];
+            let v: f64 = rng.random_range(0.0..400.0);
+            let w: f64 = rng.random_range(0.0..400.0);
+            let d = match j % 3 {
+                0 => Drift::prior(rng.random_range(1.0..30.0)),
+                1 => Drift {
+                    mean: [rng.random_range(-20.0..20.0), rng.random_range(-20.0..20.0)],
+                    cov: [v, rng.random_range(-1.0..1.0) * (v * w).sqrt(), w],
+                },
+                _ => Drift {
+                    mean: [rng.random_range(-20.0..20.0), 0.0],
+                    cov: [v, 0.0, v],
+                },
+            };
+            let r2 = rng.random_range(1.0..100.0);
+            let e = emission(&line, raw, &d, r2);
+            let (n, nu, s) = innovation(&line, raw, &d, r2);
+            let bits = |x: [f64; 4]| x.map(f64::to_bits);
+            assert_eq!(
+                bits([n[0], n[1], nu, s]),
+                bits([e.normal[0], e.normal[1], e.nu, e.s]),
+                "{line:?} {raw:?} {d:?} {r2}"
+            );
+        }
     }
 
     /// The variances along and across a unit vector from its products equal

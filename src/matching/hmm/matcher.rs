@@ -1,7 +1,7 @@
 //! The matcher: its window and state, deciding the oldest step, and the
 //! [`Matcher`] interface.
 
-use super::drift::{emission, Drift};
+use super::drift::{innovation, Drift};
 use super::geometry::{clamp_to_range, dist, nearest_on_pieces, with_raw};
 use super::params::{route_bound, HmmModel, HmmParams};
 use super::probability::{argmax, normalise, softmax_into};
@@ -29,16 +29,21 @@ pub struct HmmMatcher<'a> {
     /// and starts a new chain after a break.
     pub(super) drift: Drift,
     pub(super) drift_at: Option<[f64; 2]>,
+    /// That state's index in the newest step (a hint: checked before use).
+    pub(super) drift_state: u32,
     pub(super) seg_buf: Vec<SegmentId>,
     pub(super) near_buf: Vec<(SectionId, SegmentId, f64, f64)>,
     /// The candidates' ranking keys, and the logarithms they took.
     pub(super) key_buf: Vec<(f64, u32)>,
     /// The candidate search's scratch: by section id, its index in
     /// `near_buf` (`u32::MAX` when not listed; reset after each search);
-    /// by index in `near_buf`, the segment's line and the heading terms of
-    /// its two directions.
+    /// by index in `near_buf`, the segment's line, the heading terms of
+    /// its two directions and its emission's log-likelihood.
     pub(super) near_slot: Vec<u32>,
-    pub(super) near_lines: Vec<(super::drift::Line, f64, f64)>,
+    pub(super) near_lines: Vec<(super::drift::Line, f64, f64, f64)>,
+    /// The drift the last candidate search placed and ranked with (its
+    /// candidates' `log_p` are under it).
+    pub(super) rank_drift: Drift,
     pub(super) ln_cache: super::drift::LnCache,
     pub(super) post_buf: Vec<f64>,
     /// The backward pass's two vectors.
@@ -83,11 +88,13 @@ impl<'a> HmmMatcher<'a> {
             breaks: Vec::new(),
             drift: Drift::prior(params.drift_sigma_m),
             drift_at: None,
+            drift_state: 0,
             seg_buf: Vec::with_capacity(64),
             near_buf: Vec::with_capacity(64),
             key_buf: Vec::with_capacity(64),
             near_slot: Vec::new(),
             near_lines: Vec::new(),
+            rank_drift: Drift::prior(params.drift_sigma_m),
             ln_cache: Default::default(),
             post_buf: Vec::with_capacity(params.max_candidates),
             beta_bufs: [
@@ -443,8 +450,9 @@ impl Matcher for HmmMatcher<'_> {
                 c.anchor_road = c.road;
                 c.drift = common;
                 if self.params.track_drift && !self.independent() {
-                    let e = emission(&c.line, fix.enu, &common, r2);
-                    c.drift.update(e.normal, e.nu, e.s);
+                    // (The emission's innovation: no logarithm needed.)
+                    let (normal, nu, s) = innovation(&c.line, fix.enu, &common, r2);
+                    c.drift.update(normal, nu, s);
                 }
                 step.score.push(c.emission - m);
                 step.back.push(0);
@@ -459,6 +467,7 @@ impl Matcher for HmmMatcher<'_> {
         }
         let best = argmax(&step.score) as usize;
         self.drift = step.cands[best].drift;
+        self.drift_state = best as u32;
         self.drift_at = Some(fix.enu);
         self.window.push_back(step);
         if self.window.len() > self.params.lag {

@@ -109,7 +109,7 @@ pub(super) struct TransBuf {
     /// For each predecessor, the first one whose predicted drift is the
     /// same bit for bit (itself if none).
     pub(super) class: Vec<u32>,
-    /// Emissions computed, by (candidate, predecessor), candidate-major,
+    /// Emissions computed, by (predecessor, candidate), predecessor-major,
     /// and which slots this step filled.
     pub(super) em: Vec<Emission>,
     pub(super) em_set: Vec<bool>,

@@ -1,7 +1,7 @@
 //! Transitions: the Viterbi recursion with per-survivor drift estimates,
 //! and the forward–backward smoothing over the lag window.
 
-use super::drift::{emission_with, Drift, Emission};
+use super::drift::{emission_with, innovation, Drift, Emission};
 use super::geometry::dist;
 use super::matcher::HmmMatcher;
 use super::probability::{normalise, shift_max_to_zero, softmax_into};
@@ -65,9 +65,15 @@ impl HmmMatcher<'_> {
     /// class of predecessors whose predicted drifts are equal bit for bit
     /// (states that took over the same drift and were updated by the same
     /// line: the two directions of a section again); its `ln` comes from a
-    /// cache of exact logarithms. The same numbers as the recursion that
-    /// computes every pair's emission (`check::reference`, compared in the
-    /// tests below).
+    /// cache of exact logarithms. The class of the previous step's best
+    /// state predicts the common drift, under which the candidate search
+    /// ranked the candidates: its emissions' log-likelihoods are those the
+    /// search computed (kept by section, found through the candidates'
+    /// ranking keys), and a candidate whose best
+    /// predecessor is of that class takes the innovation alone
+    /// ([`innovation`]). The same numbers as the recursion that computes
+    /// every pair's emission (`check::reference`, compared in the tests
+    /// below).
     pub(super) fn transition(&mut self, step: &mut Step) -> bool {
         #[cfg(test)]
         let input = check::copy_if_checking(step);
@@ -127,7 +133,8 @@ impl HmmMatcher<'_> {
             bufs.entries
                 .extend(step.cands.iter().map(|c| paths.directed_entry(c.at)));
         }
-        // Emissions by (first candidate on the segment, drift class).
+        // Emissions by (drift class, first candidate on the segment),
+        // class-major.
         // (Slots are marked when filled; the emissions' memory is only
         // grown, never cleared.)
         bufs.em_set.clear();
@@ -156,6 +163,22 @@ impl HmmMatcher<'_> {
         let entries = &bufs.entries[..if directed { nc } else { 0 }];
         let (em, em_set) = (&mut bufs.em[..nc * np], &mut bufs.em_set[..nc * np]);
         let cands = &step.cands[..nc];
+        // The candidate search's emissions, under the common drift: the
+        // best predecessor's predicted drift (checked bit for bit), so the
+        // emissions of that predecessor's class. Only their
+        // log-likelihoods: a winner of that class takes its innovation
+        // from `innovation` (the same bits as the emission's).
+        let best = self.drift_state as usize;
+        let mut ranked = 0..0;
+        if best < np && self.key_buf.len() == nc && preds[best].same_bits(&self.rank_drift) {
+            let class = bufs.class[best] as usize;
+            ranked = class * nc..(class + 1) * nc;
+            let near = &self.near_lines[..];
+            for (e, key) in em[ranked.clone()].iter_mut().zip(&self.key_buf) {
+                e.log_p = near[(key.1 >> 1) as usize].3;
+            }
+            em_set[ranked.clone()].fill(true);
+        }
         for (i, p) in prev.cands.iter().enumerate() {
             let from = prev.score[i];
             if from == f64::NEG_INFINITY {
@@ -167,7 +190,7 @@ impl HmmMatcher<'_> {
                 (0, 0.0)
             };
             let src = paths.cached_source(xn);
-            let class = bufs.class[i] as usize;
+            let row_em = bufs.class[i] as usize * nc;
             let pred = &preds[i];
             let row = &mut step.pair[i * nc..(i + 1) * nc];
             for (k, c) in cands.iter().enumerate() {
@@ -183,7 +206,7 @@ impl HmmMatcher<'_> {
                     continue;
                 }
                 let charged = c.charged_from(p, d, uturn);
-                let at = twin[k] as usize * np + class;
+                let at = row_em + twin[k] as usize;
                 let log_p = if em_set[at] {
                     em[at].log_p
                 } else {
@@ -204,14 +227,26 @@ impl HmmMatcher<'_> {
             }
         }
         let mut any = false;
+        #[cfg(test)]
+        let mut ranked_winners = 0;
         for (k, c) in step.cands.iter_mut().enumerate() {
             if step.score[k] > f64::NEG_INFINITY {
                 any = true;
                 let arg = step.back[k] as usize;
                 c.drift = preds[arg];
                 if track {
-                    let e = bufs.em[bufs.win_em[k] as usize];
-                    c.drift.update(e.normal, e.nu, e.s);
+                    let w = bufs.win_em[k] as usize;
+                    let (normal, nu, s) = if ranked.contains(&w) {
+                        #[cfg(test)]
+                        {
+                            ranked_winners += 1;
+                        }
+                        innovation(&c.line, step.fix.enu, &c.drift, r2)
+                    } else {
+                        let e = bufs.em[w];
+                        (e.normal, e.nu, e.s)
+                    };
+                    c.drift.update(normal, nu, s);
                 }
                 c.set_anchor(Cand::anchor_through(&prev.cands[arg], bufs.win_d[k]));
             } else {
@@ -222,7 +257,7 @@ impl HmmMatcher<'_> {
             forward(step, &prev.alpha);
         }
         #[cfg(test)]
-        check::against_reference(self, input, step, any);
+        check::against_reference(self, input, step, any, (!ranked.is_empty(), ranked_winners));
         any
     }
 
@@ -390,6 +425,12 @@ pub(super) mod check {
         /// Steps where the common drift (that of the candidate search)
         /// equals the best predecessor's predicted drift bit for bit.
         pub(crate) common_is_best: usize,
+        /// Steps whose emissions for that predecessor's class came from
+        /// the candidate search, and the candidates that took their
+        /// innovation from [`super::super::drift::innovation`] (their best
+        /// predecessor in that class).
+        pub(crate) ranked: usize,
+        pub(crate) ranked_winners: usize,
     }
 
     thread_local! {
@@ -419,6 +460,7 @@ pub(super) mod check {
         input: Option<Step>,
         step: &Step,
         any: bool,
+        (ranked, ranked_winners): (bool, usize),
     ) {
         let (Some(mut st), Some(mut full)) = (STATS.get(), input) else {
             return;
@@ -462,6 +504,8 @@ pub(super) mod check {
         st.by_both += n[3];
         st.unreached += usize::from(!any);
         st.common_is_best += usize::from(common_is_best);
+        st.ranked += usize::from(ranked);
+        st.ranked_winners += ranked_winners;
         STATS.set(Some(st));
     }
 
@@ -682,8 +726,11 @@ mod tests {
         assert!(all.unreached > 0, "{all:?}");
         // The candidate search's drift is the best predecessor's predicted
         // drift at every step (so its emissions are the transition's for
-        // that predecessor's class: a sharing the candidate search could
-        // offer).
+        // that predecessor's class).
         assert_eq!(all.common_is_best, all.steps, "{all:?}");
+        // And the transition takes them, at every step; winners of that
+        // class take their innovation without the emission.
+        assert_eq!(all.ranked, all.steps, "{all:?}");
+        assert!(real.ranked_winners > 100, "{real:?}");
     }
 }
