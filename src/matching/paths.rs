@@ -3,7 +3,9 @@
 //!
 //! A search from a node stops at a distance bound; a later query needing a
 //! larger bound repeats the search with it (bounds grow in powers of two from
-//! [`MIN_BOUND_M`]). The cache is emptied when it holds [`CACHE_NODES`]
+//! [`MIN_BOUND_M`]), unless the larger bound would not change the tree (no
+//! departure from it within that bound to a node it does not reach): then
+//! the tree is kept with the larger bound. The cache is emptied when it holds [`CACHE_NODES`]
 //! searches or [`CACHE_ENTRIES`] reached nodes in all (long searches of
 //! sparse tracks reach many nodes each), so memory stays bounded on long
 //! tracks.
@@ -161,6 +163,14 @@ impl<'a> NetworkDistances<'a> {
         }
         if may_clear && (self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES) {
             self.clear();
+        } else if let Some(t) = self.cache.get_mut(&from) {
+            // A tree the larger bound would not change (no departure from
+            // it within that bound to a node it does not reach): the same
+            // tree, bit for bit, without searching again.
+            if self.searcher.covers(self.net, t, bound) {
+                t.bound = bound;
+                return;
+            }
         }
         self.searches += 1;
         let tree = self.searcher.search(self.net, from, bound);
