@@ -197,20 +197,24 @@ impl<'a> NetworkDistances<'a> {
             }
         }
         self.searches += 1;
-        let tree = self.searcher.search(self.net, from, bound);
-        self.entries += tree.reached.len();
         if self.slots.len() != self.net.nodes.len() {
             self.slots.clear();
             self.slots.resize(self.net.nodes.len(), NO_TREE);
         }
-        let k = &mut self.slots[from as usize];
-        if *k == NO_TREE {
-            *k = self.trees.len() as u32;
+        let k = self.slots[from as usize];
+        if k != NO_TREE {
+            // The tree searched again: its table for the search's.
+            let old = std::mem::take(&mut self.trees[k as usize].1.reached);
+            self.entries -= old.len();
+            self.searcher.recycle(old);
+        }
+        let tree = self.searcher.search(self.net, from, bound);
+        self.entries += tree.reached.len();
+        if k == NO_TREE {
+            self.slots[from as usize] = self.trees.len() as u32;
             self.trees.push((from, tree));
         } else {
-            let old = std::mem::replace(&mut self.trees[*k as usize].1, tree);
-            self.entries -= old.reached.len();
-            self.searcher.recycle(old.reached);
+            self.trees[k as usize].1 = tree;
         }
     }
 

@@ -11,7 +11,9 @@
 //! order-preserving form, then the node), so popping the least
 //! (distance, node) is one integer comparison per level; a node's
 //! distance, predecessor and first section are one 16-byte label, so a
-//! small network's dense table is a copy of the labels. Nodes are settled
+//! small network's dense table is the labels themselves (exchanged for a
+//! spare table, all unreached, as the next search's labels). The source
+//! is settled first without the heap (its first pop). Nodes are settled
 //! in the same (distance, node) order as the `BinaryHeap` search this
 //! replaced, with the same relaxations in the same order: the same trees,
 //! bit for bit (compared with that search, kept in the tests below). Dead
@@ -174,6 +176,40 @@ impl KeyHeap {
     }
 }
 
+/// One search's tables and bound.
+struct Run<'s> {
+    offsets: &'s [u32],
+    arcs: &'s [Arc],
+    rim: &'s [f64],
+    labels: &'s mut [Label],
+    touched: &'s mut Vec<NodeId>,
+    heap: &'s mut KeyHeap,
+    bound: f64,
+}
+
+impl Run<'_> {
+    /// Settles `node` at `cost`: relaxes its departures, each node
+    /// labelled with `first` as its first section (the departure's own
+    /// section from the source: `SOURCE`).
+    #[inline(always)]
+    fn settle<const SOURCE: bool>(&mut self, node: NodeId, cost: f64, first: u32) {
+        let (a, b) = (self.offsets[node as usize], self.offsets[node as usize + 1]);
+        for arc in &self.arcs[a as usize..b as usize] {
+            let c = cost + arc.len;
+            let l = &mut self.labels[arc.next as usize];
+            if c <= self.bound && c < l.0 {
+                if l.0.is_infinite() {
+                    self.touched.push(arc.next);
+                }
+                *l = (c, arc.code, if SOURCE { arc.code / 2 } else { first });
+                if c + self.rim[arc.next as usize] <= self.bound {
+                    self.heap.push(c, arc.next);
+                }
+            }
+        }
+    }
+}
+
 /// The search's memory, kept between searches (no search allocates once it
 /// has grown), and the tables of dropped searches for reuse.
 #[derive(Debug, Default)]
@@ -315,33 +351,33 @@ impl Searcher {
         if self.offsets.len() != net.nodes.len() + 1 {
             self.build(net);
         }
-        let (offsets, arcs, rim) = (&self.offsets[..], &self.arcs[..], &self.rim[..]);
-        let labels = &mut self.labels[..];
-        let (heap, touched) = (&mut self.heap, &mut self.touched);
-        labels[from as usize].0 = 0.0;
-        touched.push(from);
-        heap.push(0.0, from);
-        while let Some((cost, node)) = heap.pop() {
-            let here = labels[node as usize];
+        let mut run = Run {
+            offsets: &self.offsets,
+            arcs: &self.arcs,
+            rim: &self.rim,
+            labels: &mut self.labels,
+            touched: &mut self.touched,
+            heap: &mut self.heap,
+            bound,
+        };
+        run.labels[from as usize].0 = 0.0;
+        run.touched.push(from);
+        // The source is the heap's first pop: settled without the heap.
+        run.settle::<true>(from, 0.0, NO_PRED);
+        while let Some((cost, node)) = run.heap.pop() {
+            let here = run.labels[node as usize];
             if cost > here.0 {
                 continue;
             }
-            let (a, b) = (offsets[node as usize], offsets[node as usize + 1]);
-            for arc in &arcs[a as usize..b as usize] {
-                let c = cost + arc.len;
-                let l = &mut labels[arc.next as usize];
-                if c <= bound && c < l.0 {
-                    if l.0.is_infinite() {
-                        touched.push(arc.next);
-                    }
-                    let first = if node == from { arc.code / 2 } else { here.2 };
-                    *l = (c, arc.code, first);
-                    if c + rim[arc.next as usize] <= bound {
-                        heap.push(c, arc.next);
-                    }
-                }
+            if node == from {
+                // Only with a negative length: the source labelled again.
+                run.settle::<true>(node, cost, NO_PRED);
+            } else {
+                run.settle::<false>(node, cost, here.2);
             }
         }
+        let labels = &mut self.labels[..];
+        let touched = &mut self.touched;
         // Every node touched was settled (within the bound): the tree, in a
         // table of exactly its size (small searches on small networks must
         // not pay for a large table each).
@@ -356,35 +392,41 @@ impl Searcher {
                 self.spare_entries -= r.capacity();
                 r
             });
-        let reached = if dense {
-            // The labels are the table: unreached nodes hold what the
-            // table's absent entries hold.
+        if dense {
+            // The labels are the table (unreached nodes hold what the
+            // table's absent entries hold), and the spare table, all
+            // unreached, the next search's labels (no copy, no reset by
+            // touched node).
             let mut v = match spare {
                 Some(Reached::Dense(v)) => v,
                 _ => Vec::with_capacity(labels.len()),
             };
             v.clear();
-            v.extend_from_slice(labels);
-            Reached::Dense(v)
-        } else {
-            let mut m = match spare {
-                Some(Reached::Sparse(mut m)) => {
-                    m.clear();
-                    m.reserve(touched.len());
-                    m
-                }
-                _ => FxHashMap::with_capacity_and_hasher(touched.len(), Default::default()),
+            v.resize(labels.len(), UNREACHED);
+            std::mem::swap(&mut self.labels, &mut v);
+            touched.clear();
+            return Tree {
+                bound,
+                reached: Reached::Dense(v),
             };
-            for &n in touched.iter() {
-                m.insert(n, labels[n as usize]);
+        }
+        let mut m = match spare {
+            Some(Reached::Sparse(mut m)) => {
+                m.clear();
+                m.reserve(touched.len());
+                m
             }
-            Reached::Sparse(m)
+            _ => FxHashMap::with_capacity_and_hasher(touched.len(), Default::default()),
         };
         for &n in touched.iter() {
+            m.insert(n, labels[n as usize]);
             labels[n as usize] = UNREACHED;
         }
         touched.clear();
-        Tree { bound, reached }
+        Tree {
+            bound,
+            reached: Reached::Sparse(m),
+        }
     }
 }
 
@@ -485,7 +527,8 @@ mod tests {
     /// The trees equal the former search's bit for bit (distances,
     /// predecessors, first sections, the nodes reached) on the real maps,
     /// from every node of the small ones and a sample of Helsinki's, at
-    /// several bounds, one searcher reused throughout (its tables recycled).
+    /// several bounds, one searcher reused throughout (its tables recycled,
+    /// except every third tree's: searches without a spare table too).
     #[test]
     fn trees_equal_the_former_search() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -519,7 +562,9 @@ mod tests {
                     }
                     labels += reached;
                     trees += 1;
-                    s.recycle(tree.reached);
+                    if trees % 3 != 0 {
+                        s.recycle(tree.reached);
+                    }
                 }
             }
         }
