@@ -202,13 +202,14 @@ impl<'a> NetworkDistances<'a> {
             self.slots.resize(self.net.nodes.len(), NO_TREE);
         }
         let k = self.slots[from as usize];
-        if k != NO_TREE {
-            // The tree searched again: its table for the search's.
-            let old = std::mem::take(&mut self.trees[k as usize].1.reached);
-            self.entries -= old.len();
-            self.searcher.recycle(old);
-        }
-        let tree = self.searcher.search(self.net, from, bound);
+        let tree = if k == NO_TREE {
+            self.searcher.search(self.net, from, bound)
+        } else {
+            // The tree's search continued with the larger bound.
+            let old = std::mem::take(&mut self.trees[k as usize].1);
+            self.entries -= old.reached.len();
+            self.searcher.resume(self.net, from, old, bound)
+        };
         self.entries += tree.reached.len();
         if k == NO_TREE {
             self.slots[from as usize] = self.trees.len() as u32;

@@ -227,6 +227,10 @@ pub(super) struct Searcher {
     /// but not queued. (Floating-point addition is monotone: a departure
     /// no shorter than the shortest gives a sum no smaller.)
     rim: Vec<f64>,
+    /// By node, its longest departure (NaN lengths aside; none: −∞): a
+    /// reached node whose distance plus this is within a tree's bound had
+    /// every departure relaxed within it ([`Self::resume`]).
+    far: Vec<f64>,
     /// No departure is shorter than zero (NaN aside): nodes are settled in
     /// order of distance, what [`Self::covers`] relies on.
     monotone: bool,
@@ -261,6 +265,7 @@ impl Searcher {
             self.offsets.push(self.arcs.len() as u32);
         }
         self.rim.clear();
+        self.far.clear();
         for node in 0..n as NodeId {
             // The one other end of its sections (loops aside), all of
             // them of a length that cannot shorten a path.
@@ -283,6 +288,12 @@ impl Searcher {
             let out = &self.arcs[self.offsets[node as usize] as usize..];
             let out =
                 &out[..(self.offsets[node as usize + 1] - self.offsets[node as usize]) as usize];
+            self.far.push(
+                out.iter()
+                    .map(|a| a.len)
+                    .filter(|l| !l.is_nan())
+                    .fold(f64::NEG_INFINITY, f64::max),
+            );
             self.rim.push(if leaf && other.is_some() {
                 f64::INFINITY
             } else if out.iter().any(|a| a.len.is_nan()) {
@@ -376,6 +387,91 @@ impl Searcher {
                 run.settle::<false>(node, cost, here.2);
             }
         }
+        self.finish(bound)
+    }
+
+    /// The search from `from` with `bound`, larger than `tree`'s (a tree
+    /// from `from`, which it consumes), continued from where `tree`'s
+    /// search stopped instead of made again: the tree's labels are final,
+    /// so the larger search's settling of the tree's nodes (all before any
+    /// node beyond the tree's bound, in (distance, node) order) relaxes
+    /// within the tree's bound nothing that would change them, and beyond
+    /// it, only the departures of nodes whose longest departure leads
+    /// beyond the tree's bound: those are settled again, in that order
+    /// (the source first, as the search does), before the search goes on.
+    /// The same tree as [`Self::search`] with `bound`, bit for bit, when no
+    /// length is negative (otherwise it is searched again).
+    pub(super) fn resume(&mut self, net: &Network, from: NodeId, tree: Tree, bound: f64) -> Tree {
+        if !self.monotone || self.offsets.len() != net.nodes.len() + 1 {
+            self.recycle(tree.reached);
+            return self.search(net, from, bound);
+        }
+        let old = tree.bound;
+        let far = &self.far[..];
+        let mut source = false;
+        match tree.reached {
+            Reached::Dense(mut v) => {
+                // The tree's table as the labels; the labels, all
+                // unreached, a spare table.
+                std::mem::swap(&mut self.labels, &mut v);
+                for (u, l) in self.labels.iter().enumerate() {
+                    if l.0.is_finite() {
+                        self.touched.push(u as NodeId);
+                        if l.0 + far[u] > old {
+                            if u as NodeId == from {
+                                source = true;
+                            } else {
+                                self.heap.push(l.0, u as NodeId);
+                            }
+                        }
+                    }
+                }
+                self.recycle(Reached::Dense(v));
+            }
+            Reached::Sparse(m) => {
+                for (&u, &l) in &m {
+                    self.labels[u as usize] = l;
+                    self.touched.push(u);
+                    if l.0 + far[u as usize] > old {
+                        if u == from {
+                            source = true;
+                        } else {
+                            self.heap.push(l.0, u);
+                        }
+                    }
+                }
+                self.recycle(Reached::Sparse(m));
+            }
+        }
+        let mut run = Run {
+            offsets: &self.offsets,
+            arcs: &self.arcs,
+            rim: &self.rim,
+            labels: &mut self.labels,
+            touched: &mut self.touched,
+            heap: &mut self.heap,
+            bound,
+        };
+        if source {
+            run.settle::<true>(from, 0.0, NO_PRED);
+        }
+        while let Some((cost, node)) = run.heap.pop() {
+            let here = run.labels[node as usize];
+            if cost > here.0 {
+                continue;
+            }
+            if node == from {
+                run.settle::<true>(node, cost, NO_PRED);
+            } else {
+                run.settle::<false>(node, cost, here.2);
+            }
+        }
+        self.finish(bound)
+    }
+
+    /// The tree of a search that labelled `touched`, with `bound`; the
+    /// labels left unreached.
+    fn finish(&mut self, bound: f64) -> Tree {
         let labels = &mut self.labels[..];
         let touched = &mut self.touched;
         // Every node touched was settled (within the bound): the tree, in a
@@ -622,5 +718,58 @@ mod tests {
             }
         }
         assert!(kept > 500 && searched > 1000, "{kept} {searched}");
+    }
+
+    /// [`Searcher::resume`] gives the former search's tree with the larger
+    /// bound, bit for bit, on the real maps, from every node of the small
+    /// ones and a sample of Helsinki's, for pseudo-random pairs of bounds
+    /// (zero, small, powers of two, in between), resumed again and again.
+    #[test]
+    fn resumed_trees_equal_the_former_search() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let maps = [
+            "tests/data/real/fmm-network.geojson",
+            "tests/data/real/issue-70.osm",
+            "tests/data/real/issue-13.osm",
+            "maps/helsinki.osm.pbf",
+        ];
+        let mut rng = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            rng
+        };
+        let mut resumed = 0;
+        for m in maps {
+            let net = Network::load(&root.join(m), &LoadOptions::default()).unwrap();
+            let n = net.nodes.len();
+            let stride = (n / 100).max(1);
+            let mut s = Searcher::default();
+            for from in (0..n as NodeId).step_by(stride) {
+                let mut bound = match next() % 3 {
+                    0 => 0.0,
+                    1 => 256.0,
+                    _ => (next() % 500) as f64 / 3.0,
+                };
+                let mut tree = s.search(&net, from, bound);
+                for _ in 0..4 {
+                    bound = match next() % 3 {
+                        0 => bound * 2.0,
+                        1 => bound + (next() % 300) as f64 * 0.7,
+                        _ => bound + 1e-9,
+                    };
+                    tree = s.resume(&net, from, tree, bound);
+                    assert_eq!(tree.bound.to_bits(), bound.to_bits());
+                    let want = reference(&net, from, bound);
+                    assert!(same(&tree, &want), "{m} {from} {bound}");
+                    let reached = want.iter().flatten().count();
+                    assert_eq!(matches!(tree.reached, Reached::Dense(_)), 4 * reached >= n);
+                    resumed += 1;
+                }
+                s.recycle(tree.reached);
+            }
+        }
+        assert!(resumed > 800, "{resumed}");
     }
 }
