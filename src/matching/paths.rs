@@ -2,13 +2,14 @@
 //! topology nodes over permitted directed sections, cached per source node.
 //!
 //! A search from a node stops at a distance bound; a later query needing a
-//! larger bound repeats the search with it (bounds grow in powers of two from
-//! [`MIN_BOUND_M`]), unless the larger bound would not change the tree (no
+//! larger bound continues the search with it from where it stopped (bounds
+//! grow in powers of two from [`MIN_BOUND_M`]; the same tree as a new
+//! search), unless the larger bound would not change the tree (no
 //! departure from it within that bound to a node it does not reach): then
-//! the tree is kept with the larger bound. The cache is emptied when it holds [`CACHE_NODES`]
-//! searches or [`CACHE_ENTRIES`] reached nodes in all (long searches of
-//! sparse tracks reach many nodes each), so memory stays bounded on long
-//! tracks.
+//! the tree is kept with the larger bound. The cache is emptied when it
+//! holds [`CACHE_NODES`] searches or [`CACHE_ENTRIES`] reached nodes in all
+//! (long searches of sparse tracks reach many nodes each), so memory stays
+//! bounded on long tracks.
 
 use super::search::{Reached, Searcher, Tree, NO_PRED};
 use crate::network::{DirectedSection, Network, NodeId, SectionId};
