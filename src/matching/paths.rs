@@ -2,15 +2,17 @@
 //! topology nodes over permitted directed sections, cached per source node.
 //!
 //! A search from a node stops at a distance bound; a later query needing a
-//! larger bound repeats the search with it (bounds grow in powers of two from
-//! [`MIN_BOUND_M`]). The cache is emptied when it holds [`CACHE_NODES`]
-//! searches or [`CACHE_ENTRIES`] reached nodes in all (long searches of
-//! sparse tracks reach many nodes each), so memory stays bounded on long
-//! tracks.
+//! larger bound continues the search with it from where it stopped (bounds
+//! grow in powers of two from [`MIN_BOUND_M`]; the same tree as a new
+//! search), unless the larger bound would not change the tree (no
+//! departure from it within that bound to a node it does not reach): then
+//! the tree is kept with the larger bound. The cache is emptied when it
+//! holds [`CACHE_NODES`] searches or [`CACHE_ENTRIES`] reached nodes in all
+//! (long searches of sparse tracks reach many nodes each), so memory stays
+//! bounded on long tracks.
 
 use super::search::{Reached, Searcher, Tree, NO_PRED};
 use crate::network::{DirectedSection, Network, NodeId, SectionId};
-use rustc_hash::FxHashMap;
 
 /// Smallest search bound (m).
 pub const MIN_BOUND_M: f64 = 256.0;
@@ -80,7 +82,12 @@ impl MatrixScratch {
 #[derive(Debug)]
 pub struct NetworkDistances<'a> {
     net: &'a Network,
-    cache: FxHashMap<NodeId, Tree>,
+    /// The cached searches' slots in `trees` by source node ([`NO_TREE`]:
+    /// none; allocated at the first search), a look-up without hashing.
+    slots: Vec<u32>,
+    /// The cached searches and their source nodes (what emptying the cache
+    /// drops).
+    trees: Vec<(NodeId, Tree)>,
     /// The search's memory and spare tables ([`Searcher`]).
     searcher: Searcher,
     /// A path's sections between its two ends (scratch of `path_into`).
@@ -96,6 +103,18 @@ pub struct NetworkDistances<'a> {
     pub uturn_penalty_m: f64,
 }
 
+/// No cached search from a node (its slot).
+const NO_TREE: u32 = u32::MAX;
+
+/// [`NetworkDistances::tree`] on its fields (borrowing them alone).
+#[inline]
+fn tree_in<'t>(slots: &[u32], trees: &'t [(NodeId, Tree)], from: NodeId) -> Option<&'t Tree> {
+    match slots.get(from as usize) {
+        Some(&k) if k != NO_TREE => Some(&trees[k as usize].1),
+        _ => None,
+    }
+}
+
 fn decode(c: u32) -> DirectedSection {
     DirectedSection {
         section: c / 2,
@@ -108,7 +127,8 @@ impl<'a> NetworkDistances<'a> {
     pub fn new(net: &'a Network) -> Self {
         Self {
             net,
-            cache: FxHashMap::default(),
+            slots: Vec::new(),
+            trees: Vec::new(),
             searcher: Searcher::default(),
             middle: Vec::new(),
             entries: 0,
@@ -116,6 +136,12 @@ impl<'a> NetworkDistances<'a> {
             clears: 0,
             uturn_penalty_m: 0.0,
         }
+    }
+
+    /// The cached search from `from`.
+    #[inline]
+    fn tree(&self, from: NodeId) -> Option<&Tree> {
+        tree_in(&self.slots, &self.trees, from)
     }
 
     /// Makes sure distances from `from` up to at least `bound_m` are cached.
@@ -150,7 +176,7 @@ impl<'a> NetworkDistances<'a> {
 
     /// [`Self::ensure`]; `may_clear`: a full cache may be emptied first.
     fn ensure_with(&mut self, from: NodeId, bound_m: f64, may_clear: bool) {
-        if let Some(t) = self.cache.get(&from) {
+        if let Some(t) = self.tree(from) {
             if t.bound >= bound_m {
                 return;
             }
@@ -159,26 +185,48 @@ impl<'a> NetworkDistances<'a> {
         while bound < bound_m {
             bound *= 2.0;
         }
-        if may_clear && (self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES) {
+        if may_clear && (self.trees.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES) {
             self.clear();
+        } else if let Some(&k) = self.slots.get(from as usize).filter(|&&k| k != NO_TREE) {
+            // A tree the larger bound would not change (no departure from
+            // it within that bound to a node it does not reach): the same
+            // tree, bit for bit, without searching again.
+            let t = &mut self.trees[k as usize].1;
+            if self.searcher.covers(self.net, t, bound) {
+                t.bound = bound;
+                return;
+            }
         }
         self.searches += 1;
-        let tree = self.searcher.search(self.net, from, bound);
-        self.entries += tree.reached.len();
-        if let Some(old) = self.cache.insert(from, tree) {
+        if self.slots.len() != self.net.nodes.len() {
+            self.slots.clear();
+            self.slots.resize(self.net.nodes.len(), NO_TREE);
+        }
+        let k = self.slots[from as usize];
+        let tree = if k == NO_TREE {
+            self.searcher.search(self.net, from, bound)
+        } else {
+            // The tree's search continued with the larger bound.
+            let old = std::mem::take(&mut self.trees[k as usize].1);
             self.entries -= old.reached.len();
-            self.searcher.recycle(old.reached);
+            self.searcher.resume(self.net, from, old, bound)
+        };
+        self.entries += tree.reached.len();
+        if k == NO_TREE {
+            self.slots[from as usize] = self.trees.len() as u32;
+            self.trees.push((from, tree));
+        } else {
+            self.trees[k as usize].1 = tree;
         }
     }
 
     /// Empties the cache (what [`Self::new`] starts with), keeping the
     /// searches' tables for reuse.
     pub fn clear(&mut self) {
-        let mut cache = std::mem::take(&mut self.cache);
-        for (_, t) in cache.drain() {
+        for (n, t) in self.trees.drain(..) {
+            self.slots[n as usize] = NO_TREE;
             self.searcher.recycle(t.reached);
         }
-        self.cache = cache;
         self.entries = 0;
         self.clears += 1;
     }
@@ -187,8 +235,7 @@ impl<'a> NetworkDistances<'a> {
     /// (or not searched: call [`Self::ensure`] first).
     #[inline]
     pub fn node_distance(&self, from: NodeId, to: NodeId) -> Option<f64> {
-        self.cache
-            .get(&from)
+        self.tree(from)
             .and_then(|t| t.reached.get(&to))
             .map(|r| r.0)
     }
@@ -269,7 +316,7 @@ impl<'a> NetworkDistances<'a> {
         let exits = self.exits(a);
         let entries = self.entries(b);
         for (xn, xc) in exits.iter().flatten() {
-            let Some(tree) = self.cache.get(xn) else {
+            let Some(tree) = self.tree(*xn) else {
                 continue;
             };
             for (en, ec, _) in entries.iter().flatten() {
@@ -290,7 +337,7 @@ impl<'a> NetworkDistances<'a> {
     fn fill_table(&self, xs: &[NodeId], es: &[NodeId], table: &mut Vec<Option<(f64, u32)>>) {
         table.clear();
         for xn in xs {
-            match self.cache.get(xn) {
+            match self.tree(*xn) {
                 Some(t) => table.extend(
                     es.iter()
                         .map(|en| t.reached.get(en).map(|&(d, _, first)| (d, first))),
@@ -475,7 +522,7 @@ impl<'a> NetworkDistances<'a> {
         // The search tree of the best exit, kept (no second lookup).
         let mut best_tree = None;
         for (xn, xc) in exits.into_iter().flatten() {
-            let tree = &self.cache[&xn];
+            let tree = tree_in(&self.slots, &self.trees, xn).expect("ensured");
             for (en, ec, fwd) in entries.into_iter().flatten() {
                 if let Some(&(d, _, first)) = tree.reached.get(&en) {
                     let total = xc + d + ec + self.uturn(a, b, xn, en, first);
@@ -569,7 +616,7 @@ impl<'a> NetworkDistances<'a> {
     #[inline]
     pub(crate) fn cached_source(&self, node: NodeId) -> Source<'_, 'a> {
         Source {
-            tree: self.cache.get(&node).map(|t| &t.reached),
+            tree: self.tree(node).map(|t| &t.reached),
             node,
             paths: self,
         }
@@ -579,12 +626,12 @@ impl<'a> NetworkDistances<'a> {
     /// cached ([`Self::ensure`]).
     #[inline]
     pub(crate) fn source(&mut self, node: NodeId, bound_m: f64) -> Source<'_, 'a> {
-        if !self.cache.get(&node).is_some_and(|t| t.bound >= bound_m) {
+        if !self.tree(node).is_some_and(|t| t.bound >= bound_m) {
             self.ensure(node, bound_m);
         }
         let paths: &Self = self;
         Source {
-            tree: paths.cache.get(&node).map(|t| &t.reached),
+            tree: paths.tree(node).map(|t| &t.reached),
             node,
             paths,
         }
@@ -865,5 +912,109 @@ mod tests {
         assert!(q
             .path(at(60.0, Some(true)), at(10.0, Some(true)), 1000.0, 0.0)
             .is_some());
+    }
+
+    /// The cache as it was (a hash map by source node; a search made
+    /// again whenever a larger bound is asked), with the same searcher.
+    #[derive(Default)]
+    struct Former {
+        cache: rustc_hash::FxHashMap<NodeId, Tree>,
+        searcher: Searcher,
+        entries: usize,
+        clears: u64,
+    }
+
+    impl Former {
+        fn ensure(&mut self, net: &Network, from: NodeId, bound_m: f64) {
+            if let Some(t) = self.cache.get(&from) {
+                if t.bound >= bound_m {
+                    return;
+                }
+            }
+            let mut bound = MIN_BOUND_M;
+            while bound < bound_m {
+                bound *= 2.0;
+            }
+            if self.cache.len() >= CACHE_NODES || self.entries >= CACHE_ENTRIES {
+                for (_, t) in self.cache.drain() {
+                    self.searcher.recycle(t.reached);
+                }
+                self.entries = 0;
+                self.clears += 1;
+            }
+            let tree = self.searcher.search(net, from, bound);
+            self.entries += tree.reached.len();
+            if let Some(old) = self.cache.insert(from, tree) {
+                self.entries -= old.reached.len();
+                self.searcher.recycle(old.reached);
+            }
+        }
+    }
+
+    /// A tree's bound and labels (bits), by node.
+    fn contents(t: &Tree) -> (u64, Vec<(NodeId, u64, u32, u32)>) {
+        let mut v: Vec<_> = match &t.reached {
+            Reached::Sparse(m) => m
+                .iter()
+                .map(|(&n, &(d, p, f))| (n, d.to_bits(), p, f))
+                .collect(),
+            Reached::Dense(v) => (0..v.len() as NodeId)
+                .filter_map(|n| t.reached.get(&n).map(|&(d, p, f)| (n, d.to_bits(), p, f)))
+                .collect(),
+        };
+        v.sort_unstable();
+        (t.bound.to_bits(), v)
+    }
+
+    /// The cache (a table by node, trees kept when a larger bound would
+    /// not change them) holds what the former one held after every call,
+    /// bit for bit: the same source nodes, bounds and trees, emptied at the
+    /// same calls, over pseudo-random requests on issue 70's map (small:
+    /// bounds raised often), Helsinki's and Gothenburg's (the cache filled
+    /// and emptied).
+    #[test]
+    fn cache_holds_what_the_former_cache_held() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let bounds = [1.0, 256.0, 300.0, 513.0, 700.0, 1500.0, 3000.0];
+        let mut rng = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = move |k: usize| {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng % k as u64) as usize
+        };
+        for (m, pool, calls) in [
+            ("tests/data/real/issue-70.osm", 57, 3_000),
+            ("maps/helsinki.osm.pbf", 1_000, 4_000),
+            ("maps/gothenburg-roads.geojson", 6_000, 12_000),
+        ] {
+            let net =
+                Network::load(&root.join(m), &crate::network::LoadOptions::default()).unwrap();
+            let n = net.nodes.len();
+            let nodes: Vec<NodeId> = (0..n as NodeId).step_by((n / pool).max(1)).collect();
+            let mut new = NetworkDistances::new(&net);
+            let mut former = Former::default();
+            for call in 0..calls {
+                let from = nodes[next(nodes.len())];
+                let b = bounds[next(bounds.len())];
+                new.ensure(from, b);
+                former.ensure(&net, from, b);
+                assert_eq!(new.clears, former.clears, "{m} {call}");
+                assert_eq!(new.entries, former.entries, "{m} {call}");
+                assert_eq!(
+                    contents(new.tree(from).unwrap()),
+                    contents(&former.cache[&from]),
+                    "{m} {call}"
+                );
+                if call % 1000 == 999 {
+                    assert_eq!(new.trees.len(), former.cache.len());
+                    for (&k, t) in &former.cache {
+                        assert_eq!(contents(new.tree(k).unwrap()), contents(t));
+                    }
+                }
+            }
+            assert!(former.clears > 0 || n < 4096, "{m}");
+            assert!(new.searches < calls as u64, "{m}");
+        }
     }
 }

@@ -11,7 +11,9 @@
 //! order-preserving form, then the node), so popping the least
 //! (distance, node) is one integer comparison per level; a node's
 //! distance, predecessor and first section are one 16-byte label, so a
-//! small network's dense table is a copy of the labels. Nodes are settled
+//! small network's dense table is the labels themselves (exchanged for a
+//! spare table, all unreached, as the next search's labels). The source
+//! is settled first without the heap (its first pop). Nodes are settled
 //! in the same (distance, node) order as the `BinaryHeap` search this
 //! replaced, with the same relaxations in the same order: the same trees,
 //! bit for bit (compared with that search, kept in the tests below). Dead
@@ -174,6 +176,40 @@ impl KeyHeap {
     }
 }
 
+/// One search's tables and bound.
+struct Run<'s> {
+    offsets: &'s [u32],
+    arcs: &'s [Arc],
+    rim: &'s [f64],
+    labels: &'s mut [Label],
+    touched: &'s mut Vec<NodeId>,
+    heap: &'s mut KeyHeap,
+    bound: f64,
+}
+
+impl Run<'_> {
+    /// Settles `node` at `cost`: relaxes its departures, each node
+    /// labelled with `first` as its first section (the departure's own
+    /// section from the source: `SOURCE`).
+    #[inline(always)]
+    fn settle<const SOURCE: bool>(&mut self, node: NodeId, cost: f64, first: u32) {
+        let (a, b) = (self.offsets[node as usize], self.offsets[node as usize + 1]);
+        for arc in &self.arcs[a as usize..b as usize] {
+            let c = cost + arc.len;
+            let l = &mut self.labels[arc.next as usize];
+            if c <= self.bound && c < l.0 {
+                if l.0.is_infinite() {
+                    self.touched.push(arc.next);
+                }
+                *l = (c, arc.code, if SOURCE { arc.code / 2 } else { first });
+                if c + self.rim[arc.next as usize] <= self.bound {
+                    self.heap.push(c, arc.next);
+                }
+            }
+        }
+    }
+}
+
 /// The search's memory, kept between searches (no search allocates once it
 /// has grown), and the tables of dropped searches for reuse.
 #[derive(Debug, Default)]
@@ -191,6 +227,13 @@ pub(super) struct Searcher {
     /// but not queued. (Floating-point addition is monotone: a departure
     /// no shorter than the shortest gives a sum no smaller.)
     rim: Vec<f64>,
+    /// By node, its longest departure (NaN lengths aside; none: −∞): a
+    /// reached node whose distance plus this is within a tree's bound had
+    /// every departure relaxed within it ([`Self::resume`]).
+    far: Vec<f64>,
+    /// No departure is shorter than zero (NaN aside): nodes are settled in
+    /// order of distance, what [`Self::covers`] relies on.
+    monotone: bool,
     /// Labels by node (unreached outside a search).
     labels: Vec<Label>,
     touched: Vec<NodeId>,
@@ -222,6 +265,7 @@ impl Searcher {
             self.offsets.push(self.arcs.len() as u32);
         }
         self.rim.clear();
+        self.far.clear();
         for node in 0..n as NodeId {
             // The one other end of its sections (loops aside), all of
             // them of a length that cannot shorten a path.
@@ -244,6 +288,12 @@ impl Searcher {
             let out = &self.arcs[self.offsets[node as usize] as usize..];
             let out =
                 &out[..(self.offsets[node as usize + 1] - self.offsets[node as usize]) as usize];
+            self.far.push(
+                out.iter()
+                    .map(|a| a.len)
+                    .filter(|l| !l.is_nan())
+                    .fold(f64::NEG_INFINITY, f64::max),
+            );
             self.rim.push(if leaf && other.is_some() {
                 f64::INFINITY
             } else if out.iter().any(|a| a.len.is_nan()) {
@@ -252,8 +302,47 @@ impl Searcher {
                 out.iter().map(|a| a.len).fold(f64::INFINITY, f64::min)
             });
         }
+        self.monotone = !self.arcs.iter().any(|a| a.len < 0.0);
         self.labels.clear();
         self.labels.resize(n, UNREACHED);
+    }
+
+    /// Whether the search from `tree`'s source with `bound` (larger than
+    /// the tree's) would give `tree` again, bit for bit: no departure from
+    /// a reached node leads to an unreached one within `bound`.
+    ///
+    /// Exact when departures are no shorter than zero: the search with the
+    /// larger bound settles the nodes within the tree's bound in the same
+    /// (distance, node) order, making the same relaxations within that
+    /// bound in the same order (the others give sums beyond it, so they
+    /// neither label those nodes nor win a tie there): the same labels for
+    /// the tree's nodes. Any node it reaches beyond them has a predecessor
+    /// chain that leaves the tree by such a departure (its sum is the
+    /// node's label, within `bound`); and such a departure's node is
+    /// settled (its shortest departure is within `bound` too; a dead end's
+    /// departures lead back to the node it was reached from) and labels
+    /// the unreached node. Otherwise (a negative length): false.
+    pub(super) fn covers(&self, net: &Network, tree: &Tree, bound: f64) -> bool {
+        if !self.monotone || self.offsets.len() != net.nodes.len() + 1 {
+            return false;
+        }
+        let (offsets, arcs) = (&self.offsets[..], &self.arcs[..]);
+        let out = |u: usize| &arcs[offsets[u] as usize..offsets[u + 1] as usize];
+        // A departure within `bound` to an unreached node.
+        let leaves = match &tree.reached {
+            Reached::Dense(v) => v.iter().enumerate().any(|(u, l)| {
+                l.0.is_finite()
+                    && out(u)
+                        .iter()
+                        .any(|a| l.0 + a.len <= bound && !v[a.next as usize].0.is_finite())
+            }),
+            Reached::Sparse(m) => m.iter().any(|(&u, l)| {
+                out(u as usize)
+                    .iter()
+                    .any(|a| l.0 + a.len <= bound && !m.contains_key(&a.next))
+            }),
+        };
+        !leaves
     }
 
     /// Keeps a dropped search's table for the next search, within
@@ -273,33 +362,118 @@ impl Searcher {
         if self.offsets.len() != net.nodes.len() + 1 {
             self.build(net);
         }
-        let (offsets, arcs, rim) = (&self.offsets[..], &self.arcs[..], &self.rim[..]);
-        let labels = &mut self.labels[..];
-        let (heap, touched) = (&mut self.heap, &mut self.touched);
-        labels[from as usize].0 = 0.0;
-        touched.push(from);
-        heap.push(0.0, from);
-        while let Some((cost, node)) = heap.pop() {
-            let here = labels[node as usize];
+        let mut run = Run {
+            offsets: &self.offsets,
+            arcs: &self.arcs,
+            rim: &self.rim,
+            labels: &mut self.labels,
+            touched: &mut self.touched,
+            heap: &mut self.heap,
+            bound,
+        };
+        run.labels[from as usize].0 = 0.0;
+        run.touched.push(from);
+        // The source is the heap's first pop: settled without the heap.
+        run.settle::<true>(from, 0.0, NO_PRED);
+        while let Some((cost, node)) = run.heap.pop() {
+            let here = run.labels[node as usize];
             if cost > here.0 {
                 continue;
             }
-            let (a, b) = (offsets[node as usize], offsets[node as usize + 1]);
-            for arc in &arcs[a as usize..b as usize] {
-                let c = cost + arc.len;
-                let l = &mut labels[arc.next as usize];
-                if c <= bound && c < l.0 {
-                    if l.0.is_infinite() {
-                        touched.push(arc.next);
-                    }
-                    let first = if node == from { arc.code / 2 } else { here.2 };
-                    *l = (c, arc.code, first);
-                    if c + rim[arc.next as usize] <= bound {
-                        heap.push(c, arc.next);
-                    }
-                }
+            if node == from {
+                // Only with a negative length: the source labelled again.
+                run.settle::<true>(node, cost, NO_PRED);
+            } else {
+                run.settle::<false>(node, cost, here.2);
             }
         }
+        self.finish(bound)
+    }
+
+    /// The search from `from` with `bound`, larger than `tree`'s (a tree
+    /// from `from`, which it consumes), continued from where `tree`'s
+    /// search stopped instead of made again: the tree's labels are final,
+    /// so the larger search's settling of the tree's nodes (all before any
+    /// node beyond the tree's bound, in (distance, node) order) relaxes
+    /// within the tree's bound nothing that would change them, and beyond
+    /// it, only the departures of nodes whose longest departure leads
+    /// beyond the tree's bound: those are settled again, in that order
+    /// (the source first, as the search does), before the search goes on.
+    /// The same tree as [`Self::search`] with `bound`, bit for bit, when no
+    /// length is negative (otherwise it is searched again).
+    pub(super) fn resume(&mut self, net: &Network, from: NodeId, tree: Tree, bound: f64) -> Tree {
+        if !self.monotone || self.offsets.len() != net.nodes.len() + 1 {
+            self.recycle(tree.reached);
+            return self.search(net, from, bound);
+        }
+        let old = tree.bound;
+        let far = &self.far[..];
+        let mut source = false;
+        match tree.reached {
+            Reached::Dense(mut v) => {
+                // The tree's table as the labels; the labels, all
+                // unreached, a spare table.
+                std::mem::swap(&mut self.labels, &mut v);
+                for (u, l) in self.labels.iter().enumerate() {
+                    if l.0.is_finite() {
+                        self.touched.push(u as NodeId);
+                        if l.0 + far[u] > old {
+                            if u as NodeId == from {
+                                source = true;
+                            } else {
+                                self.heap.push(l.0, u as NodeId);
+                            }
+                        }
+                    }
+                }
+                self.recycle(Reached::Dense(v));
+            }
+            Reached::Sparse(m) => {
+                for (&u, &l) in &m {
+                    self.labels[u as usize] = l;
+                    self.touched.push(u);
+                    if l.0 + far[u as usize] > old {
+                        if u == from {
+                            source = true;
+                        } else {
+                            self.heap.push(l.0, u);
+                        }
+                    }
+                }
+                self.recycle(Reached::Sparse(m));
+            }
+        }
+        let mut run = Run {
+            offsets: &self.offsets,
+            arcs: &self.arcs,
+            rim: &self.rim,
+            labels: &mut self.labels,
+            touched: &mut self.touched,
+            heap: &mut self.heap,
+            bound,
+        };
+        if source {
+            run.settle::<true>(from, 0.0, NO_PRED);
+        }
+        while let Some((cost, node)) = run.heap.pop() {
+            let here = run.labels[node as usize];
+            if cost > here.0 {
+                continue;
+            }
+            if node == from {
+                run.settle::<true>(node, cost, NO_PRED);
+            } else {
+                run.settle::<false>(node, cost, here.2);
+            }
+        }
+        self.finish(bound)
+    }
+
+    /// The tree of a search that labelled `touched`, with `bound`; the
+    /// labels left unreached.
+    fn finish(&mut self, bound: f64) -> Tree {
+        let labels = &mut self.labels[..];
+        let touched = &mut self.touched;
         // Every node touched was settled (within the bound): the tree, in a
         // table of exactly its size (small searches on small networks must
         // not pay for a large table each).
@@ -314,35 +488,41 @@ impl Searcher {
                 self.spare_entries -= r.capacity();
                 r
             });
-        let reached = if dense {
-            // The labels are the table: unreached nodes hold what the
-            // table's absent entries hold.
+        if dense {
+            // The labels are the table (unreached nodes hold what the
+            // table's absent entries hold), and the spare table, all
+            // unreached, the next search's labels (no copy, no reset by
+            // touched node).
             let mut v = match spare {
                 Some(Reached::Dense(v)) => v,
                 _ => Vec::with_capacity(labels.len()),
             };
             v.clear();
-            v.extend_from_slice(labels);
-            Reached::Dense(v)
-        } else {
-            let mut m = match spare {
-                Some(Reached::Sparse(mut m)) => {
-                    m.clear();
-                    m.reserve(touched.len());
-                    m
-                }
-                _ => FxHashMap::with_capacity_and_hasher(touched.len(), Default::default()),
+            v.resize(labels.len(), UNREACHED);
+            std::mem::swap(&mut self.labels, &mut v);
+            touched.clear();
+            return Tree {
+                bound,
+                reached: Reached::Dense(v),
             };
-            for &n in touched.iter() {
-                m.insert(n, labels[n as usize]);
+        }
+        let mut m = match spare {
+            Some(Reached::Sparse(mut m)) => {
+                m.clear();
+                m.reserve(touched.len());
+                m
             }
-            Reached::Sparse(m)
+            _ => FxHashMap::with_capacity_and_hasher(touched.len(), Default::default()),
         };
         for &n in touched.iter() {
+            m.insert(n, labels[n as usize]);
             labels[n as usize] = UNREACHED;
         }
         touched.clear();
-        Tree { bound, reached }
+        Tree {
+            bound,
+            reached: Reached::Sparse(m),
+        }
     }
 }
 
@@ -443,7 +623,8 @@ mod tests {
     /// The trees equal the former search's bit for bit (distances,
     /// predecessors, first sections, the nodes reached) on the real maps,
     /// from every node of the small ones and a sample of Helsinki's, at
-    /// several bounds, one searcher reused throughout (its tables recycled).
+    /// several bounds, one searcher reused throughout (its tables recycled,
+    /// except every third tree's: searches without a spare table too).
     #[test]
     fn trees_equal_the_former_search() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -477,10 +658,118 @@ mod tests {
                     }
                     labels += reached;
                     trees += 1;
-                    s.recycle(tree.reached);
+                    if trees % 3 != 0 {
+                        s.recycle(tree.reached);
+                    }
                 }
             }
         }
         assert!(trees > 600 && labels > 20_000, "{trees} {labels}");
+    }
+
+    /// Whether `tree` holds exactly `want`'s labels (bits of the
+    /// distances, predecessors, first sections; the nodes reached).
+    fn same(tree: &Tree, want: &[Option<Label>]) -> bool {
+        let bits = |l: Option<Label>| l.map(|(d, p, f)| (d.to_bits(), p, f));
+        tree.reached.len() >= want.iter().flatten().count()
+            && want
+                .iter()
+                .enumerate()
+                .all(|(node, w)| bits(tree.reached.get(&(node as NodeId)).copied()) == bits(*w))
+    }
+
+    /// [`Searcher::covers`] holds exactly when the former search with the
+    /// larger bound gives the same tree (so that keeping the tree is
+    /// exact, and searching again is needed otherwise), on the real maps,
+    /// from every node of the small ones and a sample of Helsinki's, for
+    /// every pair of bounds from 0 to 8,192 m.
+    #[test]
+    fn covers_iff_the_larger_search_gives_the_tree() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let maps = [
+            "tests/data/real/fmm-network.geojson",
+            "tests/data/real/issue-70.osm",
+            "tests/data/real/issue-13.osm",
+            "maps/helsinki.osm.pbf",
+        ];
+        let bounds = [0.0, 100.0, 256.0, 512.0, 1024.0, 2048.0, 4096.0, 8192.0];
+        let (mut kept, mut searched) = (0, 0);
+        for m in maps {
+            let net = Network::load(&root.join(m), &LoadOptions::default()).unwrap();
+            let n = net.nodes.len();
+            let stride = (n / 100).max(1);
+            let mut s = Searcher::default();
+            for from in (0..n as NodeId).step_by(stride) {
+                let want: Vec<_> = bounds.iter().map(|&b| reference(&net, from, b)).collect();
+                for (i, &b) in bounds.iter().enumerate() {
+                    let tree = s.search(&net, from, b);
+                    assert!(same(&tree, &want[i]));
+                    for (k, &larger) in bounds.iter().enumerate().skip(i + 1) {
+                        let covers = s.covers(&net, &tree, larger);
+                        assert_eq!(covers, same(&tree, &want[k]), "{m} {from} {b} {larger}");
+                        if covers {
+                            kept += 1;
+                        } else {
+                            searched += 1;
+                        }
+                    }
+                    s.recycle(tree.reached);
+                }
+            }
+        }
+        assert!(kept > 500 && searched > 1000, "{kept} {searched}");
+    }
+
+    /// [`Searcher::resume`] gives the former search's tree with the larger
+    /// bound, bit for bit, on the real maps, from every node of the small
+    /// ones and a sample of Helsinki's, for pseudo-random pairs of bounds
+    /// (zero, small, powers of two, in between), resumed again and again.
+    #[test]
+    fn resumed_trees_equal_the_former_search() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let maps = [
+            "tests/data/real/fmm-network.geojson",
+            "tests/data/real/issue-70.osm",
+            "tests/data/real/issue-13.osm",
+            "maps/helsinki.osm.pbf",
+        ];
+        let mut rng = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            rng
+        };
+        let mut resumed = 0;
+        for m in maps {
+            let net = Network::load(&root.join(m), &LoadOptions::default()).unwrap();
+            let n = net.nodes.len();
+            let stride = (n / 100).max(1);
+            let mut s = Searcher::default();
+            for from in (0..n as NodeId).step_by(stride) {
+                let mut bound = match next() % 3 {
+                    0 => 0.0,
+                    1 => 256.0,
+                    _ => (next() % 500) as f64 / 3.0,
+                };
+                let mut tree = s.search(&net, from, bound);
+                for _ in 0..4 {
+                    bound = match next() % 3 {
+                        0 => bound * 2.0,
+                        1 => bound + (next() % 300) as f64 * 0.7,
+                        _ => bound + 1e-9,
+                    };
+                    tree = s.resume(&net, from, tree, bound);
+                    assert_eq!(tree.bound.to_bits(), bound.to_bits());
+                    let want = reference(&net, from, bound);
+                    assert!(same(&tree, &want), "{m} {from} {bound}");
+                    let reached = want.iter().flatten().count();
+                    assert_eq!(matches!(tree.reached, Reached::Dense(_)), 4 * reached >= n);
+                    resumed += 1;
+                }
+                s.recycle(tree.reached);
+            }
+        }
+        assert!(resumed > 800, "{resumed}");
     }
 }
