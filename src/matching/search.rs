@@ -188,6 +188,25 @@ struct Run<'s> {
 }
 
 impl Run<'_> {
+    /// Settles the queued nodes in (distance, node) order until the heap
+    /// is empty, skipping stale entries; `from`, the source, is settled as
+    /// the source again (only with a negative length can it be labelled
+    /// again).
+    #[inline(always)]
+    fn drain(&mut self, from: NodeId) {
+        while let Some((cost, node)) = self.heap.pop() {
+            let here = self.labels[node as usize];
+            if cost > here.0 {
+                continue;
+            }
+            if node == from {
+                self.settle::<true>(node, cost, NO_PRED);
+            } else {
+                self.settle::<false>(node, cost, here.2);
+            }
+        }
+    }
+
     /// Settles `node` at `cost`: relaxes its departures, each node
     /// labelled with `first` as its first section (the departure's own
     /// section from the source: `SOURCE`).
@@ -362,31 +381,12 @@ impl Searcher {
         if self.offsets.len() != net.nodes.len() + 1 {
             self.build(net);
         }
-        let mut run = Run {
-            offsets: &self.offsets,
-            arcs: &self.arcs,
-            rim: &self.rim,
-            labels: &mut self.labels,
-            touched: &mut self.touched,
-            heap: &mut self.heap,
-            bound,
-        };
+        let mut run = self.run(bound);
         run.labels[from as usize].0 = 0.0;
         run.touched.push(from);
         // The source is the heap's first pop: settled without the heap.
         run.settle::<true>(from, 0.0, NO_PRED);
-        while let Some((cost, node)) = run.heap.pop() {
-            let here = run.labels[node as usize];
-            if cost > here.0 {
-                continue;
-            }
-            if node == from {
-                // Only with a negative length: the source labelled again.
-                run.settle::<true>(node, cost, NO_PRED);
-            } else {
-                run.settle::<false>(node, cost, here.2);
-            }
-        }
+        run.drain(from);
         self.finish(bound)
     }
 
@@ -443,7 +443,18 @@ impl Searcher {
                 self.recycle(Reached::Sparse(m));
             }
         }
-        let mut run = Run {
+        let mut run = self.run(bound);
+        if source {
+            run.settle::<true>(from, 0.0, NO_PRED);
+        }
+        run.drain(from);
+        self.finish(bound)
+    }
+
+    /// A search's working state over the searcher's tables, with `bound`.
+    #[inline(always)]
+    fn run(&mut self, bound: f64) -> Run<'_> {
+        Run {
             offsets: &self.offsets,
             arcs: &self.arcs,
             rim: &self.rim,
@@ -451,22 +462,7 @@ impl Searcher {
             touched: &mut self.touched,
             heap: &mut self.heap,
             bound,
-        };
-        if source {
-            run.settle::<true>(from, 0.0, NO_PRED);
         }
-        while let Some((cost, node)) = run.heap.pop() {
-            let here = run.labels[node as usize];
-            if cost > here.0 {
-                continue;
-            }
-            if node == from {
-                run.settle::<true>(node, cost, NO_PRED);
-            } else {
-                run.settle::<false>(node, cost, here.2);
-            }
-        }
-        self.finish(bound)
     }
 
     /// The tree of a search that labelled `touched`, with `bound`; the
