@@ -34,6 +34,33 @@ pub struct TagRow {
     pub existing: bool,
 }
 
+impl TagRow {
+    /// A row from one of `plan.json`'s tags: id, position, height, mounting,
+    /// road, chainage (`road_chainage_m` where `chainage_m` is absent),
+    /// reason and whether it is installed already; `None` without an id or
+    /// a position. The plan has no side or payload (those are `tags.csv`'s).
+    pub fn from_plan_tag(t: &serde_json::Value) -> Option<TagRow> {
+        let (id, lat, lon) = (
+            t["tag_id"].as_str()?,
+            t["lat"].as_f64()?,
+            t["lon"].as_f64()?,
+        );
+        Some(TagRow {
+            tag_id: id.into(),
+            lat_lon: [lat, lon],
+            height_m: t["height_m"].as_f64(),
+            mounting: t["mounting"].as_str().unwrap_or("").into(),
+            road: t["road_id"].as_str().unwrap_or("").into(),
+            chainage_m: t["chainage_m"]
+                .as_f64()
+                .or_else(|| t["road_chainage_m"].as_f64()),
+            reason: t["reason"].as_str().unwrap_or("").into(),
+            existing: t["existing"].as_bool().unwrap_or(false),
+            ..Default::default()
+        })
+    }
+}
+
 /// Reads a tags CSV with a strict header: its first line (after
 /// legacy `#` lines) must name `tag_id`, `lat`, `lon` and `mounting`;
 /// other known columns are taken when present.
@@ -127,27 +154,13 @@ pub fn merge_plan_tags(rows: &mut Vec<TagRow>, plan: &serde_json::Value) {
                 r.road = format!("{} ({name})", r.road);
             }
         } else if t["existing"].as_bool() == Some(true) {
-            let (Some(lat), Some(lon)) = (t["lat"].as_f64(), t["lon"].as_f64()) else {
+            let Some(mut row) = TagRow::from_plan_tag(t) else {
                 continue;
             };
-            rows.push(TagRow {
-                tag_id: id.to_string(),
-                lat_lon: [lat, lon],
-                height_m: t["height_m"].as_f64(),
-                mounting: t["mounting"].as_str().unwrap_or("").to_string(),
-                road: t["road_id"].as_str().unwrap_or("").to_string(),
-                chainage_m: t["chainage_m"]
-                    .as_f64()
-                    .or_else(|| t["road_chainage_m"].as_f64()),
-                side: String::new(),
-                reason: if reason.is_empty() {
-                    "installed already".into()
-                } else {
-                    reason.to_string()
-                },
-                payload_hex: String::new(),
-                existing: true,
-            });
+            if row.reason.is_empty() {
+                row.reason = "installed already".into();
+            }
+            rows.push(row);
         }
     }
 }
@@ -444,5 +457,60 @@ pub(super) fn overlay(requirement_m: Option<f64>) -> MapOverlay {
     MapOverlay {
         requirement_m,
         ..Default::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `plan.json`'s tags: a tag of the table gets the plan's reason and
+    /// road name; an installed tag the table leaves out is appended (its
+    /// reason "installed already" when the plan gives none); a tag without
+    /// a position is skipped.
+    #[test]
+    fn plan_tags_are_merged_into_the_table() {
+        let plan = serde_json::json!({"tags": [
+            {"tag_id": "T1", "lat": 60.1, "lon": 24.9, "reason": "gap", "road_name": "Mannerheimintie"},
+            {"tag_id": "E1", "lat": 60.2, "lon": 24.8, "existing": true, "mounting": "ceiling",
+             "road_id": "r7", "road_chainage_m": 12.5, "height_m": 4.0},
+            {"tag_id": "E2", "lat": 60.3, "existing": true},
+            {"tag_id": "E3", "lat": 60.4, "lon": 24.7, "existing": true, "reason": "kept"},
+        ]});
+        let mut rows = vec![TagRow {
+            tag_id: "T1".into(),
+            lat_lon: [60.1, 24.9],
+            road: "r1".into(),
+            ..Default::default()
+        }];
+        merge_plan_tags(&mut rows, &plan);
+        let ids: Vec<&str> = rows.iter().map(|r| r.tag_id.as_str()).collect();
+        assert_eq!(ids, ["T1", "E1", "E3"]);
+        assert_eq!(rows[0].reason, "gap");
+        assert_eq!(rows[0].road, "r1 (Mannerheimintie)");
+        assert!(!rows[0].existing);
+        let e1 = &rows[1];
+        assert!(e1.existing);
+        assert_eq!(e1.reason, "installed already");
+        assert_eq!(
+            (
+                e1.mounting.as_str(),
+                e1.road.as_str(),
+                e1.chainage_m,
+                e1.height_m
+            ),
+            ("ceiling", "r7", Some(12.5), Some(4.0))
+        );
+        assert_eq!(rows[2].reason, "kept");
+        // Without tags.csv the report takes the plan's own list.
+        let own: Vec<TagRow> = plan["tags"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(TagRow::from_plan_tag)
+            .collect();
+        assert_eq!(own.len(), 3);
+        assert_eq!(own[0].reason, "gap");
+        assert!(own[1].existing && own[1].reason.is_empty());
     }
 }

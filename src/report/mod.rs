@@ -428,27 +428,12 @@ pub fn read_output_folder(
         merge_plan_tags(&mut tags, p);
         if tags.is_empty() {
             // No tags.csv: the plan's own list.
-            let mut from_plan = Vec::new();
-            for t in p["tags"].as_array().into_iter().flatten() {
-                if let (Some(id), Some(lat), Some(lon)) =
-                    (t["tag_id"].as_str(), t["lat"].as_f64(), t["lon"].as_f64())
-                {
-                    from_plan.push(TagRow {
-                        tag_id: id.into(),
-                        lat_lon: [lat, lon],
-                        height_m: t["height_m"].as_f64(),
-                        mounting: t["mounting"].as_str().unwrap_or("").into(),
-                        road: t["road_id"].as_str().unwrap_or("").into(),
-                        chainage_m: t["chainage_m"]
-                            .as_f64()
-                            .or_else(|| t["road_chainage_m"].as_f64()),
-                        reason: t["reason"].as_str().unwrap_or("").into(),
-                        existing: t["existing"].as_bool().unwrap_or(false),
-                        ..Default::default()
-                    });
-                }
-            }
-            tags = from_plan;
+            tags = p["tags"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter_map(TagRow::from_plan_tag)
+                .collect();
         }
     }
     let coverage_path = dir.join("coverage.geojson");

@@ -10,6 +10,7 @@ use crate::matching::options::MatchOptions;
 use crate::matching::path_out;
 use crate::matching::stream::match_csv_stream;
 use crate::matching::track::{self as tr, Method};
+use crate::matching::HmmParams;
 use crate::network::{LoadOptions, Network};
 use serde::Serialize;
 use std::path::Path;
@@ -156,6 +157,19 @@ fn write_out(file: &Path, text: &str) -> Result<()> {
     write_atomic(file, text.as_bytes())
 }
 
+/// The error of a track none of whose points lies near a road of the map
+/// (the largest search radius of its tracks' parameters named).
+fn nothing_matched<'p>(job: &MatchJob, params: impl Iterator<Item = &'p HmmParams>) -> Error {
+    let radius = params.map(|p| p.search_radius_m).fold(0.0, f64::max);
+    Error::format(
+        job.track,
+        format!(
+            "no point lies within {radius:.0} m of a road of {} (is the track on this map?)",
+            job.map.display()
+        ),
+    )
+}
+
 /// Matches the track file to the map and writes the matched CSV (and the
 /// complete path, when asked); with a truth file, scores the complete path
 /// by length and count.
@@ -189,17 +203,7 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
     let match_ms = t1.elapsed().as_secs_f64() * 1e3;
     let matched: usize = outcomes.iter().map(|o| o.matched).sum();
     if matched == 0 {
-        let radius = outcomes
-            .iter()
-            .map(|o| o.params.search_radius_m)
-            .fold(0.0, f64::max);
-        return Err(Error::format(
-            job.track,
-            format!(
-                "no point lies within {radius:.0} m of a road of {} (is the track on this map?)",
-                job.map.display()
-            ),
-        ));
+        return Err(nothing_matched(job, outcomes.iter().map(|o| &o.params)));
     }
     write_out(job.out_file, &tr::matched_csv(&net, &rows, &points))?;
     let tracks: Vec<(&str, &[_])> = outcomes
@@ -304,18 +308,7 @@ fn streamed(
     let match_ms = t1.elapsed().as_secs_f64() * 1e3;
     let matched: usize = r.tracks.iter().map(|t| t.matched).sum();
     if matched == 0 {
-        let radius = r
-            .tracks
-            .iter()
-            .map(|o| o.params.search_radius_m)
-            .fold(0.0, f64::max);
-        return Err(Error::format(
-            job.track,
-            format!(
-                "no point lies within {radius:.0} m of a road of {} (is the track on this map?)",
-                job.map.display()
-            ),
-        ));
+        return Err(nothing_matched(job, r.tracks.iter().map(|o| &o.params)));
     }
     file.commit()?;
     let tracks: Vec<(&str, &[_])> = r
