@@ -59,7 +59,7 @@ pub struct IncrementalParams {
     /// against it (m).
     pub recheck_m: f64,
     /// Fixes in a row beyond `recheck_m` before the nearby segments are
-    /// scored again (at most [`MAX_RECHECK_AFTER`]).
+    /// scored again (at most `MAX_RECHECK_AFTER`).
     pub recheck_after: u32,
     /// A parallel road is taken only if each of those fixes lies within this
     /// distance of its line (m): the road under the fixes, not one the

@@ -473,7 +473,7 @@ impl<'a> Budget<'a> {
     /// [`Budget::worst_bound_from`] with `reference`'s fixes from index
     /// `offset` on (stopping early once the bound exceeds `stop_above_m`,
     /// except after the last fix, where the largest bound to the end is
-    /// found without stepping most of it: [`Budget::max_to_end`]),
+    /// found without stepping most of it: `Budget::max_to_end`),
     /// also stopped as soon as the rest of the route provably cannot raise
     /// the result above `max(worst so far, settle_at_m)`, by comparison
     /// with `reference`, the all-read filter of the same fix list. Returns

@@ -196,13 +196,13 @@ impl Budget<'_> {
     /// the drive: from a boundary of the stretch maps, the covariance is
     /// carried by the whole stretches' maps to the start of the stretch
     /// holding the next site, then by that site's prefix map to the site
-    /// ([`super::stretch::Stretches::prefixes`]), and given to the
+    /// (`Stretches::prefixes`), and given to the
     /// tag-free filter there; the fix and the samples up to the first
     /// boundary after the odometer epoch that follows the last fix are
     /// stepped (the fix shifts the propagation intervals until that
     /// epoch, module `stretch`), with the fixes and snapshots of the sites
     /// on the way. Each covariance carried by a map is lowered by
-    /// [`OPTIMISTIC_MARGIN`], and so is each snapshot, so that every
+    /// `OPTIMISTIC_MARGIN`, and so is each snapshot, so that every
     /// snapshot is at most the stepped pass's (a lower bound must never
     /// come out above the stepped one by round-off). None when there are
     /// no maps or a site lies at the drive's first sample.

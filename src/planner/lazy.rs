@@ -82,13 +82,13 @@ impl std::fmt::Debug for LazyReaches<'_, '_> {
 
 impl LazyReaches<'_, '_> {
     /// Lets [`LazyReaches::reaches_end`] show several sites short of the
-    /// end by one filter run ([`Budget::falls_short`]). Only for snapshots
+    /// end by one filter run (`Budget::falls_short`). Only for snapshots
     /// where a later site's holds no information an earlier one's, carried
     /// on with the fixes at the sites between, lacks: the tag-free pass's
     /// ([`Budget::tag_free`]) or those of a pass reading a tag at every
     /// site ([`Budget::snapshots`] with a fix at every site). Ignored when
     /// the propagations do not restart exactly (map matching:
-    /// [`PerfectData::restart_invariant`]).
+    /// `PerfectData::restart_invariant`).
     pub fn certifying(mut self) -> Self {
         self.certify = self.budget.restart_invariant();
         self
@@ -97,7 +97,7 @@ impl LazyReaches<'_, '_> {
     /// Whether site `i`'s reach is the route's end (`reach ≥ length`),
     /// exactly as [`LazyReaches::get`] would say; when certifying, a site
     /// not yet computed is first tried with the next few in one run that
-    /// reads all their tags ([`Budget::falls_short`]): when that run's
+    /// reads all their tags (`Budget::falls_short`): when that run's
     /// bound exceeds the requirement before the end, none of them reaches
     /// the end, and none of their reaches is computed.
     pub fn reaches_end(&self, i: usize) -> bool {

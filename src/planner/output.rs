@@ -46,7 +46,7 @@ impl Plan {
 
     /// [`Plan::missed_bound_on`], reusing `all` when it is the all-read
     /// pass it needs: the plan's fixes, snapshots at them and the largest
-    /// bound on a [`MISSED_GRID_M`] grid
+    /// bound on a `MISSED_GRID_M` grid
     /// ([`Budget::all_read_gridded`]); the same numbers, one pass fewer.
     pub fn missed_bound_with(&self, budget: &Budget<'_>, all: Option<&AllRead>) -> Option<f64> {
         self.missed_bound_reusing(budget, all.map(|a| (a, None)))
@@ -375,7 +375,7 @@ impl Budget<'_> {
     ///    the next read fix has the largest bound there) is run exactly
     ///    first, giving `w`.
     /// 2. The others are run with the settle level `s = max(w, a) · (1 −`
-    ///    [`WINDOW_MARGIN`]`)`, `a` the all-read bound
+    ///    `WINDOW_MARGIN``)`, `a` the all-read bound
     ///    ([`AllRead::grid_max`], part of the missed-read bound): the maps
     ///    carry them almost everywhere. A result at most `s` proves that
     ///    window's worst at most `s` (up to the 1e-9 margins of the maps and

@@ -44,7 +44,7 @@ pub struct PlannedTag {
     pub bound_after_fix_m: f64,
     /// Route distance up to which the bound holds after this fix (m).
     pub reach_m: f64,
-    /// Why the tag is there, with its figures ([`route_tag_reasons`]).
+    /// Why the tag is there, with its figures (`route_tag_reasons`).
     pub reason: String,
 }
 

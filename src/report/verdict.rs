@@ -2,7 +2,7 @@
 //! rule ([`crate::planner::network::share_rule`]), the same for route
 //! plans, area plans and simulations: the share of run time within the
 //! requirement, estimated from one error sample per
-//! [`THINNING_S`](crate::planner::network::THINNING_S) per run, must have
+//! [`THINNING_S`] per run, must have
 //! its one-sided 95 % Clopper–Pearson lower bound at least the
 //! requirement's confidence `p` (`planner.requirement_confidence`, default
 //! 0.95). Green when it holds; amber when the share observed reaches `p`

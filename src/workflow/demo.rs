@@ -35,7 +35,7 @@ pub struct DemoOutcome {
 /// The main job on `scenario` (the bundled `scenarios/demo.toml`): plans
 /// tags for its route and validates them with the tags as written to
 /// `tags.csv` (what installers get), takes the simulation for the report
-/// from the validation's first [`DEMO_SIMULATION_RUNS`] runs (the same
+/// from the validation's first `DEMO_SIMULATION_RUNS` runs (the same
 /// seed, so the same runs; simulated when the validation has fewer), and
 /// writes the HTML report, all into `out_dir`. The scenario, its map and
 /// route are loaded once, for the plan, the simulation and the report's

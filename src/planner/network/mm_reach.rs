@@ -96,15 +96,15 @@ pub struct MatchedReach {
     /// Without, only tags do.
     pub turns_reset: bool,
     /// The distance within which a heading change of [`TURN_DEG`] counts as
-    /// a turn at this speed (m; `super::turns`): [`CURVE_M`], or
-    /// [`SHARP_CURVE_M`] where a slow curve does not reset, 0 without turn
+    /// a turn at this speed (m; `super::turns`): `CURVE_M`, or
+    /// `SHARP_CURVE_M` where a slow curve does not reset, 0 without turn
     /// credit.
     pub curve_m: f64,
     /// A drive ended before the bound reached the requirement (the reach
     /// is at least the figure given).
     pub capped: bool,
     /// The bound after a reset: (distance m, bound m), every ~10 m, to
-    /// [`PROFILE_TO`] × the requirement or the drive's end — after the turn
+    /// `PROFILE_TO` × the requirement or the drive's end — after the turn
     /// where turns reset, else from the prior.
     #[serde(skip)]
     pub profile: Vec<(f64, f64)>,
