@@ -103,3 +103,86 @@ fn match_out_creates_its_folder() {
     let text = std::fs::read_to_string(dir.path().join("a/b/matched.csv")).unwrap();
     assert_eq!(text.lines().count(), 4, "{text}");
 }
+
+/// Three fixes on Mannerheimintie in central Helsinki.
+const TRACK: &str = "t_s,lat,lon\n0,60.16987,24.93838\n1,60.17011,24.93819\n2,60.17036,24.93800\n";
+
+#[test]
+fn match_refuses_an_output_that_is_an_input_or_another_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("track.csv"), TRACK).unwrap();
+    std::fs::write(d.join("truth.csv"), "road_id\n").unwrap();
+    let map = d.join("map.osm.pbf");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf"),
+        &map,
+    )
+    .unwrap();
+    let map_bytes = std::fs::read(&map).unwrap();
+    let base = ["match", "--map", "map.osm.pbf", "--track", "track.csv"];
+    for (extra, file, option) in [
+        (vec!["--out", "track.csv"], "track.csv", "--track"),
+        (vec!["--out", "./map.osm.pbf"], "map.osm.pbf", "--map"),
+        (
+            vec![
+                "--out",
+                "m.csv",
+                "--truth",
+                "truth.csv",
+                "--path",
+                "truth.csv",
+            ],
+            "truth.csv",
+            "--truth",
+        ),
+        (
+            vec!["--out", "m.csv", "--path-geojson", "track.csv"],
+            "track.csv",
+            "--track",
+        ),
+        (vec!["--out", "m.csv", "--path", "m.csv"], "m.csv", "--out"),
+        (
+            vec![
+                "--out",
+                "m.csv",
+                "--path",
+                "p.csv",
+                "--path-geojson",
+                "p.csv",
+            ],
+            "p.csv",
+            "--path",
+        ),
+    ] {
+        let args: Vec<&str> = base.iter().copied().chain(extra.iter().copied()).collect();
+        let out = run(&args, d);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains(file) && stderr.contains("the same file as the "),
+            "{args:?}: {stderr}"
+        );
+        assert!(stderr.contains(option), "{args:?}: {stderr}");
+        // The inputs are intact and no output was written.
+        assert_eq!(std::fs::read_to_string(d.join("track.csv")).unwrap(), TRACK);
+        assert_eq!(
+            std::fs::read_to_string(d.join("truth.csv")).unwrap(),
+            "road_id\n"
+        );
+        assert_eq!(std::fs::read(&map).unwrap(), map_bytes);
+        assert!(!d.join("m.csv").exists() && !d.join("p.csv").exists());
+    }
+    // The default --out (matched.csv) is checked too.
+    std::fs::write(d.join("matched.csv"), TRACK).unwrap();
+    let out = run(
+        &["match", "--map", "map.osm.pbf", "--track", "matched.csv"],
+        d,
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(
+        std::fs::read_to_string(d.join("matched.csv")).unwrap(),
+        TRACK
+    );
+}

@@ -27,6 +27,53 @@ pub fn check_out_dir(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Where `path` leads on disk, to tell whether two paths name the same
+/// file: the canonical path of an existing file, else its canonical folder
+/// joined with its name (`None` when neither can be resolved).
+fn file_identity(path: &Path) -> Option<std::path::PathBuf> {
+    if let Ok(p) = path.canonicalize() {
+        return Some(p);
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    parent.canonicalize().ok().map(|p| p.join(name))
+}
+
+/// Checks, before any work, that no output file is one of the inputs or
+/// another output (each given with the option that names it): writing it
+/// would destroy an input, or one output would silently replace another.
+pub(super) fn check_distinct_files(
+    outputs: &[(&Path, &str)],
+    inputs: &[(&Path, &str)],
+) -> Result<()> {
+    for (i, (out, out_opt)) in outputs.iter().enumerate() {
+        let Some(id) = file_identity(out) else {
+            continue;
+        };
+        let earlier = outputs[..i].iter().map(|(p, o)| (p, o, "output"));
+        for (other, opt, kind) in inputs.iter().map(|(p, o)| (p, o, "input")).chain(earlier) {
+            if file_identity(other).as_ref() == Some(&id) {
+                return Err(Error::format(
+                    out,
+                    format!(
+                        "{out_opt} is the same file as the {kind} {opt}: writing it would \
+                         {}; choose another {out_opt}",
+                        if kind == "input" {
+                            "destroy the input"
+                        } else {
+                            "replace the other output"
+                        }
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Keeps a copy of the scenario (`scenario.toml`) and where it and the tag
 /// file were (`inputs.json`) in an output folder, so that `waymark report`
 /// can draw the map later.
