@@ -186,3 +186,37 @@ fn match_refuses_an_output_that_is_an_input_or_another_output() {
         TRACK
     );
 }
+
+#[test]
+fn a_network_plan_into_its_scenarios_folder_keeps_the_scenario() {
+    // The scenario is the folder's own scenario.toml (the copy an earlier
+    // run kept, edited and planned again into the same folder): clearing
+    // the earlier outputs deleted it before it was copied, and the plan
+    // failed with the user's scenario gone.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("area")).unwrap();
+    let map = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
+    let text = format!(
+        "name = \"area\"\nrequirement_m = 20.0\n[map]\npath = \"{}\"\n\
+         [navigator]\nmode = \"integrated\"\n\
+         [imu]\nrate_hz = 100\ngyro_bias_dph = [10, 10, 10]\naccel_bias_ug = [1000, 1000, 1000]\n\
+         gyro_arw_dprh = 0.3\naccel_vrw_ugprhz = 100\n\
+         [odometer]\nscale_factor_error = 0.01\nnoise_mps = 0.02\npulse_m = 0.02\n\
+         [aiding]\nodometer = true\nbaro = true\nrfid = true\n\
+         [planner]\ncoverage = \"network\"\ntraffic = \"any_walk\"\ntolerate_missed_reads = 1\n",
+        map.display()
+    );
+    let scn = d.join("area/scenario.toml");
+    std::fs::write(&scn, &text).unwrap();
+    for _ in 0..2 {
+        let out = run(
+            &["plan", "area/scenario.toml", "--out", "area", "--runs", "0"],
+            d,
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{stderr}");
+        assert_eq!(std::fs::read_to_string(&scn).unwrap(), text);
+        assert!(d.join("area/plan.json").exists() && d.join("area/inputs.json").exists());
+    }
+}
