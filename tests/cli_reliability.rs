@@ -311,6 +311,67 @@ fn a_zero_length_map_route_is_an_error() {
 }
 
 #[test]
+fn fixed_length_arrays_of_a_scenario_refuse_extra_elements() {
+    // The TOML reader dropped the elements beyond an array's length without
+    // a word: a fourth accelerometer bias, a waypoint's third number (a
+    // height?), a forbidden stretch [from, to, ...] were ignored.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let motion = "[ { kind = \"cruise\", duration_s = 10 } ]";
+    for (name, extra, field, length) in [
+        (
+            "bias.toml",
+            "[imu]\nrate_hz = 100\naccel_bias_ug = [0, 100, 0, 5]",
+            "imu.accel_bias_ug",
+            "invalid length 4, expected an array of length 3",
+        ),
+        (
+            "bias2.toml",
+            "[imu]\nrate_hz = 100\ngyro_bias_dph = [1]",
+            "imu.gyro_bias_dph",
+            "invalid length 1, expected an array of length 3",
+        ),
+        (
+            "forbidden.toml",
+            "[planner]\nforbidden_m = [[0, 100, 200]]",
+            "planner.forbidden_m",
+            "invalid length 3, expected an array of length 2",
+        ),
+        (
+            "initial.toml",
+            "[navigator]\nmode = \"free_inertial\"\ninitial_position_sigma_m = [1, 2, 3]",
+            "navigator.initial_position_sigma_m",
+            "invalid length 3, expected an array of length 2",
+        ),
+    ] {
+        let scn = motion_scenario(d, name, motion, extra);
+        let out = run(&["simulate", &scn, "--out", "o"], d);
+        fails_with(&out, &[name, field, length]);
+    }
+    let map = root().join("maps/helsinki.osm.pbf");
+    std::fs::write(
+        d.join("waypoint.toml"),
+        format!(
+            "name = \"w\"\n[map]\npath = \"{}\"\n[[route]]\n\
+             waypoints = [[60.1660, 24.9380], [60.1770, 24.9510, 30]]\n\
+             [navigator]\nmode = \"dead_reckoning\"\n",
+            map.display()
+        ),
+    )
+    .unwrap();
+    let out = run(&["simulate", "waypoint.toml", "--out", "o"], d);
+    fails_with(
+        &out,
+        &[
+            "waypoint.toml",
+            "route[0].waypoints",
+            "invalid length 3, expected an array of length 2",
+        ],
+    );
+    assert!(!d.join("o").exists());
+}
+
+#[test]
 fn absurd_imu_biases_are_refused_not_turned_into_nan() {
     let dir = tempfile::tempdir().unwrap();
     let scn = motion_scenario(
