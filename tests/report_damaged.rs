@@ -149,3 +149,29 @@ fn a_folder_missing_its_inputs_gives_a_report_saying_what_is_missing() {
     assert!(!html.contains("Horizontal error against time"));
     assert!(!html.contains("NaN"));
 }
+
+#[test]
+fn a_report_that_cannot_be_completed_leaves_no_page() {
+    // `plots` a file, not a folder: the page was written first and stayed
+    // behind, without its plots, after the error.
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulated(dir.path(), "sim");
+    std::fs::write(sim.join("plots"), "a file of the user's").unwrap();
+    let (code, err, page) = report(&sim);
+    one_error_line(code, &err, &["plots"]);
+    assert!(page.is_none(), "report.html written beside the error");
+    assert_eq!(
+        std::fs::read_to_string(sim.join("plots")).unwrap(),
+        "a file of the user's"
+    );
+    // `report.html` a folder: refused before any plot is written.
+    std::fs::remove_file(sim.join("plots")).unwrap();
+    std::fs::create_dir(sim.join("report.html")).unwrap();
+    let r = bin(&["report", sim.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    one_error_line(r.status.code(), &err, &["report.html", "folder"]);
+    assert!(
+        !sim.join("plots").exists(),
+        "plots written beside the error"
+    );
+}

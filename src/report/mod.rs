@@ -575,7 +575,14 @@ pub fn write_report_on(
     let input = read_output_folder(dir, loaded)?;
     let html = render_html(&input)?;
     let report = dir.join("report.html");
-    write_atomic(&report, html.as_bytes())?;
+    if report.is_dir() {
+        return Err(Error::format(
+            &report,
+            "the report's path is an existing folder",
+        ));
+    }
+    // The plots first, the page that shows them last: a failure on the way
+    // leaves no new page without its plots.
     let plots_dir = dir.join("plots");
     std::fs::create_dir_all(&plots_dir).map_err(|e| Error::io(&plots_dir, e))?;
     let mut plots = Vec::new();
@@ -584,6 +591,7 @@ pub fn write_report_on(
         write_atomic(&path, &error_plot_png(&series, &decor, (1200, 520))?)?;
         plots.push(path);
     }
+    write_atomic(&report, html.as_bytes())?;
     tracing::info!(
         "report: wrote {} and {} plot(s)",
         report.display(),
