@@ -424,6 +424,54 @@ fn absurd_imu_biases_are_refused_not_turned_into_nan() {
     }
 }
 
+#[test]
+fn an_absurd_odometer_noise_is_refused_not_turned_into_null() {
+    // odometer.noise_mps = 1e308 on a dead-reckoning drive: every row stayed
+    // finite (errors of 1e305 m), so the divergence check passed, but the
+    // RMS overflowed and summary.json said "rms_horizontal_error_m": null,
+    // exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let motion =
+        "[ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 100 } ]";
+    let dr = |noise: &str| {
+        format!(
+            "[navigator]\nmode = \"dead_reckoning\"\n\
+             [odometer]\nscale_factor_error = 0.001\nnoise_mps = {noise}"
+        )
+    };
+    let scn = motion_scenario(dir.path(), "odo.toml", motion, &dr("1e308"));
+    let out = run(&["simulate", &scn, "--out", "o"], dir.path());
+    fails_with(
+        &out,
+        &["odo.toml", "odometer.noise_mps", "between 0 and 10"],
+    );
+    assert!(!dir.path().join("o").exists());
+    let diff = format!("{}\n[diff_odometer]\nnoise_mps = 1e308", dr("0.02"));
+    let scn = motion_scenario(dir.path(), "diff.toml", motion, &diff);
+    let out = run(&["simulate", &scn, "--out", "o"], dir.path());
+    fails_with(&out, &["diff.toml", "diff_odometer.noise_mps"]);
+    // At the limit the run's figures are numbers.
+    let scn = motion_scenario(dir.path(), "odo10.toml", motion, &dr("10"));
+    let out = run(
+        &["simulate", &scn, "--out", "o", "--json", "-q"],
+        dir.path(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for k in [
+        "max_horizontal_error_m",
+        "rms_horizontal_error_m",
+        "p95_horizontal_error_m",
+    ] {
+        assert!(v[k].as_f64().is_some_and(f64::is_finite), "{k} = {}", v[k]);
+    }
+}
+
 // --- 4. Messages and exit codes --------------------------------------------------
 
 /// A two-road polyline shapefile (`roads.shp`, `.shx`, `.dbf`).
