@@ -355,3 +355,24 @@ fn a_truth_without_rows_or_with_an_absurd_length_is_refused() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn a_byte_that_is_not_utf8_is_reported_at_its_line() {
+    // The error said line 0 ("track.csv:0: not UTF-8 text").
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("bad.csv"),
+        b"t_s,lat,lon\n0,60.1660,24.9380\n1,60.16601\xff,24.93801\n",
+    )
+    .unwrap();
+    let out = run(&match_args("bad.csv", &["--out", "m.csv"]), d);
+    assert_clean_error(&out, "bad.csv:3:", "not UTF-8 text");
+    std::fs::write(d.join("ok.csv"), "t_s,lat,lon\n0,60.1660,24.9380\n").unwrap();
+    std::fs::write(d.join("truth.csv"), b"road_id\n\xfe\n").unwrap();
+    let out = run(
+        &match_args("ok.csv", &["--out", "m.csv", "--truth", "truth.csv"]),
+        d,
+    );
+    assert_clean_error(&out, "truth.csv:2:", "not UTF-8 text");
+}

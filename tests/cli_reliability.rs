@@ -270,6 +270,57 @@ fn files_beyond_their_size_limit_are_refused_unread() {
         dir.path(),
     );
     fails_with(&out, &["tags.csv", "larger than the limit of 256 MiB"]);
+    // TRUTH.csv and planner.destinations were read whole without a limit
+    // (`--truth /dev/zero` ran until memory ran out).
+    let small = root().join("tests/data/small.osm").display().to_string();
+    std::fs::write(
+        dir.path().join("track.csv"),
+        "t_s,lat,lon\n0,60.0,24.0005\n1,60.0,24.0015\n",
+    )
+    .unwrap();
+    sparse("truth.csv", b"road_id\n", (512 << 20) + 1);
+    let out = run(
+        &[
+            "match",
+            "--map",
+            &small,
+            "--track",
+            "track.csv",
+            "--out",
+            "m.csv",
+            "--truth",
+            "truth.csv",
+        ],
+        dir.path(),
+    );
+    fails_with(
+        &out,
+        &[
+            "truth.csv",
+            "the truth file is larger than the limit of 512 MiB",
+        ],
+    );
+    assert!(!dir.path().join("m.csv").exists());
+    sparse("dest.csv", b"lat,lon\n", (256 << 20) + 1);
+    std::fs::write(
+        dir.path().join("trips.toml"),
+        format!(
+            "name = \"t\"\nrequirement_m = 20.0\n[map]\npath = \"{small}\"\n\
+             [navigator]\nmode = \"integrated\"\n[imu]\nrate_hz = 100\n\
+             gyro_bias_dph = [10, 10, 10]\naccel_bias_ug = [1000, 1000, 1000]\n\
+             [odometer]\nscale_factor_error = 0.01\n[aiding]\nodometer = true\nrfid = true\n\
+             [planner]\ncoverage = \"network\"\ntraffic = \"trips\"\ndestinations = \"dest.csv\"\n"
+        ),
+    )
+    .unwrap();
+    let out = run(&["plan", "trips.toml", "--runs", "0", "-q"], dir.path());
+    fails_with(
+        &out,
+        &[
+            "dest.csv",
+            "the destinations file is larger than the limit of 256 MiB",
+        ],
+    );
 }
 
 #[test]

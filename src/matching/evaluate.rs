@@ -173,7 +173,7 @@ pub fn score(matched: &RoadLengths, truth: &RoadLengths) -> Score {
 /// length driven on that road; without it, the road's whole length in the
 /// map). A road listed twice has its lengths added.
 pub fn read_truth(path: &Path, net: &Network) -> Result<RoadLengths> {
-    let text = read_text(path)?;
+    let text = read_text(path, "truth file")?;
     let Some(mut table) = CsvTable::open(path, &text)? else {
         return Err(Error::table(
             path,

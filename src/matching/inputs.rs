@@ -95,7 +95,7 @@ pub fn read_track_file(path: &Path) -> Result<(Vec<TrackRow>, TrackFormat)> {
             ),
         ));
     }
-    let text = read_text(path)?;
+    let text = read_text(path, "track")?;
     let format = sniff(&text);
     let rows = match format {
         TrackFormat::Csv => read_track_text(path, &text)?,
