@@ -175,3 +175,38 @@ fn a_report_that_cannot_be_completed_leaves_no_page() {
         "plots written beside the error"
     );
 }
+
+#[test]
+fn a_huge_file_in_the_folder_is_refused_unread() {
+    // The report read the folder's files whole without a limit: an errors.csv
+    // of NUL bytes (or a link to /dev/zero) aborted on a failed allocation
+    // of 4 GiB (exit 134), a summary.json ran out of memory.
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulated(dir.path(), "sim");
+    // Sparse files: their size costs no disk space.
+    let sparse = |name: &str, len: u64| {
+        let f = std::fs::OpenOptions::new()
+            .write(true)
+            .truncate(true)
+            .open(sim.join(name))
+            .unwrap();
+        f.set_len(len).unwrap();
+    };
+    let kept = std::fs::read(sim.join("errors.csv")).unwrap();
+    sparse("errors.csv", (1 << 30) + 1);
+    let (code, err, page) = report(&sim);
+    one_error_line(
+        code,
+        &err,
+        &["errors.csv", "larger than the limit of 1 GiB"],
+    );
+    assert!(page.is_none());
+    std::fs::write(sim.join("errors.csv"), kept).unwrap();
+    sparse("summary.json", (1 << 30) + 1);
+    let (code, err, _) = report(&sim);
+    one_error_line(
+        code,
+        &err,
+        &["summary.json", "larger than the limit of 1 GiB"],
+    );
+}
