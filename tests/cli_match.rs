@@ -307,3 +307,72 @@ fn simulate_with_map_matching_reports_the_feed() {
     assert!(fed > 400.0, "{stdout}");
     assert!(dir.path().join("sim/summary.json").exists());
 }
+
+#[test]
+fn a_truth_without_rows_or_with_an_absurd_length_is_refused() {
+    // A header-only TRUTH.csv scored the path against nothing (every figure
+    // 0/0, printed as -0.0000), and a length_m of 1e308 made the truth's
+    // total infinite (recall by length 0, `truth_length_m` inf in the text
+    // and null in --json), both with exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("ok.csv"),
+        "t_s,lat,lon\n0,60.1660,24.9380\n1,60.16601,24.93801\n",
+    )
+    .unwrap();
+    let write = |name: &str, text: &str| std::fs::write(d.join(name), text).unwrap();
+    // A real road of the map: the one the track is on.
+    let out = run(&match_args("ok.csv", &["--out", "m.csv"]), d);
+    assert!(out.status.success());
+    let matched = std::fs::read_to_string(d.join("m.csv")).unwrap();
+    let road = matched.lines().nth(1).unwrap().split(',').nth(4).unwrap();
+    write("header.csv", "road_id,length_m\n");
+    let out = run(
+        &match_args("ok.csv", &["--out", "m2.csv", "--truth", "header.csv"]),
+        d,
+    );
+    assert_clean_error(&out, "header.csv:1", "no data rows");
+    write(
+        "huge.csv",
+        &format!("road_id,length_m\n{road},1e308\n{road},1e308\n"),
+    );
+    let out = run(
+        &match_args("ok.csv", &["--out", "m2.csv", "--truth", "huge.csv"]),
+        d,
+    );
+    assert_clean_error(&out, "huge.csv:2", "length_m 1e308");
+    assert!(!d.join("m2.csv").exists());
+    // A plausible length is scored as before.
+    write("fine.csv", &format!("road_id,length_m\n{road},2.5\n"));
+    let out = run(
+        &match_args("ok.csv", &["--out", "m2.csv", "--truth", "fine.csv"]),
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn a_byte_that_is_not_utf8_is_reported_at_its_line() {
+    // The error said line 0 ("track.csv:0: not UTF-8 text").
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("bad.csv"),
+        b"t_s,lat,lon\n0,60.1660,24.9380\n1,60.16601\xff,24.93801\n",
+    )
+    .unwrap();
+    let out = run(&match_args("bad.csv", &["--out", "m.csv"]), d);
+    assert_clean_error(&out, "bad.csv:3:", "not UTF-8 text");
+    std::fs::write(d.join("ok.csv"), "t_s,lat,lon\n0,60.1660,24.9380\n").unwrap();
+    std::fs::write(d.join("truth.csv"), b"road_id\n\xfe\n").unwrap();
+    let out = run(
+        &match_args("ok.csv", &["--out", "m.csv", "--truth", "truth.csv"]),
+        d,
+    );
+    assert_clean_error(&out, "truth.csv:2:", "not UTF-8 text");
+}

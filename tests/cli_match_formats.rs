@@ -211,3 +211,40 @@ fn bad_tracks_and_options_give_one_clear_error() {
     }
     assert!(!d.join("matched.csv").exists());
 }
+
+#[test]
+fn a_geojson_time_that_cannot_be_read_is_an_error() {
+    // An unreadable `times` entry was taken as "no time" without a word (the
+    // point matched by distance alone, its t_s empty in MATCHED.csv).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let track = |times: &str| {
+        format!(
+            r#"{{"type":"FeatureCollection","features":[{{"type":"Feature",
+            "properties":{{"times":{times}}},"geometry":{{"type":"LineString",
+            "coordinates":[[24.9380,60.1660],[24.93801,60.16601]]}}}}]}}"#
+        )
+    };
+    for (times, needle) in [
+        (r#"["2024-01-01T00:00:00Z","garbage"]"#, r#"time "garbage""#),
+        (r#"[0,"NaN"]"#, r#"time "NaN""#),
+        (r#"[0,{"t":1}]"#, "point 2: time"),
+    ] {
+        std::fs::write(d.join("t.geojson"), track(times)).unwrap();
+        let out = run(d, &["--track", "t.geojson", "--out", "m.csv"]);
+        one_line_error(&out, 1, &["t.geojson", "track 1, point 2", needle]);
+        assert!(!d.join("m.csv").exists());
+    }
+    // Null is no time, as before; numbers and RFC 3339 strings are read.
+    std::fs::write(
+        d.join("t.geojson"),
+        track(r#"["2024-01-01T00:00:00Z",null]"#),
+    )
+    .unwrap();
+    let out = run(d, &["--track", "t.geojson", "--out", "m.csv"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -302,3 +302,29 @@ fn bad_parameters() {
     let out = run(&["network", "inspect", "--frobnicate"], dir.path());
     assert_eq!(out.status.code(), Some(2));
 }
+
+#[test]
+fn defects_written_onto_the_map_are_refused() {
+    // `--defects MAP` replaced the map with the defect points (exit 0); the
+    // next inspect of it found no roads.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = std::fs::read_to_string(repo("tests/data/small.osm")).unwrap();
+    std::fs::write(d.join("small.osm"), &text).unwrap();
+    let out = run(
+        &[
+            "network",
+            "inspect",
+            "small.osm",
+            "--defects",
+            "./small.osm",
+        ],
+        d,
+    );
+    assert_clean_error(
+        &out,
+        "small.osm",
+        "--defects is the same file as the input MAP",
+    );
+    assert_eq!(std::fs::read_to_string(d.join("small.osm")).unwrap(), text);
+}

@@ -103,3 +103,120 @@ fn match_out_creates_its_folder() {
     let text = std::fs::read_to_string(dir.path().join("a/b/matched.csv")).unwrap();
     assert_eq!(text.lines().count(), 4, "{text}");
 }
+
+/// Three fixes on Mannerheimintie in central Helsinki.
+const TRACK: &str = "t_s,lat,lon\n0,60.16987,24.93838\n1,60.17011,24.93819\n2,60.17036,24.93800\n";
+
+#[test]
+fn match_refuses_an_output_that_is_an_input_or_another_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("track.csv"), TRACK).unwrap();
+    std::fs::write(d.join("truth.csv"), "road_id\n").unwrap();
+    let map = d.join("map.osm.pbf");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf"),
+        &map,
+    )
+    .unwrap();
+    let map_bytes = std::fs::read(&map).unwrap();
+    let base = ["match", "--map", "map.osm.pbf", "--track", "track.csv"];
+    for (extra, file, option) in [
+        (vec!["--out", "track.csv"], "track.csv", "--track"),
+        (vec!["--out", "./map.osm.pbf"], "map.osm.pbf", "--map"),
+        (
+            vec![
+                "--out",
+                "m.csv",
+                "--truth",
+                "truth.csv",
+                "--path",
+                "truth.csv",
+            ],
+            "truth.csv",
+            "--truth",
+        ),
+        (
+            vec!["--out", "m.csv", "--path-geojson", "track.csv"],
+            "track.csv",
+            "--track",
+        ),
+        (vec!["--out", "m.csv", "--path", "m.csv"], "m.csv", "--out"),
+        (
+            vec![
+                "--out",
+                "m.csv",
+                "--path",
+                "p.csv",
+                "--path-geojson",
+                "p.csv",
+            ],
+            "p.csv",
+            "--path",
+        ),
+    ] {
+        let args: Vec<&str> = base.iter().copied().chain(extra.iter().copied()).collect();
+        let out = run(&args, d);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains(file) && stderr.contains("the same file as the "),
+            "{args:?}: {stderr}"
+        );
+        assert!(stderr.contains(option), "{args:?}: {stderr}");
+        // The inputs are intact and no output was written.
+        assert_eq!(std::fs::read_to_string(d.join("track.csv")).unwrap(), TRACK);
+        assert_eq!(
+            std::fs::read_to_string(d.join("truth.csv")).unwrap(),
+            "road_id\n"
+        );
+        assert_eq!(std::fs::read(&map).unwrap(), map_bytes);
+        assert!(!d.join("m.csv").exists() && !d.join("p.csv").exists());
+    }
+    // The default --out (matched.csv) is checked too.
+    std::fs::write(d.join("matched.csv"), TRACK).unwrap();
+    let out = run(
+        &["match", "--map", "map.osm.pbf", "--track", "matched.csv"],
+        d,
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(
+        std::fs::read_to_string(d.join("matched.csv")).unwrap(),
+        TRACK
+    );
+}
+
+#[test]
+fn a_network_plan_into_its_scenarios_folder_keeps_the_scenario() {
+    // The scenario is the folder's own scenario.toml (the copy an earlier
+    // run kept, edited and planned again into the same folder): clearing
+    // the earlier outputs deleted it before it was copied, and the plan
+    // failed with the user's scenario gone.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("area")).unwrap();
+    let map = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
+    let text = format!(
+        "name = \"area\"\nrequirement_m = 20.0\n[map]\npath = \"{}\"\n\
+         [navigator]\nmode = \"integrated\"\n\
+         [imu]\nrate_hz = 100\ngyro_bias_dph = [10, 10, 10]\naccel_bias_ug = [1000, 1000, 1000]\n\
+         gyro_arw_dprh = 0.3\naccel_vrw_ugprhz = 100\n\
+         [odometer]\nscale_factor_error = 0.01\nnoise_mps = 0.02\npulse_m = 0.02\n\
+         [aiding]\nodometer = true\nbaro = true\nrfid = true\n\
+         [planner]\ncoverage = \"network\"\ntraffic = \"any_walk\"\ntolerate_missed_reads = 1\n",
+        map.display()
+    );
+    let scn = d.join("area/scenario.toml");
+    std::fs::write(&scn, &text).unwrap();
+    for _ in 0..2 {
+        let out = run(
+            &["plan", "area/scenario.toml", "--out", "area", "--runs", "0"],
+            d,
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{stderr}");
+        assert_eq!(std::fs::read_to_string(&scn).unwrap(), text);
+        assert!(d.join("area/plan.json").exists() && d.join("area/inputs.json").exists());
+    }
+}

@@ -270,6 +270,57 @@ fn files_beyond_their_size_limit_are_refused_unread() {
         dir.path(),
     );
     fails_with(&out, &["tags.csv", "larger than the limit of 256 MiB"]);
+    // TRUTH.csv and planner.destinations were read whole without a limit
+    // (`--truth /dev/zero` ran until memory ran out).
+    let small = root().join("tests/data/small.osm").display().to_string();
+    std::fs::write(
+        dir.path().join("track.csv"),
+        "t_s,lat,lon\n0,60.0,24.0005\n1,60.0,24.0015\n",
+    )
+    .unwrap();
+    sparse("truth.csv", b"road_id\n", (512 << 20) + 1);
+    let out = run(
+        &[
+            "match",
+            "--map",
+            &small,
+            "--track",
+            "track.csv",
+            "--out",
+            "m.csv",
+            "--truth",
+            "truth.csv",
+        ],
+        dir.path(),
+    );
+    fails_with(
+        &out,
+        &[
+            "truth.csv",
+            "the truth file is larger than the limit of 512 MiB",
+        ],
+    );
+    assert!(!dir.path().join("m.csv").exists());
+    sparse("dest.csv", b"lat,lon\n", (256 << 20) + 1);
+    std::fs::write(
+        dir.path().join("trips.toml"),
+        format!(
+            "name = \"t\"\nrequirement_m = 20.0\n[map]\npath = \"{small}\"\n\
+             [navigator]\nmode = \"integrated\"\n[imu]\nrate_hz = 100\n\
+             gyro_bias_dph = [10, 10, 10]\naccel_bias_ug = [1000, 1000, 1000]\n\
+             [odometer]\nscale_factor_error = 0.01\n[aiding]\nodometer = true\nrfid = true\n\
+             [planner]\ncoverage = \"network\"\ntraffic = \"trips\"\ndestinations = \"dest.csv\"\n"
+        ),
+    )
+    .unwrap();
+    let out = run(&["plan", "trips.toml", "--runs", "0", "-q"], dir.path());
+    fails_with(
+        &out,
+        &[
+            "dest.csv",
+            "the destinations file is larger than the limit of 256 MiB",
+        ],
+    );
 }
 
 #[test]
@@ -308,6 +359,67 @@ fn a_zero_length_map_route_is_an_error() {
     .unwrap();
     let out = run(&["simulate", "zero.toml", "--out", "o"], dir.path());
     fails_with(&out, &["zero.toml", "route[0]", "shorter than 1 cm"]);
+}
+
+#[test]
+fn fixed_length_arrays_of_a_scenario_refuse_extra_elements() {
+    // The TOML reader dropped the elements beyond an array's length without
+    // a word: a fourth accelerometer bias, a waypoint's third number (a
+    // height?), a forbidden stretch [from, to, ...] were ignored.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let motion = "[ { kind = \"cruise\", duration_s = 10 } ]";
+    for (name, extra, field, length) in [
+        (
+            "bias.toml",
+            "[imu]\nrate_hz = 100\naccel_bias_ug = [0, 100, 0, 5]",
+            "imu.accel_bias_ug",
+            "invalid length 4, expected an array of length 3",
+        ),
+        (
+            "bias2.toml",
+            "[imu]\nrate_hz = 100\ngyro_bias_dph = [1]",
+            "imu.gyro_bias_dph",
+            "invalid length 1, expected an array of length 3",
+        ),
+        (
+            "forbidden.toml",
+            "[planner]\nforbidden_m = [[0, 100, 200]]",
+            "planner.forbidden_m",
+            "invalid length 3, expected an array of length 2",
+        ),
+        (
+            "initial.toml",
+            "[navigator]\nmode = \"free_inertial\"\ninitial_position_sigma_m = [1, 2, 3]",
+            "navigator.initial_position_sigma_m",
+            "invalid length 3, expected an array of length 2",
+        ),
+    ] {
+        let scn = motion_scenario(d, name, motion, extra);
+        let out = run(&["simulate", &scn, "--out", "o"], d);
+        fails_with(&out, &[name, field, length]);
+    }
+    let map = root().join("maps/helsinki.osm.pbf");
+    std::fs::write(
+        d.join("waypoint.toml"),
+        format!(
+            "name = \"w\"\n[map]\npath = \"{}\"\n[[route]]\n\
+             waypoints = [[60.1660, 24.9380], [60.1770, 24.9510, 30]]\n\
+             [navigator]\nmode = \"dead_reckoning\"\n",
+            map.display()
+        ),
+    )
+    .unwrap();
+    let out = run(&["simulate", "waypoint.toml", "--out", "o"], d);
+    fails_with(
+        &out,
+        &[
+            "waypoint.toml",
+            "route[0].waypoints",
+            "invalid length 3, expected an array of length 2",
+        ],
+    );
+    assert!(!d.join("o").exists());
 }
 
 #[test]
@@ -360,6 +472,54 @@ fn absurd_imu_biases_are_refused_not_turned_into_nan() {
     }
     for x in summary["final_error_enu_m"].as_array().unwrap() {
         assert!(x.is_number(), "final_error_enu_m holds {x}");
+    }
+}
+
+#[test]
+fn an_absurd_odometer_noise_is_refused_not_turned_into_null() {
+    // odometer.noise_mps = 1e308 on a dead-reckoning drive: every row stayed
+    // finite (errors of 1e305 m), so the divergence check passed, but the
+    // RMS overflowed and summary.json said "rms_horizontal_error_m": null,
+    // exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let motion =
+        "[ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 100 } ]";
+    let dr = |noise: &str| {
+        format!(
+            "[navigator]\nmode = \"dead_reckoning\"\n\
+             [odometer]\nscale_factor_error = 0.001\nnoise_mps = {noise}"
+        )
+    };
+    let scn = motion_scenario(dir.path(), "odo.toml", motion, &dr("1e308"));
+    let out = run(&["simulate", &scn, "--out", "o"], dir.path());
+    fails_with(
+        &out,
+        &["odo.toml", "odometer.noise_mps", "between 0 and 10"],
+    );
+    assert!(!dir.path().join("o").exists());
+    let diff = format!("{}\n[diff_odometer]\nnoise_mps = 1e308", dr("0.02"));
+    let scn = motion_scenario(dir.path(), "diff.toml", motion, &diff);
+    let out = run(&["simulate", &scn, "--out", "o"], dir.path());
+    fails_with(&out, &["diff.toml", "diff_odometer.noise_mps"]);
+    // At the limit the run's figures are numbers.
+    let scn = motion_scenario(dir.path(), "odo10.toml", motion, &dr("10"));
+    let out = run(
+        &["simulate", &scn, "--out", "o", "--json", "-q"],
+        dir.path(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for k in [
+        "max_horizontal_error_m",
+        "rms_horizontal_error_m",
+        "p95_horizontal_error_m",
+    ] {
+        assert!(v[k].as_f64().is_some_and(f64::is_finite), "{k} = {}", v[k]);
     }
 }
 

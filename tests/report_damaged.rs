@@ -149,3 +149,64 @@ fn a_folder_missing_its_inputs_gives_a_report_saying_what_is_missing() {
     assert!(!html.contains("Horizontal error against time"));
     assert!(!html.contains("NaN"));
 }
+
+#[test]
+fn a_report_that_cannot_be_completed_leaves_no_page() {
+    // `plots` a file, not a folder: the page was written first and stayed
+    // behind, without its plots, after the error.
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulated(dir.path(), "sim");
+    std::fs::write(sim.join("plots"), "a file of the user's").unwrap();
+    let (code, err, page) = report(&sim);
+    one_error_line(code, &err, &["plots"]);
+    assert!(page.is_none(), "report.html written beside the error");
+    assert_eq!(
+        std::fs::read_to_string(sim.join("plots")).unwrap(),
+        "a file of the user's"
+    );
+    // `report.html` a folder: refused before any plot is written.
+    std::fs::remove_file(sim.join("plots")).unwrap();
+    std::fs::create_dir(sim.join("report.html")).unwrap();
+    let r = bin(&["report", sim.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    one_error_line(r.status.code(), &err, &["report.html", "folder"]);
+    assert!(
+        !sim.join("plots").exists(),
+        "plots written beside the error"
+    );
+}
+
+#[test]
+fn a_huge_file_in_the_folder_is_refused_unread() {
+    // The report read the folder's files whole without a limit: an errors.csv
+    // of NUL bytes (or a link to /dev/zero) aborted on a failed allocation
+    // of 4 GiB (exit 134), a summary.json ran out of memory.
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulated(dir.path(), "sim");
+    // Sparse files: their size costs no disk space.
+    let sparse = |name: &str, len: u64| {
+        let f = std::fs::OpenOptions::new()
+            .write(true)
+            .truncate(true)
+            .open(sim.join(name))
+            .unwrap();
+        f.set_len(len).unwrap();
+    };
+    let kept = std::fs::read(sim.join("errors.csv")).unwrap();
+    sparse("errors.csv", (1 << 30) + 1);
+    let (code, err, page) = report(&sim);
+    one_error_line(
+        code,
+        &err,
+        &["errors.csv", "larger than the limit of 1 GiB"],
+    );
+    assert!(page.is_none());
+    std::fs::write(sim.join("errors.csv"), kept).unwrap();
+    sparse("summary.json", (1 << 30) + 1);
+    let (code, err, _) = report(&sim);
+    one_error_line(
+        code,
+        &err,
+        &["summary.json", "larger than the limit of 1 GiB"],
+    );
+}

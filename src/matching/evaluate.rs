@@ -173,7 +173,7 @@ pub fn score(matched: &RoadLengths, truth: &RoadLengths) -> Score {
 /// length driven on that road; without it, the road's whole length in the
 /// map). A road listed twice has its lengths added.
 pub fn read_truth(path: &Path, net: &Network) -> Result<RoadLengths> {
-    let text = read_text(path)?;
+    let text = read_text(path, "truth file")?;
     let Some(mut table) = CsvTable::open(path, &text)? else {
         return Err(Error::table(
             path,
@@ -216,14 +216,37 @@ pub fn read_truth(path: &Path, net: &Network) -> Result<RoadLengths> {
                         format!("length_m must be a non-negative number, got {v}"),
                     ));
                 }
+                if v > MAX_TRUTH_LENGTH_M {
+                    return Err(Error::table(
+                        path,
+                        line,
+                        format!(
+                            "length_m {v:e} is longer than the Earth's circumference \
+                             (limit {MAX_TRUTH_LENGTH_M:e} m)"
+                        ),
+                    ));
+                }
                 v
             }
             _ => road_len,
         };
         *out.entry(id.to_owned()).or_default() += len;
     }
+    if out.is_empty() {
+        // Nothing to score against: every figure would be 0/0.
+        return Err(Error::table(
+            path,
+            table.header_line,
+            "no data rows after the header: no road to score the path against",
+        ));
+    }
     Ok(out)
 }
+
+/// Largest `length_m` of a TRUTH.csv row (m): the Earth's circumference.
+/// Together with the file's size limit it keeps the truth's total finite
+/// (a row of 1e308 m made it infinite, and the recall by length 0).
+const MAX_TRUTH_LENGTH_M: f64 = 4.0e7;
 
 #[cfg(test)]
 mod tests {

@@ -95,7 +95,7 @@ pub fn read_track_file(path: &Path) -> Result<(Vec<TrackRow>, TrackFormat)> {
             ),
         ));
     }
-    let text = read_text(path)?;
+    let text = read_text(path, "track")?;
     let format = sniff(&text);
     let rows = match format {
         TrackFormat::Csv => read_track_text(path, &text)?,
@@ -286,19 +286,32 @@ pub fn read_geojson(path: &Path, text: &str) -> Result<Vec<TrackRow>> {
                 }
             });
             offset += coords.len();
-            let pts = coords
-                .iter()
-                .enumerate()
-                .map(|(i, c)| {
-                    let t = line_times
-                        .as_ref()
-                        .and_then(|ts| ts.get(i))
-                        .and_then(time_of)
-                        .or_else(|| c.get(3).copied())
-                        .unwrap_or(f64::NAN);
-                    (c[1], c[0], t)
-                })
-                .collect();
+            let mut pts = Vec::with_capacity(coords.len());
+            for (i, c) in coords.iter().enumerate() {
+                let given = line_times
+                    .as_ref()
+                    .and_then(|ts| ts.get(i))
+                    .filter(|v| !v.is_null());
+                let t = match given {
+                    // A time that is there but unreadable is an error, not
+                    // a point without a time.
+                    Some(v) => match time_of(v).filter(|t| t.is_finite()) {
+                        Some(t) => t,
+                        None => {
+                            return Err(Error::format(
+                                path,
+                                format!(
+                                    "track {id}, point {}: time {v} is neither an RFC 3339 \
+                                     time nor a finite number of seconds",
+                                    i + 1
+                                ),
+                            ))
+                        }
+                    },
+                    None => c.get(3).copied().unwrap_or(f64::NAN),
+                };
+                pts.push((c[1], c[0], t));
+            }
             tracks.push((id, pts));
         }
     }

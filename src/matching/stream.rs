@@ -131,8 +131,11 @@ impl TrackCsvStream {
 
     fn parse(&mut self, bytes: &[u8], out: &mut Vec<TrackRow>) -> Result<()> {
         let path = self.path.clone();
-        let mut text = std::str::from_utf8(bytes)
-            .map_err(|e| Error::table(&path, 0, format!("not UTF-8 text ({e})")))?;
+        let mut text = std::str::from_utf8(bytes).map_err(|e| {
+            let at = e.valid_up_to();
+            let line = self.lines + 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
+            Error::table(&path, line, format!("not UTF-8 text ({e})"))
+        })?;
         let mut table = match &self.cols {
             Some(_) => CsvTable::continued(text, self.names.clone(), self.lines),
             None => {

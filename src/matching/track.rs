@@ -59,10 +59,15 @@ pub(crate) struct CsvTable<'a> {
 }
 
 /// Reads a file as UTF-8 text without a byte-order mark.
-pub(crate) fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let mut text = String::from_utf8(bytes)
-        .map_err(|e| Error::table(path, 0, format!("not UTF-8 text ({e})")))?;
+pub(crate) fn read_text(path: &Path, what: &str) -> Result<String> {
+    // Limited like a track read whole: an endless input (`/dev/zero`) or a
+    // huge file is refused, not read until memory runs out.
+    let bytes = crate::fsio::read_limited(path, super::inputs::WHOLE_FILE_LIMIT_BYTES, what)?;
+    let mut text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
+        Error::table(path, line, format!("not UTF-8 text ({})", e.utf8_error()))
+    })?;
     if text.starts_with('\u{feff}') {
         text.drain(..'\u{feff}'.len_utf8());
     }
@@ -202,7 +207,7 @@ fn number(path: &Path, line: usize, name: &str, v: &str) -> Result<f64> {
 
 /// Reads and checks TRACK.csv.
 pub fn read_track(path: &Path) -> Result<Vec<TrackRow>> {
-    let text = read_text(path)?;
+    let text = read_text(path, "track")?;
     read_track_text(path, &text)
 }
 

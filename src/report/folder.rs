@@ -8,6 +8,35 @@ use super::{read_errors_csv, read_plan_profile_csv, read_tag_passes_csv, ErrorRo
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
+/// Largest file of an output folder the report reads (bytes): errors.csv of
+/// a 30-day drive at a 1 s output interval is about 250 MB.
+pub const MAX_REPORT_FILE_BYTES: u64 = 1 << 30;
+
+/// Opens `path` for reading at most [`MAX_REPORT_FILE_BYTES`]: a regular
+/// file over the limit is an error naming it; anything else (an endless
+/// `/dev/zero`) is cut at the limit, so no reader holds more.
+pub(super) fn open_limited(path: &Path) -> std::io::Result<std::io::Take<std::fs::File>> {
+    use std::io::Read as _;
+    let f = std::fs::File::open(path)?;
+    if f.metadata()
+        .is_ok_and(|m| m.is_file() && m.len() > MAX_REPORT_FILE_BYTES)
+    {
+        return Err(std::io::Error::other(format!(
+            "larger than the limit of {} for a file the report reads",
+            crate::fsio::human_bytes(MAX_REPORT_FILE_BYTES)
+        )));
+    }
+    Ok(f.take(MAX_REPORT_FILE_BYTES))
+}
+
+/// [`std::fs::read_to_string`] within [`MAX_REPORT_FILE_BYTES`].
+pub(super) fn read_to_string_limited(path: &Path) -> std::io::Result<String> {
+    use std::io::Read as _;
+    let mut text = String::new();
+    open_limited(path)?.read_to_string(&mut text)?;
+    Ok(text)
+}
+
 /// One row of the tag table: the installer file's columns and, where the
 /// plan gives it, why the tag is there.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -69,8 +98,7 @@ pub fn read_tag_table(path: &Path) -> Result<Vec<TagRow>> {
     let mut r = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
         .trim(csv::Trim::All)
-        .from_path(path)
-        .map_err(|e| fail(format!("cannot read: {e}")))?;
+        .from_reader(open_limited(path).map_err(|e| fail(format!("cannot read: {e}")))?);
     let headers = r
         .headers()
         .map_err(|e| fail(format!("bad header: {e}")))?
@@ -169,7 +197,7 @@ pub fn merge_plan_tags(rows: &mut Vec<TagRow>, plan: &serde_json::Value) {
 /// (LineStrings) with `bound_m` (`null` where no sampled traffic drives:
 /// skipped), and `bound_without_tags_m` and `reason` when given.
 pub fn read_coverage(path: &Path) -> Result<Vec<(CoveragePiece, Option<f64>, String)>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_to_string_limited(path).map_err(|e| Error::io(path, e))?;
     let gj: geojson::GeoJson = text
         .parse()
         .map_err(|e| Error::format(path, format!("invalid GeoJSON: {e}")))?;
@@ -243,7 +271,7 @@ pub(super) fn read_inputs(
     notes: &mut Vec<String>,
 ) -> Option<(PathBuf, Option<PathBuf>)> {
     let path = dir.join("inputs.json");
-    let text = match std::fs::read_to_string(&path) {
+    let text = match read_to_string_limited(&path) {
         Ok(t) => t,
         Err(_) => {
             notes.push(
@@ -283,7 +311,7 @@ pub(super) fn read_inputs(
 
 /// Reads a JSON object file.
 pub(super) fn read_json(path: &Path) -> Result<serde_json::Value> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_to_string_limited(path).map_err(|e| Error::io(path, e))?;
     let v: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| Error::format(path, format!("invalid JSON: {e}")))?;
     if !v.is_object() {

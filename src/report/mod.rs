@@ -59,8 +59,7 @@ pub fn read_errors_csv(path: &Path) -> Result<Vec<ErrorRow>> {
     let fail = |m: String| Error::format(path, m);
     let mut r = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
-        .from_path(path)
-        .map_err(|e| fail(format!("cannot read: {e}")))?;
+        .from_reader(folder::open_limited(path).map_err(|e| fail(format!("cannot read: {e}")))?);
     let headers = r
         .headers()
         .map_err(|e| fail(format!("bad header: {e}")))?
@@ -256,8 +255,7 @@ fn read_csv<T>(
     let fail = |m: String| Error::format(path, m);
     let mut r = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
-        .from_path(path)
-        .map_err(|e| fail(format!("cannot read: {e}")))?;
+        .from_reader(folder::open_limited(path).map_err(|e| fail(format!("cannot read: {e}")))?);
     let headers = r
         .headers()
         .map_err(|e| fail(format!("bad header: {e}")))?
@@ -397,7 +395,12 @@ pub fn read_output_folder(
         .as_ref()
         .is_some_and(|p| p["coverage"].as_str() == Some("network"));
     // The tag table: the folder's installer file, else the tag file simulated with.
-    let scenario = std::fs::read_to_string(dir.join("scenario.toml")).ok();
+    let scenario = crate::fsio::read_text_limited(
+        &dir.join("scenario.toml"),
+        crate::scenario::MAX_SCENARIO_BYTES,
+        "scenario",
+    )
+    .ok();
     let inputs = folder::read_inputs(dir, &mut notes);
     let local_tags = dir.join("tags.csv");
     let tags_file = if local_tags.exists() {
@@ -560,7 +563,14 @@ pub fn write_report_on(
     let input = read_output_folder(dir, loaded)?;
     let html = render_html(&input)?;
     let report = dir.join("report.html");
-    write_atomic(&report, html.as_bytes())?;
+    if report.is_dir() {
+        return Err(Error::format(
+            &report,
+            "the report's path is an existing folder",
+        ));
+    }
+    // The plots first, the page that shows them last: a failure on the way
+    // leaves no new page without its plots.
     let plots_dir = dir.join("plots");
     std::fs::create_dir_all(&plots_dir).map_err(|e| Error::io(&plots_dir, e))?;
     let mut plots = Vec::new();
@@ -569,6 +579,7 @@ pub fn write_report_on(
         write_atomic(&path, &error_plot_png(&series, &decor, (1200, 520))?)?;
         plots.push(path);
     }
+    write_atomic(&report, html.as_bytes())?;
     tracing::info!(
         "report: wrote {} and {} plot(s)",
         report.display(),

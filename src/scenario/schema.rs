@@ -9,6 +9,51 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
+/// Fixed-length number arrays read exactly: the `toml` crate hands serde's
+/// `[f64; N]` a longer array without complaint (the elements beyond `N`
+/// were silently dropped: `accel_bias_ug = [1, 2, 3, 4]`, a waypoint
+/// `[lat, lon, height]`), so these read the whole list and refuse any other
+/// length with serde's own message ("invalid length 4, expected an array
+/// of length 3"), which the parser places at the field and line.
+mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    fn fixed<E: Error, const N: usize>(v: Vec<f64>) -> Result<[f64; N], E> {
+        let n = v.len();
+        v.try_into()
+            .map_err(|_| E::invalid_length(n, &format!("an array of length {N}").as_str()))
+    }
+
+    /// `[f64; N]`.
+    pub fn array<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
+        fixed(Vec::<f64>::deserialize(d)?)
+    }
+
+    /// `Option<[f64; N]>` (with `#[serde(default)]`: absent is `None`).
+    pub fn option<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Option<[f64; N]>, D::Error> {
+        array(d).map(Some)
+    }
+
+    /// `Vec<[f64; N]>`.
+    pub fn list<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Vec<[f64; N]>, D::Error> {
+        Vec::<Vec<f64>>::deserialize(d)?
+            .into_iter()
+            .map(fixed)
+            .collect()
+    }
+
+    /// `Option<Vec<[f64; N]>>` (with `#[serde(default)]`).
+    pub fn option_list<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Option<Vec<[f64; N]>>, D::Error> {
+        list(d).map(Some)
+    }
+}
+
 /// The whole scenario file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -100,7 +145,7 @@ pub struct TagSpec {
     #[serde(default)]
     pub mounting: Option<Mounting>,
     /// Stored minus physical position, east and north (m): a misplaced tag.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::option")]
     pub survey_error_m: Option<[f64; 2]>,
 }
 
@@ -138,10 +183,10 @@ pub struct FilterSection {
     #[serde(default)]
     pub odometer_misalignment_sigma_deg: Option<f64>,
     /// Prior σ of the initial attitude errors, pitch/roll and heading (arcmin).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::option")]
     pub attitude_sigma_arcmin: Option<[f64; 2]>,
     /// Prior σ of the initial position error, horizontal and vertical (m).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::option")]
     pub position_sigma_m: Option<[f64; 2]>,
     /// Prior σ of the initial velocity error (m/s).
     #[serde(default)]
@@ -154,6 +199,7 @@ pub struct FilterSection {
 #[serde(deny_unknown_fields)]
 pub struct ExternalFixSection {
     /// Shortest and longest gap between fixes (s); gaps are uniform in between.
+    #[serde(deserialize_with = "exact::array")]
     pub interval_s: [f64; 2],
     /// White noise σ per axis (m).
     pub white_m: f64,
@@ -209,7 +255,7 @@ pub enum OneOrMany {
 #[serde(deny_unknown_fields)]
 pub struct RouteSection {
     /// Waypoints, [latitude, longitude] in degrees.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::option_list")]
     pub waypoints: Option<Vec<[f64; 2]>>,
     /// Cruise speed on the map route (km/h).
     #[serde(default)]
@@ -386,20 +432,20 @@ pub struct NavigatorSection {
     #[serde(default)]
     pub vertical_tau_s: Option<f64>,
     /// Initial attitude error: pitch, roll, heading (arcmin; heading clockwise).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub initial_attitude_error_arcmin: [f64; 3],
     /// Initial velocity error, east, north, up (m/s).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub initial_velocity_error_mps: [f64; 3],
     /// Initial position error, east, north, up (m).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub initial_position_error_m: [f64; 3],
     /// Random initial attitude error drawn per run (integrated mode), σ of
     /// pitch/roll and of heading (arcmin), added to the fixed one.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub initial_attitude_sigma_arcmin: [f64; 2],
     /// Random initial horizontal and vertical position error per run, σ (m).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub initial_position_sigma_m: [f64; 2],
     /// Random initial velocity error per run, σ (m/s).
     #[serde(default)]
@@ -426,10 +472,10 @@ pub struct ImuSection {
     #[serde(default = "d_rate")]
     pub rate_hz: f64,
     /// Constant gyro bias (deg/h).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub gyro_bias_dph: [f64; 3],
     /// Constant accelerometer bias (µg).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub accel_bias_ug: [f64; 3],
     /// Gyro bias instability (deg/h, Gauss–Markov σ).
     #[serde(default)]
@@ -450,16 +496,16 @@ pub struct ImuSection {
     #[serde(default)]
     pub accel_vrw_ugprhz: f64,
     /// Gyro scale-factor errors (ppm).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub gyro_scale_factor_ppm: [f64; 3],
     /// Accelerometer scale-factor errors (ppm).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub accel_scale_factor_ppm: [f64; 3],
     /// Gyro misalignment xy, xz, yx, yz, zx, zy (arcsec).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub gyro_misalignment_arcsec: [f64; 6],
     /// Accelerometer misalignment xy, xz, yx, yz, zx, zy (arcsec).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub accel_misalignment_arcsec: [f64; 6],
     /// Single-axis rotation modulation about the vertical.
     #[serde(default)]
@@ -685,7 +731,7 @@ pub struct PlannerSection {
     #[serde(default)]
     pub min_spacing_m: Option<f64>,
     /// Stretches of route distance where no tag may go: [[from_m, to_m], ...].
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::list")]
     pub forbidden_m: Vec<[f64; 2]>,
     /// Monte Carlo runs validating a plan (default 100).
     #[serde(default)]

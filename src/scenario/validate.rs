@@ -15,6 +15,11 @@ use crate::tags::{Mounting, RfidModel};
 use crate::units::{ARCMIN, ARCSEC, DPH, G0};
 use std::path::Path;
 
+/// Largest odometer speed noise (`odometer.noise_mps`,
+/// `diff_odometer.noise_mps`; m/s, 1σ per sample): the limit the filter
+/// takes for its own `filter.odometer_noise_mps`.
+const MAX_ODOMETER_NOISE_MPS: f64 = 10.0;
+
 /// One-line description of a TOML parse error with its line number and,
 /// where the error is about a value, the field holding it (e.g.
 /// `line 12: planner.coverage "everything" is not one of routes, network`).
@@ -202,7 +207,15 @@ impl Scenario {
             -0.5,
             0.5,
         )?;
-        c.non_negative("odometer.noise_mps", o.noise_mps)?;
+        // At most 10 m/s per sample, the filter's own limit for
+        // `filter.odometer_noise_mps`: at 1e308 a dead-reckoning run stayed
+        // finite row by row while its RMS overflowed (null in summary.json).
+        c.range(
+            "odometer.noise_mps",
+            o.noise_mps,
+            0.0,
+            MAX_ODOMETER_NOISE_MPS,
+        )?;
         c.non_negative("odometer.pulse_m", o.pulse_m)?;
         let slip = match o.slip {
             Some(sl) => Some(WheelSlip {
@@ -264,7 +277,12 @@ impl Scenario {
             -0.5 * track,
             0.5 * track,
         )?;
-        c.non_negative("diff_odometer.noise_mps", d.noise_mps)?;
+        c.range(
+            "diff_odometer.noise_mps",
+            d.noise_mps,
+            0.0,
+            MAX_ODOMETER_NOISE_MPS,
+        )?;
         c.non_negative("diff_odometer.pulse_m", d.pulse_m)?;
         let diff_odometer = DiffOdometerModel {
             track_width_m: track,

@@ -27,6 +27,53 @@ pub fn check_out_dir(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Where `path` leads on disk, to tell whether two paths name the same
+/// file: the canonical path of an existing file, else its canonical folder
+/// joined with its name (`None` when neither can be resolved).
+fn file_identity(path: &Path) -> Option<std::path::PathBuf> {
+    if let Ok(p) = path.canonicalize() {
+        return Some(p);
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    parent.canonicalize().ok().map(|p| p.join(name))
+}
+
+/// Checks, before any work, that no output file is one of the inputs or
+/// another output (each given with the option that names it): writing it
+/// would destroy an input, or one output would silently replace another.
+pub(super) fn check_distinct_files(
+    outputs: &[(&Path, &str)],
+    inputs: &[(&Path, &str)],
+) -> Result<()> {
+    for (i, (out, out_opt)) in outputs.iter().enumerate() {
+        let Some(id) = file_identity(out) else {
+            continue;
+        };
+        let earlier = outputs[..i].iter().map(|(p, o)| (p, o, "output"));
+        for (other, opt, kind) in inputs.iter().map(|(p, o)| (p, o, "input")).chain(earlier) {
+            if file_identity(other).as_ref() == Some(&id) {
+                return Err(Error::format(
+                    out,
+                    format!(
+                        "{out_opt} is the same file as the {kind} {opt}: writing it would \
+                         {}; choose another {out_opt}",
+                        if kind == "input" {
+                            "destroy the input"
+                        } else {
+                            "replace the other output"
+                        }
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Keeps a copy of the scenario (`scenario.toml`) and where it and the tag
 /// file were (`inputs.json`) in an output folder, so that `waymark report`
 /// can draw the map later.
@@ -47,18 +94,18 @@ pub(super) const PLAN_OUTPUTS: &[&str] = &[
     "plan.json",
     "profile.csv",
 ];
-/// What `simulate` and route `plan` keep of their inputs for `waymark report`.
-const INPUT_COPIES: &[&str] = &["scenario.toml", "inputs.json"];
 
 /// Before a command writes its files into `dir` (made if missing): removes
 /// the files an earlier run of the same kind wrote there (`own`: all of
 /// them, so none that this run does not write is left beside its own, e.g.
 /// an integrated run's `tag_passes.csv` under a dead-reckoning run), and the
 /// report made from the earlier content (`report.html`, `plots/*.png`).
-/// With `inputs_too`, the copies of the inputs go as well (a network plan
-/// writes none), unless the other kind's results still need them. Files
+/// The copies of the inputs (`scenario.toml`, `inputs.json`) are left: every
+/// command that clears its outputs writes them again after its results, and
+/// the scenario being run may itself be `dir/scenario.toml` (the copy an
+/// earlier run kept, edited and run again into the same folder). Files
 /// Waymark does not write are never touched.
-pub(super) fn clear_outputs(dir: &Path, own: &[&str], inputs_too: bool) -> Result<()> {
+pub(super) fn clear_outputs(dir: &Path, own: &[&str]) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let remove = |p: &Path| match std::fs::remove_file(p) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::io(p, e)),
@@ -66,18 +113,6 @@ pub(super) fn clear_outputs(dir: &Path, own: &[&str], inputs_too: bool) -> Resul
     };
     for f in own {
         remove(&dir.join(f))?;
-    }
-    if inputs_too {
-        let others = if own == PLAN_OUTPUTS {
-            SIMULATION_OUTPUTS
-        } else {
-            PLAN_OUTPUTS
-        };
-        if !others.iter().any(|f| dir.join(f).exists()) {
-            for f in INPUT_COPIES {
-                remove(&dir.join(f))?;
-            }
-        }
     }
     remove(&dir.join("report.html"))?;
     let plots = dir.join("plots");
@@ -113,7 +148,7 @@ mod tests {
         }
         std::fs::create_dir(dir.join("plots")).unwrap();
         std::fs::write(dir.join("plots/error_time.png"), "x").unwrap();
-        clear_outputs(dir, SIMULATION_OUTPUTS, false).unwrap();
+        clear_outputs(dir, SIMULATION_OUTPUTS).unwrap();
         let mut left: Vec<String> = std::fs::read_dir(dir)
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())

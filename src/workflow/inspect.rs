@@ -33,6 +33,7 @@ pub fn inspect_map(
                 format!("cannot write the defects: {} is not a folder", d.display()),
             ));
         }
+        super::inputs::check_distinct_files(&[(path, "--defects")], &[(map, "MAP")])?;
     }
     let net = Network::load(map, options)?;
     let t = Instant::now();

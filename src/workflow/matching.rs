@@ -1,6 +1,6 @@
 //! `waymark match`: a track file matched to a map, written as a CSV.
 
-use super::inputs::check_out_dir;
+use super::inputs::{check_distinct_files, check_out_dir};
 use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
 use crate::fsio::AtomicFile;
@@ -180,6 +180,23 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
     for f in [job.path, job.path_geojson].into_iter().flatten() {
         check_out(f)?;
     }
+    let outputs: Vec<(&Path, &str)> = [
+        (Some(job.out_file), "--out"),
+        (job.path, "--path"),
+        (job.path_geojson, "--path-geojson"),
+    ]
+    .into_iter()
+    .filter_map(|(p, o)| p.map(|p| (p, o)))
+    .collect();
+    let inputs: Vec<(&Path, &str)> = [
+        (Some(job.map), "--map"),
+        (Some(job.track), "--track"),
+        (job.truth, "--truth"),
+    ]
+    .into_iter()
+    .filter_map(|(p, o)| p.map(|p| (p, o)))
+    .collect();
+    check_distinct_files(&outputs, &inputs)?;
     if sniff_file(job.track)? == TrackFormat::Csv {
         let net = Network::load(job.map, &LoadOptions::default())?;
         let truth = job

@@ -369,7 +369,7 @@ pub(super) fn write_route_plan(
 ) -> Result<PlanOutcome> {
     super::finite::check_plan(scenario, &plan)?;
     let (recs, meta) = plan.export(scn)?;
-    clear_outputs(out_dir, PLAN_OUTPUTS, false)?;
+    clear_outputs(out_dir, PLAN_OUTPUTS)?;
     write_tag_files(out_dir, &recs, &meta)?;
     write_atomic(
         &out_dir.join("profile.csv"),
@@ -447,7 +447,7 @@ fn network_plan_folder(
         meta.heights_known = true;
         meta.parameters.insert("height_m".into(), why);
     }
-    clear_outputs(job.out_dir, PLAN_OUTPUTS, true)?;
+    clear_outputs(job.out_dir, PLAN_OUTPUTS)?;
     write_tag_files(job.out_dir, &recs, &meta)?;
     let mut files = NETWORK_FILES.to_vec();
     if !plan.edge_coverage.is_empty() {

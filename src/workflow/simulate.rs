@@ -104,7 +104,7 @@ pub(super) fn write_simulation(
     result: SimResult,
     t0: Instant,
 ) -> Result<SimulateOutcome> {
-    clear_outputs(job.out_dir, SIMULATION_OUTPUTS, false)?;
+    clear_outputs(job.out_dir, SIMULATION_OUTPUTS)?;
     output::write(job.out_dir, &result)?;
     let rule = requirement_rule(&result, scn.planner().requirement_confidence);
     if let Some(rule) = &rule {

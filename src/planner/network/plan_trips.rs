@@ -30,7 +30,13 @@ fn read_destinations(
     net: &Network,
 ) -> Result<(Vec<SectionPoint>, Vec<f64>)> {
     let err = |m: String| Error::InvalidParameter(format!("{}: {m}", path.display()));
-    let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    // Limited like a tag file: an endless input (`/dev/zero`) or a huge
+    // file is refused, not read until memory runs out.
+    let text = crate::fsio::read_text_limited(
+        path,
+        crate::sim::tags::MAX_TAGS_CSV_BYTES,
+        "destinations file",
+    )?;
     let mut pts = Vec::new();
     let mut w = Vec::new();
     for (i, line) in text.lines().enumerate() {
