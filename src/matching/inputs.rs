@@ -76,9 +76,7 @@ pub fn sniff_file(path: &Path) -> Result<TrackFormat> {
     }
 }
 
-/// The largest track file read whole (GPX, GeoJSON, a CSV interleaving its
-/// tracks): bytes. A CSV of contiguous tracks is streamed without a limit.
-pub const WHOLE_FILE_LIMIT_BYTES: u64 = 512 << 20;
+pub use super::track::WHOLE_FILE_LIMIT_BYTES;
 
 /// Reads a track file of any supported format.
 pub fn read_track_file(path: &Path) -> Result<(Vec<TrackRow>, TrackFormat)> {

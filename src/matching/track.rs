@@ -58,11 +58,16 @@ pub(crate) struct CsvTable<'a> {
     line_offset: usize,
 }
 
+/// The largest track file read whole (GPX, GeoJSON, a CSV interleaving its
+/// tracks), and the largest truth file: bytes. A CSV of contiguous tracks
+/// is streamed without a limit.
+pub const WHOLE_FILE_LIMIT_BYTES: u64 = 512 << 20;
+
 /// Reads a file as UTF-8 text without a byte-order mark.
 pub(crate) fn read_text(path: &Path, what: &str) -> Result<String> {
     // Limited like a track read whole: an endless input (`/dev/zero`) or a
     // huge file is refused, not read until memory runs out.
-    let bytes = crate::fsio::read_limited(path, super::inputs::WHOLE_FILE_LIMIT_BYTES, what)?;
+    let bytes = crate::fsio::read_limited(path, WHOLE_FILE_LIMIT_BYTES, what)?;
     let mut text = String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
