@@ -75,6 +75,33 @@ fn inspect_helsinki_json_has_the_contract_fields() {
     assert!(v["timings_ms"]["load"].as_f64().unwrap() >= 0.0);
 }
 
+/// A map without one-way roads, tunnels or bridges reports its shares and
+/// lengths as 0, not -0 (an empty f64 sum is -0.0, which JSON and the text
+/// summary printed as "-0").
+#[test]
+fn inspect_reports_zero_not_negative_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("two-way.geojson");
+    std::fs::write(
+        &map,
+        r#"{"type": "FeatureCollection", "features": [{"type": "Feature", "id": "a", "properties": {"highway": "residential"},
+           "geometry": {"type": "LineString", "coordinates": [[24, 60], [24.001, 60]]}}]}"#,
+    )
+    .unwrap();
+    let v = inspect_json(&map);
+    for (what, x) in [
+        ("oneway_share", &v["oneway_share"]),
+        ("tunnels", &v["tunnels"]["length_km"]),
+        ("bridges", &v["bridges"]["length_km"]),
+    ] {
+        let x = x.as_f64().unwrap();
+        assert!(x == 0.0 && x.is_sign_positive(), "{what}: {x}");
+    }
+    let out = run(&["network", "inspect", "two-way.geojson"], dir.path());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && !text.contains("-0"), "{text}");
+}
+
 #[test]
 fn inspect_gothenburg_skips_and_counts_polygons() {
     let v = inspect_json(&repo("maps/gothenburg-roads.geojson"));

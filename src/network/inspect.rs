@@ -90,15 +90,15 @@ pub fn inspect(file: &str, net: &Network, defects: &DefectReport, defects_ms: f6
         let roads: Vec<_> = net.roads.iter().filter(|r| pred(r)).collect();
         CountLength {
             count: roads.len(),
-            length_km: roads.iter().map(|r| r.length_m).sum::<f64>() / 1e3,
+            // Folded from +0.0: an empty f64 `sum` is -0.0, printed "-0".
+            length_km: roads.iter().fold(0.0, |a, r| a + r.length_m) / 1e3,
         }
     };
     let oneway_m: f64 = net
         .sections
         .iter()
         .filter(|s| s.oneway.is_oneway())
-        .map(|s| s.length_m)
-        .sum();
+        .fold(0.0, |a, s| a + s.length_m);
     let mut by_class: BTreeMap<String, f64> = BTreeMap::new();
     for r in &net.roads {
         *by_class.entry(r.attributes.highway.clone()).or_default() += r.length_m / 1e3;
