@@ -113,6 +113,25 @@ fn planner_counts_beyond_their_limits_name_the_field_and_the_limit() {
 }
 
 #[test]
+fn an_absurd_mounting_cost_is_refused_at_its_field() {
+    // planner.cost.road_surface = 1e308 overflowed the plan's total cost to
+    // inf, and the plan's check then blamed the covariance analysis and
+    // [imu]. The limit is printed short (1e9), not as a 309-digit number.
+    let dir = tempfile::tempdir().unwrap();
+    let scn = demo_with(dir.path(), "cost", "{ road_surface = 1e308 }");
+    let out = run(&["plan", &scn, "--out", "p"], dir.path());
+    fails_with(
+        &out,
+        &[
+            "demo.toml",
+            "planner.cost.road_surface = 1e308",
+            "limit of 1e9",
+        ],
+    );
+    assert!(!dir.path().join("p").exists());
+}
+
+#[test]
 fn rows_kept_in_memory_are_limited_before_the_runs_start() {
     // 23 days at a 10 ms output interval: 2e8 rows of one run, over the
     // 2e7-row limit (the motion commands' own limit is 30 days).

@@ -19,6 +19,9 @@ use std::path::Path;
 /// `diff_odometer.noise_mps`; m/s, 1σ per sample): the limit the filter
 /// takes for its own `filter.odometer_noise_mps`.
 const MAX_ODOMETER_NOISE_MPS: f64 = 10.0;
+/// Largest `planner.cost.<mounting>`: 1e9 per tag, so that the total of
+/// the most tags a plan may place stays far from overflow.
+pub const MAX_MOUNTING_COST: f64 = 1e9;
 
 /// One-line description of a TOML parse error with its line number and,
 /// where the error is about a value, the field holding it (e.g.
@@ -842,6 +845,15 @@ fn planner(
         let cost = match p.cost.as_ref().and_then(|c| c.get(&m)) {
             Some(&x) if !(x.is_finite() && x >= 0.0) => {
                 return Err(c.err(format!("planner.cost.{m} = {x} must be ≥ 0")))
+            }
+            // A relative cost or a price per tag; beyond this a plan's total
+            // (up to the candidate limit's tags) would overflow, and its
+            // check blamed the covariance analysis.
+            Some(&x) if x > MAX_MOUNTING_COST => {
+                return Err(c.err(format!(
+                    "planner.cost.{m} = {x:e} is above the limit of {MAX_MOUNTING_COST:e} \
+                     (a relative cost, or a price per tag)"
+                )))
             }
             Some(&x) => x,
             None => default_mounting_cost(m),
