@@ -132,6 +132,39 @@ fn an_absurd_mounting_cost_is_refused_at_its_field() {
 }
 
 #[test]
+fn a_plan_for_tags_that_are_never_read_is_refused() {
+    // rfid.read_probability = 0 planned two tags that no run ever reads
+    // and "validated" them as dead reckoning. Simulating such tags stays
+    // allowed (what if every read fails?); planning them is refused.
+    let dir = tempfile::tempdir().unwrap();
+    let scn = demo_with(dir.path(), "tolerate_missed_reads", "1");
+    let path = dir.path().join(&scn);
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(
+        text.contains("read_probability = 0.977"),
+        "the demo changed"
+    );
+    std::fs::write(
+        &path,
+        text.replace("read_probability = 0.977", "read_probability = 0"),
+    )
+    .unwrap();
+    let out = run(&["plan", &scn, "--out", "p"], dir.path());
+    fails_with(
+        &out,
+        &["demo.toml", "road_surface tags are never read", "above 0"],
+    );
+    assert!(!dir.path().join("p").exists());
+    let out = run(&["simulate", &scn, "--runs", "1", "--out", "s"], dir.path());
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
 fn rows_kept_in_memory_are_limited_before_the_runs_start() {
     // 23 days at a 10 ms output interval: 2e8 rows of one run, over the
     // 2e7-row limit (the motion commands' own limit is 30 days).

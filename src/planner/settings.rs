@@ -120,6 +120,17 @@ impl PlannerSettings {
         for c in &p.mountings {
             let mut o = MountingOption::default_for(c.mounting);
             o.read_probability = scn.rfid.read_probability_of(c.mounting);
+            if o.read_probability <= 0.0 {
+                // Tags that are never read cannot hold any bound: a plan of
+                // them would be tags for nothing (validated as dead
+                // reckoning).
+                return Err(bad(format!(
+                    "{m} tags are never read (rfid.read_probability or \
+                     rfid.read_probability_{m} = 0): planning needs a read probability above 0, \
+                     or planner.mountings without {m}",
+                    m = c.mounting
+                )));
+            }
             o.cost = c.cost;
             mountings.push(o);
         }
