@@ -22,6 +22,7 @@
 
 mod check;
 mod limits;
+mod planner_section;
 mod presets;
 mod route;
 pub mod schema;

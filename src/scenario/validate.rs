@@ -3,6 +3,7 @@
 //! converted to SI here, once; every error names the file and the field.
 
 use super::check::Check;
+use super::planner_section::planner;
 use super::route::{elevation, route};
 use super::schema::*;
 use super::sections::*;
@@ -19,9 +20,6 @@ use std::path::Path;
 /// `diff_odometer.noise_mps`; m/s, 1σ per sample): the limit the filter
 /// takes for its own `filter.odometer_noise_mps`.
 const MAX_ODOMETER_NOISE_MPS: f64 = 10.0;
-/// Largest `planner.cost.<mounting>`: 1e9 per tag, so that the total of
-/// the most tags a plan may place stays far from overflow.
-pub const MAX_MOUNTING_COST: f64 = 1e9;
 
 /// One-line description of a TOML parse error with its line number and,
 /// where the error is about a value, the field holding it (e.g.
@@ -757,152 +755,4 @@ fn filter(file: &ScenarioFile, odometer: &OdometerModel, dt: f64) -> FilterSetti
         position_sigma_m,
         velocity_sigma_mps,
     }
-}
-
-/// `[planner]` (or its absence), checked, with every default applied.
-fn planner(
-    c: &Check,
-    path: &Path,
-    p: PlannerSection,
-    vehicle: &VehicleSection,
-) -> Result<PlannerOptions> {
-    let coverage = p.coverage.unwrap_or_default();
-    let vehicle_speed_kmh = c.range(
-        "vehicle.speed_kmh",
-        vehicle.speed_kmh.unwrap_or(50.0),
-        1.0,
-        300.0,
-    )?;
-    let shift_hours = p.shift_hours.unwrap_or(8.0);
-    if !(shift_hours.is_finite() && shift_hours > 0.0 && shift_hours <= 168.0) {
-        return Err(c.err(format!(
-            "planner.shift_hours = {shift_hours} must be > 0 and at most 168 (a week)"
-        )));
-    }
-    let open_unit = |name: &str, x: f64| -> Result<f64> {
-        if x.is_finite() && x > 0.0 && x < 1.0 {
-            Ok(x)
-        } else {
-            Err(c.err(format!(
-                "planner.{name} = {x} must lie strictly between 0 and 1"
-            )))
-        }
-    };
-    let violation_probability = open_unit(
-        "violation_probability",
-        p.violation_probability.unwrap_or(0.01),
-    )?;
-    let confidence = open_unit("confidence", p.confidence.unwrap_or(0.99))?;
-    let requirement_confidence = open_unit(
-        "requirement_confidence",
-        p.requirement_confidence.unwrap_or(0.95),
-    )?;
-    if requirement_confidence < 0.5 {
-        return Err(c.err(format!(
-            "planner.requirement_confidence = {requirement_confidence} must be at least 0.5"
-        )));
-    }
-    let planning_chains = p.planning_chains.unwrap_or(64) as usize;
-    if !(1..=5_000).contains(&planning_chains) {
-        return Err(c.err(format!(
-            "planner.planning_chains = {planning_chains} must be between 1 and 5000"
-        )));
-    }
-    // The certification's last round needs ln(β/2⁶) / ln(1 − ε) chains
-    // without failures, and at most twice that when it allows two (the
-    // planner's `chains_allowing`: 1.5–1.8× at ε = 0.01).
-    let last_round = 2.0 * ((1.0 - confidence) / 64.0).ln() / (1.0 - violation_probability).ln();
-    if last_round > 50_000.0 {
-        return Err(c.err(format!(
-            "planner.violation_probability = {violation_probability} with confidence = {confidence} \
-             needs up to {last_round:.0} fresh chains to certify (limit 50000): allow a larger \
-             violation probability"
-        )));
-    }
-    let validation_chains = p.validation_chains.unwrap_or(20) as usize;
-    if !(1..=10_000).contains(&validation_chains) {
-        return Err(c.err(format!(
-            "planner.validation_chains = {validation_chains} must be between 1 and 10000"
-        )));
-    }
-    let traffic = p.traffic.unwrap_or_default();
-    if coverage != Coverage::Network
-        && (p.traffic.is_some() || p.destinations.is_some() || p.shift_hours.is_some())
-    {
-        return Err(c.err(
-            "planner.traffic, destinations and shift_hours apply to coverage = \"network\" only",
-        ));
-    }
-    if traffic != Traffic::Trips && p.destinations.is_some() {
-        return Err(c.err("planner.destinations applies to traffic = \"trips\" only"));
-    }
-    let names = p.mountings.unwrap_or_else(|| Mounting::ALL.to_vec());
-    if names.is_empty() {
-        return Err(c.err("planner.mountings is empty"));
-    }
-    let mut mountings = Vec::with_capacity(names.len());
-    for m in names {
-        let cost = match p.cost.as_ref().and_then(|c| c.get(&m)) {
-            Some(&x) if !(x.is_finite() && x >= 0.0) => {
-                return Err(c.err(format!("planner.cost.{m} = {x} must be ≥ 0")))
-            }
-            // A relative cost or a price per tag; beyond this a plan's total
-            // (up to the candidate limit's tags) would overflow, and its
-            // check blamed the covariance analysis.
-            Some(&x) if x > MAX_MOUNTING_COST => {
-                return Err(c.err(format!(
-                    "planner.cost.{m} = {x:e} is above the limit of {MAX_MOUNTING_COST:e} \
-                     (a relative cost, or a price per tag)"
-                )))
-            }
-            Some(&x) => x,
-            None => default_mounting_cost(m),
-        };
-        mountings.push(MountingChoice { mounting: m, cost });
-    }
-    let candidate_spacing_m = p.candidate_spacing_m.unwrap_or(match coverage {
-        Coverage::Routes => DEFAULT_ROUTE_SPACING_M,
-        Coverage::Network => DEFAULT_NETWORK_SPACING_M,
-    });
-    if !(candidate_spacing_m.is_finite() && candidate_spacing_m >= 1.0) {
-        return Err(c.err(format!(
-            "planner.candidate_spacing_m = {candidate_spacing_m} must be ≥ 1"
-        )));
-    }
-    let min_spacing_m = p.min_spacing_m.unwrap_or(0.0);
-    if !(min_spacing_m.is_finite() && min_spacing_m >= 0.0) {
-        return Err(c.err(format!(
-            "planner.min_spacing_m = {min_spacing_m} must be ≥ 0"
-        )));
-    }
-    for z in &p.forbidden_m {
-        if !(z[0].is_finite() && z[1].is_finite() && z[0] <= z[1]) {
-            return Err(c.err(format!(
-                "planner.forbidden_m: [{}, {}] is not a [from, to] pair",
-                z[0], z[1]
-            )));
-        }
-    }
-    let base = path.parent().unwrap_or(Path::new("."));
-    Ok(PlannerOptions {
-        coverage,
-        tolerate_missed_reads: p.tolerate_missed_reads.unwrap_or(1) as usize,
-        mountings,
-        candidate_spacing_m,
-        min_spacing_m,
-        forbidden_m: p.forbidden_m,
-        validation_runs: p.validation_runs.unwrap_or(100),
-        refine_iterations: p.refine_iterations.unwrap_or(0) as usize,
-        existing_tags: p.existing_tags.map(|f| base.join(f)),
-        u_turns: p.u_turns.unwrap_or_default(),
-        traffic,
-        destinations: p.destinations.map(|f| base.join(f)),
-        shift_s: shift_hours * 3600.0,
-        violation_probability,
-        confidence,
-        requirement_confidence,
-        planning_chains,
-        validation_chains,
-        vehicle_speed_mps: vehicle_speed_kmh / 3.6,
-    })
 }
