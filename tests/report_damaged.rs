@@ -210,3 +210,105 @@ fn a_huge_file_in_the_folder_is_refused_unread() {
         &["summary.json", "larger than the limit of 1 GiB"],
     );
 }
+
+/// A plan folder (`plan scenarios/demo.toml --runs 0`: two tags, no
+/// validation runs, so it is quick).
+fn planned(dir: &Path, name: &str) -> PathBuf {
+    let out = dir.join(name);
+    let s = bin(&[
+        "plan",
+        repo("scenarios/demo.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--runs",
+        "0",
+    ]);
+    assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
+    out
+}
+
+#[test]
+fn a_damaged_optional_file_is_named_as_damaged_not_missing() {
+    // A garbage inputs.json or scenario.toml (not UTF-8, a folder) was
+    // reported as "missing", sending the user to look for a file that is there.
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulated(dir.path(), "sim");
+    std::fs::write(sim.join("inputs.json"), b"\xff\xfe garbage").unwrap();
+    std::fs::write(sim.join("scenario.toml"), b"\xff\xfe garbage").unwrap();
+    let (code, err, html) = report(&sim);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(html.is_some());
+    for needle in [
+        "inputs.json cannot be read (the inputs file is not UTF-8 text",
+        "scenario.toml cannot be read (the scenario is not UTF-8 text",
+    ] {
+        assert!(err.contains(needle), "'{needle}' not in: {err}");
+    }
+    assert!(!err.contains("missing"), "{err}");
+    std::fs::remove_file(sim.join("inputs.json")).unwrap();
+    std::fs::create_dir(sim.join("inputs.json")).unwrap();
+    let (code, err, _) = report(&sim);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("inputs.json cannot be read ("), "{err}");
+    // Absent is still "missing".
+    std::fs::remove_dir(sim.join("inputs.json")).unwrap();
+    std::fs::remove_file(sim.join("scenario.toml")).unwrap();
+    let (_, err, _) = report(&sim);
+    assert!(err.contains("inputs.json is missing"), "{err}");
+    assert!(err.contains("scenario.toml is missing"), "{err}");
+}
+
+#[test]
+fn a_tags_csv_cut_short_is_noted_against_the_plan() {
+    // tags.csv cut short gave a report of fewer tags, or the plan's list
+    // under "the rows are the lines of tags.csv", without a word.
+    let dir = tempfile::tempdir().unwrap();
+    let plan = planned(dir.path(), "plan");
+    let whole = std::fs::read_to_string(plan.join("tags.csv")).unwrap();
+    let lines: Vec<&str> = whole.lines().collect();
+    assert_eq!(lines.len(), 3, "the demo plans two tags: {whole}");
+    let table = |html: &str| {
+        let at = html.find(" tag(s); the rows are ").expect("a tag table");
+        html[at.saturating_sub(3)..at + 80].to_string()
+    };
+
+    // Whole: no note, the file's rows.
+    let (code, err, html) = report(&plan);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!err.contains("tags.csv"), "{err}");
+    assert!(table(&html.unwrap()).contains("2 tag(s); the rows are the lines of <code>tags.csv"));
+
+    // Cut at a line end: one row; the plan's second tag is named.
+    std::fs::write(
+        plan.join("tags.csv"),
+        format!("{}\n{}\n", lines[0], lines[1]),
+    )
+    .unwrap();
+    let (code, err, html) = report(&plan);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("tags.csv lacks 1 of plan.json's 2 new tag(s) (first T0002)"),
+        "{err}"
+    );
+    assert!(table(html.as_ref().unwrap()).contains("1 tag(s)"));
+    assert!(html.unwrap().contains("lacks 1 of plan.json"));
+
+    // Cut inside the last row's quoted reason: the same, and the cut is named.
+    let cut = whole.len() - lines[2].len() / 2;
+    std::fs::write(plan.join("tags.csv"), &whole[..cut]).unwrap();
+    let (_, err, _) = report(&plan);
+    assert!(
+        err.contains("tags.csv ends in the middle of a line"),
+        "{err}"
+    );
+
+    // Cut inside the header: no rows; the table is the plan's, and says so.
+    std::fs::write(plan.join("tags.csv"), &whole[..lines[0].len() / 2 + 40]).unwrap();
+    let (code, err, html) = report(&plan);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("tags.csv holds no tags while plan.json plans 2"),
+        "{err}"
+    );
+    assert!(table(&html.unwrap()).contains("2 tag(s); the rows are the tags of <code>plan.json"));
+}

@@ -29,12 +29,50 @@ pub(super) fn open_limited(path: &Path) -> std::io::Result<std::io::Take<std::fs
     Ok(f.take(MAX_REPORT_FILE_BYTES))
 }
 
-/// [`std::fs::read_to_string`] within [`MAX_REPORT_FILE_BYTES`].
-pub(super) fn read_to_string_limited(path: &Path) -> std::io::Result<String> {
-    use std::io::Read as _;
-    let mut text = String::new();
-    open_limited(path)?.read_to_string(&mut text)?;
-    Ok(text)
+/// A folder file's text, read within [`MAX_REPORT_FILE_BYTES`] (an endless
+/// input is refused at the limit) as [`crate::fsio::read_text_limited`]
+/// reads every input; `what` names it in the error ("plan", "coverage").
+pub(super) fn read_text(path: &Path, what: &str) -> Result<String> {
+    crate::fsio::read_text_limited(path, MAX_REPORT_FILE_BYTES, what)
+}
+
+/// An optional file of the folder: absent, present but unusable (the
+/// error, for a note), or its text.
+pub(super) enum Optional {
+    /// No file of that name.
+    Absent,
+    /// There, but it cannot be read (too large, not UTF-8, not a file).
+    Unreadable(Error),
+    /// Its text.
+    Text(String),
+}
+
+/// Reads an optional file of the folder within `limit` bytes, telling an
+/// absent file from one that cannot be read: a note saying "missing" for a
+/// file that is there but damaged sends the user looking in the wrong place.
+pub(super) fn read_optional(path: &Path, limit: u64, what: &str) -> Optional {
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Optional::Absent,
+        _ => match crate::fsio::read_text_limited(path, limit, what) {
+            Ok(t) => Optional::Text(t),
+            Err(e) => Optional::Unreadable(e),
+        },
+    }
+}
+
+/// Whether a file's last byte is not a line end: a file cut short while
+/// written or copied (every CSV Waymark writes ends with one). `false` for
+/// an empty or unreadable file.
+pub(super) fn ends_mid_line(path: &Path) -> bool {
+    use std::io::{Read as _, Seek as _, SeekFrom};
+    let Ok(mut f) = std::fs::File::open(path) else {
+        return false;
+    };
+    if f.seek(SeekFrom::End(-1)).is_err() {
+        return false;
+    }
+    let mut last = [0u8; 1];
+    f.read_exact(&mut last).is_ok() && last[0] != b'\n'
 }
 
 /// One row of the tag table: the installer file's columns and, where the
@@ -87,6 +125,22 @@ impl TagRow {
             existing: t["existing"].as_bool().unwrap_or(false),
             ..Default::default()
         })
+    }
+}
+
+/// Where the tag table's rows come from, as the page says.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum TagSource {
+    /// The lines of a tags CSV (its file name): the folder's `tags.csv` or
+    /// the tag file simulated with.
+    File(String),
+    /// `plan.json`'s own list (no tags CSV, or one without tags).
+    Plan,
+}
+
+impl Default for TagSource {
+    fn default() -> Self {
+        TagSource::File("tags.csv".into())
     }
 }
 
@@ -197,7 +251,7 @@ pub fn merge_plan_tags(rows: &mut Vec<TagRow>, plan: &serde_json::Value) {
 /// (LineStrings) with `bound_m` (`null` where no sampled traffic drives:
 /// skipped), and `bound_without_tags_m` and `reason` when given.
 pub fn read_coverage(path: &Path) -> Result<Vec<(CoveragePiece, Option<f64>, String)>> {
-    let text = read_to_string_limited(path).map_err(|e| Error::io(path, e))?;
+    let text = read_text(path, "coverage file")?;
     let gj: geojson::GeoJson = text
         .parse()
         .map_err(|e| Error::format(path, format!("invalid GeoJSON: {e}")))?;
@@ -271,13 +325,21 @@ pub(super) fn read_inputs(
     notes: &mut Vec<String>,
 ) -> Option<(PathBuf, Option<PathBuf>)> {
     let path = dir.join("inputs.json");
-    let text = match read_to_string_limited(&path) {
-        Ok(t) => t,
-        Err(_) => {
+    // inputs.json is a few hundred bytes; a scenario's limit is ample.
+    let text = match read_optional(&path, crate::scenario::MAX_SCENARIO_BYTES, "inputs file") {
+        Optional::Text(t) => t,
+        Optional::Absent => {
             notes.push(
                 "inputs.json is missing: where the scenario was is unknown, so the map is not drawn"
                     .into(),
             );
+            return None;
+        }
+        Optional::Unreadable(e) => {
+            notes.push(format!(
+                "inputs.json cannot be read ({}): the map is not drawn",
+                without_path(&e, &path)
+            ));
             return None;
         }
     };
@@ -309,9 +371,17 @@ pub(super) fn read_inputs(
     Some((PathBuf::from(scenario), tags))
 }
 
+/// An error's message without the leading "PATH: " (for a note that names
+/// the file itself).
+pub(super) fn without_path(e: &Error, path: &Path) -> String {
+    let text = e.to_string();
+    let prefix = format!("{}: ", path.display());
+    text.strip_prefix(&prefix).unwrap_or(&text).to_string()
+}
+
 /// Reads a JSON object file.
 pub(super) fn read_json(path: &Path) -> Result<serde_json::Value> {
-    let text = read_to_string_limited(path).map_err(|e| Error::io(path, e))?;
+    let text = read_text(path, "JSON file")?;
     let v: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| Error::format(path, format!("invalid JSON: {e}")))?;
     if !v.is_object() {

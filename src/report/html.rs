@@ -1,6 +1,6 @@
 //! The HTML report: one self-contained file.
 
-use super::folder::{ExampleRun, TagRow};
+use super::folder::{ExampleRun, TagRow, TagSource};
 use super::plot::{error_plot_svg, ErrorSeries, PassKind, PlotDecor, TagMark};
 use super::sections;
 use super::{bound95, ErrorRow, PassRow, PlanProfileRow};
@@ -30,6 +30,8 @@ pub struct ReportInput {
     pub map_html: Option<String>,
     /// The tag table's rows.
     pub tags: Vec<TagRow>,
+    /// Where those rows come from.
+    pub tags_source: TagSource,
     /// An area plan's road pieces: predicted bound with and without tags (m).
     pub coverage_bounds: Vec<(f64, Option<f64>)>,
     /// An area plan's road pieces: why tags are needed there.
@@ -353,7 +355,7 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
         let _ = write!(
             html,
             "<section id=\"tags\"><h2>Tags</h2>{heights}{}</section>",
-            sections::tag_table(&input.tags)
+            sections::tag_table(&input.tags, &input.tags_source)
         );
     }
 

@@ -12,7 +12,7 @@ pub mod verdict;
 
 pub use folder::{
     example_files, example_runs, merge_plan_tags, per_run_max, read_coverage, read_tag_table,
-    ExampleRun, TagRow,
+    ExampleRun, TagRow, TagSource,
 };
 pub use html::{envelope, plots, render_html, ReportInput};
 pub use map::{
@@ -395,16 +395,29 @@ pub fn read_output_folder(
         .as_ref()
         .is_some_and(|p| p["coverage"].as_str() == Some("network"));
     // The tag table: the folder's installer file, else the tag file simulated with.
-    let scenario = crate::fsio::read_text_limited(
-        &dir.join("scenario.toml"),
+    let scenario_path = dir.join("scenario.toml");
+    let scenario = match folder::read_optional(
+        &scenario_path,
         crate::scenario::MAX_SCENARIO_BYTES,
         "scenario",
-    )
-    .ok();
+    ) {
+        folder::Optional::Text(t) => Some(t),
+        folder::Optional::Absent => {
+            notes.push("scenario.toml is missing: the map and the scenario are not shown".into());
+            None
+        }
+        folder::Optional::Unreadable(e) => {
+            notes.push(format!(
+                "scenario.toml cannot be read ({}): the map and the scenario are not shown",
+                folder::without_path(&e, &scenario_path)
+            ));
+            None
+        }
+    };
     let inputs = folder::read_inputs(dir, &mut notes);
     let local_tags = dir.join("tags.csv");
     let tags_file = if local_tags.exists() {
-        Some(local_tags)
+        Some(local_tags.clone())
     } else {
         match inputs.as_ref().and_then(|i| i.1.clone()) {
             Some(p) if p.exists() => Some(p),
@@ -423,20 +436,78 @@ pub fn read_output_folder(
             "tags.csv is missing: the tag table holds the plan's tags without payloads".into(),
         );
     }
+    // The folder's own tags.csv by name, a recorded tag file by its path.
+    let tags_label = |p: &Path| {
+        if p == local_tags.as_path() {
+            "tags.csv".to_string()
+        } else {
+            p.display().to_string()
+        }
+    };
     let mut tags = match &tags_file {
-        Some(p) => read_tag_table(p)?,
+        Some(p) => {
+            if folder::ends_mid_line(p) {
+                notes.push(format!(
+                    "{} ends in the middle of a line: it may have been cut short, so its last tag may be wrong or missing",
+                    tags_label(p)
+                ));
+            }
+            read_tag_table(p)?
+        }
         None => Vec::new(),
     };
+    let mut tags_source = match &tags_file {
+        Some(p) => TagSource::File(
+            p.file_name()
+                .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into()),
+        ),
+        None => TagSource::Plan,
+    };
     if let Some(p) = &plan {
+        let planned: Vec<&str> = p["tags"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter(|t| t["existing"].as_bool() != Some(true))
+            .filter_map(|t| t["tag_id"].as_str())
+            .collect();
+        let from_file = tags.len();
+        if let (Some(file), true) = (&tags_file, from_file > 0) {
+            // The installer file against the plan: a file cut short at a
+            // line end, or edited, lacks some of the plan's new tags.
+            let ids: std::collections::HashSet<&str> =
+                tags.iter().map(|t| t.tag_id.as_str()).collect();
+            let lacking: Vec<&str> = planned
+                .iter()
+                .copied()
+                .filter(|id| !ids.contains(id))
+                .collect();
+            if let Some(first) = lacking.first() {
+                notes.push(format!(
+                    "{} lacks {} of plan.json's {} new tag(s) (first {first}): it may have been cut short or edited; the table shows the file's tags",
+                    tags_label(file),
+                    lacking.len(),
+                    planned.len()
+                ));
+            }
+        }
         merge_plan_tags(&mut tags, p);
-        if tags.is_empty() {
-            // No tags.csv: the plan's own list.
+        if from_file == 0 {
+            if let (Some(file), false) = (&tags_file, planned.is_empty()) {
+                notes.push(format!(
+                    "{} holds no tags while plan.json plans {}: the table shows plan.json's tags, without payloads",
+                    tags_label(file),
+                    planned.len()
+                ));
+            }
+            // No tags in a file: the plan's own list.
             tags = p["tags"]
                 .as_array()
                 .into_iter()
                 .flatten()
                 .filter_map(TagRow::from_plan_tag)
                 .collect();
+            tags_source = TagSource::Plan;
         }
     }
     let coverage_path = dir.join("coverage.geojson");
@@ -502,10 +573,8 @@ pub fn read_output_folder(
                 }
             }
         }
-        (None, _) => {
-            notes.push("scenario.toml is missing: the map and the scenario are not shown".into());
-            None
-        }
+        // Noted where it was read.
+        (None, _) => None,
         _ => None,
     };
     if network_plan && coverage.is_empty() {
@@ -524,6 +593,7 @@ pub fn read_output_folder(
         scenario,
         map_html,
         tags,
+        tags_source,
         coverage_reasons: coverage.iter().map(|c| c.2.clone()).collect(),
         coverage_bounds: coverage.iter().map(|c| (c.0.value_m, c.1)).collect(),
         examples,

@@ -4,7 +4,7 @@
 //! a row whose number does not exist is left out rather than shown as a
 //! dash or NaN.
 
-use super::folder::TagRow;
+use super::folder::{TagRow, TagSource};
 use super::verdict::{
     figures_text, level, rule_text, share_text, upper_bound, Evidence, Level, Share, CONFIDENCE,
 };
@@ -678,10 +678,14 @@ fn reasons_table(groups: &[(String, usize, &str)]) -> String {
 }
 
 /// The tag table: one row per tag, in the installer file's order.
-pub fn tag_table(tags: &[TagRow]) -> String {
+pub fn tag_table(tags: &[TagRow], source: &TagSource) -> String {
     let with_reason = tags.iter().any(|t| !t.reason.is_empty());
+    let source = match source {
+        TagSource::File(name) => format!("the lines of <code>{}</code>", escape(name)),
+        TagSource::Plan => "the tags of <code>plan.json</code> (no payloads)".to_string(),
+    };
     let mut html = format!(
-        "<p>{} tag(s); the rows are the lines of <code>tags.csv</code>{}. Hover a tag on the map for its id.</p>\
+        "<p>{} tag(s); the rows are {source}{}. Hover a tag on the map for its id.</p>\
          <div class=\"scroll\"><table class=\"tags\" id=\"tag-table\"><thead><tr><th>tag_id</th><th>lat</th><th>lon</th>\
          <th>height (m)</th><th>mounting</th><th>road</th><th>chainage (m)</th><th>side</th>{}<th>payload</th></tr></thead><tbody>",
         tags.len(),
