@@ -312,3 +312,39 @@ fn a_tags_csv_cut_short_is_noted_against_the_plan() {
     );
     assert!(table(&html.unwrap()).contains("2 tag(s); the rows are the tags of <code>plan.json"));
 }
+
+#[test]
+fn a_bad_row_is_named_by_its_own_line() {
+    // The report's CSV errors read "line 3: CSV error: record 2 (line: 4,
+    // byte: ...): found record with 2 fields, but the previous record has 9
+    // fields": two line numbers, the first wrong when a comment line comes
+    // before (it counted records, not lines).
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulated(dir.path(), "sim");
+    let whole = std::fs::read_to_string(sim.join("errors.csv")).unwrap();
+    let mut lines: Vec<String> = whole.lines().map(String::from).collect();
+    let fields = lines[0].split(',').count();
+    lines.insert(1, "# a comment line".into());
+    lines[3] = "1.0,2.0".into(); // line 4 of the file
+    std::fs::write(sim.join("errors.csv"), lines.join("\n") + "\n").unwrap();
+    let (code, err, page) = report(&sim);
+    one_error_line(
+        code,
+        &err,
+        &[
+            "errors.csv",
+            &format!("line 4: 2 fields, the header has {fields}"),
+        ],
+    );
+    assert!(!err.contains("CSV error"), "{err}");
+    assert!(page.is_none());
+    // A number that is not one: also by its own line.
+    lines[3] = lines[2].replacen(',', ",x", 1);
+    std::fs::write(sim.join("errors.csv"), lines.join("\n") + "\n").unwrap();
+    let (code, err, _) = report(&sim);
+    one_error_line(
+        code,
+        &err,
+        &["errors.csv", "line 4: 'distance_m' is not a number"],
+    );
+}

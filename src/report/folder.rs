@@ -128,6 +128,30 @@ impl TagRow {
     }
 }
 
+/// A CSV reader's error on the `i`-th record (from 0) as one short phrase
+/// starting with its line: "line 4: 7 fields, the header has 13" rather
+/// than csv's "CSV error: record 3 (line: 4, byte: 131): found record with
+/// 7 fields, but the previous record has 13 fields".
+pub(super) fn record_error(e: &csv::Error, i: usize) -> String {
+    let line = |pos: Option<&csv::Position>| pos.map_or(i as u64 + 2, |p| p.line());
+    match e.kind() {
+        csv::ErrorKind::UnequalLengths {
+            pos,
+            expected_len,
+            len,
+        } => format!(
+            "line {}: {len} fields, the header has {expected_len}",
+            line(pos.as_ref())
+        ),
+        csv::ErrorKind::Utf8 { pos, err } => format!(
+            "line {}: field {} is not UTF-8 text",
+            line(pos.as_ref()),
+            err.field() + 1
+        ),
+        _ => format!("line {}: {e}", line(e.position())),
+    }
+}
+
 /// Where the tag table's rows come from, as the page says.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum TagSource {
@@ -175,7 +199,7 @@ pub fn read_tag_table(path: &Path) -> Result<Vec<TagRow>> {
     );
     let mut rows = Vec::new();
     for (i, rec) in r.records().enumerate() {
-        let rec = rec.map_err(|e| fail(format!("record {}: {e}", i + 1)))?;
+        let rec = rec.map_err(|e| fail(record_error(&e, i)))?;
         let line = rec.position().map_or(i as u64 + 2, |p| p.line());
         let text = |k: Option<usize>| k.and_then(|k| rec.get(k)).unwrap_or("").to_string();
         let number = |k: Option<usize>, name: &str| -> Result<Option<f64>> {

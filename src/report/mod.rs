@@ -70,12 +70,14 @@ pub fn read_errors_csv(path: &Path) -> Result<Vec<ErrorRow>> {
     let (ise, isn) = (col("sigma_east_m"), col("sigma_north_m"));
     let mut rows = Vec::new();
     for (i, rec) in r.records().enumerate() {
-        let rec = rec.map_err(|e| fail(format!("line {}: {e}", i + 2)))?;
+        let rec = rec.map_err(|e| fail(folder::record_error(&e, i)))?;
+        // The record's own line: comment lines and quoted line ends move it.
+        let line = rec.position().map_or(i as u64 + 2, |p| p.line());
         let num = |k: usize, name: &str| -> Result<f64> {
             rec.get(k)
                 .and_then(|v| v.trim().parse::<f64>().ok())
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| fail(format!("line {}: '{name}' is not a number", i + 2)))
+                .ok_or_else(|| fail(format!("line {line}: '{name}' is not a number")))
         };
         let opt = |k: Option<usize>| {
             k.and_then(|k| rec.get(k))
@@ -271,14 +273,15 @@ fn read_csv<T>(
     }
     let mut out = Vec::new();
     for (i, rec) in r.records().enumerate() {
-        let rec = rec.map_err(|e| fail(format!("line {}: {e}", i + 2)))?;
+        let rec = rec.map_err(|e| fail(folder::record_error(&e, i)))?;
+        let line = rec.position().map_or(i as u64 + 2, |p| p.line());
         let mut vals = Vec::with_capacity(cols.len());
         for (k, name) in cols.iter().zip(numeric) {
             let v = rec
                 .get(*k)
                 .and_then(|v| v.trim().parse::<f64>().ok())
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| fail(format!("line {}: '{name}' is not a number", i + 2)))?;
+                .ok_or_else(|| fail(format!("line {line}: '{name}' is not a number")))?;
             vals.push(Some(v));
         }
         let get = |name: &str| {
