@@ -576,8 +576,7 @@ pub fn read_output_folder(
                 }
             }
         }
-        // Noted where it was read.
-        (None, _) => None,
+        // Without the scenario or inputs.json: noted where each was read.
         _ => None,
     };
     if network_plan && coverage.is_empty() {
