@@ -510,7 +510,6 @@ pub(super) fn read_example(
     dir: &Path,
     which: &str,
     label: String,
-    notes: &mut Vec<String>,
 ) -> Result<Option<ExampleRun>> {
     let (e, p) = example_files(which);
     let (e, p) = (dir.join(e), dir.join(p));
@@ -523,7 +522,6 @@ pub(super) fn read_example(
     } else {
         Vec::new()
     };
-    let _ = notes;
     Ok(Some(ExampleRun {
         label,
         rows,

@@ -378,7 +378,7 @@ pub fn read_output_folder(
                 ("worst", worst, "the worst run"),
             ] {
                 let label = format!("run {run}, {why} ({max:.2} m)");
-                if let Some(x) = folder::read_example(dir, which, label, &mut notes)? {
+                if let Some(x) = folder::read_example(dir, which, label)? {
                     examples.push(x);
                 }
             }
