@@ -2,7 +2,7 @@
 //! every command checks its output path before working, `match --out`
 //! creates its folder like `simulate --out`, and a bad option value exits 2.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn run(args: &[&str], dir: &Path) -> Output {
@@ -195,6 +195,71 @@ fn a_network_plan_into_its_scenarios_folder_keeps_the_scenario() {
     // failed with the user's scenario gone.
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
+    let (scn, text) = area_scenario(d);
+    for _ in 0..2 {
+        let out = run(
+            &["plan", "area/scenario.toml", "--out", "area", "--runs", "0"],
+            d,
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{stderr}");
+        assert_eq!(std::fs::read_to_string(&scn).unwrap(), text);
+        assert!(d.join("area/plan.json").exists() && d.join("area/inputs.json").exists());
+    }
+}
+
+#[test]
+fn a_route_plan_over_an_area_plan_leaves_no_coverage_behind() {
+    // The area plan's coverage.geojson stayed beside a route plan written
+    // into the same folder, and `report` drew it on the route plan's page.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    area_scenario(d);
+    let out = run(
+        &["plan", "area/scenario.toml", "--out", "f", "--runs", "0"],
+        d,
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        d.join("f/coverage.geojson").exists(),
+        "the area plan writes it"
+    );
+    let out = run(
+        &["plan", &scenario("demo.toml"), "--out", "f", "--runs", "0"],
+        d,
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        !d.join("f/coverage.geojson").exists(),
+        "left beside a route plan"
+    );
+    let out = run(&["report", "f"], d);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let page = std::fs::read_to_string(d.join("f/report.html")).unwrap();
+    assert!(
+        !page.contains("class=\"coverage\""),
+        "the route plan's page draws coverage"
+    );
+}
+
+/// A small area plan's scenario at `area/scenario.toml` (any walk on
+/// tests/data/small.osm) and its text.
+fn area_scenario(d: &Path) -> (PathBuf, String) {
     std::fs::create_dir(d.join("area")).unwrap();
     let map = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/small.osm");
     let text = format!(
@@ -209,14 +274,5 @@ fn a_network_plan_into_its_scenarios_folder_keeps_the_scenario() {
     );
     let scn = d.join("area/scenario.toml");
     std::fs::write(&scn, &text).unwrap();
-    for _ in 0..2 {
-        let out = run(
-            &["plan", "area/scenario.toml", "--out", "area", "--runs", "0"],
-            d,
-        );
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(0), "{stderr}");
-        assert_eq!(std::fs::read_to_string(&scn).unwrap(), text);
-        assert!(d.join("area/plan.json").exists() && d.join("area/inputs.json").exists());
-    }
+    (scn, text)
 }

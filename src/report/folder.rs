@@ -506,11 +506,7 @@ pub fn example_files(which: &str) -> (String, String) {
 }
 
 /// Reads an example run's files when present.
-pub(super) fn read_example(
-    dir: &Path,
-    which: &str,
-    label: String,
-) -> Result<Option<ExampleRun>> {
+pub(super) fn read_example(dir: &Path, which: &str, label: String) -> Result<Option<ExampleRun>> {
     let (e, p) = example_files(which);
     let (e, p) = (dir.join(e), dir.join(p));
     if !e.exists() {

@@ -93,6 +93,9 @@ pub(super) const PLAN_OUTPUTS: &[&str] = &[
     "tags.gpx",
     "plan.json",
     "profile.csv",
+    // An area plan's; a route plan written over one must not leave it for
+    // the report to draw as its own.
+    "coverage.geojson",
 ];
 
 /// Before a command writes its files into `dir` (made if missing): removes
