@@ -19,7 +19,8 @@ use waymark::workflow::{
     waymark simulate scenarios/helsinki-route-dr.toml --json -q --out /tmp/hel\n\n\
     Output: results on stdout (one JSON object with --json); progress, notes and \
     logs (-v) on stderr; progress bars only when stderr is a terminal.\n\
-    Exit codes: 0 success, 1 bad input or failure, 2 bad command line.")]
+    Exit codes: 0 success, 1 bad input or failure, 2 bad command line, \
+    130 stopped by a signal (SIGINT, SIGTERM; the file being written is removed).")]
 struct Cli {
     /// Print nothing but errors (and the --json object): no progress, notes or text summaries.
     #[arg(short, long, global = true, conflicts_with = "verbose")]
@@ -169,7 +170,7 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Plans RFID tags: along the scenario's route (planner.coverage = "routes", the default: the fewest tags keeping the predicted 95 % horizontal error within requirement_m with tolerate_missed_reads consecutive tags missed), or for the whole map (coverage = "network": every drivable road in each permitted direction, on any path through the network; reports the reach between fixes, a lower bound on the tag count and a walk check; validated on sampled paths). Validates by Monte Carlo; writes tags.csv (header first), tags.meta.json, tags.geojson/.kml/.gpx, plan.json, profile.csv (routes) and, for `waymark report`, scenario.toml and inputs.json.
+    /// Plans RFID tags: along the scenario's route (planner.coverage = "routes", the default: the fewest tags keeping the predicted 95 % horizontal error within requirement_m with tolerate_missed_reads consecutive tags missed), or for the whole map (coverage = "network": every drivable road in each permitted direction, for the traffic planner.traffic names: "trips", the default, chains of trips between destinations, stated as "with confidence 1 − β a new chain breaks the requirement with probability at most ε" from fresh sampled chains; or "any_walk", every path the network allows; reports the reach between fixes and a lower bound on the tag count; validated by simulating sampled chains). Validates by Monte Carlo; writes tags.csv (header first), tags.meta.json, tags.geojson/.kml/.gpx, plan.json, profile.csv (routes) and, for `waymark report`, scenario.toml and inputs.json.
     #[command(
         after_help = "Examples:\n  waymark plan scenarios/helsinki-plan-tactical.toml --out /tmp/plan\n  \
         waymark plan drive.toml --runs 20 --seed 3 --out /tmp/drive-plan\n  \
@@ -214,7 +215,7 @@ enum NetworkCommand {
         waymark network inspect map.osm --defects defects.geojson"
     )]
     Inspect {
-        /// The map: .osm.pbf, .osm (XML) or .geojson (format follows the content).
+        /// The map: .osm.pbf, .osm (XML), .geojson (format follows the content) or .shp (with its .dbf).
         map: PathBuf,
         /// Print one JSON object instead of text.
         #[arg(long)]
@@ -318,6 +319,18 @@ macro_rules! note {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // clap checks `conflicts_with` between global flags only when both sit
+    // on the same side of the subcommand (`waymark -q simulate ... -v`
+    // passed): checked again here, with clap's own message and exit 2.
+    if cli.quiet && cli.verbose > 0 {
+        use clap::CommandFactory as _;
+        Cli::command()
+            .error(
+                clap::error::ErrorKind::ArgumentConflict,
+                "the argument '--quiet' cannot be used with '--verbose'",
+            )
+            .exit();
+    }
     init_logging(cli.verbose);
     // SIGINT, SIGTERM: remove the output file being written (its hidden
     // temporary), then stop with 130.

@@ -87,6 +87,10 @@ fn bad_command_lines_exit_2() {
         &["frobnicate"],
         &["simulate", "x.toml", "--runs", "many"],
         &["-q", "-v", "network", "inspect", "x.osm"],
+        // Either side of the subcommand: clap alone passed these (exit 1
+        // here, for the missing map, or 0 with INFO logs on a real one).
+        &["-q", "network", "inspect", "x.osm", "-v"],
+        &["-v", "network", "inspect", "x.osm", "-q"],
     ] {
         let o = run(args, dir.path());
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
