@@ -6,7 +6,7 @@
 //! the drive's length and the kept rows in `sim::limits`; a network plan's
 //! candidate sites once its map is loaded ([`check_network_candidates`]).
 
-use super::check::Check;
+use super::check::{short_number, Check};
 use super::schema::ScenarioFile;
 use super::Scenario;
 use crate::error::{Error, Result};
@@ -138,8 +138,9 @@ pub(super) fn check(c: &Check, file: &ScenarioFile) -> Result<()> {
         // NaN and infinity are left to the finite-number checks.
         if x.is_finite() && x.abs() > max {
             return Err(c.err(format!(
-                "{field} = {x} is beyond the limit of ±{max} (no sensor errs this much; \
-                 the navigation would diverge)"
+                "{field} = {} is beyond the limit of ±{max} (no sensor errs this much; \
+                 the navigation would diverge)",
+                short_number(x)
             )));
         }
     }

@@ -2,7 +2,7 @@
 //! is checked (finite, in range), every default applied and every unit
 //! converted to SI here, once; every error names the file and the field.
 
-use super::check::Check;
+use super::check::{short_number, shorten_numbers, Check};
 use super::planner_section::planner;
 use super::route::{elevation, route};
 use super::schema::*;
@@ -25,7 +25,7 @@ const MAX_ODOMETER_NOISE_MPS: f64 = 10.0;
 /// where the error is about a value, the field holding it (e.g.
 /// `line 12: planner.coverage "everything" is not one of routes, network`).
 fn toml_error(text: &str, e: &toml::de::Error) -> String {
-    let msg = e.message().replace('\n', " ");
+    let msg = shorten_numbers(&e.message().replace('\n', " "));
     let msg = msg.trim();
     let Some(span) = e.span() else {
         return msg.to_string();
@@ -118,7 +118,7 @@ impl Scenario {
                 Ok(Some(doc)) => {
                     use serde::Deserialize;
                     ScenarioFile::deserialize(doc)
-                        .map_err(|e| Error::scenario(path, e.to_string()))?
+                        .map_err(|e| Error::scenario(path, shorten_numbers(&e.to_string())))?
                 }
                 _ => file,
             },
@@ -666,7 +666,8 @@ fn external_fix(c: &Check, x: &ExternalFixSection, dt: f64) -> Result<ExternalFi
     if let Some(b) = x.fading_b {
         if !(b > 0.0 && b < 1.0) {
             return Err(c.err(format!(
-                "external_fix.fading_b must be between 0 and 1 (exclusive), got {b}"
+                "external_fix.fading_b must be between 0 and 1 (exclusive), got {}",
+                short_number(b)
             )));
         }
     }

@@ -1,0 +1,108 @@
+//! Extreme values of a scenario's physical terms as a user types them
+//! (1e308, 1e-300, a duplicated id): each is refused through the real
+//! binary with one error line naming the file, the field and the limit,
+//! exit code 1, and no output folder (the companion of
+//! `tests/cli_reliability.rs`, whose helpers these mirror).
+
+mod common;
+
+use common::run;
+use std::path::Path;
+use std::process::Output;
+
+/// Exit 1 with one error line holding every one of `needles`, and no long
+/// run of digits (a number printed in full).
+fn fails_with(out: &Output, needles: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("waymark: error: "), "{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "{n:?} not in {stderr}");
+    }
+    assert!(!stderr.contains("0000000000000000000000000"), "{stderr}");
+    stderr
+}
+
+/// Exit 0, with the summary's figures finite numbers (JSON writes NaN as
+/// null).
+fn succeeds_finite(out: &Output) {
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for k in [
+        "max_horizontal_error_m",
+        "rms_horizontal_error_m",
+        "p95_horizontal_error_m",
+    ] {
+        assert!(v[k].as_f64().is_some_and(f64::is_finite), "{k} = {}", v[k]);
+    }
+    for x in v["final_error_enu_m"].as_array().unwrap() {
+        assert!(
+            x.as_f64().is_some_and(f64::is_finite),
+            "final_error_enu_m holds {x}"
+        );
+    }
+}
+
+/// A 110 s motion drive (to 36 km/h, then cruise) navigated by `mode`,
+/// starting at `heading_deg`, with `extra` appended; written to `dir/name`.
+fn drive(dir: &Path, name: &str, mode: &str, heading_deg: &str, extra: &str) -> String {
+    let text = format!(
+        "name = \"x\"\n[[route]]\n\
+         start = {{ lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = {heading_deg} }}\n\
+         motion = [ {{ kind = \"accelerate\", to_kmh = 36 }}, {{ kind = \"cruise\", duration_s = 100 }} ]\n\
+         [navigator]\nmode = \"{mode}\"\n{extra}\n"
+    );
+    std::fs::write(dir.join(name), text).unwrap();
+    name.to_string()
+}
+
+fn simulate(dir: &Path, scn: &str) -> Output {
+    run(&["simulate", scn, "--out", "o", "--json", "-q"], dir)
+}
+
+#[test]
+fn serde_type_errors_print_huge_numbers_short() {
+    // seed = 1e308 (an integer field) printed serde's "invalid type:
+    // floating point `1000…000`" with all 309 digits.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (line, needle) in [
+        ("seed = 1e308", "1e308"),
+        ("seed = -1e308", "-1e308"),
+        ("seed = 1e-300", "1e-300"),
+    ] {
+        let scn = drive(d, "s.toml", "dead_reckoning", "45", "");
+        let text = std::fs::read_to_string(d.join(&scn)).unwrap();
+        std::fs::write(
+            d.join(&scn),
+            text.replacen("name = \"x\"\n", &format!("name = \"x\"\n{line}\n"), 1),
+        )
+        .unwrap();
+        let e = fails_with(&simulate(d, &scn), &["s.toml", "seed", needle]);
+        assert!(e.len() < 200, "{e}");
+    }
+    // An ordinary seed still runs.
+    let scn = drive(d, "s.toml", "dead_reckoning", "45", "");
+    let text = std::fs::read_to_string(d.join(&scn)).unwrap();
+    std::fs::write(
+        d.join(&scn),
+        text.replacen("name = \"x\"\n", "name = \"x\"\nseed = 7\n", 1),
+    )
+    .unwrap();
+    succeeds_finite(&simulate(d, &scn));
+    // A limit's own message prints the refused value short as well.
+    let scn = drive(
+        d,
+        "n.toml",
+        "dead_reckoning",
+        "45",
+        "[odometer]\nnoise_mps = 1e308",
+    );
+    fails_with(&simulate(d, &scn), &["odometer.noise_mps", "got 1e308"]);
+}
