@@ -66,6 +66,69 @@ fn simulate(dir: &Path, scn: &str) -> Output {
     run(&["simulate", scn, "--out", "o", "--json", "-q"], dir)
 }
 
+/// The bundled Helsinki map-matching scenario (a 2.8 km drive there and
+/// back) with `lines` added to its `[map]` section and its map path made
+/// absolute.
+fn map_matching(dir: &Path, name: &str, lines: &str) -> String {
+    let text = std::fs::read_to_string(common::repo("scenarios/helsinki-route-map-matching.toml"))
+        .unwrap();
+    let map = common::repo("maps/helsinki.osm.pbf");
+    let text = text.replace(
+        "path = \"../maps/helsinki.osm.pbf\"\n",
+        &format!("path = \"{}\"\n{lines}\n", map.display()),
+    );
+    std::fs::write(dir.join(name), text).unwrap();
+    name.to_string()
+}
+
+#[test]
+fn an_absurd_map_geometry_error_is_refused_at_its_field() {
+    // [map] geometry_error_m = 1e308 was accepted: the map error field
+    // overflowed, no matched point was fed (map_matching.fed = 0) and the
+    // summary looked like a good run, exit 0. A correlation length of 1e308
+    // gave map_matching.max_across_error_m = 0.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (lines, needles) in [
+        (
+            "geometry_error_m = 1e308",
+            &["map.geometry_error_m", "1e308", "100"][..],
+        ),
+        (
+            "geometry_error_m = 1000",
+            &["map.geometry_error_m", "between 0 and 100"][..],
+        ),
+        (
+            "geometry_error_correlation_m = 1e308",
+            &["map.geometry_error_correlation_m", "1e308", "1000000"][..],
+        ),
+        (
+            "geometry_error_m = 50\ngeometry_error_correlation_m = 20",
+            &[
+                "map.geometry_error_m = 50",
+                "map.geometry_error_correlation_m = 20",
+            ][..],
+        ),
+    ] {
+        let scn = map_matching(d, "map.toml", lines);
+        let out = simulate(d, &scn);
+        let mut n = vec!["map.toml"];
+        n.extend_from_slice(needles);
+        fails_with(&out, &n);
+        assert!(!d.join("o").exists());
+    }
+    // At the limits the run is made and its map matching fed points.
+    let scn = map_matching(
+        d,
+        "map.toml",
+        "geometry_error_m = 100\ngeometry_error_correlation_m = 400",
+    );
+    let out = simulate(d, &scn);
+    succeeds_finite(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["map_matching"]["fed"].as_u64().unwrap() > 0, "{v}");
+}
+
 #[test]
 fn serde_type_errors_print_huge_numbers_short() {
     // seed = 1e308 (an integer field) printed serde's "invalid type:

@@ -51,6 +51,29 @@ pub const MAX_ACCEL_ERROR_UG: f64 = 1e7;
 /// Largest gyro angle random walk (°/√h): 60 °/√h is 1 °/√s.
 pub const MAX_GYRO_ARW_DPRH: f64 = 3600.0;
 
+/// Largest `[map] geometry_error_m` (m, 1σ per horizontal axis of the
+/// map's road geometry). OpenStreetMap roads are about 6 m off on average
+/// (Haklay 2010: the default σ of 4.8 m), its worst areas tens of metres.
+/// At 100 m a road is drawn on the next street of a city block (on the
+/// Helsinki map-matching drive 90 % of the matched points were then on a
+/// wrong road): beyond it the model is no longer a map with errors but a
+/// different map. At 1e308 the error field overflowed and map matching fed
+/// no point, silently.
+pub const MAX_MAP_GEOMETRY_ERROR_M: f64 = 100.0;
+
+/// Longest `[map] geometry_error_correlation_m` (m): 1000 km, more than any
+/// map Waymark loads spans, so at this length the error is already one
+/// rigid shift of the whole map. At 1e308 the field's frequencies
+/// underflowed and map matching reported an across-road error of 0.
+pub const MAX_MAP_ERROR_CORRELATION_M: f64 = 1e6;
+
+/// Largest ratio of `geometry_error_m` to `geometry_error_correlation_m`.
+/// The error field's gradient has an RMS of σ/L per axis and peaks at about
+/// four times that over a map; where it reaches 1 the erroneous map folds
+/// roads over each other, and `sim::map_error`'s inversion (a fixed-point
+/// iteration) no longer converges. OpenStreetMap-like maps are at 0.024.
+pub const MAX_MAP_ERROR_GRADIENT: f64 = 0.25;
+
 /// Most candidate sites of a network plan (`coverage = "network"`): the
 /// directed road pieces of the map, each cut every
 /// `planner.candidate_spacing_m` (at least one site each). At the default
@@ -173,4 +196,29 @@ pub(super) fn check(c: &Check, file: &ScenarioFile) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// `[map] geometry_error_m` and `geometry_error_correlation_m` (σ, L):
+/// each within its limit, and σ at most [`MAX_MAP_ERROR_GRADIENT`] × L.
+pub(super) fn map_error(c: &Check, sigma: f64, corr: f64) -> Result<(f64, f64)> {
+    let sigma = c.range("map.geometry_error_m", sigma, 0.0, MAX_MAP_GEOMETRY_ERROR_M)?;
+    let corr = c.positive("map.geometry_error_correlation_m", corr)?;
+    if corr > MAX_MAP_ERROR_CORRELATION_M {
+        return Err(c.err(format!(
+            "map.geometry_error_correlation_m = {} is above the limit of \
+             {MAX_MAP_ERROR_CORRELATION_M} m (longer than any map: a rigid shift already)",
+            short_number(corr)
+        )));
+    }
+    if sigma > MAX_MAP_ERROR_GRADIENT * corr {
+        return Err(c.err(format!(
+            "map.geometry_error_m = {} is more than a quarter of \
+             map.geometry_error_correlation_m = {}: an error changing that fast folds \
+             roads over each other; use a correlation length of at least {} m",
+            short_number(sigma),
+            short_number(corr),
+            short_number(sigma / MAX_MAP_ERROR_GRADIENT)
+        )));
+    }
+    Ok((sigma, corr))
 }

@@ -610,9 +610,10 @@ fn map_error(c: &Check, m: Option<&MapSection>) -> Result<MapErrorModel> {
     let corr = m
         .and_then(|m| m.geometry_error_correlation_m)
         .unwrap_or(d.correlation_m);
+    let (sigma_m, correlation_m) = super::limits::map_error(c, sigma, corr)?;
     Ok(MapErrorModel {
-        sigma_m: c.non_negative("map.geometry_error_m", sigma)?,
-        correlation_m: c.positive("map.geometry_error_correlation_m", corr)?,
+        sigma_m,
+        correlation_m,
     })
 }
 
