@@ -130,6 +130,26 @@ fn an_absurd_map_geometry_error_is_refused_at_its_field() {
 }
 
 #[test]
+fn a_start_heading_beyond_a_turn_is_refused() {
+    // route[0].start.heading_deg = 1e308 was accepted (its sine and cosine
+    // are of an arbitrary angle), exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for h in ["1e308", "361", "-400"] {
+        let scn = drive(d, "h.toml", "dead_reckoning", h, "");
+        fails_with(
+            &simulate(d, &scn),
+            &["h.toml", "route[0].start.heading_deg", "-360", "360"],
+        );
+        assert!(!d.join("o").exists());
+    }
+    for h in ["-360", "360", "359.9"] {
+        let scn = drive(d, "h.toml", "dead_reckoning", h, "");
+        succeeds_finite(&simulate(d, &scn));
+    }
+}
+
+#[test]
 fn serde_type_errors_print_huge_numbers_short() {
     // seed = 1e308 (an integer field) printed serde's "invalid type:
     // floating point `1000…000`" with all 309 digits.

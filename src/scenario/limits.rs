@@ -74,6 +74,10 @@ pub const MAX_MAP_ERROR_CORRELATION_M: f64 = 1e6;
 /// iteration) no longer converges. OpenStreetMap-like maps are at 0.024.
 pub const MAX_MAP_ERROR_GRADIENT: f64 = 0.25;
 
+/// Largest |`route[0].start.heading_deg`|: one turn either way; a heading
+/// beyond it is a typo (1e308 was taken, its sine and cosine arbitrary).
+pub const MAX_HEADING_DEG: f64 = 360.0;
+
 /// Most candidate sites of a network plan (`coverage = "network"`): the
 /// directed road pieces of the map, each cut every
 /// `planner.candidate_spacing_m` (at least one site each). At the default
