@@ -150,6 +150,33 @@ fn a_start_heading_beyond_a_turn_is_refused() {
 }
 
 #[test]
+fn an_absurd_tag_survey_error_is_refused() {
+    // [[tag]] survey_error_m = [1e308, 1e308] was accepted: the tag's stored
+    // place was infinite, exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let tag = |e: &str| {
+        format!(
+            "[aiding]\nodometer = true\nrfid = true\n\
+             [[tag]]\nat_s = 20\n[[tag]]\nat_s = 50\nsurvey_error_m = {e}"
+        )
+    };
+    for (e, field) in [
+        ("[1e308, 1e308]", "tag[1].survey_error_m[0]"),
+        ("[0, -1e308]", "tag[1].survey_error_m[1]"),
+        ("[100001, 0]", "tag[1].survey_error_m[0]"),
+    ] {
+        let scn = drive(d, "t.toml", "integrated", "45", &tag(e));
+        fails_with(&simulate(d, &scn), &["t.toml", field, "100000"]);
+        assert!(!d.join("o").exists());
+    }
+    // A rogue tag at the limit (100 km away on each axis) is a number the
+    // filter's gate rejects.
+    let scn = drive(d, "t.toml", "integrated", "45", &tag("[-100000, 100000]"));
+    succeeds_finite(&simulate(d, &scn));
+}
+
+#[test]
 fn serde_type_errors_print_huge_numbers_short() {
     // seed = 1e308 (an integer field) printed serde's "invalid type:
     // floating point `1000…000`" with all 309 digits.

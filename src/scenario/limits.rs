@@ -78,6 +78,15 @@ pub const MAX_MAP_ERROR_GRADIENT: f64 = 0.25;
 /// beyond it is a typo (1e308 was taken, its sine and cosine arbitrary).
 pub const MAX_HEADING_DEG: f64 = 360.0;
 
+/// Largest |`[[tag]] survey_error_m`| per axis (m): the offset of a tag's
+/// stored place from its physical one, a misplaced or rogue tag (the
+/// bundled `misplaced-tag.toml` has one 2.6 km away). 100 km is a tag of
+/// another town; the offset is applied with the local radii of curvature,
+/// which stays accurate to a fraction of a per cent there, and the filter's
+/// gate rejects such a tag as it does one 2.6 km away. At 1e308 the stored
+/// place was infinite.
+pub const MAX_SURVEY_ERROR_M: f64 = 1e5;
+
 /// Most candidate sites of a network plan (`coverage = "network"`): the
 /// directed road pieces of the map, each cut every
 /// `planner.candidate_spacing_m` (at least one site each). At the default

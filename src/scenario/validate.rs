@@ -3,6 +3,7 @@
 //! converted to SI here, once; every error names the file and the field.
 
 use super::check::{short_number, shorten_numbers, Check};
+use super::limits::MAX_SURVEY_ERROR_M;
 use super::planner_section::planner;
 use super::route::{elevation, route};
 use super::schema::*;
@@ -639,7 +640,10 @@ fn scenario_tags(c: &Check, specs: &[TagSpec]) -> Result<Vec<ScenarioTag>> {
             c.range(&f("height_m"), x, -1000.0, 10_000.0)?;
         }
         let survey_error_m = t.survey_error_m.unwrap_or([0.0, 0.0]);
-        c.finite_all(&f("survey_error_m"), &survey_error_m)?;
+        for (k, x) in survey_error_m.iter().enumerate() {
+            let s = MAX_SURVEY_ERROR_M;
+            c.range(&f(&format!("survey_error_m[{k}]")), *x, -s, s)?;
+        }
         tags.push(ScenarioTag {
             id: t.id.clone().unwrap_or_else(|| format!("tag-{i}")),
             place,
