@@ -177,6 +177,46 @@ fn an_absurd_tag_survey_error_is_refused() {
 }
 
 #[test]
+fn absurd_barometer_errors_are_refused_not_turned_into_divergence() {
+    // [baro] initial_bias_m = 1e308 and bias_drift_m = 1e308 were accepted
+    // (3-D dead reckoning ended 6e306 m off in height, exit 0); noise_m =
+    // 1e308 made the run diverge and the error blamed [imu].
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (key, value) in [
+        ("initial_bias_m", "1e308"),
+        ("initial_bias_m", "-1e308"),
+        ("bias_drift_m", "1e308"),
+        ("noise_m", "1e308"),
+        ("noise_m", "1501"),
+    ] {
+        let scn = drive(
+            d,
+            "b.toml",
+            "dead_reckoning_3d",
+            "45",
+            &format!("[baro]\n{key} = {value}"),
+        );
+        let field = format!("baro.{key}");
+        fails_with(&simulate(d, &scn), &["b.toml", &field, "1500"]);
+        assert!(!d.join("o").exists());
+    }
+    // At the limits every navigator that reads the barometer stays finite.
+    let baro = "[baro]\ninitial_bias_m = -1500\nnoise_m = 1500\nbias_drift_m = 1500";
+    for (mode, extra) in [
+        ("dead_reckoning_3d", String::new()),
+        ("free_inertial", "vertical_channel = \"baro\"".to_string()),
+        (
+            "integrated",
+            "[aiding]\nodometer = true\nbaro = true".to_string(),
+        ),
+    ] {
+        let scn = drive(d, "b.toml", mode, "45", &format!("{extra}\n{baro}"));
+        succeeds_finite(&simulate(d, &scn));
+    }
+}
+
+#[test]
 fn serde_type_errors_print_huge_numbers_short() {
     // seed = 1e308 (an integer field) printed serde's "invalid type:
     // floating point `1000…000`" with all 309 digits.

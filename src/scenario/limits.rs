@@ -87,6 +87,15 @@ pub const MAX_HEADING_DEG: f64 = 360.0;
 /// place was infinite.
 pub const MAX_SURVEY_ERROR_M: f64 = 1e5;
 
+/// Largest barometer error term (m: |`[baro] initial_bias_m`|,
+/// `bias_drift_m`, `noise_m`). An uncalibrated barometric altimeter is off
+/// by the day's sea-level pressure: the recorded extremes (870 and
+/// 1084 hPa) are 1190 m and 590 m from the standard 1013.25 hPa at 8.3 m per
+/// hPa, so 1500 m bounds any real barometer. At this limit every navigator
+/// that reads the barometer stays finite (tested); at 1e308 its noise made
+/// the run diverge and its bias and drift put the height 6e306 m off.
+pub const MAX_BARO_ERROR_M: f64 = 1500.0;
+
 /// Most candidate sites of a network plan (`coverage = "network"`): the
 /// directed road pieces of the map, each cut every
 /// `planner.candidate_spacing_m` (at least one site each). At the default

@@ -3,7 +3,7 @@
 //! converted to SI here, once; every error names the file and the field.
 
 use super::check::{short_number, shorten_numbers, Check};
-use super::limits::MAX_SURVEY_ERROR_M;
+use super::limits::{MAX_BARO_ERROR_M, MAX_SURVEY_ERROR_M};
 use super::planner_section::planner;
 use super::route::{elevation, route};
 use super::schema::*;
@@ -298,9 +298,14 @@ impl Scenario {
         let b = &file.baro;
         let baro = BarometerModel {
             rate_hz: c.range("baro.rate_hz", b.rate_hz, 0.01, rate)?,
-            noise_m: c.non_negative("baro.noise_m", b.noise_m)?,
-            initial_bias_m: c.finite("baro.initial_bias_m", b.initial_bias_m)?,
-            bias_drift_m: c.non_negative("baro.bias_drift_m", b.bias_drift_m)?,
+            noise_m: c.range("baro.noise_m", b.noise_m, 0.0, MAX_BARO_ERROR_M)?,
+            initial_bias_m: c.range(
+                "baro.initial_bias_m",
+                b.initial_bias_m,
+                -MAX_BARO_ERROR_M,
+                MAX_BARO_ERROR_M,
+            )?,
+            bias_drift_m: c.range("baro.bias_drift_m", b.bias_drift_m, 0.0, MAX_BARO_ERROR_M)?,
             bias_tau_s: c.positive("baro.bias_tau_s", b.bias_tau_s)?,
             scale_factor_error: c.range(
                 "baro.scale_factor_error",
