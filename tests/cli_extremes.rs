@@ -217,6 +217,61 @@ fn absurd_barometer_errors_are_refused_not_turned_into_divergence() {
 }
 
 #[test]
+fn an_absurd_odometer_pulse_length_is_refused() {
+    // odometer.pulse_m = 1e308 was accepted: every pulse count was 0, so
+    // dead reckoning never moved (its error was the whole drive), exit 0;
+    // 1e-300 was accepted as well, as were the same for [diff_odometer].
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (section, mode, value) in [
+        ("odometer", "dead_reckoning", "1e308"),
+        ("odometer", "dead_reckoning", "1e-300"),
+        ("odometer", "dead_reckoning", "5.5"),
+        ("odometer", "dead_reckoning", "-0.02"),
+        ("diff_odometer", "dead_reckoning_3d", "1e308"),
+        ("diff_odometer", "dead_reckoning_3d", "1e-300"),
+    ] {
+        let scn = drive(
+            d,
+            "p.toml",
+            mode,
+            "45",
+            &format!("[{section}]\npulse_m = {value}"),
+        );
+        let field = format!("{section}.pulse_m");
+        fails_with(&simulate(d, &scn), &["p.toml", &field, "0.0001", "5"]);
+        assert!(!d.join("o").exists());
+    }
+    // 0 (no quantization) and the ends of the range are taken, and dead
+    // reckoning still follows the 1050 m drive: its error at most 50 m above
+    // that without quantization.
+    for (section, mode) in [
+        ("odometer", "dead_reckoning"),
+        ("diff_odometer", "dead_reckoning_3d"),
+    ] {
+        let mut base = None;
+        for value in ["0", "0.0001", "5"] {
+            let scn = drive(
+                d,
+                "p.toml",
+                mode,
+                "45",
+                &format!("[{section}]\npulse_m = {value}"),
+            );
+            let out = simulate(d, &scn);
+            succeeds_finite(&out);
+            let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            let max = v["max_horizontal_error_m"].as_f64().unwrap();
+            let base = *base.get_or_insert(max);
+            assert!(
+                max < base + 50.0,
+                "{section}.pulse_m = {value}: {max} m, {base} m unquantized"
+            );
+        }
+    }
+}
+
+#[test]
 fn serde_type_errors_print_huge_numbers_short() {
     // seed = 1e308 (an integer field) printed serde's "invalid type:
     // floating point `1000…000`" with all 309 digits.

@@ -96,6 +96,17 @@ pub const MAX_SURVEY_ERROR_M: f64 = 1e5;
 /// the run diverge and its bias and drift put the height 6e306 m off.
 pub const MAX_BARO_ERROR_M: f64 = 1500.0;
 
+/// Shortest nonzero odometer pulse (`odometer.pulse_m`,
+/// `diff_odometer.pulse_m`; m): 0.1 mm, 20,000 pulses per revolution of a
+/// car's 2 m tyre, finer than wheel encoders resolve.
+pub const MIN_PULSE_M: f64 = 1e-4;
+
+/// Longest odometer pulse (m): one pulse per revolution of a 1.6 m tyre
+/// (a car's tyre is about 2 m round, a truck's 3.3 m), the coarsest wheel
+/// sensor. At 1e308 no pulse was ever counted and dead reckoning stood
+/// still, silently.
+pub const MAX_PULSE_M: f64 = 5.0;
+
 /// Most candidate sites of a network plan (`coverage = "network"`): the
 /// directed road pieces of the map, each cut every
 /// `planner.candidate_spacing_m` (at least one site each). At the default
@@ -218,6 +229,20 @@ pub(super) fn check(c: &Check, file: &ScenarioFile) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A pulse length (`field`, m): 0 (no quantization) or between
+/// [`MIN_PULSE_M`] and [`MAX_PULSE_M`].
+pub(super) fn pulse(c: &Check, field: &str, x: f64) -> Result<f64> {
+    if x == 0.0 || (MIN_PULSE_M..=MAX_PULSE_M).contains(&x) {
+        Ok(x)
+    } else {
+        Err(c.err(format!(
+            "{field} must be 0 (no quantization) or between {MIN_PULSE_M} and {MAX_PULSE_M} m \
+             (the distance per wheel pulse), got {}",
+            short_number(x)
+        )))
+    }
 }
 
 /// `[map] geometry_error_m` and `geometry_error_correlation_m` (σ, L):

@@ -218,7 +218,7 @@ impl Scenario {
             0.0,
             MAX_ODOMETER_NOISE_MPS,
         )?;
-        c.non_negative("odometer.pulse_m", o.pulse_m)?;
+        super::limits::pulse(&c, "odometer.pulse_m", o.pulse_m)?;
         let slip = match o.slip {
             Some(sl) => Some(WheelSlip {
                 rate_per_km: c.non_negative("odometer.slip.rate_per_km", sl.rate_per_km)?,
@@ -285,7 +285,7 @@ impl Scenario {
             0.0,
             MAX_ODOMETER_NOISE_MPS,
         )?;
-        c.non_negative("diff_odometer.pulse_m", d.pulse_m)?;
+        super::limits::pulse(&c, "diff_odometer.pulse_m", d.pulse_m)?;
         let diff_odometer = DiffOdometerModel {
             track_width_m: track,
             track_width_error_m: d.track_width_error_m,
