@@ -272,6 +272,32 @@ fn an_absurd_odometer_pulse_length_is_refused() {
 }
 
 #[test]
+fn duplicate_tag_ids_are_refused_naming_both_entries() {
+    // Two [[tag]] entries with one id were accepted (the tag CSV reader
+    // refuses them), and their fixes and passes could not be told apart.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (tags, needles) in [
+        (
+            "[[tag]]\nid = \"a\"\nat_s = 20\n[[tag]]\nat_s = 30\n[[tag]]\nid = \"a\"\nat_s = 50",
+            &["tag[2].id", "\"a\"", "tag[0]"][..],
+        ),
+        // An entry without id is tag-N: an explicit id may not take it.
+        (
+            "[[tag]]\nid = \"tag-1\"\nat_s = 20\n[[tag]]\nat_s = 50",
+            &["tag[1]", "\"tag-1\"", "tag[0]"][..],
+        ),
+    ] {
+        let extra = format!("[aiding]\nodometer = true\nrfid = true\n{tags}");
+        let scn = drive(d, "d.toml", "integrated", "45", &extra);
+        let mut n = vec!["d.toml"];
+        n.extend_from_slice(needles);
+        fails_with(&simulate(d, &scn), &n);
+        assert!(!d.join("o").exists());
+    }
+}
+
+#[test]
 fn serde_type_errors_print_huge_numbers_short() {
     // seed = 1e308 (an integer field) printed serde's "invalid type:
     // floating point `1000…000`" with all 309 digits.

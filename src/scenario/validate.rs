@@ -657,7 +657,27 @@ fn scenario_tags(c: &Check, specs: &[TagSpec]) -> Result<Vec<ScenarioTag>> {
             survey_error_m,
         });
     }
+    unique_ids(c, specs, &tags)?;
     Ok(tags)
+}
+
+/// No two `[[tag]]` entries share an id (as in a tag CSV file): an entry
+/// without one is `tag-N`, which an explicit id may not take either.
+fn unique_ids(c: &Check, specs: &[TagSpec], tags: &[ScenarioTag]) -> Result<()> {
+    let mut seen = std::collections::HashMap::with_capacity(tags.len());
+    for (i, t) in tags.iter().enumerate() {
+        if let Some(j) = seen.insert(t.id.as_str(), i) {
+            let entry = match specs[i].id {
+                Some(_) => format!("tag[{i}].id \"{}\"", t.id),
+                None => format!("tag[{i}] (without id, so \"{}\")", t.id),
+            };
+            return Err(c.err(format!(
+                "{entry} repeats the id of tag[{j}]: each tag needs its own id \
+                 (an entry without id is tag-N)"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// `[external_fix]`, checked, with its defaults.
