@@ -4,6 +4,42 @@
 use crate::error::{Error, Result};
 use std::path::Path;
 
+/// `x` as the error line prints it: as written for ordinary numbers, in
+/// scientific notation when Rust's full decimal form would be long
+/// (`1e308`, not 309 digits; `1e-300`, not 300 zeros).
+pub(crate) fn short_number(x: f64) -> String {
+    let a = x.abs();
+    if x.is_finite() && x != 0.0 && !(1e-6..1e16).contains(&a) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// `msg` with every number of more than 24 digits (longer than any integer) (as serde writes a float
+/// it refuses, e.g. `invalid type: floating point `1000…000``) replaced by
+/// [`short_number`] of it.
+pub(crate) fn shorten_numbers(msg: &str) -> String {
+    let mut out = String::with_capacity(msg.len().min(256));
+    let mut rest = msg;
+    while let Some(start) = rest.find(|c: char| c.is_ascii_digit()) {
+        out.push_str(&rest[..start]);
+        let tail = &rest[start..];
+        let end = tail
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .unwrap_or(tail.len());
+        let number = &tail[..end];
+        let digits = number.chars().filter(char::is_ascii_digit).count();
+        match number.parse::<f64>() {
+            Ok(x) if digits > 24 => out.push_str(&short_number(x)),
+            _ => out.push_str(number),
+        }
+        rest = &tail[end..];
+    }
+    out.push_str(rest);
+    out
+}
+
 /// Builds errors that name the scenario file.
 pub(super) struct Check<'a> {
     pub(super) path: &'a Path,
@@ -17,7 +53,10 @@ impl Check<'_> {
         if x.is_finite() {
             Ok(x)
         } else {
-            Err(self.err(format!("{field} must be a finite number, got {x}")))
+            Err(self.err(format!(
+                "{field} must be a finite number, got {}",
+                short_number(x)
+            )))
         }
     }
     pub(super) fn finite_all(&self, field: &str, xs: &[f64]) -> Result<()> {
@@ -30,21 +69,29 @@ impl Check<'_> {
         if x.is_finite() && x >= 0.0 {
             Ok(x)
         } else {
-            Err(self.err(format!("{field} must be zero or positive, got {x}")))
+            Err(self.err(format!(
+                "{field} must be zero or positive, got {}",
+                short_number(x)
+            )))
         }
     }
     pub(super) fn positive(&self, field: &str, x: f64) -> Result<f64> {
         if x.is_finite() && x > 0.0 {
             Ok(x)
         } else {
-            Err(self.err(format!("{field} must be positive, got {x}")))
+            Err(self.err(format!("{field} must be positive, got {}", short_number(x))))
         }
     }
     pub(super) fn range(&self, field: &str, x: f64, lo: f64, hi: f64) -> Result<f64> {
         if x.is_finite() && x >= lo && x <= hi {
             Ok(x)
         } else {
-            Err(self.err(format!("{field} must be between {lo} and {hi}, got {x}")))
+            Err(self.err(format!(
+                "{field} must be between {} and {}, got {}",
+                short_number(lo),
+                short_number(hi),
+                short_number(x)
+            )))
         }
     }
 }

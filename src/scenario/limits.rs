@@ -6,7 +6,7 @@
 //! the drive's length and the kept rows in `sim::limits`; a network plan's
 //! candidate sites once its map is loaded ([`check_network_candidates`]).
 
-use super::check::Check;
+use super::check::{short_number, Check};
 use super::schema::ScenarioFile;
 use super::Scenario;
 use crate::error::{Error, Result};
@@ -50,6 +50,62 @@ pub const MAX_ACCEL_ERROR_UG: f64 = 1e7;
 
 /// Largest gyro angle random walk (°/√h): 60 °/√h is 1 °/√s.
 pub const MAX_GYRO_ARW_DPRH: f64 = 3600.0;
+
+/// Largest `[map] geometry_error_m` (m, 1σ per horizontal axis of the
+/// map's road geometry). OpenStreetMap roads are about 6 m off on average
+/// (Haklay 2010: the default σ of 4.8 m), its worst areas tens of metres.
+/// At 100 m a road is drawn on the next street of a city block (on the
+/// Helsinki map-matching drive 90 % of the matched points were then on a
+/// wrong road): beyond it the model is no longer a map with errors but a
+/// different map. At 1e308 the error field overflowed and map matching fed
+/// no point, silently.
+pub const MAX_MAP_GEOMETRY_ERROR_M: f64 = 100.0;
+
+/// Longest `[map] geometry_error_correlation_m` (m): 1000 km, more than any
+/// map Waymark loads spans, so at this length the error is already one
+/// rigid shift of the whole map. At 1e308 the field's frequencies
+/// underflowed and map matching reported an across-road error of 0.
+pub const MAX_MAP_ERROR_CORRELATION_M: f64 = 1e6;
+
+/// Largest ratio of `geometry_error_m` to `geometry_error_correlation_m`.
+/// The error field's gradient has an RMS of σ/L per axis and peaks at about
+/// four times that over a map; where it reaches 1 the erroneous map folds
+/// roads over each other, and `sim::map_error`'s inversion (a fixed-point
+/// iteration) no longer converges. OpenStreetMap-like maps are at 0.024.
+pub const MAX_MAP_ERROR_GRADIENT: f64 = 0.25;
+
+/// Largest |`route[0].start.heading_deg`|: one turn either way; a heading
+/// beyond it is a typo (1e308 was taken, its sine and cosine arbitrary).
+pub const MAX_HEADING_DEG: f64 = 360.0;
+
+/// Largest |`[[tag]] survey_error_m`| per axis (m): the offset of a tag's
+/// stored place from its physical one, a misplaced or rogue tag (the
+/// bundled `misplaced-tag.toml` has one 2.6 km away). 100 km is a tag of
+/// another town; the offset is applied with the local radii of curvature,
+/// which stays accurate to a fraction of a per cent there, and the filter's
+/// gate rejects such a tag as it does one 2.6 km away. At 1e308 the stored
+/// place was infinite.
+pub const MAX_SURVEY_ERROR_M: f64 = 1e5;
+
+/// Largest barometer error term (m: |`[baro] initial_bias_m`|,
+/// `bias_drift_m`, `noise_m`). An uncalibrated barometric altimeter is off
+/// by the day's sea-level pressure: the recorded extremes (870 and
+/// 1084 hPa) are 1190 m and 590 m from the standard 1013.25 hPa at 8.3 m per
+/// hPa, so 1500 m bounds any real barometer. At this limit every navigator
+/// that reads the barometer stays finite (tested); at 1e308 its noise made
+/// the run diverge and its bias and drift put the height 6e306 m off.
+pub const MAX_BARO_ERROR_M: f64 = 1500.0;
+
+/// Shortest nonzero odometer pulse (`odometer.pulse_m`,
+/// `diff_odometer.pulse_m`; m): 0.1 mm, 20,000 pulses per revolution of a
+/// car's 2 m tyre, finer than wheel encoders resolve.
+pub const MIN_PULSE_M: f64 = 1e-4;
+
+/// Longest odometer pulse (m): one pulse per revolution of a 1.6 m tyre
+/// (a car's tyre is about 2 m round, a truck's 3.3 m), the coarsest wheel
+/// sensor. At 1e308 no pulse was ever counted and dead reckoning stood
+/// still, silently.
+pub const MAX_PULSE_M: f64 = 5.0;
 
 /// Most candidate sites of a network plan (`coverage = "network"`): the
 /// directed road pieces of the map, each cut every
@@ -138,8 +194,9 @@ pub(super) fn check(c: &Check, file: &ScenarioFile) -> Result<()> {
         // NaN and infinity are left to the finite-number checks.
         if x.is_finite() && x.abs() > max {
             return Err(c.err(format!(
-                "{field} = {x} is beyond the limit of ±{max} (no sensor errs this much; \
-                 the navigation would diverge)"
+                "{field} = {} is beyond the limit of ±{max} (no sensor errs this much; \
+                 the navigation would diverge)",
+                short_number(x)
             )));
         }
     }
@@ -172,4 +229,43 @@ pub(super) fn check(c: &Check, file: &ScenarioFile) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A pulse length (`field`, m): 0 (no quantization) or between
+/// [`MIN_PULSE_M`] and [`MAX_PULSE_M`].
+pub(super) fn pulse(c: &Check, field: &str, x: f64) -> Result<f64> {
+    if x == 0.0 || (MIN_PULSE_M..=MAX_PULSE_M).contains(&x) {
+        Ok(x)
+    } else {
+        Err(c.err(format!(
+            "{field} must be 0 (no quantization) or between {MIN_PULSE_M} and {MAX_PULSE_M} m \
+             (the distance per wheel pulse), got {}",
+            short_number(x)
+        )))
+    }
+}
+
+/// `[map] geometry_error_m` and `geometry_error_correlation_m` (σ, L):
+/// each within its limit, and σ at most [`MAX_MAP_ERROR_GRADIENT`] × L.
+pub(super) fn map_error(c: &Check, sigma: f64, corr: f64) -> Result<(f64, f64)> {
+    let sigma = c.range("map.geometry_error_m", sigma, 0.0, MAX_MAP_GEOMETRY_ERROR_M)?;
+    let corr = c.positive("map.geometry_error_correlation_m", corr)?;
+    if corr > MAX_MAP_ERROR_CORRELATION_M {
+        return Err(c.err(format!(
+            "map.geometry_error_correlation_m = {} is above the limit of \
+             {MAX_MAP_ERROR_CORRELATION_M} m (longer than any map: a rigid shift already)",
+            short_number(corr)
+        )));
+    }
+    if sigma > MAX_MAP_ERROR_GRADIENT * corr {
+        return Err(c.err(format!(
+            "map.geometry_error_m = {} is more than a quarter of \
+             map.geometry_error_correlation_m = {}: an error changing that fast folds \
+             roads over each other; use a correlation length of at least {} m",
+            short_number(sigma),
+            short_number(corr),
+            short_number(sigma / MAX_MAP_ERROR_GRADIENT)
+        )));
+    }
+    Ok((sigma, corr))
 }

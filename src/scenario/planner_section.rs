@@ -1,7 +1,7 @@
 //! `[planner]`: the planner's section of a scenario, checked and with
 //! every default applied (split from `validate.rs`, which calls it).
 
-use super::check::Check;
+use super::check::{short_number, Check};
 use super::schema::*;
 use super::sections::*;
 use crate::error::Result;
@@ -29,7 +29,8 @@ pub(super) fn planner(
     let shift_hours = p.shift_hours.unwrap_or(8.0);
     if !(shift_hours.is_finite() && shift_hours > 0.0 && shift_hours <= 168.0) {
         return Err(c.err(format!(
-            "planner.shift_hours = {shift_hours} must be > 0 and at most 168 (a week)"
+            "planner.shift_hours = {} must be > 0 and at most 168 (a week)",
+            short_number(shift_hours)
         )));
     }
     let open_unit = |name: &str, x: f64| -> Result<f64> {
@@ -37,7 +38,8 @@ pub(super) fn planner(
             Ok(x)
         } else {
             Err(c.err(format!(
-                "planner.{name} = {x} must lie strictly between 0 and 1"
+                "planner.{name} = {} must lie strictly between 0 and 1",
+                short_number(x)
             )))
         }
     };
@@ -97,7 +99,10 @@ pub(super) fn planner(
     for m in names {
         let cost = match p.cost.as_ref().and_then(|c| c.get(&m)) {
             Some(&x) if !(x.is_finite() && x >= 0.0) => {
-                return Err(c.err(format!("planner.cost.{m} = {x} must be ≥ 0")))
+                return Err(c.err(format!(
+                    "planner.cost.{m} = {} must be ≥ 0",
+                    short_number(x)
+                )))
             }
             // A relative cost or a price per tag; beyond this a plan's total
             // (up to the candidate limit's tags) would overflow, and its
@@ -119,13 +124,15 @@ pub(super) fn planner(
     });
     if !(candidate_spacing_m.is_finite() && candidate_spacing_m >= 1.0) {
         return Err(c.err(format!(
-            "planner.candidate_spacing_m = {candidate_spacing_m} must be ≥ 1"
+            "planner.candidate_spacing_m = {} must be ≥ 1",
+            short_number(candidate_spacing_m)
         )));
     }
     let min_spacing_m = p.min_spacing_m.unwrap_or(0.0);
     if !(min_spacing_m.is_finite() && min_spacing_m >= 0.0) {
         return Err(c.err(format!(
-            "planner.min_spacing_m = {min_spacing_m} must be ≥ 0"
+            "planner.min_spacing_m = {} must be ≥ 0",
+            short_number(min_spacing_m)
         )));
     }
     for z in &p.forbidden_m {

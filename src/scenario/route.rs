@@ -3,7 +3,7 @@
 //! terrain the map route is driven on.
 
 use super::check::Check;
-use super::limits::MAX_ELEVATION_FILES;
+use super::limits::{MAX_ELEVATION_FILES, MAX_HEADING_DEG};
 use super::schema::{Coverage, MotionKind, MotionSpec, OneOrMany, ScenarioFile};
 use super::sections::RouteKind;
 use crate::error::{Error, Result};
@@ -52,7 +52,8 @@ pub(super) fn route(
             c.range("route[0].start.lat", st.lat, -89.0, 89.0)?;
             c.range("route[0].start.lon", st.lon, -180.0, 180.0)?;
             c.range("route[0].start.height_m", st.height_m, -1000.0, 10_000.0)?;
-            c.finite("route[0].start.heading_deg", st.heading_deg)?;
+            let h = MAX_HEADING_DEG;
+            c.range("route[0].start.heading_deg", st.heading_deg, -h, h)?;
             c.range("route[0].start.pitch_deg", st.pitch_deg, -45.0, 45.0)?;
             c.range("route[0].start.roll_deg", st.roll_deg, -60.0, 60.0)?;
             c.range("route[0].start.speed_kmh", st.speed_kmh, 0.0, 400.0)?;

@@ -2,7 +2,8 @@
 //! is checked (finite, in range), every default applied and every unit
 //! converted to SI here, once; every error names the file and the field.
 
-use super::check::Check;
+use super::check::{short_number, shorten_numbers, Check};
+use super::limits::{MAX_BARO_ERROR_M, MAX_SURVEY_ERROR_M};
 use super::planner_section::planner;
 use super::route::{elevation, route};
 use super::schema::*;
@@ -25,7 +26,7 @@ const MAX_ODOMETER_NOISE_MPS: f64 = 10.0;
 /// where the error is about a value, the field holding it (e.g.
 /// `line 12: planner.coverage "everything" is not one of routes, network`).
 fn toml_error(text: &str, e: &toml::de::Error) -> String {
-    let msg = e.message().replace('\n', " ");
+    let msg = shorten_numbers(&e.message().replace('\n', " "));
     let msg = msg.trim();
     let Some(span) = e.span() else {
         return msg.to_string();
@@ -118,7 +119,7 @@ impl Scenario {
                 Ok(Some(doc)) => {
                     use serde::Deserialize;
                     ScenarioFile::deserialize(doc)
-                        .map_err(|e| Error::scenario(path, e.to_string()))?
+                        .map_err(|e| Error::scenario(path, shorten_numbers(&e.to_string())))?
                 }
                 _ => file,
             },
@@ -217,7 +218,7 @@ impl Scenario {
             0.0,
             MAX_ODOMETER_NOISE_MPS,
         )?;
-        c.non_negative("odometer.pulse_m", o.pulse_m)?;
+        super::limits::pulse(&c, "odometer.pulse_m", o.pulse_m)?;
         let slip = match o.slip {
             Some(sl) => Some(WheelSlip {
                 rate_per_km: c.non_negative("odometer.slip.rate_per_km", sl.rate_per_km)?,
@@ -284,7 +285,7 @@ impl Scenario {
             0.0,
             MAX_ODOMETER_NOISE_MPS,
         )?;
-        c.non_negative("diff_odometer.pulse_m", d.pulse_m)?;
+        super::limits::pulse(&c, "diff_odometer.pulse_m", d.pulse_m)?;
         let diff_odometer = DiffOdometerModel {
             track_width_m: track,
             track_width_error_m: d.track_width_error_m,
@@ -297,9 +298,14 @@ impl Scenario {
         let b = &file.baro;
         let baro = BarometerModel {
             rate_hz: c.range("baro.rate_hz", b.rate_hz, 0.01, rate)?,
-            noise_m: c.non_negative("baro.noise_m", b.noise_m)?,
-            initial_bias_m: c.finite("baro.initial_bias_m", b.initial_bias_m)?,
-            bias_drift_m: c.non_negative("baro.bias_drift_m", b.bias_drift_m)?,
+            noise_m: c.range("baro.noise_m", b.noise_m, 0.0, MAX_BARO_ERROR_M)?,
+            initial_bias_m: c.range(
+                "baro.initial_bias_m",
+                b.initial_bias_m,
+                -MAX_BARO_ERROR_M,
+                MAX_BARO_ERROR_M,
+            )?,
+            bias_drift_m: c.range("baro.bias_drift_m", b.bias_drift_m, 0.0, MAX_BARO_ERROR_M)?,
             bias_tau_s: c.positive("baro.bias_tau_s", b.bias_tau_s)?,
             scale_factor_error: c.range(
                 "baro.scale_factor_error",
@@ -610,9 +616,10 @@ fn map_error(c: &Check, m: Option<&MapSection>) -> Result<MapErrorModel> {
     let corr = m
         .and_then(|m| m.geometry_error_correlation_m)
         .unwrap_or(d.correlation_m);
+    let (sigma_m, correlation_m) = super::limits::map_error(c, sigma, corr)?;
     Ok(MapErrorModel {
-        sigma_m: c.non_negative("map.geometry_error_m", sigma)?,
-        correlation_m: c.positive("map.geometry_error_correlation_m", corr)?,
+        sigma_m,
+        correlation_m,
     })
 }
 
@@ -638,7 +645,10 @@ fn scenario_tags(c: &Check, specs: &[TagSpec]) -> Result<Vec<ScenarioTag>> {
             c.range(&f("height_m"), x, -1000.0, 10_000.0)?;
         }
         let survey_error_m = t.survey_error_m.unwrap_or([0.0, 0.0]);
-        c.finite_all(&f("survey_error_m"), &survey_error_m)?;
+        for (k, x) in survey_error_m.iter().enumerate() {
+            let s = MAX_SURVEY_ERROR_M;
+            c.range(&f(&format!("survey_error_m[{k}]")), *x, -s, s)?;
+        }
         tags.push(ScenarioTag {
             id: t.id.clone().unwrap_or_else(|| format!("tag-{i}")),
             place,
@@ -647,7 +657,27 @@ fn scenario_tags(c: &Check, specs: &[TagSpec]) -> Result<Vec<ScenarioTag>> {
             survey_error_m,
         });
     }
+    unique_ids(c, specs, &tags)?;
     Ok(tags)
+}
+
+/// No two `[[tag]]` entries share an id (as in a tag CSV file): an entry
+/// without one is `tag-N`, which an explicit id may not take either.
+fn unique_ids(c: &Check, specs: &[TagSpec], tags: &[ScenarioTag]) -> Result<()> {
+    let mut seen = std::collections::HashMap::with_capacity(tags.len());
+    for (i, t) in tags.iter().enumerate() {
+        if let Some(j) = seen.insert(t.id.as_str(), i) {
+            let entry = match specs[i].id {
+                Some(_) => format!("tag[{i}].id \"{}\"", t.id),
+                None => format!("tag[{i}] (without id, so \"{}\")", t.id),
+            };
+            return Err(c.err(format!(
+                "{entry} repeats the id of tag[{j}]: each tag needs its own id \
+                 (an entry without id is tag-N)"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// `[external_fix]`, checked, with its defaults.
@@ -666,7 +696,8 @@ fn external_fix(c: &Check, x: &ExternalFixSection, dt: f64) -> Result<ExternalFi
     if let Some(b) = x.fading_b {
         if !(b > 0.0 && b < 1.0) {
             return Err(c.err(format!(
-                "external_fix.fading_b must be between 0 and 1 (exclusive), got {b}"
+                "external_fix.fading_b must be between 0 and 1 (exclusive), got {}",
+                short_number(b)
             )));
         }
     }

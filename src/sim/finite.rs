@@ -5,7 +5,7 @@
 
 use super::records::RunResult;
 use crate::error::{Error, Result};
-use crate::scenario::{NavMode, Scenario};
+use crate::scenario::{NavMode, Scenario, VerticalChannel};
 use crate::units::{DPH, G0};
 
 /// Checks every run's error rows (and, for the integrated navigator, the
@@ -97,9 +97,56 @@ fn likely_causes(scn: &Scenario) -> String {
         .map(|(name, x, unit, _)| format!("[imu] {name} ({x:.3e} {unit})"))
         .collect();
     if named.is_empty() {
-        "the [imu] error terms, the [navigator] initial errors and the [filter] settings".into()
+        suspect_sections(scn, scn.navigator().mode)
     } else {
         named.join(", ")
+    }
+}
+
+/// The scenario's sections whose terms feed the navigator of `mode`, named
+/// for a divergence none of whose terms stands out (no single section is
+/// guessed): the sensors that navigator reads (the barometer only when it
+/// damps the vertical channel or aids the filter), its initial errors and,
+/// for the integrated navigator, the filter's settings. A route or network
+/// plan's covariance analysis is the integrated navigator's.
+pub fn suspect_sections(scn: &Scenario, mode: NavMode) -> String {
+    let aid = scn.aiding();
+    let baro_channel = scn.navigator().vertical_channel == VerticalChannel::Baro;
+    let mut v = Vec::new();
+    match mode {
+        NavMode::FreeInertial | NavMode::DeadReckoning => {
+            v.push("the [imu] error terms");
+            if mode == NavMode::DeadReckoning {
+                v.push("[odometer]");
+            }
+            if baro_channel {
+                v.push("[baro]");
+            }
+        }
+        NavMode::DeadReckoning3d => v.extend(["[diff_odometer]", "[baro]", "[level_sensor]"]),
+        NavMode::Integrated => {
+            v.push("the [imu] error terms");
+            for (on, section) in [
+                (aid.odometer, "[odometer]"),
+                (aid.baro, "[baro]"),
+                (aid.external_fix, "[external_fix]"),
+                (aid.map_matching, "[map]"),
+            ] {
+                if on {
+                    v.push(section);
+                }
+            }
+        }
+    }
+    v.push("the [navigator] initial errors");
+    if mode == NavMode::Integrated {
+        v.push("the [filter] settings");
+    }
+    let last = v.pop().unwrap_or_default();
+    if v.is_empty() {
+        last.to_string()
+    } else {
+        format!("{} and {last}", v.join(", "))
     }
 }
 
@@ -160,5 +207,56 @@ gyro_bias_dph = [2e5, 0, 0]
         );
         assert!(e.contains("at t = 1.0 s of run 2"), "{e}");
         assert!(e.contains("[imu] gyro_bias_dph (2.000e5 °/h)"), "{e}");
+    }
+
+    #[test]
+    fn a_divergence_without_a_named_term_names_the_sections_its_navigator_reads() {
+        // It blamed [imu] alone (and [filter], which only the integrated
+        // navigator has), also for gyro-free 3-D dead reckoning, whose
+        // divergence (e.g. [baro] noise_m = 1e308 before its limit) comes
+        // from the wheels, the barometer or the level sensor.
+        let scn = |extra: &str| {
+            let text = format!(
+                "name = \"d\"\n[[route]]\n\
+                 start = {{ lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = 0.0 }}\n\
+                 motion = [ {{ kind = \"stay\", duration_s = 10 }} ]\n{extra}\n"
+            );
+            Scenario::parse(std::path::Path::new("d.toml"), &text).unwrap()
+        };
+        let bad = [run(0, vec![row(0.0, 0.0), row(1.0, f64::NAN)])];
+        let message = |extra: &str| {
+            check_runs_finite(&scn(extra), &bad)
+                .unwrap_err()
+                .to_string()
+        };
+        let e = message("[navigator]\nmode = \"dead_reckoning_3d\"");
+        assert!(
+            e.ends_with(
+                "check [diff_odometer], [baro], [level_sensor] and the [navigator] initial errors"
+            ),
+            "{e}"
+        );
+        // The barometer damps the inertial vertical channel by default.
+        let e = message("[navigator]\nmode = \"dead_reckoning\"");
+        assert!(
+            e.ends_with(
+                "check the [imu] error terms, [odometer], [baro] and the [navigator] initial errors"
+            ),
+            "{e}"
+        );
+        let e = message("[navigator]\nmode = \"free_inertial\"\nvertical_channel = \"free\"");
+        assert!(
+            e.ends_with("check the [imu] error terms and the [navigator] initial errors"),
+            "{e}"
+        );
+        let e =
+            message("[navigator]\nmode = \"integrated\"\n[aiding]\nodometer = true\nbaro = true");
+        assert!(
+            e.ends_with(
+                "check the [imu] error terms, [odometer], [baro], the [navigator] initial errors \
+                 and the [filter] settings"
+            ),
+            "{e}"
+        );
     }
 }

@@ -6,18 +6,26 @@
 use crate::error::{Error, Result};
 use crate::planner::network::NetworkPlan;
 use crate::planner::Plan;
+use crate::scenario::{NavMode, Scenario};
+use crate::sim::suspect_sections;
 use std::path::Path;
 
-/// The first non-finite figure of `figures` (name, value), as an error.
-fn check(path: &Path, figures: impl IntoIterator<Item = (String, f64)>) -> Result<()> {
+/// The first non-finite figure of `figures` (name, value), as an error
+/// naming the sections of `scn` that feed the covariance analysis (the
+/// integrated navigator's).
+fn check(
+    path: &Path,
+    scn: &Scenario,
+    figures: impl IntoIterator<Item = (String, f64)>,
+) -> Result<()> {
     for (name, x) in figures {
         if !x.is_finite() {
             return Err(Error::scenario(
                 path,
                 format!(
                     "the plan's {name} is {x}, not a finite number: the covariance analysis \
-                     diverged; check the [imu] error terms, the [navigator] initial errors and \
-                     the [filter] settings"
+                     diverged; check {}",
+                    suspect_sections(scn, NavMode::Integrated)
                 ),
             ));
         }
@@ -26,7 +34,7 @@ fn check(path: &Path, figures: impl IntoIterator<Item = (String, f64)>) -> Resul
 }
 
 /// Checks a route plan's figures, tags, profiles and validation.
-pub(super) fn check_plan(path: &Path, p: &Plan) -> Result<()> {
+pub(super) fn check_plan(path: &Path, scn: &Scenario, p: &Plan) -> Result<()> {
     let f = |n: &str, x: f64| (n.to_string(), x);
     let mut v = vec![
         f("route_length_m", p.route_length_m),
@@ -68,11 +76,11 @@ pub(super) fn check_plan(path: &Path, p: &Plan) -> Result<()> {
             val.fraction_within_requirement,
         ));
     }
-    check(path, v)
+    check(path, scn, v)
 }
 
 /// Checks a network plan's figures and tags.
-pub(super) fn check_network_plan(path: &Path, p: &NetworkPlan) -> Result<()> {
+pub(super) fn check_network_plan(path: &Path, scn: &Scenario, p: &NetworkPlan) -> Result<()> {
     let f = |n: &str, x: f64| (n.to_string(), x);
     let mut v = vec![
         f("reach_m", p.reach_m),
@@ -96,5 +104,5 @@ pub(super) fn check_network_plan(path: &Path, p: &NetworkPlan) -> Result<()> {
             val.max_horizontal_error_m,
         ));
     }
-    check(path, v)
+    check(path, scn, v)
 }

@@ -339,7 +339,7 @@ pub(super) fn route_plan_runs(
             settings.validation_runs
         ));
         // A diverged plan is named as such before its tags are written.
-        super::finite::check_plan(&scn.path, &p)?;
+        super::finite::check_plan(&scn.path, scn, &p)?;
         let tags = written_tags(scn, &p)?;
         let (v, res) = validate_plan_on(scn, truth, &p, &tags, settings.validation_runs, seed)?;
         p.validation = Some(v);
@@ -367,7 +367,7 @@ pub(super) fn write_route_plan(
     (plan, plan_time_s): (Plan, f64),
     t0: Instant,
 ) -> Result<PlanOutcome> {
-    super::finite::check_plan(scenario, &plan)?;
+    super::finite::check_plan(scenario, scn, &plan)?;
     let (recs, meta) = plan.export(scn)?;
     clear_outputs(out_dir, PLAN_OUTPUTS)?;
     write_tag_files(out_dir, &recs, &meta)?;
@@ -441,7 +441,7 @@ fn network_plan_folder(
             seed,
         )?);
     }
-    super::finite::check_network_plan(job.scenario, &plan)?;
+    super::finite::check_network_plan(job.scenario, scn, &plan)?;
     let (recs, mut meta) = plan.export(scn)?;
     if let Some(why) = terrain {
         meta.heights_known = true;

@@ -191,11 +191,16 @@ pub fn validate_network_plan(
             }
             for row in &r.rows {
                 if !row.horizontal_m.is_finite() {
-                    return Err(Error::InvalidParameter(format!(
-                        "validation chain {ci}, run {}: the navigation error is not finite at t = {:.0} s \
-                         (the solution diverged: check the [imu] figures)",
-                        r.run, row.t_s
-                    )));
+                    return Err(Error::scenario(
+                        &scn.path,
+                        format!(
+                            "validation chain {ci}, run {}: the navigation error is not finite \
+                             at t = {:.0} s (the solution diverged: check {})",
+                            r.run,
+                            row.t_s,
+                            crate::sim::suspect_sections(scn, scn.navigator().mode)
+                        ),
+                    ));
                 }
                 m = m.max(row.horizontal_m);
                 if row.t_s >= next_thin {
