@@ -110,7 +110,11 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
                 est0.h,
                 heading0,
                 m.track_width_m + m.track_width_error_m,
-            );
+            )
+            // Pitch over a baseline long enough for the altimeter's noise
+            // (the navigator is told the noise it is built for, as a filter
+            // is told its sensors' σ).
+            .with_pitch_baseline(Dr3d::baseline_for_noise(scn.baro.noise_m));
             let mut last_alt = alt.measure(first.avp.t, first.avp.state.h);
             let mut prev_truth = truth0;
             let (mut sl, mut sr) = (0.0, 0.0);
