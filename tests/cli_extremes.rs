@@ -6,48 +6,9 @@
 
 mod common;
 
-use common::run;
+use common::{fails_with, run, succeeded_finite};
 use std::path::Path;
 use std::process::Output;
-
-/// Exit 1 with one error line holding every one of `needles`, and no long
-/// run of digits (a number printed in full).
-fn fails_with(out: &Output, needles: &[&str]) -> String {
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
-    assert!(stderr.starts_with("waymark: error: "), "{stderr}");
-    for n in needles {
-        assert!(stderr.contains(n), "{n:?} not in {stderr}");
-    }
-    assert!(!stderr.contains("0000000000000000000000000"), "{stderr}");
-    stderr
-}
-
-/// Exit 0, with the summary's figures finite numbers (JSON writes NaN as
-/// null).
-fn succeeds_finite(out: &Output) {
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for k in [
-        "max_horizontal_error_m",
-        "rms_horizontal_error_m",
-        "p95_horizontal_error_m",
-    ] {
-        assert!(v[k].as_f64().is_some_and(f64::is_finite), "{k} = {}", v[k]);
-    }
-    for x in v["final_error_enu_m"].as_array().unwrap() {
-        assert!(
-            x.as_f64().is_some_and(f64::is_finite),
-            "final_error_enu_m holds {x}"
-        );
-    }
-}
 
 /// A 110 s motion drive (to 36 km/h, then cruise) navigated by `mode`,
 /// starting at `heading_deg`, with `extra` appended; written to `dir/name`.
@@ -124,7 +85,7 @@ fn an_absurd_map_geometry_error_is_refused_at_its_field() {
         "geometry_error_m = 100\ngeometry_error_correlation_m = 400",
     );
     let out = simulate(d, &scn);
-    succeeds_finite(&out);
+    succeeded_finite(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["map_matching"]["fed"].as_u64().unwrap() > 0, "{v}");
 }
@@ -145,7 +106,7 @@ fn a_start_heading_beyond_a_turn_is_refused() {
     }
     for h in ["-360", "360", "359.9"] {
         let scn = drive(d, "h.toml", "dead_reckoning", h, "");
-        succeeds_finite(&simulate(d, &scn));
+        succeeded_finite(&simulate(d, &scn));
     }
 }
 
@@ -173,7 +134,7 @@ fn an_absurd_tag_survey_error_is_refused() {
     // A rogue tag at the limit (100 km away on each axis) is a number the
     // filter's gate rejects.
     let scn = drive(d, "t.toml", "integrated", "45", &tag("[-100000, 100000]"));
-    succeeds_finite(&simulate(d, &scn));
+    succeeded_finite(&simulate(d, &scn));
 }
 
 #[test]
@@ -212,7 +173,7 @@ fn absurd_barometer_errors_are_refused_not_turned_into_divergence() {
         ),
     ] {
         let scn = drive(d, "b.toml", mode, "45", &format!("{extra}\n{baro}"));
-        succeeds_finite(&simulate(d, &scn));
+        succeeded_finite(&simulate(d, &scn));
     }
 }
 
@@ -259,7 +220,7 @@ fn an_absurd_odometer_pulse_length_is_refused() {
                 &format!("[{section}]\npulse_m = {value}"),
             );
             let out = simulate(d, &scn);
-            succeeds_finite(&out);
+            succeeded_finite(&out);
             let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
             let max = v["max_horizontal_error_m"].as_f64().unwrap();
             let base = *base.get_or_insert(max);
@@ -326,7 +287,7 @@ fn serde_type_errors_print_huge_numbers_short() {
         text.replacen("name = \"x\"\n", "name = \"x\"\nseed = 7\n", 1),
     )
     .unwrap();
-    succeeds_finite(&simulate(d, &scn));
+    succeeded_finite(&simulate(d, &scn));
     // A limit's own message prints the refused value short as well.
     let scn = drive(
         d,

@@ -3,6 +3,9 @@
 //! code, the one error line (naming the file, the field and the limit) and
 //! what is left on disk.
 
+mod common;
+
+use common::{fails_with, succeeded_finite};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -22,18 +25,6 @@ fn scenario(name: &str) -> String {
     root().join("scenarios").join(name).display().to_string()
 }
 
-/// Exit 1 with one error line holding every one of `needles`.
-fn fails_with(out: &Output, needles: &[&str]) -> String {
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
-    assert!(stderr.starts_with("waymark: error: "), "{stderr}");
-    for n in needles {
-        assert!(stderr.contains(n), "{n:?} not in {stderr}");
-    }
-    stderr
-}
-
 /// A motion scenario with `extra` appended (sections after the route).
 fn motion_scenario(dir: &Path, name: &str, motion: &str, extra: &str) -> String {
     let text = format!(
@@ -42,6 +33,12 @@ fn motion_scenario(dir: &Path, name: &str, motion: &str, extra: &str) -> String 
     );
     std::fs::write(dir.join(name), text).unwrap();
     name.to_string()
+}
+
+/// `simulate SCN --out o --json -q` in `dir`, which must succeed with
+/// finite figures: its JSON.
+fn simulate_json(dir: &Path, scn: &str) -> serde_json::Value {
+    succeeded_finite(&run(&["simulate", scn, "--out", "o", "--json", "-q"], dir))
 }
 
 /// The demo scenario with its `[planner]` key `key` set to `value`, and its
@@ -493,22 +490,8 @@ fn absurd_imu_biases_are_refused_not_turned_into_nan() {
         "[ { kind = \"accelerate\", to_kmh = 36 }, { kind = \"cruise\", duration_s = 100 } ]",
         "[imu]\ngyro_bias_dph = [3.6e6, 3.6e6, 3.6e6]\naccel_bias_ug = [1e7, 1e7, 1e7]",
     );
-    let out = run(
-        &["simulate", &scn, "--out", "o", "--json", "-q"],
-        dir.path(),
-    );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for k in [
-        "max_horizontal_error_m",
-        "rms_horizontal_error_m",
-        "p95_horizontal_error_m",
-    ] {
+    let v = simulate_json(dir.path(), &scn);
+    for k in common::ERROR_FIGURES {
         let x = v[k].as_f64().unwrap_or(f64::NAN);
         assert!(x.is_finite() && x > 0.0, "{k} = {}", v[k]);
     }
@@ -555,22 +538,8 @@ fn an_absurd_odometer_noise_is_refused_not_turned_into_null() {
     fails_with(&out, &["diff.toml", "diff_odometer.noise_mps"]);
     // At the limit the run's figures are numbers.
     let scn = motion_scenario(dir.path(), "odo10.toml", motion, &dr("10"));
-    let out = run(
-        &["simulate", &scn, "--out", "o", "--json", "-q"],
-        dir.path(),
-    );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for k in [
-        "max_horizontal_error_m",
-        "rms_horizontal_error_m",
-        "p95_horizontal_error_m",
-    ] {
+    let v = simulate_json(dir.path(), &scn);
+    for k in common::ERROR_FIGURES {
         assert!(v[k].as_f64().is_some_and(f64::is_finite), "{k} = {}", v[k]);
     }
 }

@@ -86,3 +86,47 @@ pub fn sparse_drives(net: &Network, spacings: &[(f64, u64)]) -> Vec<(String, f64
     }
     out
 }
+
+/// The error figures of `simulate --json` that a diverged or overflowed run
+/// would turn into NaN (written as null).
+pub const ERROR_FIGURES: [&str; 3] = [
+    "max_horizontal_error_m",
+    "rms_horizontal_error_m",
+    "p95_horizontal_error_m",
+];
+
+/// A `simulate --json` run that must have succeeded with finite figures
+/// ([`ERROR_FIGURES`] and `final_error_enu_m`): its JSON object.
+pub fn succeeded_finite(out: &Output) -> serde_json::Value {
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for k in ERROR_FIGURES {
+        assert!(v[k].as_f64().is_some_and(f64::is_finite), "{k} = {}", v[k]);
+    }
+    for x in v["final_error_enu_m"].as_array().unwrap() {
+        assert!(
+            x.as_f64().is_some_and(f64::is_finite),
+            "final_error_enu_m holds {x}"
+        );
+    }
+    v
+}
+
+/// Exit 1 with one error line holding every one of `needles`, and no long
+/// run of digits (a number printed in full).
+pub fn fails_with(out: &Output, needles: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("waymark: error: "), "{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "{n:?} not in {stderr}");
+    }
+    assert!(!stderr.contains("0000000000000000000000000"), "{stderr}");
+    stderr
+}
