@@ -119,7 +119,10 @@ fn a_folder_missing_its_inputs_gives_a_report_saying_what_is_missing() {
     let html = html.unwrap();
     assert!(html.contains("What this folder lacks"));
     assert!(!html.contains("<h2>Map</h2>"));
-    for needle in ["the map is not drawn", "/nowhere/tags.csv"] {
+    for needle in [
+        "the map is not drawn: the scenario recorded in inputs.json, /nowhere/at/all/scenario.toml, is no longer there",
+        "/nowhere/tags.csv",
+    ] {
         assert!(html.contains(needle), "{needle}");
         assert!(err.contains(needle), "stderr lacks {needle}: {err}");
     }

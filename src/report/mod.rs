@@ -562,6 +562,15 @@ pub fn read_output_folder(
                     );
                     match drawn {
                         Ok(m) => m,
+                        Err(e) if !path.exists() => {
+                            // The map's path is relative to where the
+                            // scenario was: say that place is gone.
+                            notes.push(format!(
+                                "the map is not drawn: the scenario recorded in inputs.json, {}, is no longer there, and its map is looked for beside it ({e})",
+                                path.display()
+                            ));
+                            None
+                        }
                         Err(e) => {
                             notes.push(format!("the map is not drawn: {e}"));
                             None
