@@ -259,6 +259,37 @@ fn duplicate_tag_ids_are_refused_naming_both_entries() {
 }
 
 #[test]
+fn a_tag_id_in_both_the_scenario_and_the_tag_file_is_refused() {
+    // `simulate --tags t.csv` with a tag of the same id as a [[tag]] of the
+    // scenario ran (exit 0), and tag_passes.csv could not tell them apart.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let extra = "[aiding]\nodometer = true\nrfid = true\n[[tag]]\nid = \"a\"\nat_s = 20";
+    let scn = drive(d, "d.toml", "integrated", "45", extra);
+    std::fs::write(
+        d.join("t.csv"),
+        "tag_id,lat,lon,mounting\na,30.0,117.0,road_surface\n",
+    )
+    .unwrap();
+    let out = run(&["simulate", &scn, "--tags", "t.csv", "--out", "o"], d);
+    fails_with(&out, &["t.csv", "\"a\"", "[[tag]]", "d.toml"]);
+    assert!(!d.join("o").exists());
+    // Another id: taken.
+    std::fs::write(
+        d.join("t.csv"),
+        "tag_id,lat,lon,mounting\nb,30.0,117.0,road_surface\n",
+    )
+    .unwrap();
+    let out = run(
+        &[
+            "simulate", &scn, "--tags", "t.csv", "--out", "o", "--json", "-q",
+        ],
+        d,
+    );
+    succeeded_finite(&out);
+}
+
+#[test]
 fn serde_type_errors_print_huge_numbers_short() {
     // seed = 1e308 (an integer field) printed serde's "invalid type:
     // floating point `1000…000`" with all 309 digits.

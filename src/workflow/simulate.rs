@@ -67,6 +67,23 @@ pub(super) fn simulate_loaded(
         Some(p) => load_tags_csv(p)?,
         None => vec![],
     };
+    // A tag id both in the file and among the scenario's [[tag]]s: their
+    // reads and passes could not be told apart in tag_passes.csv.
+    if let (Some(p), Some(t)) = (
+        job.tags,
+        extra
+            .iter()
+            .find(|t| scn.tags().iter().any(|s| s.id == t.id)),
+    ) {
+        return Err(Error::format(
+            p,
+            format!(
+                "tag_id \"{}\" is also a [[tag]] of {}: tag ids must be unique",
+                t.id,
+                job.scenario.display()
+            ),
+        ));
+    }
     if job.runs > 1 {
         progress.start("runs", job.runs);
     }
