@@ -559,6 +559,9 @@ fn simulate(job: &SimulateJob, out: Out) -> Result<serde_json::Value> {
 }
 
 fn print_simulation(o: &SimulateOutcome, out: Out) {
+    for n in &o.notes {
+        note!(out, "waymark simulate: note: {n}");
+    }
     for line in o.summary() {
         text!(out, "{line}");
     }

@@ -293,6 +293,52 @@ fn dr3d_with_a_noisy_altimeter_keeps_its_error_budget() {
 }
 
 #[test]
+fn a_perfect_imu_is_noted() {
+    // A scenario without [imu] simulates a perfect IMU: an integrated run
+    // showed 0.2 m after a kilometre without a word on why. Now a note on
+    // stderr says so; a graded IMU, or the 3-D DR (no IMU), gets none.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let write = |name: &str, mode: &str, extra: &str| {
+        let text = format!(
+            "name = \"x\"\n[[route]]\n\
+             start = {{ lat = 30.0, lon = 117.0, height_m = 0.0, heading_deg = 45 }}\n\
+             motion = [ {{ kind = \"accelerate\", to_kmh = 36 }}, {{ kind = \"cruise\", duration_s = 100 }} ]\n\
+             [navigator]\nmode = \"{mode}\"\n[aiding]\nodometer = true\n{extra}"
+        );
+        std::fs::write(d.join(name), text).unwrap();
+        name.to_string()
+    };
+    let stderr_of = |scn: &str| {
+        let out = run(&["simulate", scn, "--out", "o"], d);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let note = "[imu] has no error terms";
+    let err = stderr_of(&write("perfect.toml", "integrated", ""));
+    assert!(err.contains(note) && err.contains("perfect.toml"), "{err}");
+    for (name, mode, extra) in [
+        ("graded.toml", "integrated", "[imu]\ngrade = \"tactical\"\n"),
+        ("biased.toml", "integrated", "[imu]\ngyro_arw_dprh = 0.1\n"),
+        ("dr3d.toml", "dead_reckoning_3d", ""),
+    ] {
+        let err = stderr_of(&write(name, mode, extra));
+        assert!(!err.contains(note), "{name}: {err}");
+    }
+    // Quiet: nothing.
+    let out = run(&["simulate", "perfect.toml", "--out", "o", "-q"], d);
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
 fn rotation_modulation_cuts_the_error_at_least_fivefold() {
     let (off, _) = simulate("scenarios/rotation-modulation-off.toml", &[]);
     let (on, _) = simulate("scenarios/rotation-modulation-on.toml", &[]);

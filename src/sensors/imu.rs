@@ -37,6 +37,26 @@ pub struct ImuModel {
     pub accel_misalignment: [f64; 6],
 }
 
+impl ImuModel {
+    /// Whether every error term is zero: a perfect IMU (what a scenario
+    /// gets with no `[imu]` grade and no error fields).
+    pub fn is_error_free(&self) -> bool {
+        let zero = |v: &[f64]| v.iter().all(|x| *x == 0.0);
+        zero(&self.gyro_bias)
+            && zero(&self.accel_bias)
+            && zero(&[
+                self.gyro_bias_instability,
+                self.accel_bias_instability,
+                self.gyro_arw,
+                self.accel_vrw,
+            ])
+            && zero(&self.gyro_scale_factor)
+            && zero(&self.accel_scale_factor)
+            && zero(&self.gyro_misalignment)
+            && zero(&self.accel_misalignment)
+    }
+}
+
 /// Error matrix I + diag(s) + M with M from the six off-diagonal terms.
 fn error_matrix(s: [f64; 3], m: [f64; 6]) -> M3 {
     #[rustfmt::skip]

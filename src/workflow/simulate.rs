@@ -38,6 +38,30 @@ pub struct SimulateOutcome {
     /// The planner's validation rule on these runs, as `summary.json`'s
     /// `requirement_rule` records it (`None` without a requirement).
     pub requirement_rule: Option<serde_json::Value>,
+    /// What the user should know about the scenario as run (not errors).
+    pub notes: Vec<String>,
+}
+
+/// Notes on a scenario as simulated: an IMU without error terms under a
+/// navigator that reads it (the errors shown then come from the other
+/// sensors alone, which a scenario written without `[imu]` may not mean).
+pub fn scenario_notes(scn: &Scenario) -> Vec<String> {
+    use crate::scenario::NavMode;
+    let mut notes = Vec::new();
+    let reads_imu = scn.navigator().mode != NavMode::DeadReckoning3d;
+    if reads_imu
+        && scn.imu.is_error_free()
+        && scn.gyro_bias_random() == 0.0
+        && scn.accel_bias_random() == 0.0
+    {
+        notes.push(format!(
+            "{}: [imu] has no error terms (no grade, no error fields), so the inertial sensors are perfect \
+             and the errors come from the other terms alone; for a real IMU set [imu] grade = \"tactical\" \
+             (or navigation, industrial, mems)",
+            scn.path.display()
+        ));
+    }
+    notes
 }
 
 /// Simulates `job.runs` runs of the scenario and writes `errors.csv`,
@@ -146,6 +170,7 @@ pub(super) fn write_simulation(
         files,
         elapsed_s: t0.elapsed().as_secs_f64(),
         requirement_rule: rule,
+        notes: scenario_notes(scn),
     })
 }
 
