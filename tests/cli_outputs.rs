@@ -13,6 +13,16 @@ fn run(args: &[&str], dir: &Path) -> Output {
         .expect("binary runs")
 }
 
+/// Exit 0, or the failure's stderr.
+fn succeeded(out: &Output) {
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn scenario(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenarios")
@@ -219,12 +229,7 @@ fn a_route_plan_over_an_area_plan_leaves_no_coverage_behind() {
         &["plan", "area/scenario.toml", "--out", "f", "--runs", "0"],
         d,
     );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     assert!(
         d.join("f/coverage.geojson").exists(),
         "the area plan writes it"
@@ -233,23 +238,13 @@ fn a_route_plan_over_an_area_plan_leaves_no_coverage_behind() {
         &["plan", &scenario("demo.toml"), "--out", "f", "--runs", "0"],
         d,
     );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     assert!(
         !d.join("f/coverage.geojson").exists(),
         "left beside a route plan"
     );
     let out = run(&["report", "f"], d);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let page = std::fs::read_to_string(d.join("f/report.html")).unwrap();
     assert!(
         !page.contains("class=\"coverage\""),

@@ -221,6 +221,31 @@ fn odometer_dr_heading_error_gives_proportional_cross_track_error() {
     assert!(along.abs() < 0.02 * expect);
 }
 
+/// The paper's 3-D DR drive (PAPERS.md §2.1: heading 45°, pitch 5°, 2'
+/// heading error) at 50 min: its horizontal distance and climb, the error
+/// along and across the track, and the heading error.
+struct Dr3dBudget {
+    horiz: f64,
+    climb: f64,
+    along: f64,
+    cross: f64,
+    dpsi: f64,
+}
+
+fn dr3d_at_50_min(rows: &[Row]) -> (Row, Dr3dBudget) {
+    let row = at(rows, 3000.0);
+    let pitch = 5f64.to_radians();
+    let h = 45f64.to_radians();
+    let b = Dr3dBudget {
+        horiz: row.distance * pitch.cos(),
+        climb: row.distance * pitch.sin(),
+        along: row.east * h.sin() + row.north * h.cos(),
+        cross: row.east * h.cos() - row.north * h.sin(),
+        dpsi: -(2.0f64 / 60.0).to_radians(),
+    };
+    (row, b)
+}
+
 #[test]
 fn dr3d_paper_scenario_matches_its_error_budget() {
     // PAPERS.md §2.1. The paper's figures at 50 min (east 29.1, north 48.2,
@@ -229,14 +254,16 @@ fn dr3d_paper_scenario_matches_its_error_budget() {
     // along-track 0.2 % of the horizontal distance, cross-track heading error
     // (2' anticlockwise) × horizontal distance, up 0.3 % of the climb. 2 %.
     let (rows, _) = simulate("scenarios/dr3d-paper.toml", &[]);
-    let row = at(&rows, 3000.0);
-    let pitch = 5f64.to_radians();
-    let horiz = row.distance * pitch.cos();
-    let climb = row.distance * pitch.sin();
-    let h = 45f64.to_radians();
-    let along = row.east * h.sin() + row.north * h.cos();
-    let cross = row.east * h.cos() - row.north * h.sin();
-    let dpsi = -(2.0f64 / 60.0).to_radians();
+    let (
+        row,
+        Dr3dBudget {
+            horiz,
+            climb,
+            along,
+            cross,
+            dpsi,
+        },
+    ) = dr3d_at_50_min(&rows);
     eprintln!(
         "3-D DR at 50 min: east {:.1} m (paper 29.1), north {:.1} m (paper 48.2), up {:.1} m (paper 14.5)",
         row.east, row.north, row.up
@@ -267,14 +294,16 @@ fn dr3d_with_a_noisy_altimeter_keeps_its_error_budget() {
     )
     .unwrap();
     let (rows, _) = simulate(noisy.to_str().unwrap(), &[]);
-    let row = at(&rows, 3000.0);
-    let pitch = 5f64.to_radians();
-    let horiz = row.distance * pitch.cos();
-    let climb = row.distance * pitch.sin();
-    let h = 45f64.to_radians();
-    let along = row.east * h.sin() + row.north * h.cos();
-    let cross = row.east * h.cos() - row.north * h.sin();
-    let dpsi = -(2.0f64 / 60.0).to_radians();
+    let (
+        row,
+        Dr3dBudget {
+            horiz,
+            climb,
+            along,
+            cross,
+            dpsi,
+        },
+    ) = dr3d_at_50_min(&rows);
     eprintln!(
         "3-D DR, noisy altimeter, at 50 min: along {along:.1} m, cross {cross:.1} m, up {:.1} m",
         row.up

@@ -474,8 +474,7 @@ pub fn read_output_folder(
             .filter(|t| t["existing"].as_bool() != Some(true))
             .filter_map(|t| t["tag_id"].as_str())
             .collect();
-        let from_file = tags.len();
-        if let (Some(file), true) = (&tags_file, from_file > 0) {
+        if let (Some(file), false) = (&tags_file, tags.is_empty()) {
             // The installer file against the plan: a file cut short at a
             // line end, or edited, lacks some of the plan's new tags.
             let ids: std::collections::HashSet<&str> =
@@ -494,8 +493,9 @@ pub fn read_output_folder(
                 ));
             }
         }
-        merge_plan_tags(&mut tags, p);
-        if from_file == 0 {
+        if !tags.is_empty() {
+            merge_plan_tags(&mut tags, p);
+        } else {
             if let (Some(file), false) = (&tags_file, planned.is_empty()) {
                 notes.push(format!(
                     "{} holds no tags while plan.json plans {}: the table shows plan.json's tags, without payloads",

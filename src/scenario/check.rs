@@ -16,9 +16,10 @@ pub(crate) fn short_number(x: f64) -> String {
     }
 }
 
-/// `msg` with every number of more than 24 digits (longer than any integer) (as serde writes a float
-/// it refuses, e.g. `invalid type: floating point `1000…000``) replaced by
-/// [`short_number`] of it.
+/// `msg` with every number of more than 24 digits replaced by
+/// [`short_number`] of it. No integer Waymark reads is that long (u64::MAX
+/// has 20); serde writes a float it refuses in full (`invalid type:
+/// floating point `1000…000``, 309 digits for 1e308).
 pub(crate) fn shorten_numbers(msg: &str) -> String {
     let mut out = String::with_capacity(msg.len().min(256));
     let mut rest = msg;
