@@ -674,3 +674,41 @@ fn planner_numbers_print_short() {
         assert!(!d.join("o").exists());
     }
 }
+
+#[test]
+fn a_plan_refuses_an_installed_tag_sharing_a_tag_id_with_the_scenario() {
+    // planner.existing_tags with a tag of the same id as a [[tag]] of the
+    // scenario was planned (exit 0): the plan's validation simulates both,
+    // and their reads could not be told apart (`simulate --tags` refuses
+    // the same).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scn = plan_drive(
+        d,
+        "p.toml",
+        "existing_tags = \"t.csv\"",
+        "[[tag]]\nid = \"a\"\nat_s = 20",
+    );
+    // 200 m along the drive.
+    let installed =
+        |id: &str| format!("tag_id,lat,lon,mounting\n{id},30.0012757,117.0014657,road_surface\n");
+    std::fs::write(d.join("t.csv"), installed("a")).unwrap();
+    let out = run(&["plan", &scn, "--out", "o"], d);
+    fails_with(
+        &out,
+        &["t.csv", "tag_id \"a\"", "[[tag]]", "p.toml", "unique"],
+    );
+    assert!(!d.join("o").exists());
+    // Another id: planned, the installed tag kept.
+    std::fs::write(d.join("t.csv"), installed("b")).unwrap();
+    let out = run(&["plan", &scn, "--out", "o", "-q"], d);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("o/plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["existing_tags_kept"].as_u64(), Some(1), "{plan}");
+}
