@@ -712,3 +712,48 @@ fn a_plan_refuses_an_installed_tag_sharing_a_tag_id_with_the_scenario() {
         serde_json::from_str(&std::fs::read_to_string(d.join("o/plan.json")).unwrap()).unwrap();
     assert_eq!(plan["existing_tags_kept"].as_u64(), Some(1), "{plan}");
 }
+
+#[test]
+fn a_plan_numbers_its_new_tags_around_the_ids_already_taken() {
+    // With an installed tag T0001 (part of an earlier plan, re-planned) and
+    // a [[tag]] T0002, the plan numbered its new tags T0001, T0002 again
+    // (plan.json held two T0001), exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scn = plan_drive(
+        d,
+        "p.toml",
+        "existing_tags = \"t.csv\"",
+        "[[tag]]\nid = \"T0002\"\nat_s = 20",
+    );
+    std::fs::write(
+        d.join("t.csv"),
+        "tag_id,lat,lon,mounting\nT0001,30.0012757,117.0014657,road_surface\n",
+    )
+    .unwrap();
+    let out = run(&["plan", &scn, "--out", "o", "-q"], d);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("o/plan.json")).unwrap()).unwrap();
+    let ids: Vec<&str> = plan["tags"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["tag_id"].as_str().unwrap())
+        .collect();
+    assert_eq!(plan["existing_tags_kept"].as_u64(), Some(1), "{plan}");
+    assert!(ids.len() >= 2, "{ids:?}");
+    assert_eq!(ids.iter().filter(|&&i| i == "T0001").count(), 1, "{ids:?}");
+    assert!(!ids.contains(&"T0002"), "{ids:?}");
+    let unique: std::collections::BTreeSet<&str> = ids.iter().copied().collect();
+    assert_eq!(unique.len(), ids.len(), "{ids:?}");
+    // tags.csv: the new tags, numbered from T0003.
+    let csv = std::fs::read_to_string(d.join("o/tags.csv")).unwrap();
+    let first = csv.lines().nth(1).unwrap();
+    assert!(first.starts_with("T0003,"), "{csv}");
+}

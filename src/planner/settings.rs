@@ -178,6 +178,51 @@ impl PlannerSettings {
     }
 }
 
+/// Ids of a plan's new tags: `prefix` and a number of `width` digits from
+/// 1 on, skipping the ids of the installed tags (`existing_tags`) and of
+/// the scenario's `[[tag]]`s. A re-plan with part of an earlier plan
+/// installed (its `T0001` and `T0003`, say) numbered its new tags from
+/// `T0001` again: two tags of one id in `tags.csv` and `plan.json`.
+pub(crate) struct NewTagIds {
+    prefix: &'static str,
+    width: usize,
+    n: usize,
+    taken: std::collections::HashSet<String>,
+}
+
+impl NewTagIds {
+    pub(crate) fn new(
+        prefix: &'static str,
+        width: usize,
+        scn: &Scenario,
+        settings: &PlannerSettings,
+    ) -> Self {
+        let taken = settings
+            .existing_tags
+            .iter()
+            .map(|t| t.id.clone())
+            .chain(scn.tags().iter().map(|t| t.id.clone()))
+            .collect();
+        Self {
+            prefix,
+            width,
+            n: 0,
+            taken,
+        }
+    }
+
+    /// The next free id.
+    pub(crate) fn next_id(&mut self) -> String {
+        loop {
+            self.n += 1;
+            let id = format!("{}{:0w$}", self.prefix, self.n, w = self.width);
+            if !self.taken.contains(&id) {
+                return id;
+            }
+        }
+    }
+}
+
 impl PlannerSettings {
     /// An error when the requirement is below the best fix any allowed
     /// mounting can give (its 95 % bound at 10 m/s).
