@@ -329,3 +329,431 @@ fn serde_type_errors_print_huge_numbers_short() {
     );
     fails_with(&simulate(d, &scn), &["odometer.noise_mps", "got 1e308"]);
 }
+
+/// [`drive`] dead reckoning with `top` among the top-level fields.
+fn drive_top(dir: &Path, name: &str, top: &str) -> String {
+    let scn = drive(dir, name, "dead_reckoning", "45", "");
+    let text = std::fs::read_to_string(dir.join(&scn)).unwrap();
+    let text = text.replacen("name = \"x\"\n", &format!("name = \"x\"\n{top}\n"), 1);
+    std::fs::write(dir.join(&scn), text).unwrap();
+    scn
+}
+
+/// The bundled Helsinki dead-reckoning drive (a 4.1 km map route there and
+/// back with a stop) with its map path made absolute, its `stops` line
+/// replaced by `stops` (when given) and `extra` appended.
+fn map_route(dir: &Path, name: &str, stops: Option<&str>, extra: &str) -> String {
+    let text = std::fs::read_to_string(common::repo("scenarios/helsinki-route-dr.toml")).unwrap();
+    let map = common::repo("maps/helsinki.osm.pbf");
+    let mut text = text.replace("../maps/helsinki.osm.pbf", &map.display().to_string());
+    if let Some(s) = stops {
+        text = text.replace("stops = [ { at_m = 1500, duration_s = 20 } ]", s);
+    }
+    std::fs::write(dir.join(name), format!("{text}\n{extra}\n")).unwrap();
+    name.to_string()
+}
+
+#[test]
+fn a_correlation_time_out_of_range_is_refused() {
+    // [baro] bias_tau_s had no limit (1e-300 and 1e308 were taken), nor had
+    // filter.odometer_scale_tau_s (0 and -5 were taken); at 1e-300 and 0
+    // an integrated run with odometer and baro aiding reported an error of
+    // exactly 0 m, exit 0. imu.gyro_bias_tau_s and accel_bias_tau_s at
+    // 1e-300 made the filter diverge, blaming [imu] as a whole.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let aided = "[aiding]\nodometer = true\nbaro = true";
+    for (section, key) in [
+        ("baro", "bias_tau_s"),
+        ("imu", "gyro_bias_tau_s"),
+        ("imu", "accel_bias_tau_s"),
+        ("filter", "odometer_scale_tau_s"),
+    ] {
+        for value in ["1e-300", "1e308", "0", "-5", "9.99", "10000001"] {
+            let extra = format!("{aided}\n[{section}]\n{key} = {value}");
+            let scn = drive(d, "c.toml", "integrated", "45", &extra);
+            let field = format!("{section}.{key}");
+            fails_with(
+                &simulate(d, &scn),
+                &["c.toml", &field, "between 10 and 10000000", value],
+            );
+            assert!(!d.join("o").exists());
+        }
+    }
+    // At both ends every navigator stays finite, with large Gauss–Markov
+    // errors; the aided filter (every step at its longest, 10 s, where it
+    // can be) reports an error above 0.
+    for tau in ["10", "1e7"] {
+        let errors = format!(
+            "[imu]\ngyro_bias_instability_dph = 100\naccel_bias_instability_ug = 1000\n\
+             gyro_bias_tau_s = {tau}\naccel_bias_tau_s = {tau}\n\
+             [baro]\nbias_drift_m = 1500\nbias_tau_s = {tau}"
+        );
+        for (mode, extra) in [
+            ("free_inertial", String::new()),
+            ("dead_reckoning", String::new()),
+            ("dead_reckoning_3d", String::new()),
+            (
+                "integrated",
+                format!(
+                    "{aided}\n[filter]\ninterval_s = 10\nodometer_interval_s = 10\n\
+                     odometer_scale_tau_s = {tau}"
+                ),
+            ),
+        ] {
+            let scn = drive(d, "c.toml", mode, "45", &format!("{extra}\n{errors}"));
+            let v = succeeded_finite(&simulate(d, &scn));
+            let max = v["max_horizontal_error_m"].as_f64().unwrap();
+            assert!(max > 0.0, "{mode}, τ = {tau}: {v}");
+        }
+    }
+}
+
+#[test]
+fn an_absurd_lane_wander_is_refused() {
+    // [vehicle] lane_wander_m = 1000 drove the 4.1 km route as 75 km of
+    // zigzag (exit 0); at 1e308 the error blamed the route ("only 0.00 m
+    // long").
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for value in ["1e308", "1000", "2.01"] {
+        let scn = map_route(
+            d,
+            "w.toml",
+            None,
+            &format!("[vehicle]\nlane_wander_m = {value}"),
+        );
+        fails_with(
+            &simulate(d, &scn),
+            &["w.toml", "vehicle.lane_wander_m", "between 0 and 2", value],
+        );
+        assert!(!d.join("o").exists());
+    }
+    // At the limit the drive is still the route: within 5 % of its length
+    // without wander.
+    let mut length = Vec::new();
+    for value in ["0", "2"] {
+        let scn = map_route(
+            d,
+            "w.toml",
+            None,
+            &format!("[vehicle]\nlane_wander_m = {value}"),
+        );
+        let v = succeeded_finite(&simulate(d, &scn));
+        length.push(v["distance_m"].as_f64().unwrap());
+        std::fs::remove_dir_all(d.join("o")).unwrap();
+    }
+    assert!(
+        (length[1] - length[0]).abs() < 0.05 * length[0],
+        "{length:?}"
+    );
+}
+
+#[test]
+fn run_settings_out_of_range_are_refused() {
+    // duration_s = 1e-300 (or any cap under one output interval) made a run
+    // of 0 s whose figures were all 0, exit 0; output_interval_s = 1e308
+    // took the metrics from the start and end rows alone; requirement_m =
+    // 1e308 and 1e-300 were taken (a plan printed them in full).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (top, needles) in [
+        (
+            "duration_s = 1e-300",
+            &["duration_s = 1e-300", "output_interval_s = 1"][..],
+        ),
+        (
+            "output_interval_s = 5\nduration_s = 4.9",
+            &["duration_s = 4.9", "output_interval_s = 5"][..],
+        ),
+        (
+            "output_interval_s = 1e308",
+            &["output_interval_s", "86400", "1e308"][..],
+        ),
+        (
+            "requirement_m = 1e308",
+            &["requirement_m", "between 0.001 and 100000", "1e308"][..],
+        ),
+        (
+            "requirement_m = 1e-300",
+            &["requirement_m", "between 0.001 and 100000", "1e-300"][..],
+        ),
+    ] {
+        let scn = drive_top(d, "r.toml", top);
+        let mut n = vec!["r.toml"];
+        n.extend_from_slice(needles);
+        fails_with(&simulate(d, &scn), &n);
+        assert!(!d.join("o").exists());
+    }
+    // At the limits: a run of one output interval has its rows; the
+    // requirement's ends are taken.
+    for (top, rows) in [
+        ("duration_s = 1", Some(2)),
+        ("output_interval_s = 86400", Some(2)),
+        ("requirement_m = 0.001", None),
+        ("requirement_m = 100000", None),
+    ] {
+        let scn = drive_top(d, "r.toml", top);
+        let v = succeeded_finite(&simulate(d, &scn));
+        if let Some(rows) = rows {
+            let csv = std::fs::read_to_string(d.join("o/errors.csv")).unwrap();
+            assert_eq!(csv.lines().count(), rows + 1, "{top}: {csv}");
+        }
+        if top == "duration_s = 1" {
+            assert_eq!(v["duration_s"].as_f64(), Some(1.0), "{v}");
+        }
+        std::fs::remove_dir_all(d.join("o")).unwrap();
+    }
+}
+
+#[test]
+fn an_absurd_external_fix_random_walk_is_refused() {
+    // [external_fix] random_walk_m_per_rts = 1e308 was taken: the simulated
+    // fixes' random walk overflowed, exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fix = |rw: &str| {
+        format!(
+            "[aiding]\nodometer = true\nexternal_fix = true\n[external_fix]\n\
+             interval_s = [5, 10]\nwhite_m = 5\nrandom_walk_m_per_rts = {rw}"
+        )
+    };
+    for rw in ["1e308", "1000.5"] {
+        let scn = drive(d, "f.toml", "integrated", "45", &fix(rw));
+        fails_with(
+            &simulate(d, &scn),
+            &["f.toml", "external_fix.random_walk_m_per_rts", "1000", rw],
+        );
+        assert!(!d.join("o").exists());
+    }
+    let scn = drive(d, "f.toml", "integrated", "45", &fix("1000"));
+    succeeded_finite(&simulate(d, &scn));
+}
+
+#[test]
+fn map_route_stops_print_short_and_stay_within_a_drive() {
+    // A stop of 1e308 s made the drive "last 184467440737095520 s" (a
+    // saturated count, not the stop); a stop at 1e308 m printed all 309
+    // digits.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scn = map_route(
+        d,
+        "s.toml",
+        Some("stops = [ { at_m = 1500, duration_s = 1e308 } ]"),
+        "",
+    );
+    fails_with(
+        &simulate(d, &scn),
+        &[
+            "s.toml",
+            "route[0].stops[0].duration_s = 1e308",
+            "2592000 s",
+        ],
+    );
+    let scn = map_route(
+        d,
+        "s.toml",
+        Some("stops = [ { at_m = 1e308, duration_s = 20 } ]"),
+        "",
+    );
+    let e = fails_with(
+        &simulate(d, &scn),
+        &["s.toml", "route[0]", "stop at 1e308 m"],
+    );
+    assert!(e.len() < 200, "{e}");
+    assert!(!d.join("o").exists());
+}
+
+#[test]
+fn motion_command_errors_print_numbers_short() {
+    // accel_mps2 = 1e308 and a turn radius of 1e-300 m printed 309 and 300
+    // digits; a stay of 1e308 s said "the commands last 5184000 s" (its
+    // samples capped at 60 days).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let acc = "{ kind = \"accelerate\", to_kmh = 36 }";
+    for (motion, needles) in [
+        (
+            "{ kind = \"accelerate\", to_kmh = 36, accel_mps2 = 1e308 }".to_string(),
+            &[
+                "route[0].motion[0].accel_mps2",
+                "between 0.05 and 9.81",
+                "1e308",
+            ][..],
+        ),
+        (
+            format!("{acc}, {{ kind = \"decelerate\", to_kmh = 0, accel_mps2 = 1e-300 }}"),
+            &["route[0].motion[1].accel_mps2", "1e-300"][..],
+        ),
+        (
+            format!("{acc}, {{ kind = \"turn\", angle_deg = 90, radius_m = 1e-300 }}"),
+            &["route[0].motion[1] (turn)", "1e-300 m radius", "lateral"][..],
+        ),
+        (
+            "{ kind = \"stay\", duration_s = 1e308 }".to_string(),
+            &["route[0].motion", "at least", "30 days"][..],
+        ),
+    ] {
+        let text = format!(
+            "name = \"x\"\n[[route]]\nstart = {{ lat = 30.0, lon = 117.0 }}\n\
+             motion = [ {motion} ]\n[navigator]\nmode = \"dead_reckoning\"\n"
+        );
+        std::fs::write(d.join("m.toml"), text).unwrap();
+        let mut n = vec!["m.toml"];
+        n.extend_from_slice(needles);
+        let e = fails_with(&simulate(d, "m.toml"), &n);
+        assert!(e.len() < 200, "{e}");
+    }
+    // The ends of the acceleration range drive.
+    for a in ["0.05", "9.81"] {
+        let text = format!(
+            "name = \"x\"\n[[route]]\nstart = {{ lat = 30.0, lon = 117.0 }}\n\
+             motion = [ {{ kind = \"accelerate\", to_kmh = 36, accel_mps2 = {a} }} ]\n\
+             [navigator]\nmode = \"dead_reckoning\"\n"
+        );
+        std::fs::write(d.join("m.toml"), text).unwrap();
+        succeeded_finite(&simulate(d, "m.toml"));
+        std::fs::remove_dir_all(d.join("o")).unwrap();
+    }
+    // A tag beyond the route's end, by a number far beyond it.
+    let scn = drive(
+        d,
+        "t.toml",
+        "integrated",
+        "45",
+        "[aiding]\nodometer = true\nrfid = true\n[[tag]]\nat_s = 1e308",
+    );
+    fails_with(
+        &simulate(d, &scn),
+        &["t.toml", "tag[0].at_s = 1e308", "beyond"],
+    );
+}
+
+/// A plan of [`drive`] (integrated, MEMS, RFID only, 30 m, no missed read
+/// tolerated, 2 validation runs) with `planner` added to `[planner]` and
+/// `extra` appended.
+fn plan_drive(dir: &Path, name: &str, planner: &str, extra: &str) -> String {
+    let text = format!(
+        "[imu]\ngrade = \"mems\"\n[aiding]\nrfid = true\n\
+         [planner]\nvalidation_runs = 2\ntolerate_missed_reads = 0\n{planner}\n{extra}"
+    );
+    let scn = drive(dir, name, "integrated", "45", &text);
+    let text = std::fs::read_to_string(dir.join(&scn)).unwrap();
+    let text = text.replacen("name = \"x\"\n", "name = \"x\"\nrequirement_m = 30\n", 1);
+    std::fs::write(dir.join(&scn), text).unwrap();
+    scn
+}
+
+#[test]
+fn planner_numbers_print_short() {
+    // forbidden_m = [[1e308, 0]] and requirement_confidence = 1e-300
+    // printed 309 and 300 digits; violation_probability = 1e-300 passed
+    // the certification-size check (ln(1 − ε) was 0).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (planner, needles) in [
+        (
+            "forbidden_m = [[1e308, 0]]",
+            &["planner.forbidden_m", "[1e308, 0]"][..],
+        ),
+        (
+            "requirement_confidence = 1e-300",
+            &["planner.requirement_confidence = 1e-300", "0.5"][..],
+        ),
+        (
+            "coverage = \"network\"\nviolation_probability = 1e-300",
+            &["planner.violation_probability = 1e-300", "limit 50000"][..],
+        ),
+    ] {
+        let scn = plan_drive(d, "p.toml", planner, "");
+        let mut n = vec!["p.toml"];
+        n.extend_from_slice(needles);
+        let e = fails_with(&run(&["plan", &scn, "--out", "o"], d), &n);
+        assert!(e.len() < 250, "{e}");
+        assert!(!d.join("o").exists());
+    }
+}
+
+#[test]
+fn a_plan_refuses_an_installed_tag_sharing_a_tag_id_with_the_scenario() {
+    // planner.existing_tags with a tag of the same id as a [[tag]] of the
+    // scenario was planned (exit 0): the plan's validation simulates both,
+    // and their reads could not be told apart (`simulate --tags` refuses
+    // the same).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scn = plan_drive(
+        d,
+        "p.toml",
+        "existing_tags = \"t.csv\"",
+        "[[tag]]\nid = \"a\"\nat_s = 20",
+    );
+    // 200 m along the drive.
+    let installed =
+        |id: &str| format!("tag_id,lat,lon,mounting\n{id},30.0012757,117.0014657,road_surface\n");
+    std::fs::write(d.join("t.csv"), installed("a")).unwrap();
+    let out = run(&["plan", &scn, "--out", "o"], d);
+    fails_with(
+        &out,
+        &["t.csv", "tag_id \"a\"", "[[tag]]", "p.toml", "unique"],
+    );
+    assert!(!d.join("o").exists());
+    // Another id: planned, the installed tag kept.
+    std::fs::write(d.join("t.csv"), installed("b")).unwrap();
+    let out = run(&["plan", &scn, "--out", "o", "-q"], d);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("o/plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["existing_tags_kept"].as_u64(), Some(1), "{plan}");
+}
+
+#[test]
+fn a_plan_numbers_its_new_tags_around_the_ids_already_taken() {
+    // With an installed tag T0001 (part of an earlier plan, re-planned) and
+    // a [[tag]] T0002, the plan numbered its new tags T0001, T0002 again
+    // (plan.json held two T0001), exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scn = plan_drive(
+        d,
+        "p.toml",
+        "existing_tags = \"t.csv\"",
+        "[[tag]]\nid = \"T0002\"\nat_s = 20",
+    );
+    std::fs::write(
+        d.join("t.csv"),
+        "tag_id,lat,lon,mounting\nT0001,30.0012757,117.0014657,road_surface\n",
+    )
+    .unwrap();
+    let out = run(&["plan", &scn, "--out", "o", "-q"], d);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("o/plan.json")).unwrap()).unwrap();
+    let ids: Vec<&str> = plan["tags"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["tag_id"].as_str().unwrap())
+        .collect();
+    assert_eq!(plan["existing_tags_kept"].as_u64(), Some(1), "{plan}");
+    assert!(ids.len() >= 2, "{ids:?}");
+    assert_eq!(ids.iter().filter(|&&i| i == "T0001").count(), 1, "{ids:?}");
+    assert!(!ids.contains(&"T0002"), "{ids:?}");
+    let unique: std::collections::BTreeSet<&str> = ids.iter().copied().collect();
+    assert_eq!(unique.len(), ids.len(), "{ids:?}");
+    // tags.csv: the new tags, numbered from T0003.
+    let csv = std::fs::read_to_string(d.join("o/tags.csv")).unwrap();
+    let first = csv.lines().nth(1).unwrap();
+    assert!(first.starts_with("T0003,"), "{csv}");
+}

@@ -589,6 +589,7 @@ pub fn plan_with_stages(
     let mut tags = Vec::with_capacity(chosen.len());
     let mut speeds = Vec::with_capacity(chosen.len());
     let mut n_new = 0;
+    let mut new_ids = super::settings::NewTagIds::new("T", 4, scn, settings);
     for (n, &i) in chosen.iter().enumerate() {
         let s = &sites[i];
         let a = &samples[s.sample].avp;
@@ -605,7 +606,7 @@ pub fn plan_with_stages(
             .with_lane_width(lane)
             .fix_sigmas(mountings[i], speed);
         tags.push(PlannedTag {
-            tag_id: existing.map_or_else(|| format!("T{n_new:04}"), |t| t.id.clone()),
+            tag_id: existing.map_or_else(|| new_ids.next_id(), |t| t.id.clone()),
             lat: existing.map_or(a.state.lat, |t| t.lat).to_degrees(),
             lon: existing.map_or(a.state.lon, |t| t.lon).to_degrees(),
             height_m: existing.and_then(|t| t.height_m).unwrap_or(a.state.h),

@@ -145,6 +145,24 @@ impl PlannerSettings {
             Some(f) => crate::sim::tags::load_tags_csv(f)?,
             None => vec![],
         };
+        // As `simulate --tags`: the plan's validation simulates the
+        // installed tags beside the scenario's [[tag]]s, whose reads and
+        // passes could then not be told apart.
+        if let (Some(f), Some(t)) = (
+            &p.existing_tags,
+            existing_tags
+                .iter()
+                .find(|t| scn.tags().iter().any(|s| s.id == t.id)),
+        ) {
+            return Err(Error::format(
+                f,
+                format!(
+                    "tag_id \"{}\" is also a [[tag]] of {}: tag ids must be unique",
+                    t.id,
+                    scn.path.display()
+                ),
+            ));
+        }
         Ok(Self {
             coverage: p.coverage,
             requirement_m,
@@ -157,6 +175,51 @@ impl PlannerSettings {
             refine_iterations: p.refine_iterations,
             existing_tags,
         })
+    }
+}
+
+/// Ids of a plan's new tags: `prefix` and a number of `width` digits from
+/// 1 on, skipping the ids of the installed tags (`existing_tags`) and of
+/// the scenario's `[[tag]]`s. A re-plan with part of an earlier plan
+/// installed (its `T0001` and `T0003`, say) numbered its new tags from
+/// `T0001` again: two tags of one id in `tags.csv` and `plan.json`.
+pub(crate) struct NewTagIds {
+    prefix: &'static str,
+    width: usize,
+    n: usize,
+    taken: std::collections::HashSet<String>,
+}
+
+impl NewTagIds {
+    pub(crate) fn new(
+        prefix: &'static str,
+        width: usize,
+        scn: &Scenario,
+        settings: &PlannerSettings,
+    ) -> Self {
+        let taken = settings
+            .existing_tags
+            .iter()
+            .map(|t| t.id.clone())
+            .chain(scn.tags().iter().map(|t| t.id.clone()))
+            .collect();
+        Self {
+            prefix,
+            width,
+            n: 0,
+            taken,
+        }
+    }
+
+    /// The next free id.
+    pub(crate) fn next_id(&mut self) -> String {
+        loop {
+            self.n += 1;
+            let id = format!("{}{:0w$}", self.prefix, self.n, w = self.width);
+            if !self.taken.contains(&id) {
+                return id;
+            }
+        }
     }
 }
 

@@ -96,6 +96,40 @@ pub const MAX_SURVEY_ERROR_M: f64 = 1e5;
 /// the run diverge and its bias and drift put the height 6e306 m off.
 pub const MAX_BARO_ERROR_M: f64 = 1500.0;
 
+/// Shortest correlation time of a Gauss–Markov error (s:
+/// `imu.gyro_bias_tau_s`, `imu.accel_bias_tau_s`, `baro.bias_tau_s`,
+/// `filter.odometer_scale_tau_s`): the longest `filter.interval_s`, so that
+/// the filter's first-order transition 1 − T/τ over a step T stays between 0
+/// and 1 (at 1e-300 s it was −1e299: the covariance blew up and an
+/// integrated run with baro aiding reported an error of exactly 0 m).
+pub const MIN_CORRELATION_TIME_S: f64 = 10.0;
+
+/// Longest correlation time of a Gauss–Markov error (s): 1e7 s (116 days),
+/// four times the 30-day drive limit, so over any drive such an error is
+/// already a constant (the filter models a random constant with 1e6 s).
+pub const MAX_CORRELATION_TIME_S: f64 = 1e7;
+
+/// Largest `[vehicle] lane_wander_m` (m, 1σ): drivers keep their lane to
+/// 0.2–0.3 m (SDLP; the default 0.3), and at 2 m the vehicle's centre is
+/// out of a 3.75 m lane a third of the time. At 1000 m a 4.1 km route was
+/// driven as 75 km of zigzag, and at 1e308 the lane path had no length
+/// (the error blamed the route).
+pub const MAX_LANE_WANDER_M: f64 = 2.0;
+
+/// Longest `output_interval_s` (s): a day, 30 rows over the longest drive;
+/// at 1e308 the metrics were taken from the start and end rows alone.
+pub const MAX_OUTPUT_INTERVAL_S: f64 = 86_400.0;
+
+/// Horizontal error requirement (`requirement_m`, m): 1 mm to 100 km (the
+/// limit of the navigator's initial position error). At 1e308 the plan's
+/// summary printed a 309-digit requirement; at 1e-300 its error 300 zeros.
+pub const REQUIREMENT_RANGE_M: (f64, f64) = (1e-3, 1e5);
+
+/// Largest `[external_fix] random_walk_m_per_rts` (m/√s): 1 km after one
+/// second, a source no filter can use (its fixes are then ignored); at
+/// 1e308 the simulated fixes' random walk overflowed to infinity.
+pub const MAX_FIX_RANDOM_WALK: f64 = 1000.0;
+
 /// Shortest nonzero odometer pulse (`odometer.pulse_m`,
 /// `diff_odometer.pulse_m`; m): 0.1 mm, 20,000 pulses per revolution of a
 /// car's 2 m tyre, finer than wheel encoders resolve.
@@ -268,4 +302,10 @@ pub(super) fn map_error(c: &Check, sigma: f64, corr: f64) -> Result<(f64, f64)> 
         )));
     }
     Ok((sigma, corr))
+}
+
+/// A Gauss–Markov correlation time (`field`, s): between
+/// [`MIN_CORRELATION_TIME_S`] and [`MAX_CORRELATION_TIME_S`].
+pub(super) fn correlation_time(c: &Check, field: &str, x: f64) -> Result<f64> {
+    c.range(field, x, MIN_CORRELATION_TIME_S, MAX_CORRELATION_TIME_S)
 }

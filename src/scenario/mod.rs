@@ -29,6 +29,7 @@ pub mod schema;
 mod sections;
 mod validate;
 
+pub(crate) use check::{short_number, shorten_numbers};
 pub use limits::{
     check_network_candidates, MAX_ACCEL_ERROR_UG, MAX_GYRO_ARW_DPRH, MAX_GYRO_ERROR_DPH,
     MAX_NETWORK_CANDIDATE_SITES, MAX_REFINE_ITERATIONS, MAX_RUNS, MAX_SCENARIO_BYTES,

@@ -54,7 +54,8 @@ pub(super) fn planner(
     )?;
     if requirement_confidence < 0.5 {
         return Err(c.err(format!(
-            "planner.requirement_confidence = {requirement_confidence} must be at least 0.5"
+            "planner.requirement_confidence = {} must be at least 0.5",
+            short_number(requirement_confidence)
         )));
     }
     let planning_chains = p.planning_chains.unwrap_or(64) as usize;
@@ -66,12 +67,16 @@ pub(super) fn planner(
     // The certification's last round needs ln(β/2⁶) / ln(1 − ε) chains
     // without failures, and at most twice that when it allows two (the
     // planner's `chains_allowing`: 1.5–1.8× at ε = 0.01).
-    let last_round = 2.0 * ((1.0 - confidence) / 64.0).ln() / (1.0 - violation_probability).ln();
+    // ln(1 − ε) as ln_1p(−ε): below ε ≈ 1e-16, 1 − ε rounds to 1, and the
+    // quotient was −∞, which passed this check (ε = 1e-300 was taken).
+    let last_round = 2.0 * ((1.0 - confidence) / 64.0).ln() / (-violation_probability).ln_1p();
     if last_round > 50_000.0 {
         return Err(c.err(format!(
-            "planner.violation_probability = {violation_probability} with confidence = {confidence} \
-             needs up to {last_round:.0} fresh chains to certify (limit 50000): allow a larger \
-             violation probability"
+            "planner.violation_probability = {} with confidence = {} needs up to {} fresh \
+             chains to certify (limit 50000): allow a larger violation probability",
+            short_number(violation_probability),
+            short_number(confidence),
+            short_number(last_round.round())
         )));
     }
     let validation_chains = p.validation_chains.unwrap_or(20) as usize;
@@ -139,7 +144,8 @@ pub(super) fn planner(
         if !(z[0].is_finite() && z[1].is_finite() && z[0] <= z[1]) {
             return Err(c.err(format!(
                 "planner.forbidden_m: [{}, {}] is not a [from, to] pair",
-                z[0], z[1]
+                short_number(z[0]),
+                short_number(z[1])
             )));
         }
     }

@@ -2,11 +2,12 @@
 //! motion commands, checked and converted to SI; and `[map] elevation`, the
 //! terrain the map route is driven on.
 
-use super::check::Check;
+use super::check::{short_number, shorten_numbers, Check};
 use super::limits::{MAX_ELEVATION_FILES, MAX_HEADING_DEG};
 use super::schema::{Coverage, MotionKind, MotionSpec, OneOrMany, ScenarioFile};
 use super::sections::RouteKind;
 use crate::error::{Error, Result};
+use crate::trajectory::motion::{MAX_DURATION_S, MAX_LONGITUDINAL_ACCEL};
 use crate::trajectory::{Extent, Motion, Start};
 use std::path::{Path, PathBuf};
 
@@ -106,9 +107,19 @@ pub(super) fn route(
             }
             let mut stops = Vec::new();
             for (i, s) in r.stops.iter().enumerate() {
+                let field = format!("route[0].stops[{i}].duration_s");
+                // At 1e308 the drive's length saturated and its error
+                // printed a wrong 18-digit duration.
+                if c.positive(&field, s.duration_s)? > MAX_DURATION_S {
+                    return Err(c.err(format!(
+                        "{field} = {} is above the limit of {MAX_DURATION_S} s (30 days, the \
+                         longest drive)",
+                        short_number(s.duration_s)
+                    )));
+                }
                 stops.push((
                     c.non_negative(&format!("route[0].stops[{i}].at_m"), s.at_m)?,
-                    c.positive(&format!("route[0].stops[{i}].duration_s"), s.duration_s)?,
+                    s.duration_s,
                 ));
             }
             let height_m = c.range("route[0].height_m", r.height_m.unwrap_or(0.0), -1000.0, 10_000.0)?;
@@ -153,11 +164,14 @@ pub(super) fn elevation(c: &Check, path: &Path, file: &ScenarioFile) -> Result<V
     Ok(files.iter().map(|f| base.join(f)).collect())
 }
 
+/// The motion compiler's error as a scenario error's message: its field
+/// named as in the file, numbers of more than 24 digits short (`1e308 m/s²`,
+/// not 309 digits).
 fn strip_invalid(e: Error) -> String {
-    match e {
+    shorten_numbers(&match e {
         Error::InvalidParameter(m) => m.replacen("route.", "route[0].", 1),
         other => other.to_string(),
-    }
+    })
 }
 
 fn motion(c: &Check, i: usize, m: &MotionSpec) -> Result<Motion> {
@@ -224,7 +238,13 @@ fn motion(c: &Check, i: usize, m: &MotionSpec) -> Result<Motion> {
             forbid(&time_fields)?;
             Motion::ChangeSpeed {
                 to_mps: c.range(&f("to_kmh"), need("to_kmh", m.to_kmh)?, 0.0, 400.0)? / 3.6,
-                accel_mps2: c.positive(&f("accel_mps2"), m.accel_mps2.unwrap_or(1.0))?,
+                // As a map route's accel_mps2 and brake_mps2.
+                accel_mps2: c.range(
+                    &f("accel_mps2"),
+                    m.accel_mps2.unwrap_or(1.0),
+                    0.05,
+                    MAX_LONGITUDINAL_ACCEL,
+                )?,
                 decelerate: kind == MotionKind::Decelerate,
             }
         }

@@ -3,7 +3,10 @@
 //! converted to SI here, once; every error names the file and the field.
 
 use super::check::{short_number, shorten_numbers, Check};
-use super::limits::{MAX_BARO_ERROR_M, MAX_SURVEY_ERROR_M};
+use super::limits::{
+    correlation_time, MAX_BARO_ERROR_M, MAX_FIX_RANDOM_WALK, MAX_LANE_WANDER_M,
+    MAX_OUTPUT_INTERVAL_S, MAX_SURVEY_ERROR_M, REQUIREMENT_RANGE_M,
+};
 use super::planner_section::planner;
 use super::route::{elevation, route};
 use super::schema::*;
@@ -127,15 +130,25 @@ impl Scenario {
         };
         let c = Check { path };
         if let Some(r) = file.requirement_m {
-            c.positive("requirement_m", r)?;
-        }
-        if let Some(d) = file.duration_s {
-            c.positive("duration_s", d)?;
+            let (lo, hi) = REQUIREMENT_RANGE_M;
+            c.range("requirement_m", r, lo, hi)?;
         }
         let output_interval_s = match file.output_interval_s {
-            Some(x) => c.positive("output_interval_s", x)?,
+            Some(x) => c.range("output_interval_s", x, 0.0, MAX_OUTPUT_INTERVAL_S)?,
             None => 1.0,
         };
+        if let Some(d) = file.duration_s {
+            // A cap shorter than one output interval leaves a run of 0 s
+            // (all its figures 0, exit 0).
+            if c.positive("duration_s", d)? < output_interval_s {
+                return Err(c.err(format!(
+                    "duration_s = {} is shorter than output_interval_s = {}: the run \
+                     would end before its first row after the start",
+                    short_number(d),
+                    short_number(output_interval_s)
+                )));
+            }
+        }
         // IMU
         let s = &file.imu;
         let rate = c.range("imu.rate_hz", s.rate_hz, 1.0, 10_000.0)?;
@@ -146,9 +159,9 @@ impl Scenario {
         c.finite_all("imu.gyro_bias_dph", &s.gyro_bias_dph)?;
         c.finite_all("imu.accel_bias_ug", &s.accel_bias_ug)?;
         c.non_negative("imu.gyro_bias_instability_dph", s.gyro_bias_instability_dph)?;
-        c.positive("imu.gyro_bias_tau_s", s.gyro_bias_tau_s)?;
+        correlation_time(&c, "imu.gyro_bias_tau_s", s.gyro_bias_tau_s)?;
         c.non_negative("imu.accel_bias_instability_ug", s.accel_bias_instability_ug)?;
-        c.positive("imu.accel_bias_tau_s", s.accel_bias_tau_s)?;
+        correlation_time(&c, "imu.accel_bias_tau_s", s.accel_bias_tau_s)?;
         c.non_negative("imu.gyro_arw_dprh", s.gyro_arw_dprh)?;
         c.non_negative("imu.accel_vrw_ugprhz", s.accel_vrw_ugprhz)?;
         for (f, v) in [
@@ -306,7 +319,7 @@ impl Scenario {
                 MAX_BARO_ERROR_M,
             )?,
             bias_drift_m: c.range("baro.bias_drift_m", b.bias_drift_m, 0.0, MAX_BARO_ERROR_M)?,
-            bias_tau_s: c.positive("baro.bias_tau_s", b.bias_tau_s)?,
+            bias_tau_s: correlation_time(&c, "baro.bias_tau_s", b.bias_tau_s)?,
             scale_factor_error: c.range(
                 "baro.scale_factor_error",
                 b.scale_factor_error,
@@ -526,6 +539,9 @@ impl Scenario {
                 c.range(name, x, lo, hi)?;
             }
         }
+        if let Some(t) = fs.odometer_scale_tau_s {
+            correlation_time(&c, "filter.odometer_scale_tau_s", t)?;
+        }
         if let Some(a) = fs.attitude_sigma_arcmin {
             c.range("filter.attitude_sigma_arcmin[0]", a[0], 0.0, 600.0)?;
             c.range("filter.attitude_sigma_arcmin[1]", a[1], 0.0, 600.0)?;
@@ -570,9 +586,11 @@ impl Scenario {
             elevation,
             lanes: LaneModel {
                 drive_side: file.vehicle.drive_side.unwrap_or_default(),
-                wander_m: c.non_negative(
+                wander_m: c.range(
                     "vehicle.lane_wander_m",
                     file.vehicle.lane_wander_m.unwrap_or(DEFAULT_LANE_WANDER_M),
+                    0.0,
+                    MAX_LANE_WANDER_M,
                 )?,
             },
             name: file.name.clone(),
@@ -686,9 +704,11 @@ fn external_fix(c: &Check, x: &ExternalFixSection, dt: f64) -> Result<ExternalFi
     c.range("external_fix.interval_s[0]", a, dt, 1e5)?;
     c.range("external_fix.interval_s[1]", b, a, 1e5)?;
     c.range("external_fix.white_m", x.white_m, 0.0, 1e5)?;
-    c.non_negative(
+    c.range(
         "external_fix.random_walk_m_per_rts",
         x.random_walk_m_per_rts,
+        0.0,
+        MAX_FIX_RANDOM_WALK,
     )?;
     if let Some(w) = x.filter_white_m {
         c.range("external_fix.filter_white_m", w, 1e-3, 1e5)?;

@@ -123,8 +123,9 @@ pub fn scenario_tags(scn: &Scenario, truth: &TruthSource) -> Result<Vec<Tag>> {
             return Err(crate::error::Error::scenario(
                 &scn.path,
                 format!(
-                    "tag[{i}].{} = {x} is beyond the end of the route",
-                    if by_time { "at_s" } else { "at_m" }
+                    "tag[{i}].{} = {} is beyond the end of the route",
+                    if by_time { "at_s" } else { "at_m" },
+                    crate::scenario::short_number(x)
                 ),
             ));
         }

@@ -86,12 +86,14 @@ impl TruthSource {
                          simulating needs a [[route]] with waypoints",
                     ));
                 }
-                let route = crate::route::plan_route(&network, waypoints).map_err(|e| {
-                    crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
-                })?;
+                // Numbers of the file (a stop's `at_m = 1e308`) printed short.
                 let err = |e: crate::error::Error| {
-                    crate::error::Error::scenario(&scn.path, format!("route[0]: {e}"))
+                    crate::error::Error::scenario(
+                        &scn.path,
+                        crate::scenario::shorten_numbers(&format!("route[0]: {e}")),
+                    )
                 };
+                let route = crate::route::plan_route(&network, waypoints).map_err(err)?;
                 let mut centre =
                     RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
                         .map_err(err)?;

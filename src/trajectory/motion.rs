@@ -344,8 +344,9 @@ impl MotionPlan {
         }
         let n: u64 = segs.iter().map(|s| s.samples).sum();
         if n as f64 * dt > MAX_DURATION_S {
+            // "At least": each command's samples were capped at 60 days.
             return Err(Error::InvalidParameter(format!(
-                "route.motion: the commands last {:.0} s, more than the 30 days accepted",
+                "route.motion: the commands last at least {:.0} s, more than the 30 days accepted",
                 n as f64 * dt
             )));
         }

@@ -5,7 +5,7 @@
 use super::instance::{section_point, Built};
 use super::types::NetworkTag;
 use crate::network::Network;
-use crate::planner::settings::{lane_width_m, PlannerSettings};
+use crate::planner::settings::{lane_width_m, NewTagIds, PlannerSettings};
 use crate::scenario::Scenario;
 
 /// The selected sites as tags (installed ones keep their id and position),
@@ -21,7 +21,7 @@ pub(super) fn tags_of(
 ) -> (Vec<NetworkTag>, f64) {
     let p = &built.problem;
     let mut tags = Vec::new();
-    let mut n_new = 0;
+    let mut new_ids = NewTagIds::new("N", 5, scn, settings);
     let mut total_cost = 0.0;
     for (i, site) in p.sites.iter().enumerate() {
         if !sel[i] {
@@ -45,11 +45,10 @@ pub(super) fn tags_of(
         let m = built.site_mounting[i];
         let (sa, sc) = scn.rfid.fix_sigmas(m, built.edge_speed[site.edge as usize]);
         if existing.is_none() {
-            n_new += 1;
             total_cost += site.cost;
         }
         tags.push(NetworkTag {
-            tag_id: existing.map_or_else(|| format!("N{n_new:05}"), |t| t.id.clone()),
+            tag_id: existing.map_or_else(|| new_ids.next_id(), |t| t.id.clone()),
             lat: existing.map_or(g.lat_deg(), |t| t.lat.to_degrees()),
             lon: existing.map_or(g.lon_deg(), |t| t.lon.to_degrees()),
             centre_lat: ll[0],
