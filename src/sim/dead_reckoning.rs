@@ -156,7 +156,10 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
                     sl = 0.0;
                     sr = 0.0;
                 }
-                rec.record(k, &s.avp, dr.lat, dr.lon, dr.h);
+                // Between the altimeter's readings, where the wheels have
+                // taken it since the last one.
+                let (lat, lon, h) = dr.position_ahead(sl, sr);
+                rec.record(k, &s.avp, lat, lon, h);
             }
         }
     }
