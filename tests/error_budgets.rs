@@ -268,3 +268,108 @@ fn dead_reckoning_3d_reports_where_the_wheels_have_taken_it_between_altimeter_re
         assert!(max < 1e-3, "{rate} Hz, rows every {interval} s: {max} m");
     }
 }
+
+/// The final horizontal errors of every run (summary.json's `per_run`).
+fn finals(s: &Sim) -> Vec<f64> {
+    s.summary["per_run"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["final_horizontal_error_m"].as_f64().unwrap())
+        .collect()
+}
+
+fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+}
+
+/// ∫₀ᵗ f(τ) v(τ) dτ for the speed of [`NORTH_10KM`] (1 m/s² for 10 s, then
+/// 10 m/s), by the midpoint rule on 1 ms steps.
+fn along_the_drive(t: f64, f: impl Fn(f64) -> f64) -> f64 {
+    let n = (t / 1e-3) as usize;
+    (0..n)
+        .map(|i| {
+            let x = (i as f64 + 0.5) * 1e-3;
+            f(x) * x.min(10.0) * 1e-3
+        })
+        .sum()
+}
+
+#[test]
+fn dead_reckoning_error_terms_one_at_a_time_keep_their_budgets() {
+    // Odometer DR with IMU attitude, straight north for 1000 s (9,950 m),
+    // each term alone (the others zero, a noise-free altimeter).
+    let dir = tempfile::tempdir().unwrap();
+    let dr = |imu: &str, odo: &str| {
+        format!("[navigator]\nmode = \"dead_reckoning\"\n{QUIET_BARO}\n[imu]\n{imu}\n[odometer]\n{odo}\n")
+    };
+    // A 0.5 °/h bias on the vertical gyro: the heading drifts at b, the
+    // track to the left (west) by ∫ b τ v(τ) dτ = 12.12 m; 2 %, the Earth
+    // rate's coupling of the free inertial attitude (0.1 %, measured).
+    let b = 0.5f64.to_radians() / 3600.0;
+    let s = simulate(
+        dir.path(),
+        "gyro-z",
+        &dr("gyro_bias_dph = [0, 0, 0.5]", ""),
+        &[],
+    );
+    let want = -along_the_drive(1000.0, |t| b * t);
+    let [_, east, north, _] = s.at(1000.0);
+    eprintln!(
+        "DR, 0.5 °/h vertical gyro bias: cross {east:.3} m, budget {want:.3} m; along {north:.4} m"
+    );
+    assert!((east - want).abs() < 0.02 * want.abs(), "cross {east} m");
+    // Angle random walk N = 0.05 °/√h: the heading is a random walk and the
+    // cross-track error has σ² = N² ∫₀ᵗ (∫_τ^t v)² dτ (v N √(t³/3) at a
+    // constant speed): 2.65 m. 40 runs estimate an RMS within ±11 % (1σ);
+    // a factor 1.5 either way is more than 3σ. The level gyros' noise tilts
+    // the attitude, which moves DR only vertically.
+    let n = 0.05f64.to_radians() / 60.0;
+    let s = simulate(
+        dir.path(),
+        "arw",
+        &dr("gyro_arw_dprh = 0.05", ""),
+        &["--runs", "40"],
+    );
+    let (t, m) = (1000.0, 2000);
+    let var: f64 = (0..m)
+        .map(|i| {
+            let tau = (i as f64 + 0.5) * t / m as f64;
+            let ahead = along_the_drive(t, |_| 1.0) - along_the_drive(tau, |_| 1.0);
+            n * n * ahead * ahead * t / m as f64
+        })
+        .sum();
+    let (got, want) = (rms(&finals(&s)), var.sqrt());
+    eprintln!("DR, ARW 0.05 °/√h: final RMS {got:.3} m over 40 runs, budget σ {want:.3} m");
+    assert!(
+        got < 1.5 * want && got > want / 1.5,
+        "RMS {got} m, σ {want} m"
+    );
+    // White odometer speed noise σ = 0.1 m/s per 10 ms sample: the distance
+    // is a random walk of σ √(T dt) = 0.316 m over the drive; as above.
+    let s = simulate(
+        dir.path(),
+        "odo-noise",
+        &dr("", "noise_mps = 0.1"),
+        &["--runs", "40"],
+    );
+    let (got, want) = (rms(&finals(&s)), 0.1 * (1000.0f64 * 0.01).sqrt());
+    eprintln!(
+        "DR, odometer noise 0.1 m/s: final RMS {got:.3} m over 40 runs, budget σ {want:.3} m"
+    );
+    assert!(
+        got < 1.5 * want && got > want / 1.5,
+        "RMS {got} m, σ {want} m"
+    );
+    // 3 cm pulses: the counted distance is the true one rounded down to a
+    // whole pulse, never more than one pulse short, never long.
+    let s = simulate(dir.path(), "pulses", &dr("", "pulse_m = 0.03"), &[]);
+    for r in &s.rows {
+        assert!(
+            r[2] <= 1e-9 && r[2] > -0.03 - 1e-6,
+            "t {} along {}",
+            r[0],
+            r[2]
+        );
+    }
+}
