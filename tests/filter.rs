@@ -623,6 +623,56 @@ fn error_model_blocks_are_the_jacobians_of_the_navigation_equations() {
 }
 
 #[test]
+fn odometer_without_constraints_observes_the_forward_speed_alone() {
+    // Level, heading north at 10 m/s; velocity σ 1 m/s per axis, every
+    // other state σ 1e-6 (so no other state shares the update). One
+    // odometer update is then a scalar Kalman update on each velocity axis
+    // it observes: σ² r/(σ² + r). Forward (north) with r = σ_odo²; with the
+    // constraints also east and up with r = σ_nhc²; without them (aiding
+    // non_holonomic = false) east and up keep σ = 1 m/s: the rows are not
+    // applied (they were, whatever the setting). Tolerance 1e-6 m²/s²: the
+    // covariance is propagated over the one 10 ms step first (Coriolis and
+    // transport couplings of order 1e-4 × 0.01 on the velocity block).
+    let state = NavState {
+        q: Quat::from_heading_pitch_roll(0.0, 0.0, 0.0),
+        v: V3::new(0.0, 10.0, 0.0),
+        lat: 0.5,
+        lon: 2.0,
+        h: 0.0,
+    };
+    let mut s0 = [1e-6; N];
+    for k in 0..3 {
+        s0[DV + k] = 1.0;
+    }
+    let variances = |use_nhc: bool| {
+        let mut cfg = FilterConfig::new(noise(), s0);
+        cfg.use_nhc = use_nhc;
+        let (so, sn) = (cfg.odo_noise_mps, cfg.nhc_noise_mps);
+        let mut f = Filter::new(state, 0.0, 0.01, cfg);
+        let g = waymark::geodesy::normal_gravity(0.5, 0.0);
+        f.step(&waymark::nav::ImuIncrement {
+            dtheta: V3::zeros(),
+            dv: V3::new(0.0, 0.0, g * 0.01),
+        });
+        let o = f.update_odometer(0.1);
+        let p = f.covariance();
+        let var = [p[(DV, DV)], p[(DV + 1, DV + 1)], p[(DV + 2, DV + 2)]];
+        (o, var, so * so, sn * sn)
+    };
+    let post = |r: f64| r / (1.0 + r);
+    let (o, var, ro, _) = variances(false);
+    assert!(o.accepted && o.dof == 1, "{o:?}");
+    assert!((var[0] - 1.0).abs() < 1e-6, "east {}", var[0]);
+    assert!((var[1] - post(ro)).abs() < 1e-6, "north {}", var[1]);
+    assert!((var[2] - 1.0).abs() < 1e-6, "up {}", var[2]);
+    let (o, var, ro, rn) = variances(true);
+    assert!(o.accepted && o.dof == 3, "{o:?}");
+    assert!((var[0] - post(rn)).abs() < 1e-6, "east {}", var[0]);
+    assert!((var[1] - post(ro)).abs() < 1e-6, "north {}", var[1]);
+    assert!((var[2] - post(rn)).abs() < 1e-6, "up {}", var[2]);
+}
+
+#[test]
 fn anisotropic_position_fix_tightens_across_the_road_only() {
     // The map-matching fix: σ 0.5 m across the road (east, the road runs
     // north), 50 m along it. The cross-road σ must drop to about 0.5 m, the

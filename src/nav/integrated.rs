@@ -39,7 +39,9 @@ pub struct FilterConfig {
     pub odo_noise_mps: f64,
     /// σ of the non-holonomic constraints (lateral and vertical body velocity, m/s).
     pub nhc_noise_mps: f64,
-    /// Apply the non-holonomic constraints.
+    /// Apply the non-holonomic constraints: with each odometer update, or
+    /// alone at the odometer's epochs without one. Off, the odometer
+    /// observes the forward speed alone.
     pub use_nhc: bool,
     /// Consecutive rejected odometer updates that declare the odometer faulty.
     pub odo_fault_rejections: u32,
@@ -344,7 +346,8 @@ impl Filter {
 
     /// Odometer update with the distance `distance_m` the odometer counted
     /// since the previous odometer update (which ends at the current epoch),
-    /// with the non-holonomic constraints. A reading is compared with the
+    /// with the non-holonomic constraints when they are on
+    /// ([`FilterConfig::use_nhc`]; else the forward speed alone). A reading is compared with the
     /// navigator's mean body velocity over the same interval. Consecutive
     /// rejections disable the odometer (the constraints stay); consecutive
     /// passing innovations re-enable it.
@@ -369,7 +372,18 @@ impl Filter {
         let r3 = Matrix3::from_diagonal(&Vector3::new(sn * sn, so * so, sn * sn));
         let mut out = UpdateOutcome::SKIPPED;
         if !self.odo_fault {
-            let (o, dx) = self.cov.update(&z, &h, &r3, self.cfg.gate[2]);
+            let (o, dx) = if self.cfg.use_nhc {
+                self.cov.update(&z, &h, &r3, self.cfg.gate[2])
+            } else {
+                // Forward speed alone: without the constraints nothing
+                // holds the lateral and vertical body velocity.
+                self.cov.update(
+                    &Vector1::new(z[1]),
+                    &h.fixed_rows::<1>(1).into_owned(),
+                    &Matrix1::new(so * so),
+                    self.cfg.gate[0],
+                )
+            };
             out = o;
             if o.accepted {
                 self.feedback(&dx);

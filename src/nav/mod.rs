@@ -14,7 +14,7 @@ pub mod riccati;
 pub(crate) mod strapdown;
 pub(crate) mod vertical;
 
-pub use dead_reckoning::OdometerDr;
+pub use dead_reckoning::{HandoverWindow, OdometerDr};
 pub use dr3d::Dr3d;
 pub use ekf::UpdateOutcome;
 pub use integrated::{Filter, FilterConfig, FixPosition, MeasurementQueue};

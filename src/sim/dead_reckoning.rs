@@ -4,12 +4,21 @@
 
 use super::records::RunResult;
 use super::truth::{body_q, initial_estimate, start_run, TruthSource};
-use crate::attitude::{QuatExt, V3};
-use crate::nav::{BaroDamping, Dr3d, OdometerDr, Strapdown};
+use crate::attitude::QuatExt;
+use crate::nav::{BaroDamping, Dr3d, HandoverWindow, OdometerDr, Strapdown};
 use crate::scenario::{NavMode, Scenario, VerticalChannel};
 use crate::sensors::odometer::wheel_distances;
 use crate::sensors::rng::{ids, normal, stream};
 use crate::sensors::{Barometer, DiffOdometer, Imu, Odometer};
+
+/// The window (s) of odometer travel whose mean velocity dead reckoning
+/// hands to the inertial navigator when the odometer fails
+/// ([`HandoverWindow`]): long enough that a pulse or the speed noise is a
+/// small share of it (a 3 cm pulse is 1.5 cm/s over 2 s, 3 m/s over one
+/// 10 ms step), short against the inertial navigator's own drift after it
+/// (the window costs the inertial velocity error's change over 1 s, what
+/// the drift adds in the first second after the failure anyway).
+pub const HANDOVER_WINDOW_S: f64 = 2.0;
 
 /// One run with its own random streams.
 pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> RunResult {
@@ -62,9 +71,10 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
             let mut last_distance = first.avp.distance_m;
             let mut q_prev = est_body_q0;
             let mut failed = false;
-            let mut last_vel = V3::zeros();
+            let mut window = HandoverWindow::new(HANDOVER_WINDOW_S, dt);
             for s in samples {
                 k += 1;
+                let ins_v0 = ins.state.v;
                 ins_step(&mut ins, &s);
                 let q_now = body_q(&ins.state.q, s.avp.t, rot);
                 let d_true = s.avp.distance_m - last_distance;
@@ -73,16 +83,20 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
                     match odo.measure(s.avp.t, s.avp.distance_m, d_true, dt) {
                         Some(ds) => {
                             let d = dr.step(&q_prev, &q_now, ds);
-                            last_vel = d * (1.0 / dt);
+                            window.push(d, ins_v0, ins.state.v);
                         }
                         None => {
-                            // Odometer failed: continue inertially from the dead-
-                            // reckoned position and the last odometer velocity.
+                            // Odometer failed: continue inertially from the
+                            // dead-reckoned position, moved over this step
+                            // (the odometer counted up to the last one), with
+                            // the odometer's velocity over the window.
                             failed = true;
+                            let v = window.velocity(ins.state.v);
+                            dr.shift(v * dt);
                             ins.state.lat = dr.lat;
                             ins.state.lon = dr.lon;
                             ins.state.h = dr.h;
-                            ins.reset_velocity(last_vel);
+                            ins.reset_velocity(v);
                         }
                     }
                 }
@@ -142,7 +156,10 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
                     sl = 0.0;
                     sr = 0.0;
                 }
-                rec.record(k, &s.avp, dr.lat, dr.lon, dr.h);
+                // Between the altimeter's readings, where the wheels have
+                // taken it since the last one.
+                let (lat, lon, h) = dr.position_ahead(sl, sr);
+                rec.record(k, &s.avp, lat, lon, h);
             }
         }
     }
