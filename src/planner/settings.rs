@@ -145,23 +145,8 @@ impl PlannerSettings {
             Some(f) => crate::sim::tags::load_tags_csv(f)?,
             None => vec![],
         };
-        // As `simulate --tags`: the plan's validation simulates the
-        // installed tags beside the scenario's [[tag]]s, whose reads and
-        // passes could then not be told apart.
-        if let (Some(f), Some(t)) = (
-            &p.existing_tags,
-            existing_tags
-                .iter()
-                .find(|t| scn.tags().iter().any(|s| s.id == t.id)),
-        ) {
-            return Err(Error::format(
-                f,
-                format!(
-                    "tag_id \"{}\" is also a [[tag]] of {}: tag ids must be unique",
-                    t.id,
-                    scn.path.display()
-                ),
-            ));
+        if let Some(f) = &p.existing_tags {
+            crate::sim::tags::refuse_ids_of_scenario_tags(f, &existing_tags, scn)?;
         }
         Ok(Self {
             coverage: p.coverage,

@@ -55,6 +55,31 @@ pub fn load_tags_csv(path: &Path) -> Result<Vec<Tag>> {
     parse_tags_csv(path, &text)
 }
 
+/// Refuses a tag file (`path`, holding `tags`) that shares a tag id with
+/// the `[[tag]]`s of the scenario `scn`: a run simulates both, and their
+/// reads and passes could not be told apart (in `tag_passes.csv`, in a
+/// plan's validation).
+pub fn refuse_ids_of_scenario_tags(
+    path: &Path,
+    tags: &[Tag],
+    scn: &crate::scenario::Scenario,
+) -> Result<()> {
+    match tags
+        .iter()
+        .find(|t| scn.tags().iter().any(|s| s.id == t.id))
+    {
+        Some(t) => Err(Error::format(
+            path,
+            format!(
+                "tag_id \"{}\" is also a [[tag]] of {}: tag ids must be unique",
+                t.id,
+                scn.path.display()
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Parses tags CSV text; errors name the file, the line and the problem.
 pub fn parse_tags_csv(path: &Path, text: &str) -> Result<Vec<Tag>> {
     let err = |line: u64, msg: String| Error::format(path, format!("line {line}: {msg}"));

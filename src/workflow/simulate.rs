@@ -4,7 +4,7 @@ use super::inputs::{check_out_dir, clear_outputs, keep_inputs, SIMULATION_OUTPUT
 use super::progress::Progress;
 use crate::error::{Error, Result};
 use crate::scenario::Scenario;
-use crate::sim::tags::{load_tags_csv, Tag};
+use crate::sim::tags::{load_tags_csv, refuse_ids_of_scenario_tags, Tag};
 use crate::sim::{output, simulate_with, SimResult, TruthSource};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -91,22 +91,8 @@ pub(super) fn simulate_loaded(
         Some(p) => load_tags_csv(p)?,
         None => vec![],
     };
-    // A tag id both in the file and among the scenario's [[tag]]s: their
-    // reads and passes could not be told apart in tag_passes.csv.
-    if let (Some(p), Some(t)) = (
-        job.tags,
-        extra
-            .iter()
-            .find(|t| scn.tags().iter().any(|s| s.id == t.id)),
-    ) {
-        return Err(Error::format(
-            p,
-            format!(
-                "tag_id \"{}\" is also a [[tag]] of {}: tag ids must be unique",
-                t.id,
-                job.scenario.display()
-            ),
-        ));
+    if let Some(p) = job.tags {
+        refuse_ids_of_scenario_tags(p, &extra, scn)?;
     }
     if job.runs > 1 {
         progress.start("runs", job.runs);
