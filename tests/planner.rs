@@ -512,3 +512,20 @@ fn uniform_baseline_passes_the_plans_check_and_never_beats_the_plan() {
         assert!(f.is_nan() || f < 0.99, "{:?}", b.tried);
     }
 }
+
+#[test]
+fn uniform_baseline_tags_are_numbered_around_the_scenarios_tag_ids() {
+    // A [[tag]] named U0002 (say, a tag of an earlier baseline kept in the
+    // scenario): the baseline's tags, simulated beside it in the baseline's
+    // validation, skip its id; before, the second baseline tag was U0002 too
+    // and the two tags' reads could not be told apart.
+    let scn = scenario_with("scenarios/helsinki-plan-mems.toml", |t| {
+        t + "\n[[tag]]\nid = \"U0002\"\nat_m = 100\n"
+    });
+    let truth = TruthSource::new(&scn).unwrap();
+    let settings = PlannerSettings::from_scenario(&scn).unwrap();
+    let tags = waymark::planner::uniform_tags(&truth, &scn, &settings, 500.0);
+    let ids: Vec<&str> = tags.iter().map(|t| t.id.as_str()).collect();
+    assert!(ids.len() >= 3, "{ids:?}");
+    assert_eq!(&ids[..3], ["U0001", "U0003", "U0004"], "{ids:?}");
+}

@@ -11,7 +11,9 @@ use crate::sim::tags::{Mounting, Tag};
 use crate::sim::{simulate_with, TruthSource};
 
 /// Tags every `spacing_m` along the truth route (from `spacing_m` on), with
-/// the preferred mounting allowed off tunnels.
+/// the preferred mounting allowed off tunnels, numbered `U0001`… around the
+/// ids already taken (installed tags, `[[tag]]`s), which the baseline's
+/// validation simulates beside them.
 pub fn uniform_tags(
     truth: &TruthSource,
     scn: &Scenario,
@@ -25,11 +27,12 @@ pub fn uniform_tags(
         .map_or(Mounting::RoadSurface, |o| o.mounting);
     let cap = scn.duration_cap_s() + 0.5 * scn.dt;
     let mut sites = UniformSites::new(spacing_m);
+    let mut ids = super::settings::NewTagIds::new("U", 4, scn, settings);
     let mut tags = Vec::new();
     for a in truth.samples().take_while(|a| a.t <= cap) {
         if sites.take(a.distance_m) {
             tags.push(Tag {
-                id: format!("U{:04}", tags.len() + 1),
+                id: ids.next_id(),
                 lat: a.state.lat,
                 lon: a.state.lon,
                 height_m: Some(a.state.h),
