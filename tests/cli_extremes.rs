@@ -565,6 +565,16 @@ fn map_route_stops_print_short_and_stay_within_a_drive() {
     assert!(!d.join("o").exists());
 }
 
+/// Writes `m.toml` in `dir`: dead reckoning over the motion commands
+/// `motion` (a TOML array's items) from 30° N 117° E.
+fn motion_drive(dir: &Path, motion: &str) {
+    let text = format!(
+        "name = \"x\"\n[[route]]\nstart = {{ lat = 30.0, lon = 117.0 }}\n\
+         motion = [ {motion} ]\n[navigator]\nmode = \"dead_reckoning\"\n"
+    );
+    std::fs::write(dir.join("m.toml"), text).unwrap();
+}
+
 #[test]
 fn motion_command_errors_print_numbers_short() {
     // accel_mps2 = 1e308 and a turn radius of 1e-300 m printed 309 and 300
@@ -595,11 +605,7 @@ fn motion_command_errors_print_numbers_short() {
             &["route[0].motion", "at least", "30 days"][..],
         ),
     ] {
-        let text = format!(
-            "name = \"x\"\n[[route]]\nstart = {{ lat = 30.0, lon = 117.0 }}\n\
-             motion = [ {motion} ]\n[navigator]\nmode = \"dead_reckoning\"\n"
-        );
-        std::fs::write(d.join("m.toml"), text).unwrap();
+        motion_drive(d, &motion);
         let mut n = vec!["m.toml"];
         n.extend_from_slice(needles);
         let e = fails_with(&simulate(d, "m.toml"), &n);
@@ -607,12 +613,10 @@ fn motion_command_errors_print_numbers_short() {
     }
     // The ends of the acceleration range drive.
     for a in ["0.05", "9.81"] {
-        let text = format!(
-            "name = \"x\"\n[[route]]\nstart = {{ lat = 30.0, lon = 117.0 }}\n\
-             motion = [ {{ kind = \"accelerate\", to_kmh = 36, accel_mps2 = {a} }} ]\n\
-             [navigator]\nmode = \"dead_reckoning\"\n"
+        motion_drive(
+            d,
+            &format!("{{ kind = \"accelerate\", to_kmh = 36, accel_mps2 = {a} }}"),
         );
-        std::fs::write(d.join("m.toml"), text).unwrap();
         succeeded_finite(&simulate(d, "m.toml"));
         std::fs::remove_dir_all(d.join("o")).unwrap();
     }

@@ -109,6 +109,12 @@ fn schuler_frequency() -> f64 {
     (normal_gravity(lat, 0.0) / r).sqrt()
 }
 
+/// Odometer dead reckoning with a noise-free altimeter and `odometer` as
+/// the `[odometer]` section's lines.
+fn dead_reckoning(odometer: &str) -> String {
+    format!("[navigator]\nmode = \"dead_reckoning\"\n{QUIET_BARO}\n[odometer]\n{odometer}\n")
+}
+
 /// The window over which dead reckoning takes the velocity it hands to the
 /// inertial navigator when the odometer fails (src/sim/dead_reckoning.rs).
 const HANDOVER_WINDOW_S: f64 = 2.0;
@@ -122,9 +128,7 @@ fn dead_reckoning_hands_a_failed_odometer_over_without_a_jump() {
     // is laid at the handed-over velocity: what is left is rounding and the
     // trapezoid over one step (a dt²/2 = 0 at constant speed); 1 mm.
     let dir = tempfile::tempdir().unwrap();
-    let body = format!(
-        "[navigator]\nmode = \"dead_reckoning\"\n{QUIET_BARO}\n[odometer]\nfailure = {{ from_s = 500 }}\n"
-    );
+    let body = dead_reckoning("failure = { from_s = 500 }");
     let s = simulate(dir.path(), "perfect", &body, &[]);
     let max = s.max_horizontal();
     eprintln!("perfect sensors, odometer failed at 500 s: max horizontal error {max:.2e} m");
@@ -144,9 +148,7 @@ fn dead_reckoning_hands_over_the_odometer_speed_of_a_window_not_of_one_pulse() {
     // rate's coupling (1 %) and rounding: 2 % + 5 cm.
     let dir = tempfile::tempdir().unwrap();
     let p = 0.03;
-    let body = format!(
-        "[navigator]\nmode = \"dead_reckoning\"\n{QUIET_BARO}\n[odometer]\npulse_m = {p}\nfailure = {{ from_s = 500 }}\n"
-    );
+    let body = dead_reckoning(&format!("pulse_m = {p}\nfailure = {{ from_s = 500 }}"));
     let s = simulate(dir.path(), "pulses", &body, &[]);
     let ws = schuler_frequency();
     let tau = 500.0;
@@ -173,23 +175,18 @@ fn dead_reckoning_hands_over_an_odometer_speed_averaged_over_its_noise() {
     // either way is more than 3σ.
     let dir = tempfile::tempdir().unwrap();
     let sigma = 0.1;
-    let body = format!(
-        "[navigator]\nmode = \"dead_reckoning\"\n{QUIET_BARO}\n[odometer]\nnoise_mps = {sigma}\nfailure = {{ from_s = 500 }}\n"
-    );
+    let body = dead_reckoning(&format!(
+        "noise_mps = {sigma}\nfailure = {{ from_s = 500 }}"
+    ));
     let s = simulate(dir.path(), "noise", &body, &["--runs", "20"]);
     let ws = schuler_frequency();
     let dt = 0.01;
     let handed = sigma * (dt / HANDOVER_WINDOW_S).sqrt() * (ws * 500.0).sin() / ws;
     let walked = sigma * (500.0 * dt).sqrt();
     let budget = handed.hypot(walked);
-    let finals: Vec<f64> = s.summary["per_run"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["final_horizontal_error_m"].as_f64().unwrap())
-        .collect();
+    let finals = finals(&s);
     assert_eq!(finals.len(), 20);
-    let rms = (finals.iter().map(|x| x * x).sum::<f64>() / 20.0).sqrt();
+    let rms = rms(&finals);
     eprintln!("odometer noise 0.1 m/s, failed at 500 s: final RMS {rms:.2} m over 20 runs, budget {budget:.2} m");
     assert!(
         rms < 2.0 * budget && rms > budget / 2.0,
@@ -300,9 +297,7 @@ fn dead_reckoning_error_terms_one_at_a_time_keep_their_budgets() {
     // Odometer DR with IMU attitude, straight north for 1000 s (9,950 m),
     // each term alone (the others zero, a noise-free altimeter).
     let dir = tempfile::tempdir().unwrap();
-    let dr = |imu: &str, odo: &str| {
-        format!("[navigator]\nmode = \"dead_reckoning\"\n{QUIET_BARO}\n[imu]\n{imu}\n[odometer]\n{odo}\n")
-    };
+    let dr = |imu: &str, odo: &str| format!("[imu]\n{imu}\n{}", dead_reckoning(odo));
     // A 0.5 °/h bias on the vertical gyro: the heading drifts at b, the
     // track to the left (west) by ∫ b τ v(τ) dτ = 12.12 m; 2 %, the Earth
     // rate's coupling of the free inertial attitude (0.1 %, measured).
