@@ -322,3 +322,54 @@ fn network_candidate_sites_are_counted_per_direction() {
     // Every metre: 112 per direction of the 111.4 m road, 12 on the other.
     assert_eq!(check_network_candidates(&scn("1"), &net).unwrap(), 236);
 }
+
+#[test]
+fn odometer_mounting_errors_are_checked_and_set_the_filter_priors() {
+    let e = parse_err("[odometer]\nmisalignment_deg = [0, 12]\n");
+    assert!(
+        e.starts_with("bad.toml: ")
+            && e.contains("odometer.misalignment_deg[1] (yaw) must be between -10 and 10, got 12"),
+        "{e}"
+    );
+    // Read exactly: a third number is refused, not dropped.
+    let e = parse_err("[odometer]\nmisalignment_deg = [0.1, 0.2, 0.3]\n");
+    assert!(
+        e.contains("invalid length 3, expected an array of length 2"),
+        "{e}"
+    );
+    let e = parse_err("[odometer]\nscale_factor_sigma = -1e-3\n");
+    assert!(
+        e.contains("odometer.scale_factor_sigma must be between 0 and 0.1"),
+        "{e}"
+    );
+    let e = parse_err("[odometer]\nmisalignment_sigma_deg = nan\n");
+    assert!(e.contains("odometer.misalignment_sigma_deg"), "{e}");
+    let e = parse_err(
+        "[imu]\nrotation_modulation = { rate_dps = 6 }\n[odometer]\nmisalignment_deg = [0.1, 0]\n",
+    );
+    assert!(
+        e.contains("cannot be combined with imu.rotation_modulation"),
+        "{e}"
+    );
+    // The filter's priors cover the simulated errors: the larger fixed
+    // angle with the per-run σ, and the fixed scale factor with its σ.
+    let s = Scenario::parse(
+        Path::new("a.toml"),
+        &format!(
+            "{ROUTE}[odometer]\nscale_factor_error = 3e-3\nscale_factor_sigma = 4e-3\n\
+             misalignment_deg = [0.3, -0.4]\nmisalignment_sigma_deg = 0.3\n"
+        ),
+    )
+    .unwrap();
+    let f = s.filter();
+    assert!((f.odometer_scale_sigma - 5e-3).abs() < 1e-15);
+    assert!((f.odometer_misalignment_sigma - 0.5f64.to_radians()).abs() < 1e-15);
+    assert_eq!(
+        s.odometer.misalignment,
+        [0.3f64.to_radians(), (-0.4f64).to_radians()]
+    );
+    // Without them, the defaults of before (5e-4 at least, 0.2°).
+    let s = Scenario::parse(Path::new("a.toml"), ROUTE).unwrap();
+    assert_eq!(s.filter().odometer_scale_sigma, 5e-4);
+    assert_eq!(s.filter().odometer_misalignment_sigma, 0.2f64.to_radians());
+}

@@ -258,12 +258,48 @@ impl Scenario {
             }
             None => None,
         };
+        // The per-run scale factor: 10 % is a wheel of the wrong size, not
+        // a calibration's uncertainty.
+        c.range(
+            "odometer.scale_factor_sigma",
+            o.scale_factor_sigma,
+            0.0,
+            0.1,
+        )?;
+        // The filter's misalignment states are small angles (its prior's
+        // own limit is 10°): a larger mounting error is a different vehicle
+        // axis, not a misalignment.
+        for (k, axis) in ["pitch", "yaw"].iter().enumerate() {
+            c.range(
+                &format!("odometer.misalignment_deg[{k}] ({axis})"),
+                o.misalignment_deg[k],
+                -10.0,
+                10.0,
+            )?;
+        }
+        c.range(
+            "odometer.misalignment_sigma_deg",
+            o.misalignment_sigma_deg,
+            0.0,
+            5.0,
+        )?;
+        let misaligned = o.misalignment_deg != [0.0; 2] || o.misalignment_sigma_deg != 0.0;
+        if misaligned && rotation.is_some() {
+            return Err(c.err(
+                "odometer.misalignment_deg and misalignment_sigma_deg cannot be combined with \
+                 imu.rotation_modulation (the misalignment is of the IMU's base, which the \
+                 modulation turns under)",
+            ));
+        }
         let odometer = OdometerModel {
             scale_factor_error: o.scale_factor_error,
             noise_mps: o.noise_mps,
             pulse_m: o.pulse_m,
             slip,
             failure,
+            scale_factor_sigma: o.scale_factor_sigma,
+            misalignment: o.misalignment_deg.map(f64::to_radians),
+            misalignment_sigma: o.misalignment_sigma_deg.to_radians(),
         };
         // Vehicle and differential odometer
         c.range("vehicle.width_m", file.vehicle.width_m, 0.5, 10.0)?;
@@ -796,12 +832,23 @@ fn filter(file: &ScenarioFile, odometer: &OdometerModel, dt: f64) -> FilterSetti
         } else {
             1e6
         },
-        odometer_scale_sigma: f.odometer_scale_sigma.unwrap_or(sf.abs().max(5e-4)),
+        // The priors cover the simulated errors: the fixed value and the
+        // per-run σ (hypot(x, 0) is |x| exactly, so scenarios without the
+        // per-run terms keep their priors bit for bit).
+        odometer_scale_sigma: f
+            .odometer_scale_sigma
+            .unwrap_or(sf.abs().hypot(odometer.scale_factor_sigma).max(5e-4)),
         odometer_scale_tau_s: f.odometer_scale_tau_s.unwrap_or(1e6),
-        odometer_misalignment_sigma: f
-            .odometer_misalignment_sigma_deg
-            .unwrap_or(0.2)
-            .to_radians(),
+        odometer_misalignment_sigma: match f.odometer_misalignment_sigma_deg {
+            Some(x) => x.to_radians(),
+            None => {
+                let [p, y] = odometer.misalignment;
+                p.abs()
+                    .max(y.abs())
+                    .hypot(odometer.misalignment_sigma)
+                    .max(0.2f64.to_radians())
+            }
+        },
         attitude_sigma: [sa_level * ARCMIN, sa_head * ARCMIN],
         position_sigma_m,
         velocity_sigma_mps,

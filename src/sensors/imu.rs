@@ -113,6 +113,16 @@ impl Imu {
         }
     }
 
+    /// Mounts the IMU rotated by `vehicle_to_imu` (`C_v^s`) from the
+    /// vehicle whose ideal increments [`Self::measure`] is given: every
+    /// increment is first resolved in the IMU's axes, then takes the
+    /// triad's errors.
+    pub fn mount(&mut self, vehicle_to_imu: &crate::attitude::Quat) {
+        let c = vehicle_to_imu.to_rotation_matrix().into_inner();
+        self.gyro_m *= c;
+        self.accel_m *= c;
+    }
+
     /// The measured increments for ideal increments `ideal`.
     #[inline]
     pub fn measure(&mut self, ideal: &ImuIncrement) -> ImuIncrement {
@@ -182,5 +192,24 @@ mod tests {
         let sigma = (s2 / 1000.0).sqrt();
         let expect = arw * 10f64.sqrt();
         assert!((sigma / expect - 1.0).abs() < 0.1, "{sigma} vs {expect}");
+    }
+
+    #[test]
+    fn a_mounted_imu_measures_the_vehicles_increments_in_its_own_axes() {
+        use crate::attitude::{Quat, QuatExt};
+        let c = Quat::from_rotvec(V3::new(0.004, 0.0, -0.01));
+        let mut imu = Imu::new(
+            &ImuModel::default(),
+            0.01,
+            rand::SeedableRng::seed_from_u64(1),
+        );
+        imu.mount(&c);
+        let ideal = ImuIncrement {
+            dtheta: V3::new(1e-4, -2e-4, 3e-3),
+            dv: V3::new(0.01, 0.1, 0.098),
+        };
+        let m = imu.measure(&ideal);
+        assert!((m.dtheta - c * ideal.dtheta).norm() < 1e-18);
+        assert!((m.dv - c * ideal.dv).norm() < 1e-16);
     }
 }

@@ -12,6 +12,7 @@ pub(crate) mod rotation;
 pub use baro::{Barometer, BarometerModel};
 pub use imu::{Imu, ImuModel};
 pub use odometer::{
-    DiffOdometer, DiffOdometerModel, Odometer, OdometerFailure, OdometerModel, WheelSlip,
+    DiffOdometer, DiffOdometerModel, Odometer, OdometerFailure, OdometerModel, RunMounting,
+    WheelSlip,
 };
 pub use rotation::RotationModulation;

@@ -43,6 +43,61 @@ pub struct OdometerModel {
     pub slip: Option<WheelSlip>,
     /// Failure.
     pub failure: Option<OdometerFailure>,
+    /// σ of a scale-factor error drawn per run on top of
+    /// `scale_factor_error` (ratio): the calibration's uncertainty, so that
+    /// a Monte Carlo covers it rather than one fixed value.
+    pub scale_factor_sigma: f64,
+    /// Mounting misalignment between the IMU and the vehicle, pitch and yaw
+    /// (rad), in the filter's convention: the vehicle's forward axis (the
+    /// odometer's, along which the non-holonomic constraints hold) is
+    /// `[−yaw, 1, pitch]` in the IMU's axes (x right, y forward, z up). The
+    /// IMU is mounted rotated by it, so a navigator that takes the IMU's
+    /// forward axis for the vehicle's resolves the odometer's distance
+    /// `yaw` to the right and `pitch` up of the true track.
+    pub misalignment: [f64; 2],
+    /// σ per axis of a misalignment drawn per run on top of `misalignment`
+    /// (rad).
+    pub misalignment_sigma: f64,
+}
+
+/// The odometer's mounting as one run draws it: the scale-factor error and
+/// the IMU-to-vehicle misalignment (see [`OdometerModel`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RunMounting {
+    /// Scale-factor error of this run (ratio).
+    pub scale_factor_error: f64,
+    /// Misalignment of this run, pitch and yaw (rad).
+    pub misalignment: [f64; 2],
+}
+
+impl RunMounting {
+    /// The rotation taking vectors from the vehicle's axes to the IMU's
+    /// (`C_v^s`): the rotation vector `(pitch, 0, yaw)`, which carries the
+    /// vehicle's forward axis `[0, 1, 0]` to `[−sin yaw, cos yaw, 0]` (yaw
+    /// alone) as [`OdometerModel::misalignment`] states it. `None` when
+    /// there is no misalignment (nothing to rotate: runs without one are
+    /// bit for bit what they were before the field existed).
+    pub fn vehicle_to_imu(&self) -> Option<crate::attitude::Quat> {
+        use crate::attitude::QuatExt;
+        let [p, y] = self.misalignment;
+        (p != 0.0 || y != 0.0).then(|| crate::attitude::Quat::from_rotvec(V3::new(p, 0.0, y)))
+    }
+}
+
+impl OdometerModel {
+    /// This run's scale factor and misalignment: the fixed values plus
+    /// draws of their σ from `rng` (the run's own stream, so that no other
+    /// draw moves; with σ zero the draws add exactly zero).
+    pub fn draw_mounting(&self, rng: &mut ChaCha8Rng) -> RunMounting {
+        let (z0, z1, z2) = (normal(rng), normal(rng), normal(rng));
+        RunMounting {
+            scale_factor_error: self.scale_factor_error + self.scale_factor_sigma * z0,
+            misalignment: [
+                self.misalignment[0] + self.misalignment_sigma * z1,
+                self.misalignment[1] + self.misalignment_sigma * z2,
+            ],
+        }
+    }
 }
 
 /// A simulated odometer: distance increments per IMU sample.
@@ -261,5 +316,69 @@ mod tests {
         }
         let excess = total - n as f64 * 0.1;
         assert!((excess - 1000.0).abs() < 300.0, "excess {excess}");
+    }
+
+    #[test]
+    fn a_run_draws_its_mounting_and_the_rotation_follows_the_filters_convention() {
+        // No σ: the fixed values exactly (and no rotation without angles).
+        let fixed = OdometerModel {
+            scale_factor_error: 2e-3,
+            misalignment: [0.01, -0.02],
+            ..Default::default()
+        };
+        let m = fixed.draw_mounting(&mut stream(1, 0, crate::sensors::rng::ids::MOUNTING));
+        assert_eq!(m.scale_factor_error, 2e-3);
+        assert_eq!(m.misalignment, [0.01, -0.02]);
+        assert_eq!(
+            OdometerModel::default()
+                .draw_mounting(&mut stream(1, 0, crate::sensors::rng::ids::MOUNTING))
+                .vehicle_to_imu(),
+            None
+        );
+        // The vehicle's forward axis in the IMU's axes is [−yaw, 1, pitch]
+        // to first order (the filter's α_ψ, α_θ), exactly [−sin ψ cos θ..]
+        // for one angle at a time.
+        let (p, y) = (0.01f64, -0.02f64);
+        let c = RunMounting {
+            scale_factor_error: 0.0,
+            misalignment: [0.0, y],
+        }
+        .vehicle_to_imu()
+        .unwrap();
+        let f = c * V3::y();
+        assert!(
+            (f - V3::new(-y.sin(), y.cos(), 0.0)).norm() < 1e-15,
+            "{f:?}"
+        );
+        let c = RunMounting {
+            scale_factor_error: 0.0,
+            misalignment: [p, 0.0],
+        }
+        .vehicle_to_imu()
+        .unwrap();
+        let f = c * V3::y();
+        assert!((f - V3::new(0.0, p.cos(), p.sin())).norm() < 1e-15, "{f:?}");
+        // With σ: the draws are per run, their spread the σ (2,000 runs:
+        // the sample σ within ±1.6 % at 1σ; ±8 % is 5σ).
+        let drawn = OdometerModel {
+            scale_factor_sigma: 1e-3,
+            misalignment_sigma: 0.01,
+            ..Default::default()
+        };
+        let n = 2000;
+        let draws: Vec<RunMounting> = (0..n)
+            .map(|run| drawn.draw_mounting(&mut stream(1, run, crate::sensors::rng::ids::MOUNTING)))
+            .collect();
+        let sd = |f: &dyn Fn(&RunMounting) -> f64, want: f64| {
+            let v = draws.iter().map(|d| f(d).powi(2)).sum::<f64>() / n as f64;
+            assert!(
+                (v.sqrt() / want - 1.0).abs() < 0.08,
+                "{} against {want}",
+                v.sqrt()
+            );
+        };
+        sd(&|d| d.scale_factor_error, 1e-3);
+        sd(&|d| d.misalignment[0], 0.01);
+        sd(&|d| d.misalignment[1], 0.01);
     }
 }

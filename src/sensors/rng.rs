@@ -54,6 +54,9 @@ pub mod ids {
     /// The truth's lane, lane changes and lateral wander (drawn once per
     /// seed, with run index 0: the truth is the same in every run).
     pub const LANES: u64 = 10;
+    /// The odometer's scale factor and the IMU-to-vehicle misalignment
+    /// drawn per run (`OdometerModel::draw_mounting`).
+    pub const MOUNTING: u64 = 11;
 }
 
 /// SplitMix64 finaliser: a well-mixed 64-bit hash step.

@@ -5,7 +5,7 @@
 use super::passes::{draw_reads, find_passes, TagPass};
 use super::records::{PassRecord, RunResult, TagEvent};
 use super::tags::Tag;
-use super::truth::{initial_estimate, start_run, TruthSource};
+use super::truth::{initial_estimate, run_mounting, start_run, TruthSource};
 use crate::attitude::QuatExt;
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
@@ -265,7 +265,8 @@ pub fn run_integrated(
     };
     let aid = scn.aiding();
     let cfg = filter_config(scn);
-    let mut est0 = initial_estimate(scn, &first.avp.state);
+    let mount = run_mounting(scn, seed, run);
+    let mut est0 = initial_estimate(scn, &first.avp.state, &mount);
     let mut init = stream(seed, run, ids::INIT);
     {
         // Random initial errors drawn per run (the prior the filter assumes).
@@ -299,8 +300,15 @@ pub fn run_integrated(
         imu_model.accel_bias[k] += ar * normal(&mut init);
     }
     let mut imu = Imu::new(&imu_model, dt, stream(seed, run, ids::IMU));
+    if let Some(c) = mount.vehicle_to_imu() {
+        imu.mount(&c);
+    }
     let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
-    let mut odo = Odometer::new(&scn.odometer, stream(seed, run, ids::ODOMETER));
+    let odo_model = crate::sensors::OdometerModel {
+        scale_factor_error: mount.scale_factor_error,
+        ..scn.odometer
+    };
+    let mut odo = Odometer::new(&odo_model, stream(seed, run, ids::ODOMETER));
     let odo_every = ((scn.filter().odometer_interval_s / dt).round() as u64).max(1);
     let mut odo_acc = 0.0;
     let mut last_distance = first.avp.distance_m;

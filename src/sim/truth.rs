@@ -11,7 +11,8 @@ use crate::nav::NavState;
 use crate::network::Network;
 use crate::route::Route;
 use crate::scenario::{RouteKind, Scenario};
-use crate::sensors::RotationModulation;
+use crate::sensors::rng::ids;
+use crate::sensors::{RotationModulation, RunMounting};
 use crate::trajectory::route::RoutePlan;
 use crate::trajectory::{ideal_imu, Avp, MotionPlan};
 use std::sync::Arc;
@@ -204,9 +205,24 @@ pub(super) fn body_q(q_imu: &Quat, t: f64, rot: Option<RotationModulation>) -> Q
     }
 }
 
+/// This run's odometer scale factor and IMU-to-vehicle misalignment
+/// ([`crate::sensors::OdometerModel::draw_mounting`]), from the run's own
+/// stream.
+pub(super) fn run_mounting(scn: &Scenario, seed: u64, run: u64) -> RunMounting {
+    scn.odometer
+        .draw_mounting(&mut crate::sensors::rng::stream(seed, run, ids::MOUNTING))
+}
+
 /// The navigator's initial state: truth plus the scenario's initial errors
-/// (attitude errors on the body's pitch, roll and heading).
-pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavState {
+/// (attitude errors on the body's pitch, roll and heading). Alignment finds
+/// the IMU's attitude: with a mounting misalignment (`mount`) that is the
+/// vehicle's rotated by it, and the navigator takes the IMU's axes for the
+/// vehicle's.
+pub(super) fn initial_estimate(
+    scn: &Scenario,
+    truth_body: &NavState,
+    mount: &RunMounting,
+) -> NavState {
     let n = scn.navigator();
     let (pitch, roll, yaw) = truth_body.q.to_euler();
     let [dp, dr, dh] = scn.initial_attitude_error;
@@ -214,6 +230,10 @@ pub(super) fn initial_estimate(scn: &Scenario, truth_body: &NavState) -> NavStat
     let (rm, rn) = radii(truth_body.lat);
     let [pe, pn, pu] = n.initial_position_error_m;
     let dv = n.initial_velocity_error_mps;
+    let q = match mount.vehicle_to_imu() {
+        Some(c) => q * c.inverse(),
+        None => q,
+    };
     NavState {
         q,
         v: [
