@@ -1,0 +1,244 @@
+//! The drift model against the lean (independent) model on synthetic
+//! tracks with and without a slowly varying drift, at fix spacings from
+//! 1 m to 300 m, with a residual-correlation statistic per track: the
+//! measurement behind BENCHMARKS.md, "Could the matcher choose its model
+//! from the track?" (issue 15). Complete-path precision and recall by
+//! length, both models with `waymark match`'s defaults from the track.
+//!
+//! Usage: cargo run --release --example drift_vs_lean
+//!
+//! Tracks: the U routes over parallel two-way roads of
+//! tests/matching_accuracy.rs on the Gothenburg map, and eight seeded
+//! drives between random Helsinki nodes at least 1.2 km apart. z: per
+//! track, Σ rᵢ·rᵢ₊₁ / √Σ(rᵢ·rᵢ₊₁)², r the vector from a fix's nearest road
+//! point to the fix (about N(0, 1) when consecutive errors are independent).
+
+use waymark::matching::cpath::complete_path;
+use waymark::matching::evaluate::score;
+use waymark::matching::options::MatchOptions;
+use waymark::matching::path_out::path_lengths;
+use waymark::matching::{along_route, match_track, HmmMatcher, HmmModel, Matcher, TrackModel};
+use waymark::network::{LoadOptions, Network};
+use waymark::route::{plan_route, Route};
+
+fn on_road(net: &Network, road: u32, frac: f64) -> [f64; 2] {
+    let r = &net.roads[road as usize];
+    let target = frac * r.length_m;
+    let mut acc = 0.0;
+    for &s in &r.sections {
+        for seg in net.sections[s as usize].segment_ids() {
+            let g = &net.segments[seg as usize];
+            let l = (g.b[0] - g.a[0]).hypot(g.b[1] - g.a[1]);
+            if acc + l >= target {
+                let t = ((target - acc) / l).clamp(0.0, 1.0);
+                return [
+                    g.a[0] + t * (g.b[0] - g.a[0]),
+                    g.a[1] + t * (g.b[1] - g.a[1]),
+                ];
+            }
+            acc += l;
+        }
+    }
+    let g = &net.segments[net.sections[*r.sections.last().unwrap() as usize]
+        .segment_ids()
+        .last()
+        .unwrap() as usize];
+    g.b
+}
+
+fn parallel_routes(net: &Network) -> Vec<Route> {
+    let lat_lon = |e: [f64; 2]| {
+        let g = net.frame.to_geodetic([e[0], e[1], 0.0]);
+        [g.lat_deg(), g.lon_deg()]
+    };
+    let straight: Vec<(u32, [f64; 2], [f64; 2])> = (0..net.roads.len() as u32)
+        .filter_map(|id| {
+            let r = &net.roads[id as usize];
+            if r.length_m < 150.0
+                || r.sections.len() > 6
+                || r.sections
+                    .iter()
+                    .any(|&s| net.sections[s as usize].oneway.is_oneway())
+            {
+                return None;
+            }
+            let (a, b) = (on_road(net, id, 0.0), on_road(net, id, 1.0));
+            let chord = (b[0] - a[0]).hypot(b[1] - a[1]);
+            (chord > 0.97 * r.length_m).then_some((id, a, b))
+        })
+        .collect();
+    let mut pairs = Vec::new();
+    for (i, &(s1, a1, b1)) in straight.iter().enumerate() {
+        for &(s2, a2, b2) in &straight[i + 1..] {
+            let (d1, d2) = (
+                [b1[0] - a1[0], b1[1] - a1[1]],
+                [b2[0] - a2[0], b2[1] - a2[1]],
+            );
+            let (l1, l2) = (d1[0].hypot(d1[1]), d2[0].hypot(d2[1]));
+            let cos = (d1[0] * d2[0] + d1[1] * d2[1]) / (l1 * l2);
+            if cos.abs() < 10f64.to_radians().cos() {
+                continue;
+            }
+            let m2 = [(a2[0] + b2[0]) / 2.0, (a2[1] + b2[1]) / 2.0];
+            let (rx, ry) = (m2[0] - a1[0], m2[1] - a1[1]);
+            let along = (rx * d1[0] + ry * d1[1]) / l1;
+            let across = (rx * d1[1] - ry * d1[0]).abs() / l1;
+            if along > 0.2 * l1 && along < 0.8 * l1 && (12.0..=60.0).contains(&across) {
+                pairs.push((s1, s2));
+            }
+        }
+    }
+    let mut routes = Vec::new();
+    for &(s1, s2) in &pairs {
+        if routes.len() == 8 {
+            break;
+        }
+        let (a1, b1) = (on_road(net, s1, 0.03), on_road(net, s1, 0.97));
+        let (a2, b2) = (on_road(net, s2, 0.03), on_road(net, s2, 0.97));
+        let near = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
+        let (c2, d2) = if near(b1, b2) < near(b1, a2) {
+            (b2, a2)
+        } else {
+            (a2, b2)
+        };
+        let w: Vec<[f64; 2]> = [a1, b1, c2, d2].iter().map(|p| lat_lon(*p)).collect();
+        let r = plan_route(net, &w).unwrap();
+        let roads = net.roads[s1 as usize].length_m + net.roads[s2 as usize].length_m;
+        let turns_back = r.spans.iter().any(|a| {
+            r.spans.iter().any(|b| {
+                a.road == b.road
+                    && (a.to_offset_m - a.from_offset_m) * (b.to_offset_m - b.from_offset_m) < 0.0
+            })
+        });
+        if r.length_m < 2.0 * roads && !turns_back {
+            routes.push(r);
+        }
+    }
+    routes
+}
+
+fn random_routes(net: &Network, n: usize, min_m: f64) -> Vec<Route> {
+    use rand::{Rng, SeedableRng};
+    let lat_lon = |e: [f64; 2]| {
+        let g = net.frame.to_geodetic([e[0], e[1], 0.0]);
+        [g.lat_deg(), g.lon_deg()]
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(77);
+    let mut out = Vec::new();
+    while out.len() < n {
+        let a = net.nodes[rng.random_range(0..net.nodes.len())].enu;
+        let b = net.nodes[rng.random_range(0..net.nodes.len())].enu;
+        if (a[0] - b[0]).hypot(a[1] - b[1]) < min_m {
+            continue;
+        }
+        if let Ok(r) = plan_route(net, &[lat_lon(a), lat_lon(b)]) {
+            out.push(r);
+        }
+    }
+    out
+}
+
+fn run(name: &str, net: &Network, routes: &[Route]) {
+    let drift = MatchOptions::default();
+    let lean = MatchOptions {
+        model: HmmModel::Independent,
+        ..MatchOptions::default()
+    };
+    for spacing in [1.0, 10.0, 30.0, 50.0, 100.0, 170.0, 300.0] {
+        for (dmax, noise) in [(30.0, 2.0), (10.0, 2.0), (0.0, 5.0)] {
+            let mut acc = [[0.0f64; 4]; 2];
+            let mut zs = Vec::new();
+            for (k, route) in routes.iter().enumerate() {
+                let t = along_route(
+                    net,
+                    route,
+                    &TrackModel {
+                        spacing_m: spacing,
+                        speed_mps: 10.0,
+                        drift_max_m: dmax,
+                        noise_sigma_m: noise,
+                        heading_sigma_deg: None,
+                        seed: 500 + k as u64,
+                    },
+                );
+                zs.push(stat(net, &t.fixes));
+                for (j, o) in [drift, lean].iter().enumerate() {
+                    let params = o.hmm_params(net, &t.fixes);
+                    let mut m = HmmMatcher::new(net, params);
+                    let pts = match_track(&mut m, &t.fixes);
+                    let br = m.breaks().to_vec();
+                    let path = complete_path(net, &pts, &br, &params);
+                    let s = score(&path_lengths(net, &[&path]), &t.truth);
+                    acc[j][0] += s.precision_length * s.matched_length_m;
+                    acc[j][1] += s.matched_length_m;
+                    acc[j][2] += s.recall_length * s.truth_length_m;
+                    acc[j][3] += s.truth_length_m;
+                }
+            }
+            let z: Vec<String> = zs.iter().map(|z| format!("{z:.1}")).collect();
+            println!("{name} sp {spacing} drift {dmax} noise {noise}: drift P {:.3} R {:.3} | lean P {:.3} R {:.3} | z {}", acc[0][0]/acc[0][1], acc[0][2]/acc[0][3], acc[1][0]/acc[1][1], acc[1][2]/acc[1][3], z.join(" "));
+        }
+    }
+}
+
+fn resid(net: &Network, p: [f64; 2]) -> Option<[f64; 2]> {
+    let mut best = (f64::INFINITY, [0.0; 2]);
+    net.grid.for_each_within(p, 300.0, |id, t, d| {
+        if d < best.0 {
+            let s = &net.segments[id as usize];
+            let q = [
+                s.a[0] + t * (s.b[0] - s.a[0]),
+                s.a[1] + t * (s.b[1] - s.a[1]),
+            ];
+            best = (d, [p[0] - q[0], p[1] - q[1]]);
+        }
+    });
+    best.0.is_finite().then_some(best.1)
+}
+fn stat(net: &Network, fixes: &[waymark::matching::Fix]) -> f64 {
+    let r: Vec<Option<[f64; 2]>> = fixes.iter().map(|f| resid(net, f.enu)).collect();
+    let (mut s, mut s2) = (0.0, 0.0);
+    for w in r.windows(2) {
+        if let (Some(a), Some(b)) = (w[0], w[1]) {
+            let p = a[0] * b[0] + a[1] * b[1];
+            s += p;
+            s2 += p * p;
+        }
+    }
+    s / s2.sqrt()
+}
+
+fn main() {
+    // The real traces: z per track.
+    let real = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real");
+    for (map, track) in [
+        ("fmm-network.geojson", "fmm-trips.geojson"),
+        ("issue-70.osm", "issue-70.gpx"),
+        ("issue-13.osm", "issue-13.gpx"),
+    ] {
+        let net = Network::load(&real.join(map), &LoadOptions::default()).unwrap();
+        let (rows, _) = waymark::matching::inputs::read_track_file(&real.join(track)).unwrap();
+        for (id, idx) in waymark::matching::track::group_tracks(&rows) {
+            let f: Vec<_> = idx
+                .iter()
+                .map(|&i| waymark::matching::track::to_fix(&net, &rows[i]))
+                .collect();
+            println!(
+                "{track} track {id}: {} fixes, z {:.2}",
+                f.len(),
+                stat(&net, &f)
+            );
+        }
+    }
+    let maps = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("maps");
+    let g = Network::load(
+        &maps.join("gothenburg-roads.geojson"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let pr = parallel_routes(&g);
+    run("parallel", &g, &pr);
+    let h = Network::load(&maps.join("helsinki.osm.pbf"), &LoadOptions::default()).unwrap();
+    let hr = random_routes(&h, 8, 1200.0);
+    run("helsinki", &h, &hr);
+}
