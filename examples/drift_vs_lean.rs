@@ -13,6 +13,9 @@
 //! track, Σ rᵢ·rᵢ₊₁ / √Σ(rᵢ·rᵢ₊₁)², r the vector from a fix's nearest road
 //! point to the fix (about N(0, 1) when consecutive errors are independent).
 
+#[path = "../tests/common/parallel.rs"]
+mod parallel;
+
 use waymark::matching::cpath::complete_path;
 use waymark::matching::evaluate::score;
 use waymark::matching::options::MatchOptions;
@@ -21,100 +24,8 @@ use waymark::matching::{along_route, match_track, HmmMatcher, HmmModel, Matcher,
 use waymark::network::{LoadOptions, Network};
 use waymark::route::{plan_route, Route};
 
-fn on_road(net: &Network, road: u32, frac: f64) -> [f64; 2] {
-    let r = &net.roads[road as usize];
-    let target = frac * r.length_m;
-    let mut acc = 0.0;
-    for &s in &r.sections {
-        for seg in net.sections[s as usize].segment_ids() {
-            let g = &net.segments[seg as usize];
-            let l = (g.b[0] - g.a[0]).hypot(g.b[1] - g.a[1]);
-            if acc + l >= target {
-                let t = ((target - acc) / l).clamp(0.0, 1.0);
-                return [
-                    g.a[0] + t * (g.b[0] - g.a[0]),
-                    g.a[1] + t * (g.b[1] - g.a[1]),
-                ];
-            }
-            acc += l;
-        }
-    }
-    let g = &net.segments[net.sections[*r.sections.last().unwrap() as usize]
-        .segment_ids()
-        .last()
-        .unwrap() as usize];
-    g.b
-}
-
 fn parallel_routes(net: &Network) -> Vec<Route> {
-    let lat_lon = |e: [f64; 2]| {
-        let g = net.frame.to_geodetic([e[0], e[1], 0.0]);
-        [g.lat_deg(), g.lon_deg()]
-    };
-    let straight: Vec<(u32, [f64; 2], [f64; 2])> = (0..net.roads.len() as u32)
-        .filter_map(|id| {
-            let r = &net.roads[id as usize];
-            if r.length_m < 150.0
-                || r.sections.len() > 6
-                || r.sections
-                    .iter()
-                    .any(|&s| net.sections[s as usize].oneway.is_oneway())
-            {
-                return None;
-            }
-            let (a, b) = (on_road(net, id, 0.0), on_road(net, id, 1.0));
-            let chord = (b[0] - a[0]).hypot(b[1] - a[1]);
-            (chord > 0.97 * r.length_m).then_some((id, a, b))
-        })
-        .collect();
-    let mut pairs = Vec::new();
-    for (i, &(s1, a1, b1)) in straight.iter().enumerate() {
-        for &(s2, a2, b2) in &straight[i + 1..] {
-            let (d1, d2) = (
-                [b1[0] - a1[0], b1[1] - a1[1]],
-                [b2[0] - a2[0], b2[1] - a2[1]],
-            );
-            let (l1, l2) = (d1[0].hypot(d1[1]), d2[0].hypot(d2[1]));
-            let cos = (d1[0] * d2[0] + d1[1] * d2[1]) / (l1 * l2);
-            if cos.abs() < 10f64.to_radians().cos() {
-                continue;
-            }
-            let m2 = [(a2[0] + b2[0]) / 2.0, (a2[1] + b2[1]) / 2.0];
-            let (rx, ry) = (m2[0] - a1[0], m2[1] - a1[1]);
-            let along = (rx * d1[0] + ry * d1[1]) / l1;
-            let across = (rx * d1[1] - ry * d1[0]).abs() / l1;
-            if along > 0.2 * l1 && along < 0.8 * l1 && (12.0..=60.0).contains(&across) {
-                pairs.push((s1, s2));
-            }
-        }
-    }
-    let mut routes = Vec::new();
-    for &(s1, s2) in &pairs {
-        if routes.len() == 8 {
-            break;
-        }
-        let (a1, b1) = (on_road(net, s1, 0.03), on_road(net, s1, 0.97));
-        let (a2, b2) = (on_road(net, s2, 0.03), on_road(net, s2, 0.97));
-        let near = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
-        let (c2, d2) = if near(b1, b2) < near(b1, a2) {
-            (b2, a2)
-        } else {
-            (a2, b2)
-        };
-        let w: Vec<[f64; 2]> = [a1, b1, c2, d2].iter().map(|p| lat_lon(*p)).collect();
-        let r = plan_route(net, &w).unwrap();
-        let roads = net.roads[s1 as usize].length_m + net.roads[s2 as usize].length_m;
-        let turns_back = r.spans.iter().any(|a| {
-            r.spans.iter().any(|b| {
-                a.road == b.road
-                    && (a.to_offset_m - a.from_offset_m) * (b.to_offset_m - b.from_offset_m) < 0.0
-            })
-        });
-        if r.length_m < 2.0 * roads && !turns_back {
-            routes.push(r);
-        }
-    }
-    routes
+    parallel::u_routes(net, &parallel::pairs(net))
 }
 
 fn random_routes(net: &Network, n: usize, min_m: f64) -> Vec<Route> {
