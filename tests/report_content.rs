@@ -130,6 +130,18 @@ fn simulate_records_tag_passes_and_odometer_faults_and_the_report_shows_them() {
         "fault in the summary table"
     );
     assert!(html.contains("2: 1 read and accepted, 0 rejected by the filter, 1 missed"));
+    // What the filter learnt of the odometer: the scenario's scale factor
+    // (0.131 %) beside the estimate, no misalignment simulated.
+    let cal = &summary["odometer_calibration"];
+    assert_eq!(cal["scale_factor"]["truth_run0"], 0.00131);
+    assert_eq!(cal["yaw_misalignment_deg"]["truth_run0"], 0.0);
+    assert!(cal["scale_factor"]["sigma_run0"].as_f64().unwrap() > 0.0);
+    assert!(
+        html.contains("Odometer calibration at the end")
+            && html.contains("scale factor ")
+            && html.contains("(simulated 1.31e-3)"),
+        "calibration paragraph"
+    );
     for png in ["error_time.png", "error_distance.png"] {
         assert!(out.join("plots").join(png).exists());
     }
@@ -164,6 +176,10 @@ fn a_scenario_without_faults_or_tags_records_none() {
         serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["odometer_faults"], serde_json::json!([]));
     assert!(
+        summary["odometer_calibration"].is_null(),
+        "no filter, no calibration"
+    );
+    assert!(
         !out.join("tag_passes.csv").exists(),
         "no filter, no tag passes"
     );
@@ -171,6 +187,7 @@ fn a_scenario_without_faults_or_tags_records_none() {
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(!html.contains(&legend("odometer fault")));
     assert!(!html.contains(&legend("tag read")));
+    assert!(!html.contains("Odometer calibration"));
 }
 
 #[test]

@@ -275,6 +275,9 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
         if let Some(n) = sections::nees(s) {
             html.push_str(&n);
         }
+        if let Some(c) = sections::calibration(s) {
+            html.push_str(&c);
+        }
         if !p["validation"].is_object() && s["requirement_m"].is_number() {
             html.push_str(&sections::rule(sections::confidence(p, s)));
         }

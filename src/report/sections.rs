@@ -245,6 +245,48 @@ pub fn nees(s: &serde_json::Value) -> Option<String> {
     ))
 }
 
+/// What the filter learnt of the odometer's calibration by the end
+/// (`summary.json`'s `odometer_calibration`): run 0's estimates with their
+/// σ beside the simulated values, and over the runs the final errors' RMS
+/// against the filter's RMS σ. `None` without it (no filter, or no odometer
+/// aiding).
+pub fn calibration(s: &serde_json::Value) -> Option<String> {
+    let c = &s["odometer_calibration"];
+    let states = [
+        ("yaw_misalignment_deg", "yaw misalignment", true),
+        ("pitch_misalignment_deg", "pitch misalignment", true),
+        ("scale_factor", "scale factor", false),
+    ];
+    let fmt = |x: f64, deg: bool| {
+        if deg {
+            format!("{x:.3}°")
+        } else {
+            format!("{x:.2e}")
+        }
+    };
+    let mut run0 = Vec::new();
+    let (mut errors, mut sigmas) = (Vec::new(), Vec::new());
+    for (key, name, deg) in states {
+        let v = &c[key];
+        let f = |k: &str| num(&v[k]);
+        run0.push(format!(
+            "{name} {} ± {} (simulated {})",
+            fmt(f("estimate_run0")?, deg),
+            fmt(f("sigma_run0")?, deg),
+            fmt(f("truth_run0")?, deg)
+        ));
+        errors.push(fmt(f("rms_error")?, deg));
+        sigmas.push(fmt(f("rms_sigma")?, deg));
+    }
+    let runs = s["runs"].as_u64().unwrap_or(1);
+    Some(format!(
+        "<p>Odometer calibration at the end (run 0, estimate ± filter σ): {}. <span class=\"figures\">Over {runs} run(s) the final errors' RMS is {} against the filter's RMS σ {}.</span></p>",
+        escape(run0.join(", ")),
+        errors.join(", "),
+        sigmas.join(", ")
+    ))
+}
+
 fn table(rows: &[(&str, String)]) -> String {
     let mut html = String::from("<table class=\"kv\">");
     for (k, v) in rows {

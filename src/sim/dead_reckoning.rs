@@ -178,5 +178,6 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
         tag_passes: vec![],
         counts: None,
         map_feed: None,
+        calibration: None,
     }
 }

@@ -178,6 +178,7 @@ mod tests {
             tag_passes: vec![],
             counts: None,
             map_feed: None,
+            calibration: None,
         }
     }
 

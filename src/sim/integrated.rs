@@ -490,6 +490,16 @@ pub fn run_integrated(
             }
         })
         .collect();
+    let calibration = aid.odometer.then(|| {
+        let (k, pitch, yaw) = filter.odometer_calibration();
+        let p = filter.covariance();
+        let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
+        [
+            [mount.scale_factor_error, k, sd(crate::nav::ekf::KOD)],
+            [mount.misalignment[0], pitch, sd(crate::nav::ekf::ATHETA)],
+            [mount.misalignment[1], yaw, sd(crate::nav::ekf::APSI)],
+        ]
+    });
     RunResult {
         run,
         rows: rec.finish(),
@@ -497,5 +507,6 @@ pub fn run_integrated(
         tag_passes,
         counts: Some(filter.counts),
         map_feed: map_feed.map(|f| f.counts),
+        calibration,
     }
 }

@@ -69,6 +69,68 @@ pub struct Summary {
     /// Odometer faults injected by the scenario (`[odometer] failure`) while
     /// the navigator uses the odometer, as intervals of time and distance.
     pub odometer_faults: Vec<FaultInterval>,
+    /// What the filter learnt of the odometer's calibration by the end of
+    /// the runs (integrated mode with odometer aiding).
+    pub odometer_calibration: Option<CalibrationSummary>,
+}
+
+/// One calibration state at the end of the runs: the simulated value, the
+/// filter's estimate and its σ.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CalibrationState {
+    /// Run 0's simulated value.
+    pub truth_run0: f64,
+    /// Run 0's estimate at the end.
+    pub estimate_run0: f64,
+    /// Run 0's filter σ at the end.
+    pub sigma_run0: f64,
+    /// Over the runs: RMS of the final estimate minus the simulated value.
+    pub rms_error: f64,
+    /// Over the runs: RMS of the final filter σ (a consistent filter's is
+    /// about `rms_error`).
+    pub rms_sigma: f64,
+}
+
+/// The filter's odometer calibration states at the end of the runs
+/// (`summary.json`'s `odometer_calibration`): the scale-factor error (the
+/// odometer reads (1 + δK) v) and the IMU-to-vehicle misalignment in
+/// degrees (the vehicle's forward axis is [−yaw, 1, pitch] in the IMU's
+/// axes), as `[odometer]` states them.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CalibrationSummary {
+    /// Scale-factor error (ratio).
+    pub scale_factor: CalibrationState,
+    /// Pitch misalignment (deg).
+    pub pitch_misalignment_deg: CalibrationState,
+    /// Yaw misalignment (deg).
+    pub yaw_misalignment_deg: CalibrationState,
+}
+
+impl CalibrationSummary {
+    /// From the runs' [`RunResult::calibration`] (`None` if run 0 has none).
+    fn of(runs: &[RunResult]) -> Option<Self> {
+        let first = runs.first()?.calibration?;
+        let all: Vec<[[f64; 3]; 3]> = runs.iter().filter_map(|r| r.calibration).collect();
+        let n = all.len() as f64;
+        let state = |i: usize, scale: f64| {
+            let rms = |f: &dyn Fn(&[[f64; 3]; 3]) -> f64| {
+                (all.iter().map(|c| f(c).powi(2)).sum::<f64>() / n).sqrt() * scale
+            };
+            CalibrationState {
+                truth_run0: first[i][0] * scale,
+                estimate_run0: first[i][1] * scale,
+                sigma_run0: first[i][2] * scale,
+                rms_error: rms(&|c| c[i][1] - c[i][0]),
+                rms_sigma: rms(&|c| c[i][2]),
+            }
+        };
+        let deg = 1f64.to_degrees();
+        Some(CalibrationSummary {
+            scale_factor: state(0, 1.0),
+            pitch_misalignment_deg: state(1, deg),
+            yaw_misalignment_deg: state(2, deg),
+        })
+    }
 }
 
 /// An interval during which a sensor is faulty (run 0's time and distance).
@@ -375,5 +437,6 @@ pub fn summarize(scn: &Scenario, seed: u64, runs: &[RunResult]) -> Summary {
         odometer_faults: runs
             .first()
             .map_or_else(Vec::new, |r| odometer_faults(scn, &r.rows)),
+        odometer_calibration: CalibrationSummary::of(runs),
     }
 }

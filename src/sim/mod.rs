@@ -42,7 +42,8 @@ pub use integrated::Prepared;
 pub use limits::{check_simulation_size, MAX_RUNS, MAX_SIMULATED_S, MAX_STORED_ROWS};
 pub use map_feed::FeedCounts;
 pub use metrics::{
-    FaultInterval, MapMatchingSummary, NeesSummary, ProfilePoint, RunSummary, Summary, TagSummary,
+    CalibrationState, CalibrationSummary, FaultInterval, MapMatchingSummary, NeesSummary,
+    ProfilePoint, RunSummary, Summary, TagSummary,
 };
 pub use monte_carlo::{simulate, simulate_with, SimResult};
 pub use output::write as write_output;

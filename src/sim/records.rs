@@ -81,6 +81,11 @@ pub struct RunResult {
     pub counts: Option<crate::nav::integrated::UpdateCounts>,
     /// What the map-matching feed did (integrated mode with `aiding.map_matching`).
     pub map_feed: Option<super::map_feed::FeedCounts>,
+    /// The filter's odometer calibration at the end of the run beside the
+    /// simulated one (integrated mode with odometer aiding): scale-factor
+    /// error (ratio), pitch and yaw misalignment (rad), each as (truth,
+    /// estimate, filter σ).
+    pub calibration: Option<[[f64; 3]; 3]>,
 }
 
 /// Estimate minus truth in local metres (east, north, up).
@@ -106,6 +111,7 @@ impl RunResult {
             tag_passes: vec![],
             counts: None,
             map_feed: None,
+            calibration: None,
         }
     }
 }
