@@ -761,3 +761,57 @@ fn a_plan_numbers_its_new_tags_around_the_ids_already_taken() {
     let first = csv.lines().nth(1).unwrap();
     assert!(first.starts_with("T0003,"), "{csv}");
 }
+
+#[test]
+fn absurd_odometer_mounting_errors_are_refused() {
+    // The IMU's misalignment on the vehicle and the per-run calibration σ
+    // (added with them): beyond their ranges one line naming the file and
+    // the field, exit 1, nothing written; inside them a finite run.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (line, field, range) in [
+        (
+            "misalignment_deg = [0, 1e308]",
+            "odometer.misalignment_deg[1] (yaw)",
+            "10",
+        ),
+        (
+            "misalignment_deg = [-45, 0]",
+            "odometer.misalignment_deg[0] (pitch)",
+            "10",
+        ),
+        (
+            "misalignment_sigma_deg = 1e308",
+            "odometer.misalignment_sigma_deg",
+            "5",
+        ),
+        (
+            "scale_factor_sigma = 1e308",
+            "odometer.scale_factor_sigma",
+            "0.1",
+        ),
+        (
+            "scale_factor_sigma = -0.001",
+            "odometer.scale_factor_sigma",
+            "0.1",
+        ),
+    ] {
+        let scn = drive(
+            d,
+            "m.toml",
+            "dead_reckoning",
+            "45",
+            &format!("[odometer]\n{line}"),
+        );
+        fails_with(&simulate(d, &scn), &["m.toml", field, range]);
+        assert!(!d.join("o").exists());
+    }
+    let scn = drive(
+        d,
+        "m.toml",
+        "dead_reckoning",
+        "45",
+        "[odometer]\nmisalignment_deg = [10, -10]\nmisalignment_sigma_deg = 5\nscale_factor_sigma = 0.1",
+    );
+    succeeded_finite(&simulate(d, &scn));
+}
