@@ -461,6 +461,25 @@ fn a_yaw_misalignment_turns_dead_reckoning_off_its_track() {
         assert!((east - we).abs() < 0.005 * we.abs(), "east {east} m");
         assert!((north - wn).abs() < 0.005 * we.abs(), "north {north} m");
     }
+    // A pitch misalignment α_θ tilts the IMU's forward axis below the
+    // track by α_θ (the vehicle's forward axis is α_θ up in the IMU's
+    // axes): dead reckoning sinks D sin α_θ, −86.83 m at 0.5°, and falls
+    // D (1 − cos α_θ) short (measured 0.31 m, not 0.38: moving 43 m lower
+    // on average, the same distance spans D h̄/R = 0.07 m more latitude);
+    // same tolerance.
+    let s = simulate(
+        dir.path(),
+        "pitch",
+        &dead_reckoning("misalignment_deg = [0.5, 0]"),
+        &[],
+    );
+    let [_, east, north, up] = s.at(1000.0);
+    let a = 0.5f64.to_radians();
+    let (wu, wn) = (-d * a.sin(), -d * (1.0 - a.cos()));
+    eprintln!("DR, pitch misalignment 0.5°: up {up:.3} m (closed form {wu:.3}), north {north:.3} m ({wn:.3}), east {east:.3} m");
+    assert!((up - wu).abs() < 0.005 * wu.abs(), "up {up} m");
+    assert!((north - wn).abs() < 0.005 * wu.abs(), "north {north} m");
+    assert!(east.abs() < 0.005 * wu.abs(), "east {east} m");
 }
 
 #[test]

@@ -53,7 +53,7 @@ pub struct OdometerModel {
     /// `[−yaw, 1, pitch]` in the IMU's axes (x right, y forward, z up). The
     /// IMU is mounted rotated by it, so a navigator that takes the IMU's
     /// forward axis for the vehicle's resolves the odometer's distance
-    /// `yaw` to the right and `pitch` up of the true track.
+    /// `yaw` to the right of the true track and `pitch` below it.
     pub misalignment: [f64; 2],
     /// σ per axis of a misalignment drawn per run on top of `misalignment`
     /// (rad).
