@@ -764,8 +764,8 @@ fn a_plan_numbers_its_new_tags_around_the_ids_already_taken() {
 
 #[test]
 fn absurd_odometer_mounting_errors_are_refused() {
-    // The IMU's misalignment on the vehicle and the per-run calibration σ
-    // (added with them): beyond their ranges one line naming the file and
+    // The IMU's misalignment on the vehicle, the per-run calibration σ and
+    // the time-varying scale factor (added with them): beyond their ranges one line naming the file and
     // the field, exit 1, nothing written; inside them a finite run.
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
@@ -795,6 +795,16 @@ fn absurd_odometer_mounting_errors_are_refused() {
             "odometer.scale_factor_sigma",
             "0.1",
         ),
+        (
+            "scale_factor_instability = 1e308",
+            "odometer.scale_factor_instability",
+            "0.1",
+        ),
+        (
+            "scale_factor_tau_s = 1e-300",
+            "odometer.scale_factor_tau_s",
+            "10",
+        ),
     ] {
         let scn = drive(
             d,
@@ -811,7 +821,8 @@ fn absurd_odometer_mounting_errors_are_refused() {
         "m.toml",
         "dead_reckoning",
         "45",
-        "[odometer]\nmisalignment_deg = [10, -10]\nmisalignment_sigma_deg = 5\nscale_factor_sigma = 0.1",
+        "[odometer]\nmisalignment_deg = [10, -10]\nmisalignment_sigma_deg = 5\nscale_factor_sigma = 0.1\n\
+         scale_factor_instability = 0.1\nscale_factor_tau_s = 10",
     );
     succeeded_finite(&simulate(d, &scn));
 }

@@ -368,8 +368,27 @@ fn odometer_mounting_errors_are_checked_and_set_the_filter_priors() {
         s.odometer.misalignment,
         [0.3f64.to_radians(), (-0.4f64).to_radians()]
     );
-    // Without them, the defaults of before (5e-4 at least, 0.2°).
+    // Without them, the defaults of before (5e-4 at least, 0.2°, a random
+    // constant), and the time-varying part's correlation time 3600 s.
     let s = Scenario::parse(Path::new("a.toml"), ROUTE).unwrap();
     assert_eq!(s.filter().odometer_scale_sigma, 5e-4);
+    assert_eq!(s.filter().odometer_scale_tau_s, 1e6);
     assert_eq!(s.filter().odometer_misalignment_sigma, 0.2f64.to_radians());
+    assert_eq!(s.odometer.scale_factor_tau_s, 3600.0);
+    // A time-varying scale factor: checked, and the filter's state follows
+    // it (σ with the others, the process's correlation time).
+    let e = parse_err("[odometer]\nscale_factor_instability = 0.2\n");
+    assert!(
+        e.contains("odometer.scale_factor_instability must be between 0 and 0.1"),
+        "{e}"
+    );
+    let e = parse_err("[odometer]\nscale_factor_tau_s = 1\n");
+    assert!(e.contains("odometer.scale_factor_tau_s"), "{e}");
+    let s = Scenario::parse(
+        Path::new("a.toml"),
+        &format!("{ROUTE}[odometer]\nscale_factor_error = 3e-3\nscale_factor_instability = 4e-3\nscale_factor_tau_s = 600\n"),
+    )
+    .unwrap();
+    assert!((s.filter().odometer_scale_sigma - 5e-3).abs() < 1e-15);
+    assert_eq!(s.filter().odometer_scale_tau_s, 600.0);
 }

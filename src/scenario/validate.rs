@@ -283,6 +283,15 @@ impl Scenario {
             0.0,
             5.0,
         )?;
+        // A time-varying scale factor: as large as the per-run one, and its
+        // correlation time as every other's.
+        c.range(
+            "odometer.scale_factor_instability",
+            o.scale_factor_instability,
+            0.0,
+            0.1,
+        )?;
+        correlation_time(&c, "odometer.scale_factor_tau_s", o.scale_factor_tau_s)?;
         let misaligned = o.misalignment_deg != [0.0; 2] || o.misalignment_sigma_deg != 0.0;
         if misaligned && rotation.is_some() {
             return Err(c.err(
@@ -300,6 +309,8 @@ impl Scenario {
             scale_factor_sigma: o.scale_factor_sigma,
             misalignment: o.misalignment_deg.map(f64::to_radians),
             misalignment_sigma: o.misalignment_sigma_deg.to_radians(),
+            scale_factor_instability: o.scale_factor_instability,
+            scale_factor_tau_s: o.scale_factor_tau_s,
         };
         // Vehicle and differential odometer
         c.range("vehicle.width_m", file.vehicle.width_m, 0.5, 10.0)?;
@@ -835,10 +846,21 @@ fn filter(file: &ScenarioFile, odometer: &OdometerModel, dt: f64) -> FilterSetti
         // The priors cover the simulated errors: the fixed value and the
         // per-run σ (hypot(x, 0) is |x| exactly, so scenarios without the
         // per-run terms keep their priors bit for bit).
-        odometer_scale_sigma: f
-            .odometer_scale_sigma
-            .unwrap_or(sf.abs().hypot(odometer.scale_factor_sigma).max(5e-4)),
-        odometer_scale_tau_s: f.odometer_scale_tau_s.unwrap_or(1e6),
+        odometer_scale_sigma: f.odometer_scale_sigma.unwrap_or(
+            sf.abs()
+                .hypot(odometer.scale_factor_sigma)
+                .hypot(odometer.scale_factor_instability)
+                .max(5e-4),
+        ),
+        // A random constant, or the simulated process's time when the
+        // scale factor varies.
+        odometer_scale_tau_s: f.odometer_scale_tau_s.unwrap_or(
+            if odometer.scale_factor_instability > 0.0 {
+                odometer.scale_factor_tau_s
+            } else {
+                1e6
+            },
+        ),
         odometer_misalignment_sigma: match f.odometer_misalignment_sigma_deg {
             Some(x) => x.to_radians(),
             None => {

@@ -58,6 +58,13 @@ pub struct OdometerModel {
     /// σ per axis of a misalignment drawn per run on top of `misalignment`
     /// (rad).
     pub misalignment_sigma: f64,
+    /// Steady-state σ of a scale-factor error that varies in time (ratio;
+    /// tyre temperature, pressure and load), on top of the others: a
+    /// first-order Gauss–Markov process started from its stationary
+    /// distribution. 0: none.
+    pub scale_factor_instability: f64,
+    /// Correlation time of that process (s).
+    pub scale_factor_tau_s: f64,
 }
 
 /// The odometer's mounting as one run draws it: the scale-factor error and
@@ -105,6 +112,9 @@ impl OdometerModel {
 pub struct Odometer {
     model: OdometerModel,
     rng: ChaCha8Rng,
+    /// The time-varying scale factor's current value and its own stream
+    /// (so that the other draws are those of an odometer without it).
+    drift: Option<(f64, ChaCha8Rng)>,
     measured: f64,
     counted: f64,
     next_slip_m: f64,
@@ -117,20 +127,34 @@ fn exp_draw(rng: &mut ChaCha8Rng, mean: f64) -> f64 {
 }
 
 impl Odometer {
-    /// An odometer with its own random stream.
-    pub fn new(model: &OdometerModel, mut rng: ChaCha8Rng) -> Self {
+    /// An odometer with its own random streams: `rng` for the noise, slips
+    /// and pulses, `drift_rng` for the time-varying scale factor
+    /// ([`OdometerModel::scale_factor_instability`]; not drawn from without
+    /// one).
+    pub fn new(model: &OdometerModel, mut rng: ChaCha8Rng, mut drift_rng: ChaCha8Rng) -> Self {
         let next_slip_m = match model.slip {
             Some(s) if s.rate_per_km > 0.0 => exp_draw(&mut rng, 1000.0 / s.rate_per_km),
             _ => f64::INFINITY,
         };
+        let drift = (model.scale_factor_instability > 0.0).then(|| {
+            let x0 = model.scale_factor_instability * normal(&mut drift_rng);
+            (x0, drift_rng)
+        });
         Self {
             model: *model,
             rng,
+            drift,
             measured: 0.0,
             counted: 0.0,
             next_slip_m,
             slip_until_m: f64::NEG_INFINITY,
         }
+    }
+
+    /// The scale-factor error now (ratio): the run's constant one plus the
+    /// time-varying part's current value.
+    pub fn scale_factor_error(&self) -> f64 {
+        self.model.scale_factor_error + self.drift.as_ref().map_or(0.0, |d| d.0)
     }
 
     /// Whether the odometer has failed at time `t` (s) and distance `distance_m`.
@@ -149,6 +173,14 @@ impl Odometer {
     #[inline]
     pub fn measure(&mut self, t: f64, distance_m: f64, d_true: f64, dt: f64) -> Option<f64> {
         let mut d = d_true * (1.0 + self.model.scale_factor_error);
+        if let Some((x, rng)) = self.drift.as_mut() {
+            // Exact discretisation over this step (the steps need not be
+            // equal): x' = φ x + σ √(1 − φ²) w, φ = e^(−dt/τ).
+            let phi = (-dt.max(0.0) / self.model.scale_factor_tau_s).exp();
+            *x = phi * *x
+                + self.model.scale_factor_instability * (1.0 - phi * phi).sqrt() * normal(rng);
+            d += d_true * *x;
+        }
         if let Some(s) = self.model.slip {
             if distance_m >= self.next_slip_m {
                 self.slip_until_m = distance_m + s.length_m;
@@ -283,7 +315,7 @@ mod tests {
             }),
             ..Default::default()
         };
-        let mut odo = Odometer::new(&model, stream(1, 0, 2));
+        let mut odo = Odometer::new(&model, stream(1, 0, 2), stream(1, 0, 12));
         let mut total = 0.0;
         for k in 1..=4999 {
             let t = k as f64 * 0.01;
@@ -308,7 +340,7 @@ mod tests {
             }),
             ..Default::default()
         };
-        let mut odo = Odometer::new(&model, stream(5, 0, 2));
+        let mut odo = Odometer::new(&model, stream(5, 0, 2), stream(5, 0, 12));
         let mut total = 0.0;
         let n = 1_000_000;
         for k in 1..=n {

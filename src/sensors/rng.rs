@@ -57,6 +57,9 @@ pub mod ids {
     /// The odometer's scale factor and the IMU-to-vehicle misalignment
     /// drawn per run (`OdometerModel::draw_mounting`).
     pub const MOUNTING: u64 = 11;
+    /// The odometer's time-varying scale factor
+    /// (`OdometerModel::scale_factor_instability`).
+    pub const ODOMETER_SCALE: u64 = 12;
 }
 
 /// SplitMix64 finaliser: a well-mixed 64-bit hash step.

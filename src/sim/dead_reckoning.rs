@@ -74,7 +74,11 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
                 scale_factor_error: mount.scale_factor_error,
                 ..scn.odometer
             };
-            let mut odo = Odometer::new(&model, stream(seed, run, ids::ODOMETER));
+            let mut odo = Odometer::new(
+                &model,
+                stream(seed, run, ids::ODOMETER),
+                stream(seed, run, ids::ODOMETER_SCALE),
+            );
             let mut dr = OdometerDr::new(est0.lat, est0.lon, est0.h);
             let mut last_distance = first.avp.distance_m;
             let mut q_prev = est_body_q0;

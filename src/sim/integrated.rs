@@ -308,7 +308,11 @@ pub fn run_integrated(
         scale_factor_error: mount.scale_factor_error,
         ..scn.odometer
     };
-    let mut odo = Odometer::new(&odo_model, stream(seed, run, ids::ODOMETER));
+    let mut odo = Odometer::new(
+        &odo_model,
+        stream(seed, run, ids::ODOMETER),
+        stream(seed, run, ids::ODOMETER_SCALE),
+    );
     let odo_every = ((scn.filter().odometer_interval_s / dt).round() as u64).max(1);
     let mut odo_acc = 0.0;
     let mut last_distance = first.avp.distance_m;
@@ -495,7 +499,7 @@ pub fn run_integrated(
         let p = filter.covariance();
         let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
         [
-            [mount.scale_factor_error, k, sd(crate::nav::ekf::KOD)],
+            [odo.scale_factor_error(), k, sd(crate::nav::ekf::KOD)],
             [mount.misalignment[0], pitch, sd(crate::nav::ekf::ATHETA)],
             [mount.misalignment[1], yaw, sd(crate::nav::ekf::APSI)],
         ]

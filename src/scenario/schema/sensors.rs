@@ -107,7 +107,7 @@ pub struct FailureSpec {
 }
 
 /// `[odometer]`.
-#[derive(Debug, Clone, Copy, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OdometerSection {
     /// Scale-factor error (ratio).
@@ -137,6 +137,12 @@ pub struct OdometerSection {
     /// `misalignment_deg` (deg).
     #[serde(default)]
     pub misalignment_sigma_deg: f64,
+    /// Steady-state σ of a time-varying scale factor (ratio).
+    #[serde(default)]
+    pub scale_factor_instability: f64,
+    /// Its correlation time (s).
+    #[serde(default = "default_scale_factor_tau_s")]
+    pub scale_factor_tau_s: f64,
 }
 
 /// `[diff_odometer]`.
@@ -208,4 +214,26 @@ pub struct LevelSensorSection {
     /// White roll noise (deg).
     #[serde(default)]
     pub noise_deg: f64,
+}
+
+fn default_scale_factor_tau_s() -> f64 {
+    3600.0
+}
+
+impl Default for OdometerSection {
+    /// As a file without `[odometer]` reads: a perfect odometer.
+    fn default() -> Self {
+        Self {
+            scale_factor_error: 0.0,
+            noise_mps: 0.0,
+            pulse_m: 0.0,
+            slip: None,
+            failure: None,
+            scale_factor_sigma: 0.0,
+            misalignment_deg: [0.0; 2],
+            misalignment_sigma_deg: 0.0,
+            scale_factor_instability: 0.0,
+            scale_factor_tau_s: default_scale_factor_tau_s(),
+        }
+    }
 }
