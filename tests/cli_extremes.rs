@@ -826,3 +826,28 @@ fn absurd_odometer_mounting_errors_are_refused() {
     );
     succeeded_finite(&simulate(d, &scn));
 }
+
+#[test]
+fn an_absurd_pitch_rate_is_refused() {
+    // climb's pitch_rate_dps = 1e6 was accepted and the ramp to the grade
+    // became one IMU sample (finite, silently not what was asked).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for rate in ["1e6", "90.5", "0"] {
+        motion_drive(
+            d,
+            &format!(
+                "{{ kind = \"accelerate\", to_kmh = 36 }}, \
+                 {{ kind = \"climb\", grade_percent = 10, distance_m = 200, pitch_rate_dps = {rate} }}"
+            ),
+        );
+        fails_with(&simulate(d, "m.toml"), &["m.toml", "pitch_rate_dps"]);
+        assert!(!d.join("o").exists());
+    }
+    motion_drive(
+        d,
+        "{ kind = \"accelerate\", to_kmh = 36 }, \
+         { kind = \"climb\", grade_percent = 10, distance_m = 200, pitch_rate_dps = 90 }",
+    );
+    succeeded_finite(&simulate(d, "m.toml"));
+}

@@ -285,9 +285,14 @@ fn motion(c: &Check, i: usize, m: &MotionSpec) -> Result<Motion> {
             Motion::Climb {
                 grade: sign * g / 100.0,
                 extent: extent()?,
-                pitch_rate: c
-                    .positive(&f("pitch_rate_dps"), m.pitch_rate_dps.unwrap_or(1.0))?
-                    .to_radians(),
+                // At most 90 °/s: through a 45° ramp in half a second, a
+                // crash rather than a drive; faster rates ended within one
+                // IMU step (4,500 °/s at 100 Hz), a silent one-sample ramp.
+                pitch_rate: {
+                    let field = f("pitch_rate_dps");
+                    let x = c.positive(&field, m.pitch_rate_dps.unwrap_or(1.0))?;
+                    c.range(&field, x, 0.0, 90.0)?.to_radians()
+                },
             }
         }
     })
