@@ -113,14 +113,19 @@ impl Imu {
         }
     }
 
-    /// Mounts the IMU rotated by `vehicle_to_imu` (`C_v^s`) from the
-    /// vehicle whose ideal increments [`Self::measure`] is given: every
-    /// increment is first resolved in the IMU's axes, then takes the
-    /// triad's errors.
-    pub fn mount(&mut self, vehicle_to_imu: &crate::attitude::Quat) {
-        let c = vehicle_to_imu.to_rotation_matrix().into_inner();
-        self.gyro_m *= c;
-        self.accel_m *= c;
+    /// Mounts the IMU on the vehicle whose ideal increments
+    /// [`Self::measure`] is given, rotated by the run's misalignment
+    /// ([`RunMounting::vehicle_to_imu`], `C_v^s`): every increment is first
+    /// resolved in the IMU's axes, then takes the triad's errors. Without a
+    /// misalignment nothing changes.
+    ///
+    /// [`RunMounting::vehicle_to_imu`]: super::RunMounting::vehicle_to_imu
+    pub fn mount(&mut self, mounting: &super::RunMounting) {
+        if let Some(q) = mounting.vehicle_to_imu() {
+            let c = q.to_rotation_matrix().into_inner();
+            self.gyro_m *= c;
+            self.accel_m *= c;
+        }
     }
 
     /// The measured increments for ideal increments `ideal`.
@@ -196,14 +201,17 @@ mod tests {
 
     #[test]
     fn a_mounted_imu_measures_the_vehicles_increments_in_its_own_axes() {
-        use crate::attitude::{Quat, QuatExt};
-        let c = Quat::from_rotvec(V3::new(0.004, 0.0, -0.01));
+        let mounting = crate::sensors::RunMounting {
+            scale_factor_error: 0.0,
+            misalignment: [0.004, -0.01],
+        };
+        let c = mounting.vehicle_to_imu().unwrap();
         let mut imu = Imu::new(
             &ImuModel::default(),
             0.01,
             rand::SeedableRng::seed_from_u64(1),
         );
-        imu.mount(&c);
+        imu.mount(&mounting);
         let ideal = ImuIncrement {
             dtheta: V3::new(1e-4, -2e-4, 3e-3),
             dv: V3::new(0.01, 0.1, 0.098),

@@ -3,13 +3,13 @@
 //! own random streams.
 
 use super::records::RunResult;
-use super::truth::{body_q, initial_estimate, run_mounting, start_run, TruthSource};
+use super::truth::{body_q, initial_estimate, run_mounting, run_odometer, start_run, TruthSource};
 use crate::attitude::QuatExt;
 use crate::nav::{BaroDamping, Dr3d, HandoverWindow, OdometerDr, Strapdown};
 use crate::scenario::{NavMode, Scenario, VerticalChannel};
 use crate::sensors::odometer::wheel_distances;
 use crate::sensors::rng::{ids, normal, stream};
-use crate::sensors::{Barometer, DiffOdometer, Imu, Odometer, OdometerModel};
+use crate::sensors::{Barometer, DiffOdometer, Imu};
 
 /// The window (s) of odometer travel whose mean velocity dead reckoning
 /// hands to the inertial navigator when the odometer fails
@@ -39,9 +39,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
     }
     rec.record(0, &first.avp, est0.lat, est0.lon, est0.h);
     let mut imu = Imu::new(&scn.imu, dt, stream(seed, run, ids::IMU));
-    if let Some(c) = mount.vehicle_to_imu() {
-        imu.mount(&c);
-    }
+    imu.mount(&mount);
     let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
     let mut ins = Strapdown::new(est0, dt);
     let mut damping = match scn.navigator().vertical_channel {
@@ -70,15 +68,7 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
             }
         }
         NavMode::DeadReckoning => {
-            let model = OdometerModel {
-                scale_factor_error: mount.scale_factor_error,
-                ..scn.odometer
-            };
-            let mut odo = Odometer::new(
-                &model,
-                stream(seed, run, ids::ODOMETER),
-                stream(seed, run, ids::ODOMETER_SCALE),
-            );
+            let mut odo = run_odometer(scn, &mount, seed, run);
             let mut dr = OdometerDr::new(est0.lat, est0.lon, est0.h);
             let mut last_distance = first.avp.distance_m;
             let mut q_prev = est_body_q0;

@@ -5,14 +5,14 @@
 use super::passes::{draw_reads, find_passes, TagPass};
 use super::records::{PassRecord, RunResult, TagEvent};
 use super::tags::Tag;
-use super::truth::{initial_estimate, run_mounting, start_run, TruthSource};
+use super::truth::{initial_estimate, run_mounting, run_odometer, start_run, TruthSource};
 use crate::attitude::QuatExt;
 use crate::error::Result;
 use crate::nav::ekf::{NoiseModel, APSI, ATHETA, BARO, DP, DV, EPS, KOD, N, NABLA, PHI, RW};
 use crate::nav::{Filter, FilterConfig, MeasurementQueue};
 use crate::scenario::{Adaptive, ExternalFix, RouteKind, Scenario, TagPlace};
 use crate::sensors::rng::{ids, normal, stream};
-use crate::sensors::{Barometer, Imu, Odometer};
+use crate::sensors::{Barometer, Imu};
 use rand::Rng;
 
 /// Random stream of the RFID reads.
@@ -300,19 +300,9 @@ pub fn run_integrated(
         imu_model.accel_bias[k] += ar * normal(&mut init);
     }
     let mut imu = Imu::new(&imu_model, dt, stream(seed, run, ids::IMU));
-    if let Some(c) = mount.vehicle_to_imu() {
-        imu.mount(&c);
-    }
+    imu.mount(&mount);
     let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
-    let odo_model = crate::sensors::OdometerModel {
-        scale_factor_error: mount.scale_factor_error,
-        ..scn.odometer
-    };
-    let mut odo = Odometer::new(
-        &odo_model,
-        stream(seed, run, ids::ODOMETER),
-        stream(seed, run, ids::ODOMETER_SCALE),
-    );
+    let mut odo = run_odometer(scn, &mount, seed, run);
     let odo_every = ((scn.filter().odometer_interval_s / dt).round() as u64).max(1);
     let mut odo_acc = 0.0;
     let mut last_distance = first.avp.distance_m;

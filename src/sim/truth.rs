@@ -11,8 +11,8 @@ use crate::nav::NavState;
 use crate::network::Network;
 use crate::route::Route;
 use crate::scenario::{RouteKind, Scenario};
-use crate::sensors::rng::ids;
-use crate::sensors::{RotationModulation, RunMounting};
+use crate::sensors::rng::{ids, stream};
+use crate::sensors::{Odometer, OdometerModel, RotationModulation, RunMounting};
 use crate::trajectory::route::RoutePlan;
 use crate::trajectory::{ideal_imu, Avp, MotionPlan};
 use std::sync::Arc;
@@ -210,7 +210,21 @@ pub(super) fn body_q(q_imu: &Quat, t: f64, rot: Option<RotationModulation>) -> Q
 /// stream.
 pub(super) fn run_mounting(scn: &Scenario, seed: u64, run: u64) -> RunMounting {
     scn.odometer
-        .draw_mounting(&mut crate::sensors::rng::stream(seed, run, ids::MOUNTING))
+        .draw_mounting(&mut stream(seed, run, ids::MOUNTING))
+}
+
+/// This run's odometer: the scenario's with the run's scale factor
+/// (`mount`), on its own streams.
+pub(super) fn run_odometer(scn: &Scenario, mount: &RunMounting, seed: u64, run: u64) -> Odometer {
+    let model = OdometerModel {
+        scale_factor_error: mount.scale_factor_error,
+        ..scn.odometer
+    };
+    Odometer::new(
+        &model,
+        stream(seed, run, ids::ODOMETER),
+        stream(seed, run, ids::ODOMETER_SCALE),
+    )
 }
 
 /// The navigator's initial state: truth plus the scenario's initial errors
