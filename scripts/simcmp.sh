@@ -6,7 +6,9 @@
 # network plan without a [[route]], must be refused alike): prints
 # "identical" or "DIFFERENT" per scenario and a count; exit 1 if any
 # differs. For changes to the simulation meant to leave existing scenarios'
-# results alone (new optional fields, refactoring).
+# results alone (new optional fields, refactoring). With ERRORS_COLS set
+# (e.g. ERRORS_COLS=1-9), errors.csv is compared on those columns only
+# (`cut -d, -f`), for a NEW that adds columns.
 set -uo pipefail
 old=$1; new=$2; runs=${3:-2}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
@@ -23,6 +25,10 @@ for f in scenarios/*.toml; do
   cmp -s "$tmp/old-$n.err" "$tmp/new-$n.err" || ok=0
   for file in summary.json errors.csv; do
     a="$tmp/old-$n/$file"; b="$tmp/new-$n/$file"
+    if [ "$file" = errors.csv ] && [ -n "${ERRORS_COLS:-}" ] && [ -e "$a" ] && [ -e "$b" ]; then
+      cut -d, -f"$ERRORS_COLS" "$a" > "$a.cut"; cut -d, -f"$ERRORS_COLS" "$b" > "$b.cut"
+      a="$a.cut"; b="$b.cut"
+    fi
     if [ -e "$a" ] || [ -e "$b" ]; then cmp -s "$a" "$b" || ok=0; fi
   done
   if [ $ok = 1 ]; then same=$((same + 1)); echo "$n identical"; else echo "$n DIFFERENT"; fi

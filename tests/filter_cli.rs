@@ -84,16 +84,29 @@ fn tags_csv_feeds_the_filter_and_sigma_columns_are_filled() {
     let mut lines = text.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "t_s,distance_m,east_m,north_m,up_m,horizontal_m,sigma_east_m,sigma_north_m,sigma_up_m"
+        "t_s,distance_m,east_m,north_m,up_m,horizontal_m,sigma_east_m,sigma_north_m,sigma_up_m,bound95_m"
     );
-    let mut n = 0;
+    let (mut n, mut correlated) = (0, 0);
     for l in lines {
         let f: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
-        assert_eq!(f.len(), 9);
+        assert_eq!(f.len(), 10);
         assert!(f[6] > 0.0 && f[7] > 0.0 && f[8] > 0.0, "{l}");
+        // The bound from the full covariance lies between the diagonal's
+        // (2.4477·max σ, where east and north are uncorrelated) and
+        // 2.4477·√(σ_E² + σ_N²) (λ_max ≤ the trace). Tolerance 1e-3 m:
+        // each column is rounded to 1e-4 m, times 2.45 at most.
+        let k = waymark::sim::CHI2_2_95.sqrt();
+        let (diag, trace) = (k * f[6].max(f[7]), k * f[6].hypot(f[7]));
+        assert!(f[9] >= diag - 1e-3 && f[9] <= trace + 1e-3, "{l}");
+        if f[9] > 1.01 * diag {
+            correlated += 1;
+        }
         n += 1;
     }
     assert!(n > 500);
+    // The drive turns: the error ellipse is tilted on some rows, where the
+    // diagonal bound would understate the filter's own bound by over 1 %.
+    assert!(correlated > 10, "{correlated} of {n} rows");
 }
 
 fn bad_tags(csv: &str, needle: &str) {

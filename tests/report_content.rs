@@ -98,26 +98,58 @@ fn simulate_records_tag_passes_and_odometer_faults_and_the_report_shows_them() {
     let from_m = faults[0]["from_m"].as_f64().unwrap();
     assert!(from_m > 80_000.0 && from_m < d0, "{from_m}");
 
-    // The report: both plots shade the fault and mark the passes.
+    // calibration.csv: run 0's odometer calibration at every error row,
+    // ending on summary.json's state at the end.
+    let cal_csv = std::fs::read_to_string(out.join("calibration.csv")).unwrap();
+    let errors = std::fs::read_to_string(out.join("errors.csv")).unwrap();
+    assert_eq!(cal_csv.lines().count(), errors.lines().count());
+    let cal_rows: Vec<Vec<f64>> = cal_csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let (first, last) = (&cal_rows[0], cal_rows.last().unwrap());
+    let end = &summary["odometer_calibration"]["scale_factor"];
+    // Columns: truth, estimate, σ of the scale factor; written to 1e-8.
+    for (k, key) in [(2, "truth_run0"), (3, "estimate_run0"), (4, "sigma_run0")] {
+        assert!((last[k] - end[key].as_f64().unwrap()).abs() < 1e-8, "{key}");
+    }
+    // The filter starts knowing nothing (estimate 0) and learns: its σ
+    // shrinks from the prior.
+    assert_eq!(first[3], 0.0);
+    assert!(last[4] < 0.5 * first[4], "{first:?} {last:?}");
+    // The misalignments: none simulated; the filter's σ in degrees.
+    assert!(last[5] == 0.0 && last[8] == 0.0 && last[7] > 0.0 && last[10] > 0.0);
+
+    // The report: the time and distance plots and the three calibration
+    // plots shade the fault and mark the passes.
     ok(&bin(&["report", o]));
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     for label in ["odometer fault", "tag read", "tag missed"] {
         assert_eq!(
             html.matches(&legend(label)).count(),
-            2,
-            "legend '{label}' in the time and distance plots"
+            5,
+            "legend '{label}' in the time, distance and calibration plots"
+        );
+    }
+    for title in ["scale factor", "pitch misalignment", "yaw misalignment"] {
+        assert!(
+            html.contains(&format!(
+                "<h2>Odometer {title}: estimation error (run 0)</h2>"
+            )),
+            "{title}"
         );
     }
     assert!(!html.contains(&legend("tag read, rejected by the filter")));
     // Each plot: one tick per pass plus the legend's swatch, in its own colour.
     assert_eq!(
         html.matches("stroke=\"#B400A0\"").count(),
-        2 * 2,
+        5 * 2,
         "read ticks"
     );
     assert_eq!(
         html.matches("stroke=\"#969696\"").count(),
-        2 * 2,
+        5 * 2,
         "missed ticks"
     );
     // The shaded fault: a translucent orange rectangle from 3600 s (time plot).
@@ -142,9 +174,29 @@ fn simulate_records_tag_passes_and_odometer_faults_and_the_report_shows_them() {
             && html.contains("(simulated 1.31e-3)"),
         "calibration paragraph"
     );
-    for png in ["error_time.png", "error_distance.png"] {
-        assert!(out.join("plots").join(png).exists());
+    for png in [
+        "error_time.png",
+        "error_distance.png",
+        "calibration_scale_factor.png",
+        "calibration_pitch.png",
+        "calibration_yaw.png",
+    ] {
+        assert!(out.join("plots").join(png).exists(), "{png}");
     }
+    // Every plot is one the report knows by name (to clear it when stale).
+    for f in std::fs::read_dir(out.join("plots")).unwrap() {
+        let name = f.unwrap().file_name().to_string_lossy().into_owned();
+        let stem = name.strip_suffix(".png").unwrap();
+        assert!(waymark::report::PLOT_NAMES.contains(&stem), "{name}");
+    }
+
+    // A folder written before calibration.csv existed: a note, no plots.
+    std::fs::remove_file(out.join("calibration.csv")).unwrap();
+    ok(&bin(&["report", o]));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("calibration.csv is missing"));
+    assert!(!html.contains("estimation error (run 0)"));
+    assert!(!out.join("plots/calibration_yaw.png").exists());
 
     // A damaged tag_passes.csv is one clear line, not a panic.
     std::fs::write(

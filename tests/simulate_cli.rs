@@ -36,13 +36,13 @@ fn simulate(scenario: &str, extra: &[&str]) -> (Vec<Row>, serde_json::Value) {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "t_s,distance_m,east_m,north_m,up_m,horizontal_m,sigma_east_m,sigma_north_m,sigma_up_m"
+        "t_s,distance_m,east_m,north_m,up_m,horizontal_m,sigma_east_m,sigma_north_m,sigma_up_m,bound95_m"
     );
     let rows = lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            assert_eq!(f.len(), 9, "{l}");
-            assert!(f[6].is_empty() && f[7].is_empty() && f[8].is_empty());
+            assert_eq!(f.len(), 10, "{l}");
+            assert!(f[6..].iter().all(|x| x.is_empty()), "{l}");
             let p = |i: usize| f[i].parse::<f64>().unwrap();
             Row {
                 t: p(0),

@@ -21,7 +21,7 @@ use crate::sim::TruthSource;
 use crate::trajectory::{ideal_imu, TruthSample};
 use rayon::prelude::*;
 
-pub use crate::sim::covariance::bound95;
+pub use crate::sim::bound::bound95;
 
 /// One point of a budget profile.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -132,7 +132,7 @@ impl<'a> Budget<'a> {
         if self.p == 0.95 {
             bound95(c)
         } else {
-            crate::sim::covariance::bound_at(c, self.p)
+            crate::sim::bound::bound_at(c, self.p)
         }
     }
 

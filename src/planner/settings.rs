@@ -5,7 +5,7 @@
 use crate::error::{Error, Result};
 use crate::network::RoadAttributes;
 use crate::scenario::{NavMode, Scenario};
-use crate::sim::covariance::bound95_of_sigmas;
+use crate::sim::bound::bound95_of_sigmas;
 use crate::sim::tags::{Mounting, RfidModel, Tag};
 
 /// Default read probability of a tag (the RFID paper's field test).

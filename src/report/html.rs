@@ -3,7 +3,7 @@
 use super::folder::{ExampleRun, TagRow, TagSource};
 use super::plot::{error_plot_svg, ErrorSeries, PassKind, PlotDecor, TagMark};
 use super::sections;
-use super::{bound95, ErrorRow, PassRow, PlanProfileRow};
+use super::{ErrorRow, PassRow, PlanProfileRow};
 use crate::error::Result;
 use quick_xml::escape::escape;
 use std::fmt::Write;
@@ -17,6 +17,8 @@ pub struct ReportInput {
     pub rows: Vec<ErrorRow>,
     /// `tag_passes.csv` rows (run 0).
     pub tag_passes: Vec<PassRow>,
+    /// `calibration.csv` rows (run 0; empty without odometer calibration).
+    pub calibration: Vec<super::CalibrationPoint>,
     /// Odometer faults: (from, to) in time (s) and in distance (m).
     pub odometer_faults: Vec<([f64; 2], [f64; 2])>,
     /// `plan.json` as read (a plan).
@@ -94,7 +96,9 @@ impl ReportInput {
 /// simulation, the example run's error against time and distance (the
 /// median run by maximum error, or run 0 when the folder has no example
 /// files; tag passes marked, odometer faults shaded) and the worst run's
-/// against distance; for a route plan, the predicted bound along the route.
+/// against distance, and run 0's odometer calibration over the run where
+/// the folder has it ([`super::calibration_plots`]); for a route plan, the
+/// predicted bound along the route.
 pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)> {
     let mut out = Vec::new();
     if let Some(s) = &input.summary {
@@ -119,7 +123,7 @@ pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)>
                 envelope: envelope(s, by_time),
                 x,
                 error: run.rows.iter().map(|r| r.horizontal_m).collect(),
-                bound95: run.rows.iter().map(|r| r.sigma_en_m.map(bound95)).collect(),
+                bound95: run.rows.iter().map(|r| r.bound95_m).collect(),
             };
             let decor = PlotDecor {
                 title,
@@ -172,6 +176,11 @@ pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)>
                 false,
             );
         }
+        out.extend(super::calibration_plots(
+            &input.calibration,
+            &input.tag_passes,
+            &input.odometer_faults,
+        ));
     }
     if let (Some(p), false) = (&input.plan, input.plan_profile.is_empty()) {
         let requirement = num(&p["requirement_m"]);

@@ -3,6 +3,7 @@
 //! nothing loaded from the network) for a `simulate` or `plan` output
 //! folder (or one holding both, as `waymark demo` writes).
 
+mod calibration;
 mod folder;
 mod html;
 mod map;
@@ -10,6 +11,7 @@ mod plot;
 mod sections;
 pub mod verdict;
 
+pub use calibration::{calibration_plots, read_calibration_csv, CalibrationPoint};
 pub use folder::{
     example_files, example_runs, merge_plan_tags, per_run_max, read_coverage, read_tag_table,
     ExampleRun, TagRow, TagSource,
@@ -46,13 +48,30 @@ pub struct ErrorRow {
     pub horizontal_m: f64,
     /// Filter 1-sigma, east and north (m), where the navigator has a filter.
     pub sigma_en_m: Option<[f64; 2]>,
+    /// The filter's horizontal 95 % bound (m): the file's `bound95_m` (from
+    /// the full covariance), or for a file without that column (written
+    /// before it existed) [`bound95`] of `sigma_en_m`, which is below the
+    /// full covariance's bound where east and north are correlated.
+    pub bound95_m: Option<f64>,
 }
 
 /// The filter's horizontal 95 % bound from `errors.csv`'s east and north 1σ:
 /// the one definition, [`crate::sim::bound95`] (the circle
-/// containing the 95 % ellipse), of the diagonal covariance the file gives
-/// (it does not write the east-north correlation).
-pub use crate::sim::covariance::bound95_of_sigmas as bound95;
+/// containing the 95 % ellipse), of the diagonal covariance they give (the
+/// east-north correlation left out). Used for files without the
+/// `bound95_m` column, which carries the full covariance's bound.
+pub use crate::sim::bound::bound95_of_sigmas as bound95;
+
+/// Every plot a report can draw (`plots/NAME.png`).
+pub const PLOT_NAMES: [&str; 7] = [
+    "error_time",
+    "error_distance",
+    "error_distance_worst",
+    "plan_profile",
+    "calibration_scale_factor",
+    "calibration_pitch",
+    "calibration_yaw",
+];
 
 /// Reads `errors.csv` by column name (extra columns are ignored).
 pub fn read_errors_csv(path: &Path) -> Result<Vec<ErrorRow>> {
@@ -68,6 +87,7 @@ pub fn read_errors_csv(path: &Path) -> Result<Vec<ErrorRow>> {
     let need = |name: &str| col(name).ok_or_else(|| fail(format!("missing column '{name}'")));
     let (it, id, ih) = (need("t_s")?, need("distance_m")?, need("horizontal_m")?);
     let (ise, isn) = (col("sigma_east_m"), col("sigma_north_m"));
+    let ib = col("bound95_m");
     let mut rows = Vec::new();
     for (i, rec) in r.records().enumerate() {
         let rec = rec.map_err(|e| fail(folder::record_error(&e, i)))?;
@@ -83,14 +103,20 @@ pub fn read_errors_csv(path: &Path) -> Result<Vec<ErrorRow>> {
             k.and_then(|k| rec.get(k))
                 .and_then(|v| v.trim().parse::<f64>().ok())
         };
+        let sigma_en_m = match (opt(ise), opt(isn)) {
+            (Some(e), Some(n)) => Some([e, n]),
+            _ => None,
+        };
+        let bound95_m = match ib {
+            Some(_) => opt(ib).filter(|b| b.is_finite()),
+            None => sigma_en_m.map(bound95),
+        };
         rows.push(ErrorRow {
             t_s: num(it, "t_s")?,
             distance_m: num(id, "distance_m")?,
             horizontal_m: num(ih, "horizontal_m")?,
-            sigma_en_m: match (opt(ise), opt(isn)) {
-                (Some(e), Some(n)) => Some([e, n]),
-                _ => None,
-            },
+            sigma_en_m,
+            bound95_m,
         });
     }
     if rows.is_empty() {
@@ -369,6 +395,21 @@ pub fn read_output_folder(
         }
         _ => Vec::new(),
     };
+    let calibration_path = dir.join("calibration.csv");
+    let calibrated = summary
+        .as_ref()
+        .is_some_and(|s| s["odometer_calibration"].is_object());
+    let calibration = match (calibrated, calibration_path.exists()) {
+        (true, true) => read_calibration_csv(&calibration_path)?,
+        (true, false) => {
+            notes.push(
+                "calibration.csv is missing: the odometer's calibration over the run is not plotted"
+                    .into(),
+            );
+            Vec::new()
+        }
+        _ => Vec::new(),
+    };
     // The example runs: the median by maximum error and the worst.
     let mut examples = Vec::new();
     if let Some(s) = summary.as_ref().filter(|s| s["runs"].as_u64() > Some(1)) {
@@ -598,6 +639,7 @@ pub fn read_output_folder(
         summary,
         rows,
         tag_passes,
+        calibration,
         odometer_faults: Vec::new(),
         plan,
         plan_profile,
@@ -655,10 +697,20 @@ pub fn write_report_on(
     let plots_dir = dir.join("plots");
     std::fs::create_dir_all(&plots_dir).map_err(|e| Error::io(&plots_dir, e))?;
     let mut plots = Vec::new();
+    let mut written = Vec::new();
     for (name, series, decor) in html::plots(&input) {
         let path = plots_dir.join(format!("{name}.png"));
         write_atomic(&path, &error_plot_png(&series, &decor, (1200, 520))?)?;
         plots.push(path);
+        written.push(name);
+    }
+    // A plot an earlier report drew from files no longer there (a run
+    // fewer, calibration.csv removed) would be taken for this one's.
+    for name in PLOT_NAMES.iter().filter(|n| !written.contains(n)) {
+        let path = plots_dir.join(format!("{name}.png"));
+        if path.exists() {
+            std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
+        }
     }
     write_atomic(&report, html.as_bytes())?;
     tracing::info!(
@@ -673,4 +725,33 @@ pub fn write_report_on(
         plan: input.plan.is_some(),
         missing: input.notes.clone(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &str) -> Vec<ErrorRow> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("errors.csv");
+        std::fs::write(&p, text).unwrap();
+        read_errors_csv(&p).unwrap()
+    }
+
+    #[test]
+    fn the_bound_column_is_read_and_older_files_fall_back_to_the_sigmas() {
+        let head =
+            "t_s,distance_m,east_m,north_m,up_m,horizontal_m,sigma_east_m,sigma_north_m,sigma_up_m";
+        // σ_E = σ_N = 2 m fully correlated: the full covariance's bound is
+        // 2.4477·√8 = 6.92 m, the diagonal's 2.4477·2 = 4.90 m.
+        let new = read(&format!(
+            "{head},bound95_m\n0,0,1,1,0,1.4142,2,2,1,6.9232\n1,10,0,0,0,0,,,,\n"
+        ));
+        assert_eq!(new[0].bound95_m, Some(6.9232));
+        assert_eq!(new[1].bound95_m, None);
+        assert_eq!(new[1].sigma_en_m, None);
+        let old = read(&format!("{head}\n0,0,1,1,0,1.4142,2,2,1\n"));
+        assert_eq!(old[0].bound95_m, Some(bound95([2.0, 2.0])));
+        assert!((old[0].bound95_m.unwrap() - 4.8955).abs() < 1e-4);
+    }
 }

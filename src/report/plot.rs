@@ -75,6 +75,10 @@ pub struct PlotDecor {
     pub y_max: Option<f64>,
     /// Legend of accepted tag reads (default "tag read").
     pub tag_label: Option<String>,
+    /// Unit of the y axis where it is not metres (e.g. "%", "°"): the
+    /// clipped curve's maximum is then given to three significant digits
+    /// in it.
+    pub y_unit: Option<String>,
 }
 
 fn draw<DB: DrawingBackend>(
@@ -283,8 +287,15 @@ where
                     .map(|x| TriangleMarker::new((x, y_max * 0.985), 7, c.filled())),
             )
             .map_err(|e| err(&e))?;
+        let up_to = match &d.y_unit {
+            None => format!("{data_max:.0} m"),
+            Some(unit) => {
+                let digits = (2 - data_max.abs().log10().floor() as i64).clamp(0, 12) as usize;
+                format!("{data_max:.digits$} {unit}")
+            }
+        };
         legend.push((
-            format!("clipped at the top: values up to {data_max:.0} m"),
+            format!("clipped at the top: values up to {up_to}"),
             c,
             LegendMark::Triangle,
         ));

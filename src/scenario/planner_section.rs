@@ -114,8 +114,9 @@ pub(super) fn planner(
             // check blamed the covariance analysis.
             Some(&x) if x > MAX_MOUNTING_COST => {
                 return Err(c.err(format!(
-                    "planner.cost.{m} = {x:e} is above the limit of {MAX_MOUNTING_COST:e} \
-                     (a relative cost, or a price per tag)"
+                    "planner.cost.{m} = {} is above the limit of {MAX_MOUNTING_COST:e} \
+                     (a relative cost, or a price per tag)",
+                    short_number(x)
                 )))
             }
             Some(&x) => x,

@@ -173,5 +173,6 @@ pub fn run_once(scn: &Scenario, truth: &TruthSource, seed: u64, run: u64) -> Run
         counts: None,
         map_feed: None,
         calibration: None,
+        calibration_rows: vec![],
     }
 }

@@ -26,7 +26,7 @@ pub fn check_runs_finite(scn: &Scenario, runs: &[RunResult]) -> Result<()> {
                         x.up_m,
                         x.horizontal_m,
                     ];
-                    let s = [x.sigma_east_m, x.sigma_north_m, x.sigma_up_m];
+                    let s = [x.sigma_east_m, x.sigma_north_m, x.sigma_up_m, x.bound95_m];
                     e.iter().any(|v| !v.is_finite()) || (filter && s.iter().any(|v| !v.is_finite()))
                 })
                 .map(|x| (x.t_s, r.run))
@@ -166,6 +166,7 @@ mod tests {
             sigma_east_m: f64::NAN,
             sigma_north_m: f64::NAN,
             sigma_up_m: f64::NAN,
+            bound95_m: f64::NAN,
             nees_h: f64::NAN,
         }
     }
@@ -179,6 +180,7 @@ mod tests {
             counts: None,
             map_feed: None,
             calibration: None,
+            calibration_rows: vec![],
         }
     }
 

@@ -3,7 +3,7 @@
 //! fix measurements, queued with their time stamps and applied in time order.
 
 use super::passes::{draw_reads, find_passes, TagPass};
-use super::records::{PassRecord, RunResult, TagEvent};
+use super::records::{CalibrationRow, PassRecord, RunResult, TagEvent};
 use super::tags::Tag;
 use super::truth::{initial_estimate, run_mounting, run_odometer, start_run, TruthSource};
 use crate::attitude::QuatExt;
@@ -303,6 +303,29 @@ pub fn run_integrated(
     imu.mount(&mount);
     let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
     let mut odo = run_odometer(scn, &mount, seed, run);
+    // The odometer's calibration now: (truth, estimate, filter σ) of the
+    // scale factor, pitch and yaw misalignment.
+    let calibration_now = |filter: &Filter, odo: &crate::sensors::Odometer| {
+        let (k, pitch, yaw) = filter.odometer_calibration();
+        let p = filter.covariance();
+        let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
+        [
+            [odo.scale_factor_error(), k, sd(KOD)],
+            [mount.misalignment[0], pitch, sd(ATHETA)],
+            [mount.misalignment[1], yaw, sd(APSI)],
+        ]
+    };
+    // Run 0 keeps its calibration at every error row (calibration.csv);
+    // the others only their end state, which keeps a run's memory small.
+    let keep_calibration = aid.odometer && run == 0;
+    let mut calibration_rows = Vec::new();
+    if keep_calibration {
+        calibration_rows.push(CalibrationRow {
+            t_s: first.avp.t,
+            distance_m: first.avp.distance_m,
+            states: calibration_now(&filter, &odo),
+        });
+    }
     let odo_every = ((scn.filter().odometer_interval_s / dt).round() as u64).max(1);
     let mut odo_acc = 0.0;
     let mut last_distance = first.avp.distance_m;
@@ -454,12 +477,26 @@ pub fn run_integrated(
         if rec.due(k) {
             let cov = Some(filter.position_cov_enu());
             rec.record_cov(k, &s.avp, st.lat, st.lon, st.h, cov);
+            if keep_calibration {
+                calibration_rows.push(CalibrationRow {
+                    t_s: s.avp.t,
+                    distance_m: s.avp.distance_m,
+                    states: calibration_now(&filter, &odo),
+                });
+            }
         } else {
             rec.pending = Some((s.avp, st.lat, st.lon, st.h, None));
         }
     }
     if let Some(p) = rec.pending.as_mut() {
         p.4 = Some(filter.position_cov_enu());
+        if keep_calibration {
+            calibration_rows.push(CalibrationRow {
+                t_s: p.0.t,
+                distance_m: p.0.distance_m,
+                states: calibration_now(&filter, &odo),
+            });
+        }
     }
     let mut read_of_pass: Vec<Option<usize>> = vec![None; prep.passes.len()];
     for (i, r) in reads.iter().enumerate() {
@@ -484,16 +521,7 @@ pub fn run_integrated(
             }
         })
         .collect();
-    let calibration = aid.odometer.then(|| {
-        let (k, pitch, yaw) = filter.odometer_calibration();
-        let p = filter.covariance();
-        let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
-        [
-            [odo.scale_factor_error(), k, sd(crate::nav::ekf::KOD)],
-            [mount.misalignment[0], pitch, sd(crate::nav::ekf::ATHETA)],
-            [mount.misalignment[1], yaw, sd(crate::nav::ekf::APSI)],
-        ]
-    });
+    let calibration = aid.odometer.then(|| calibration_now(&filter, &odo));
     RunResult {
         run,
         rows: rec.finish(),
@@ -502,5 +530,6 @@ pub fn run_integrated(
         counts: Some(filter.counts),
         map_feed: map_feed.map(|f| f.counts),
         calibration,
+        calibration_rows,
     }
 }

@@ -10,10 +10,10 @@ use crate::scenario::Scenario;
 pub use crate::scenario::MAX_RUNS;
 
 /// Most error rows kept in memory over all runs (runs × rows per run; a row
-/// is 80 bytes, so about 1.6 GB).
+/// is 88 bytes, so about 1.8 GB).
 pub const MAX_STORED_ROWS: u64 = 20_000_000;
 
-/// Bytes of one kept error row (ten `f64`).
+/// Bytes of one kept error row (eleven `f64`).
 const ROW_BYTES: u64 = std::mem::size_of::<super::records::ErrorRow>() as u64;
 
 /// Longest simulated drive (s): 30 days, the limit of motion commands

@@ -12,13 +12,15 @@
 //! - `dead_reckoning`: the stand-alone navigators' runner;
 //! - `integrated`: the integrated navigator's runner and its filter settings;
 //! - `map_error`: the map's geometry error field, drawn per run;
-//! - `covariance`: the perfect-data covariance engine and the 95 % bound;
+//! - `bound`: the one definition of the horizontal 95 % bound;
+//! - `covariance`: the perfect-data covariance engine;
 //! - `finite`: a diverged run (NaN, infinity) as an error with its likely cause;
 //! - `metrics`: the summary of the runs;
 //! - `limits`: the size limits checked before a simulation starts;
 //! - `monte_carlo`: Monte Carlo dispatch;
 //! - `output`: the files of `waymark simulate`.
 
+pub(crate) mod bound;
 pub(crate) mod covariance;
 pub(crate) mod dead_reckoning;
 pub(crate) mod finite;
@@ -36,7 +38,7 @@ pub mod tags;
 pub(crate) mod truth;
 
 pub use crate::scenario::{NavMode, Scenario};
-pub use covariance::{bound95, bound95_of_sigmas, bound_at, lambda_max_2x2, CHI2_2_95};
+pub use bound::{bound95, bound95_of_sigmas, bound_at, lambda_max_2x2, CHI2_2_95};
 pub use finite::{check_runs_finite, suspect_sections};
 pub use integrated::Prepared;
 pub use limits::{check_simulation_size, MAX_RUNS, MAX_SIMULATED_S, MAX_STORED_ROWS};
@@ -48,5 +50,5 @@ pub use metrics::{
 pub use monte_carlo::{simulate, simulate_with, SimResult};
 pub use output::write as write_output;
 pub use passes::{draw_reads, find_passes, TagPass, TagRead};
-pub use records::{ErrorRow, PassRecord, RunResult, TagEvent};
+pub use records::{CalibrationRow, ErrorRow, PassRecord, RunResult, TagEvent};
 pub use truth::{RouteTruth, TruthSource};

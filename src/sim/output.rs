@@ -1,10 +1,12 @@
 //! The files of `waymark simulate --out DIR`: `errors.csv` (run 0's error at
-//! the output interval, with the filter's 1-sigma columns, empty for modes
-//! without a filter), `summary.json` and, for the integrated navigator,
-//! `tag_passes.csv` (run 0's passes by tags). All are written atomically.
+//! the output interval, with the filter's 1-sigma columns and its 95 %
+//! horizontal bound, empty for modes without a filter), `summary.json` and, for the integrated navigator,
+//! `tag_passes.csv` (run 0's passes by tags) and, where the filter
+//! calibrates the odometer, `calibration.csv` (run 0's calibration states
+//! over the run). All are written atomically.
 
 use super::monte_carlo::SimResult;
-use super::records::{ErrorRow, PassRecord};
+use super::records::{CalibrationRow, ErrorRow, PassRecord};
 use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
 use std::fmt::Write as _;
@@ -12,7 +14,7 @@ use std::path::Path;
 
 /// The header of errors.csv.
 pub const ERRORS_HEADER: &str =
-    "t_s,distance_m,east_m,north_m,up_m,horizontal_m,sigma_east_m,sigma_north_m,sigma_up_m";
+        "t_s,distance_m,east_m,north_m,up_m,horizontal_m,sigma_east_m,sigma_north_m,sigma_up_m,bound95_m";
 
 /// errors.csv text for rows.
 pub fn errors_csv(rows: &[ErrorRow]) -> String {
@@ -25,12 +27,41 @@ pub fn errors_csv(rows: &[ErrorRow]) -> String {
             "{:.3},{:.3},{:.4},{:.4},{:.4},{:.4}",
             r.t_s, r.distance_m, r.east_m, r.north_m, r.up_m, r.horizontal_m
         );
-        for x in [r.sigma_east_m, r.sigma_north_m, r.sigma_up_m] {
+        for x in [r.sigma_east_m, r.sigma_north_m, r.sigma_up_m, r.bound95_m] {
             if x.is_finite() {
                 let _ = write!(s, ",{x:.4}");
             } else {
                 s.push(',');
             }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// The header of calibration.csv.
+pub const CALIBRATION_HEADER: &str = "t_s,distance_m,\
+scale_factor_truth,scale_factor_estimate,scale_factor_sigma,\
+pitch_misalignment_truth_deg,pitch_misalignment_estimate_deg,pitch_misalignment_sigma_deg,\
+yaw_misalignment_truth_deg,yaw_misalignment_estimate_deg,yaw_misalignment_sigma_deg";
+
+/// calibration.csv text: run 0's odometer calibration at its error rows'
+/// times, each state as the simulated value, the filter's estimate and its
+/// 1σ. The scale factor is the odometer's scale-factor error as a ratio
+/// (0.003 reads 0.3 % long), as `summary.json`'s `odometer_calibration`
+/// gives it; the misalignments are in degrees.
+pub fn calibration_csv(rows: &[CalibrationRow]) -> String {
+    let mut s = String::with_capacity(128 * (rows.len() + 1));
+    s.push_str(CALIBRATION_HEADER);
+    s.push('\n');
+    for r in rows {
+        let _ = write!(s, "{:.3},{:.3}", r.t_s, r.distance_m);
+        let [k, pitch, yaw] = r.states;
+        for x in k {
+            let _ = write!(s, ",{x:.8}");
+        }
+        for x in pitch.iter().chain(&yaw) {
+            let _ = write!(s, ",{:.6}", x.to_degrees());
         }
         s.push('\n');
     }
@@ -76,8 +107,9 @@ fn csv_field(v: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
-/// Writes DIR/errors.csv and DIR/summary.json (creating DIR if needed), and
-/// DIR/tag_passes.csv for the integrated navigator.
+/// Writes DIR/errors.csv and DIR/summary.json (creating DIR if needed),
+/// DIR/tag_passes.csv for the integrated navigator and DIR/calibration.csv
+/// where its filter calibrates the odometer.
 pub fn write(dir: &Path, result: &SimResult) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let rows = result.runs.first().map_or(&[][..], |r| &r.rows[..]);
@@ -86,6 +118,16 @@ pub fn write(dir: &Path, result: &SimResult) -> Result<()> {
         write_atomic(
             &dir.join("tag_passes.csv"),
             tag_passes_csv(&r.tag_passes).as_bytes(),
+        )?;
+    }
+    if let Some(r) = result
+        .runs
+        .first()
+        .filter(|r| !r.calibration_rows.is_empty())
+    {
+        write_atomic(
+            &dir.join("calibration.csv"),
+            calibration_csv(&r.calibration_rows).as_bytes(),
         )?;
     }
     let json = serde_json::to_string_pretty(&result.summary)

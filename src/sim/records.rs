@@ -27,6 +27,11 @@ pub struct ErrorRow {
     pub sigma_north_m: f64,
     /// Filter 1σ up (m); NaN without a filter.
     pub sigma_up_m: f64,
+    /// The filter's horizontal 95 % bound (m) from its full east–north
+    /// covariance, correlation included ([`super::bound::bound95`]); NaN without
+    /// a filter. 2.4477·max(σ_E, σ_N) is below it wherever east and north
+    /// are correlated (a road neither east–west nor north–south).
+    pub bound95_m: f64,
     /// Horizontal normalised estimation error squared e^T P^{-1} e (2 dof);
     /// NaN without a filter.
     pub nees_h: f64,
@@ -86,6 +91,24 @@ pub struct RunResult {
     /// error (ratio), pitch and yaw misalignment (rad), each as (truth,
     /// estimate, filter σ).
     pub calibration: Option<[[f64; 3]; 3]>,
+    /// Run 0's odometer calibration at the output interval, at the times of
+    /// its error rows (`calibration.csv`); empty for the other runs, which
+    /// keep only their end state ([`Self::calibration`]), and without
+    /// odometer aiding.
+    pub calibration_rows: Vec<CalibrationRow>,
+}
+
+/// The filter's odometer calibration at one output time beside the
+/// simulated one: scale-factor error (ratio), pitch and yaw misalignment
+/// (rad), each as (truth, estimate, filter σ).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalibrationRow {
+    /// Time (s).
+    pub t_s: f64,
+    /// Distance driven (m).
+    pub distance_m: f64,
+    /// Scale factor, pitch and yaw misalignment: (truth, estimate, σ).
+    pub states: [[f64; 3]; 3],
 }
 
 /// Estimate minus truth in local metres (east, north, up).
@@ -112,6 +135,7 @@ impl RunResult {
             counts: None,
             map_feed: None,
             calibration: None,
+            calibration_rows: vec![],
         }
     }
 }
@@ -126,7 +150,7 @@ pub(super) struct Recorder {
 impl Recorder {
     fn row(avp: &Avp, lat: f64, lon: f64, h: f64, cov: Cov3) -> ErrorRow {
         let e = error_enu(lat, lon, h, &avp.state);
-        let (se, sn, su, nees) = match cov {
+        let (se, sn, su, nees, b95) = match cov {
             Some(c) => {
                 let det = c[0][0] * c[1][1] - c[0][1] * c[1][0];
                 let nees = if det > 0.0 {
@@ -135,9 +159,10 @@ impl Recorder {
                 } else {
                     f64::NAN
                 };
-                (c[0][0].sqrt(), c[1][1].sqrt(), c[2][2].sqrt(), nees)
+                let b95 = super::bound::bound95(&c);
+                (c[0][0].sqrt(), c[1][1].sqrt(), c[2][2].sqrt(), nees, b95)
             }
-            None => (f64::NAN, f64::NAN, f64::NAN, f64::NAN),
+            None => (f64::NAN, f64::NAN, f64::NAN, f64::NAN, f64::NAN),
         };
         ErrorRow {
             t_s: avp.t,
@@ -149,6 +174,7 @@ impl Recorder {
             sigma_east_m: se,
             sigma_north_m: sn,
             sigma_up_m: su,
+            bound95_m: b95,
             nees_h: nees,
         }
     }

@@ -84,7 +84,12 @@ pub fn keep_inputs(scenario: &Path, out_dir: &Path, tags: Option<&Path>) -> Resu
 }
 
 /// What `waymark simulate` writes (beside the inputs).
-pub(super) const SIMULATION_OUTPUTS: &[&str] = &["errors.csv", "summary.json", "tag_passes.csv"];
+pub(super) const SIMULATION_OUTPUTS: &[&str] = &[
+    "errors.csv",
+    "summary.json",
+    "tag_passes.csv",
+    "calibration.csv",
+];
 /// What `waymark plan` writes (beside the inputs).
 pub(super) const PLAN_OUTPUTS: &[&str] = &[
     "tags.csv",

@@ -150,6 +150,13 @@ pub(super) fn write_simulation(
     if result.summary.updates_run0.is_some() {
         files.push("tag_passes.csv");
     }
+    if result
+        .runs
+        .first()
+        .is_some_and(|r| !r.calibration_rows.is_empty())
+    {
+        files.push("calibration.csv");
+    }
     Ok(SimulateOutcome {
         result,
         out: job.out_dir.to_path_buf(),

@@ -5,7 +5,8 @@
 
 use crate::error::{Error, Result};
 use crate::scenario::Scenario;
-use crate::sim::covariance::{bound95, PerfectData};
+use crate::sim::bound::bound95;
+use crate::sim::covariance::PerfectData;
 use crate::sim::tags::Mounting;
 use crate::trajectory::{ideal_imu, Extent, Motion, MotionPlan, Start};
 use serde::Serialize;
