@@ -148,6 +148,7 @@ mod tests {
         for f in [
             "errors.csv",
             "tag_passes.csv",
+            "calibration.csv",
             "plan.json",
             "notes.txt",
             "report.html",
