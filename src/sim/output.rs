@@ -1,9 +1,9 @@
 //! The files of `waymark simulate --out DIR`: `errors.csv` (run 0's error at
 //! the output interval, with the filter's 1-sigma columns and its 95 %
-//! horizontal bound, empty for modes without a filter), `summary.json` and, for the integrated navigator,
-//! `tag_passes.csv` (run 0's passes by tags) and, where the filter
-//! calibrates the odometer, `calibration.csv` (run 0's calibration states
-//! over the run). All are written atomically.
+//! horizontal bound, empty for modes without a filter), `summary.json` and,
+//! for the integrated navigator, `tag_passes.csv` (run 0's passes by tags)
+//! and, where the filter calibrates the odometer, `calibration.csv` (run
+//! 0's calibration states over the run). All are written atomically.
 
 use super::monte_carlo::SimResult;
 use super::records::{CalibrationRow, ErrorRow, PassRecord};
@@ -13,8 +13,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// The header of errors.csv.
-pub const ERRORS_HEADER: &str =
-        "t_s,distance_m,east_m,north_m,up_m,horizontal_m,sigma_east_m,sigma_north_m,sigma_up_m,bound95_m";
+pub const ERRORS_HEADER: &str = "t_s,distance_m,east_m,north_m,up_m,horizontal_m,\
+sigma_east_m,sigma_north_m,sigma_up_m,bound95_m";
 
 /// errors.csv text for rows.
 pub fn errors_csv(rows: &[ErrorRow]) -> String {
