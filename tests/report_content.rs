@@ -52,14 +52,14 @@ fn simulate_records_tag_passes_and_odometer_faults_and_the_report_shows_them() {
     let scn = short_odfail_scenario(dir.path());
     let out = dir.path().join("out");
     let o = out.to_str().unwrap();
-    ok(&bin(&[
-        "simulate",
-        scn.to_str().unwrap(),
-        "--seed",
-        "2",
-        "--out",
-        o,
-    ]));
+    let sim = bin(&["simulate", scn.to_str().unwrap(), "--seed", "2", "--out", o]);
+    ok(&sim);
+    // The summary names what the filter learnt of the odometer.
+    let stdout = String::from_utf8_lossy(&sim.stdout);
+    assert!(
+        stdout.contains("odometer calibration at the end, RMS error / RMS filter σ over 1 run(s): scale factor "),
+        "{stdout}"
+    );
 
     // tag_passes.csv: the two tags passed before 6000 s, one read and
     // accepted, one missed.

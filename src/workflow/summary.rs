@@ -89,7 +89,8 @@ impl PlanOutcome {
 
 impl SimulateOutcome {
     /// `waymark simulate`'s summary: errors, filter consistency, tag reads,
-    /// odometer faults, the map feed, the requirement, and the files written.
+    /// odometer faults, the odometer's calibration, the map feed, the
+    /// requirement, and the files written.
     pub fn summary(&self) -> Vec<String> {
         let o = self;
         let mut lines = Vec::new();
@@ -139,6 +140,22 @@ impl SimulateOutcome {
                 "odometer failed from {:.0} s ({:.2} km) to the end",
                 f.from_s,
                 f.from_m / 1000.0
+            ));
+        }
+        if let Some(c) = &s.odometer_calibration {
+            let pair = |st: &crate::sim::metrics::CalibrationState, deg: bool| {
+                if deg {
+                    format!("{:.4}° / {:.4}°", st.rms_error, st.rms_sigma)
+                } else {
+                    format!("{:.2e} / {:.2e}", st.rms_error, st.rms_sigma)
+                }
+            };
+            lines.push(format!(
+                "odometer calibration at the end, RMS error / RMS filter σ over {} run(s): scale factor {}, pitch misalignment {}, yaw misalignment {} (run 0 over the run: calibration.csv)",
+                s.runs,
+                pair(&c.scale_factor, false),
+                pair(&c.pitch_misalignment_deg, true),
+                pair(&c.yaw_misalignment_deg, true),
             ));
         }
         if let Some(f) = result.runs.first().and_then(|r| r.map_feed) {
