@@ -3,7 +3,7 @@
 //! as one plot per state of the estimation error beside the filter's 95 %
 //! interval.
 
-use super::plot::{ErrorSeries, PlotDecor, TagMark};
+use super::plot::{fault_spans, tag_marks, ErrorSeries, PlotDecor};
 use super::{read_csv, PassRow};
 use crate::error::Result;
 use std::path::Path;
@@ -146,17 +146,8 @@ pub fn calibration_plots(
                 error_label: Some("|estimate − simulated|".into()),
                 bound_label: Some("filter 95 % (1.96σ)".into()),
                 y_max,
-                tag_passes: passes
-                    .iter()
-                    .map(|p| TagMark {
-                        x: if by_time { p.t_s } else { p.distance_m },
-                        kind: p.kind,
-                    })
-                    .collect(),
-                shaded: odometer_faults
-                    .iter()
-                    .map(|(t, d)| if by_time { (t[0], t[1]) } else { (d[0], d[1]) })
-                    .collect(),
+                tag_passes: tag_marks(passes, by_time),
+                shaded: fault_spans(odometer_faults, by_time),
                 ..Default::default()
             };
             (name, series, decor)

@@ -1,7 +1,9 @@
 //! The HTML report: one self-contained file.
 
 use super::folder::{ExampleRun, TagRow, TagSource};
-use super::plot::{error_plot_svg, ErrorSeries, PassKind, PlotDecor, TagMark};
+use super::plot::{
+    error_plot_svg, fault_spans, tag_marks, ErrorSeries, PassKind, PlotDecor, TagMark,
+};
 use super::sections;
 use super::{ErrorRow, PassRow, PlanProfileRow};
 use crate::error::Result;
@@ -136,19 +138,8 @@ pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)>
                 requirement_m: requirement,
                 error_label: Some(format!("horizontal error ({})", run.label)),
                 bound_label: Some(format!("filter 95 % bound ({})", short(&run.label))),
-                tag_passes: run
-                    .passes
-                    .iter()
-                    .map(|p| TagMark {
-                        x: if by_time { p.t_s } else { p.distance_m },
-                        kind: p.kind,
-                    })
-                    .collect(),
-                shaded: input
-                    .odometer_faults
-                    .iter()
-                    .map(|(t, d)| if by_time { (t[0], t[1]) } else { (d[0], d[1]) })
-                    .collect(),
+                tag_passes: tag_marks(&run.passes, by_time),
+                shaded: fault_spans(&input.odometer_faults, by_time),
                 ..Default::default()
             };
             out.push((name, series, decor));
@@ -176,7 +167,7 @@ pub fn plots(input: &ReportInput) -> Vec<(&'static str, ErrorSeries, PlotDecor)>
                 false,
             );
         }
-        out.extend(super::calibration_plots(
+        out.extend(super::calibration::calibration_plots(
             &input.calibration,
             &input.tag_passes,
             &input.odometer_faults,

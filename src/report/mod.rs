@@ -324,6 +324,30 @@ fn read_csv<T>(
     Ok(out)
 }
 
+/// `read(path)` when the folder's summary says the file was written
+/// (`expected`) and it is there; a note "NAME is missing: `lacking`" when
+/// expected and absent; nothing otherwise.
+fn expected_file<T>(
+    path: &Path,
+    expected: bool,
+    lacking: &str,
+    notes: &mut Vec<String>,
+    read: impl Fn(&Path) -> Result<Vec<T>>,
+) -> Result<Vec<T>> {
+    match (expected, path.exists()) {
+        (true, true) => read(path),
+        (true, false) => {
+            let name = path.file_name().map_or_else(
+                || path.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            notes.push(format!("{name} is missing: {lacking}"));
+            Ok(Vec::new())
+        }
+        _ => Ok(Vec::new()),
+    }
+}
+
 /// Reads an output folder of `simulate` (`summary.json`, `errors.csv`,
 /// `tag_passes.csv`, the example runs), of `plan` (`plan.json`,
 /// `profile.csv`, `tags.csv`, an area plan's `coverage.geojson`) or both,
@@ -383,33 +407,22 @@ pub fn read_output_folder(
         }
         _ => Vec::new(),
     };
-    let passes_path = dir.join("tag_passes.csv");
-    let integrated = summary
-        .as_ref()
-        .is_some_and(|s| s["updates_run0"].is_object());
-    let tag_passes = match (integrated, passes_path.exists()) {
-        (true, true) => read_tag_passes_csv(&passes_path)?,
-        (true, false) => {
-            notes.push("tag_passes.csv is missing: tag passes are not marked".into());
-            Vec::new()
-        }
-        _ => Vec::new(),
-    };
-    let calibration_path = dir.join("calibration.csv");
-    let calibrated = summary
-        .as_ref()
-        .is_some_and(|s| s["odometer_calibration"].is_object());
-    let calibration = match (calibrated, calibration_path.exists()) {
-        (true, true) => read_calibration_csv(&calibration_path)?,
-        (true, false) => {
-            notes.push(
-                "calibration.csv is missing: the odometer's calibration over the run is not plotted"
-                    .into(),
-            );
-            Vec::new()
-        }
-        _ => Vec::new(),
-    };
+    // A file the summary says the simulation wrote: read, or noted missing.
+    let has = |key: &str| summary.as_ref().is_some_and(|s| s[key].is_object());
+    let tag_passes = expected_file(
+        &dir.join("tag_passes.csv"),
+        has("updates_run0"),
+        "tag passes are not marked",
+        &mut notes,
+        read_tag_passes_csv,
+    )?;
+    let calibration = expected_file(
+        &dir.join("calibration.csv"),
+        has("odometer_calibration"),
+        "the odometer's calibration over the run is not plotted",
+        &mut notes,
+        read_calibration_csv,
+    )?;
     // The example runs: the median by maximum error and the worst.
     let mut examples = Vec::new();
     if let Some(s) = summary.as_ref().filter(|s| s["runs"].as_u64() > Some(1)) {

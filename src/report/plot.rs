@@ -81,6 +81,26 @@ pub struct PlotDecor {
     pub y_unit: Option<String>,
 }
 
+/// Tag passes as ticks on a time (`by_time`) or distance axis.
+pub(super) fn tag_marks(passes: &[super::PassRow], by_time: bool) -> Vec<TagMark> {
+    passes
+        .iter()
+        .map(|p| TagMark {
+            x: if by_time { p.t_s } else { p.distance_m },
+            kind: p.kind,
+        })
+        .collect()
+}
+
+/// Odometer faults ((from, to) in time and in distance) as spans to shade
+/// on a time (`by_time`) or distance axis.
+pub(super) fn fault_spans(faults: &[([f64; 2], [f64; 2])], by_time: bool) -> Vec<(f64, f64)> {
+    faults
+        .iter()
+        .map(|(t, d)| if by_time { (t[0], t[1]) } else { (d[0], d[1]) })
+        .collect()
+}
+
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     s: &ErrorSeries,
