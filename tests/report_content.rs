@@ -197,6 +197,21 @@ fn simulate_records_tag_passes_and_odometer_faults_and_the_report_shows_them() {
     assert!(html.contains("calibration.csv is missing"));
     assert!(!html.contains("estimation error (run 0)"));
     assert!(!out.join("plots/calibration_yaw.png").exists());
+    // A damaged one is one clear line naming it.
+    std::fs::write(
+        out.join("calibration.csv"),
+        "t_s,distance_m,scale_factor_truth\n0,0,0.001\n",
+    )
+    .unwrap();
+    let r = bin(&["report", o]);
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("calibration.csv") && err.contains("missing column 'scale_factor_estimate'"),
+        "{err}"
+    );
+    std::fs::remove_file(out.join("calibration.csv")).unwrap();
 
     // A damaged tag_passes.csv is one clear line, not a panic.
     std::fs::write(
