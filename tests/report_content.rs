@@ -197,35 +197,26 @@ fn simulate_records_tag_passes_and_odometer_faults_and_the_report_shows_them() {
     assert!(html.contains("calibration.csv is missing"));
     assert!(!html.contains("estimation error (run 0)"));
     assert!(!out.join("plots/calibration_yaw.png").exists());
-    // A damaged one is one clear line naming it.
-    std::fs::write(
-        out.join("calibration.csv"),
+    // A damaged calibration.csv or tag_passes.csv is one clear line naming
+    // it and the problem, exit 1, not a panic.
+    let damaged = |file: &str, text: &str, problem: &str| {
+        std::fs::write(out.join(file), text).unwrap();
+        let r = bin(&["report", o]);
+        assert_eq!(r.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(file) && err.contains(problem), "{err}");
+    };
+    damaged(
+        "calibration.csv",
         "t_s,distance_m,scale_factor_truth\n0,0,0.001\n",
-    )
-    .unwrap();
-    let r = bin(&["report", o]);
-    assert_eq!(r.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&r.stderr);
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(
-        err.contains("calibration.csv") && err.contains("missing column 'scale_factor_estimate'"),
-        "{err}"
+        "missing column 'scale_factor_estimate'",
     );
     std::fs::remove_file(out.join("calibration.csv")).unwrap();
-
-    // A damaged tag_passes.csv is one clear line, not a panic.
-    std::fs::write(
-        out.join("tag_passes.csv"),
+    damaged(
+        "tag_passes.csv",
         "t_s,distance_m,tag_id,mounting,read\n5000,x,tag-0,road_surface,1\n",
-    )
-    .unwrap();
-    let r = bin(&["report", o]);
-    assert_eq!(r.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&r.stderr);
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(
-        err.contains("tag_passes.csv") && err.contains("line 2: 'distance_m' is not a number"),
-        "{err}"
+        "line 2: 'distance_m' is not a number",
     );
 }
 

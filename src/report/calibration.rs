@@ -6,6 +6,7 @@
 use super::plot::{fault_spans, tag_marks, ErrorSeries, PlotDecor};
 use super::{read_csv, PassRow};
 use crate::error::Result;
+use crate::sim::output::CALIBRATION_HEADER;
 use std::path::Path;
 
 /// One row of `calibration.csv`: each state as (simulated, estimate, 1σ),
@@ -27,20 +28,9 @@ pub struct CalibrationPoint {
 /// Reads `calibration.csv` by column name (extra columns are ignored);
 /// every column must hold finite numbers.
 pub fn read_calibration_csv(path: &Path) -> Result<Vec<CalibrationPoint>> {
-    const COLUMNS: [&str; 11] = [
-        "t_s",
-        "distance_m",
-        "scale_factor_truth",
-        "scale_factor_estimate",
-        "scale_factor_sigma",
-        "pitch_misalignment_truth_deg",
-        "pitch_misalignment_estimate_deg",
-        "pitch_misalignment_sigma_deg",
-        "yaw_misalignment_truth_deg",
-        "yaw_misalignment_estimate_deg",
-        "yaw_misalignment_sigma_deg",
-    ];
-    read_csv(path, &COLUMNS, |v, _| {
+    // The columns simulate writes, in its order.
+    let columns: Vec<&str> = CALIBRATION_HEADER.split(',').collect();
+    read_csv(path, &columns, |v, _| {
         let three = |i: usize| Some([v[i]?, v[i + 1]?, v[i + 2]?]);
         Some(CalibrationPoint {
             t_s: v[0]?,
@@ -163,14 +153,13 @@ mod tests {
     fn rows_are_read_by_name_and_plotted_as_errors_beside_their_interval() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("calibration.csv");
-        std::fs::write(
-            &p,
-            format!(
-                "{},extra\n0,0,0.002,0,0.003,0.5,0,1,-0.25,0,1,x\n10,100,0.002,0.0015,0.0002,0.5,0.48,0.01,-0.25,-0.3,0.02,y\n",
-                crate::sim::output::CALIBRATION_HEADER
-            ),
-        )
-        .unwrap();
+        let write = |header_tail: &str, rows: &str| {
+            std::fs::write(&p, format!("{CALIBRATION_HEADER}{header_tail}\n{rows}")).unwrap()
+        };
+        write(
+            ",extra",
+            "0,0,0.002,0,0.003,0.5,0,1,-0.25,0,1,x\n10,100,0.002,0.0015,0.0002,0.5,0.48,0.01,-0.25,-0.3,0.02,y\n",
+        );
         let rows = read_calibration_csv(&p).unwrap();
         assert_eq!(rows.len(), 2);
         assert_eq!(rows[1].yaw_deg, [-0.25, -0.3, 0.02]);
@@ -186,14 +175,7 @@ mod tests {
         let yaw = &plots[2].1;
         assert!((yaw.error[1] - 0.05).abs() < 1e-12);
         // A column that is not a number names the file, the line and the column.
-        std::fs::write(
-            &p,
-            format!(
-                "{}\n0,0,0.002,nan,0.003,0.5,0,1,-0.25,0,1\n",
-                crate::sim::output::CALIBRATION_HEADER
-            ),
-        )
-        .unwrap();
+        write("", "0,0,0.002,nan,0.003,0.5,0,1,-0.25,0,1\n");
         let e = read_calibration_csv(&p).unwrap_err().to_string();
         assert!(e.contains("calibration.csv") && e.contains("line 2"), "{e}");
         assert!(e.contains("scale_factor_estimate"), "{e}");

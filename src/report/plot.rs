@@ -310,7 +310,9 @@ where
         let up_to = match &d.y_unit {
             None => format!("{data_max:.0} m"),
             Some(unit) => {
-                let digits = (2 - data_max.abs().log10().floor() as i64).clamp(0, 12) as usize;
+                let digits = 2i64
+                    .saturating_sub(data_max.abs().log10().floor() as i64)
+                    .clamp(0, 12) as usize;
                 format!("{data_max:.digits$} {unit}")
             }
         };
