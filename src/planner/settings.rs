@@ -91,6 +91,10 @@ pub struct PlannerSettings {
     pub refine_iterations: usize,
     /// Tags already installed (`existing_tags`), kept in every plan.
     pub existing_tags: Vec<Tag>,
+    /// `traffic = "trips"`: most site ids over the plan's budget windows
+    /// (a memory limit; [`MAX_TRIPS_WINDOW_IDS`](crate::planner::network::MAX_TRIPS_WINDOW_IDS)
+    /// unless a caller lowers it).
+    pub max_window_ids: usize,
 }
 
 impl PlannerSettings {
@@ -159,6 +163,7 @@ impl PlannerSettings {
             validation_runs: p.validation_runs,
             refine_iterations: p.refine_iterations,
             existing_tags,
+            max_window_ids: crate::planner::network::MAX_TRIPS_WINDOW_IDS,
         })
     }
 }

@@ -73,7 +73,8 @@
 //! integer programme), `plan` (the planning entry points), `validation`
 //! (Monte Carlo over sampled paths), `types` (the plan's types),
 //! `settings` (the network-specific settings), `walks` (the walk DP's
-//! per-road budgets and worst walks of `any_walk` plans).
+//! per-road budgets and worst walks of `any_walk` plans), `window_sets`
+//! (the budget windows of `trips` plans, stored flat).
 
 pub mod cover;
 pub(crate) mod coverage;
@@ -92,6 +93,7 @@ pub(crate) mod turns;
 pub(crate) mod types;
 pub(crate) mod validation;
 pub(crate) mod walks;
+mod window_sets;
 
 pub use coverage::{coverage_geojson, EdgeCoverage};
 pub use mm_reach::{matched_reach, MatchedReach};
@@ -102,12 +104,13 @@ pub use settings::{
 };
 pub use trips::{
     chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper, TripsGuarantee,
-    ALLOWED_VIOLATIONS,
+    ALLOWED_VIOLATIONS, MAX_TRIPS_WINDOW_IDS,
 };
 pub use turns::TURN_DEG;
 pub use types::{DesignWalkValidation, NetworkPlan, NetworkTag, NetworkValidation};
 pub use validation::{share_rule, validate_network_plan, THINNING_S};
 pub use walks::DesignWalk;
+pub use window_sets::WindowSets;
 
 #[cfg(test)]
 mod tests {

@@ -8,9 +8,10 @@ use super::instance::{classes_in_use, speed_key, Built};
 use super::mm_reach::{matched_classes, profile_bound, straight_profiles, MatchedReach, TURN_DEG};
 use super::reach::{reach_class, ReachClass};
 use super::tag_sites::tags_of;
-use super::traffic::{Destinations, EdgeModel, WindowInfo};
+use super::traffic::{Destinations, EdgeModel};
 use super::trips::plan_trips;
 use super::types::NetworkPlan;
+use super::window_sets::WindowInfo;
 use crate::error::{Error, Result};
 use crate::network::Network;
 use crate::planner::settings::PlannerSettings;
@@ -252,6 +253,20 @@ pub(super) fn plan_network_trips(
         1.0 - p.confidence,
         scn.seed(),
         infeasible,
+        settings.max_window_ids,
+        |max_ids, windows| {
+            Error::scenario(
+                &scn.path,
+                format!(
+                    "traffic = \"trips\": the plan's budget windows passed {} site ids ({} windows so \
+                     far; each holds the candidate sites within one reach, {:.0}–{:.0} m, at \
+                     planner.candidate_spacing_m = {spacing} m), the limit that keeps the cover within \
+                     memory: raise candidate_spacing_m, turn on map matching ([aiding] map_matching = \
+                     true, which resets the budget at turns), or plan traffic = \"any_walk\"",
+                    max_ids, windows, reach_m, r_ref
+                ),
+            )
+        },
     )?;
     timings.insert("solve".into(), t.elapsed().as_secs_f64() * 1e3);
     let sel = tp.selected.clone();
@@ -446,8 +461,9 @@ pub(super) fn plan_network_trips(
         matched_reach: matched,
         guarantee: Some(g),
         windows: tp.windows,
+        window_ids: tp.window_ids,
         planning_km: tp.planning_km,
-        planning_windows: tp.window_sets.clone(),
+        planning_windows: tp.window_sets,
         design_walks: Vec::new(),
         edge_coverage: coverage,
         chain_model: Some(std::sync::Arc::new(super::traffic::ChainModel { model, dest })),

@@ -58,7 +58,7 @@ fn guarantee_statistics_match_their_closed_forms() {
 }
 
 /// The cheapest selection by trying every subset (n ≤ 20).
-fn brute_force(n: usize, windows: &[Vec<u32>], demand: usize, cost: &[f64]) -> Option<f64> {
+fn brute_force(n: usize, windows: &WindowSets, demand: usize, cost: &[f64]) -> Option<f64> {
     let mut best: Option<f64> = None;
     for mask in 0u32..(1 << n) {
         let ok = windows
@@ -94,10 +94,11 @@ fn multicover_is_feasible_and_the_exact_solver_matches_brute_force() {
             })
             .collect();
         let pre = vec![false; n];
+        let windows = WindowSets::from_vecs(&windows);
         let opt = brute_force(n, &windows, demand, &cost).expect("windows are satisfiable");
         let g = multicover(n, &windows, demand, &cost, &pre).unwrap();
         let gc: f64 = (0..n).filter(|&s| g[s]).map(|s| cost[s]).sum();
-        for w in &windows {
+        for w in windows.iter() {
             assert!(w.iter().filter(|&&s| g[s as usize]).count() >= demand);
         }
         assert!(gc >= opt - 1e-9, "greedy {gc} below the optimum {opt}");
@@ -106,7 +107,7 @@ fn multicover_is_feasible_and_the_exact_solver_matches_brute_force() {
             (ec - opt).abs() < 1e-6,
             "case {case}: exact {ec} vs brute force {opt}"
         );
-        for w in &windows {
+        for w in windows.iter() {
             assert!(w.iter().filter(|&&s| e[s as usize]).count() >= demand);
         }
         // The packing bound counts tags; with unit costs it bounds the optimum.
@@ -116,7 +117,13 @@ fn multicover_is_feasible_and_the_exact_solver_matches_brute_force() {
     }
     // A window with fewer candidates than reads needed is reported.
     assert_eq!(
-        multicover(3, &[vec![0, 1], vec![2]], 2, &[1.0; 3], &[false; 3]),
+        multicover(
+            3,
+            &WindowSets::from_vecs(&[vec![0, 1], vec![2]]),
+            2,
+            &[1.0; 3],
+            &[false; 3]
+        ),
         Err(1)
     );
 }
@@ -203,6 +210,27 @@ planning_chains = 16
 }
 
 #[test]
+fn a_trips_plan_whose_windows_pass_the_memory_limit_is_one_error_naming_the_scenario() {
+    let net = comb(8000.0);
+    let scn = comb_scenario("candidate_spacing_m = 2000");
+    let mut s = PlannerSettings::from_scenario(&scn).unwrap();
+    // The plan below holds its windows in a few dozen ids (the next test's
+    // instance); a limit of 3 ids is passed by the first chain.
+    let p = plan_network_on(&scn, &s, &net).unwrap();
+    assert!(p.window_ids > 3, "{} ids", p.window_ids);
+    assert!(p.window_ids <= MAX_TRIPS_WINDOW_IDS);
+    s.max_window_ids = 3;
+    let e = plan_network_on(&scn, &s, &net).unwrap_err().to_string();
+    assert!(e.starts_with("comb.toml: "), "{e}");
+    assert!(e.contains("budget windows passed 3 site ids"), "{e}");
+    assert!(
+        e.contains("candidate_spacing_m") && e.contains("any_walk"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'), "one line: {e}");
+}
+
+#[test]
 fn a_trips_plan_on_a_small_network_is_the_brute_force_optimum_of_its_windows() {
     let net = comb(8000.0);
     let scn = comb_scenario("candidate_spacing_m = 2000");
@@ -224,7 +252,7 @@ fn a_trips_plan_on_a_small_network_is_the_brute_force_optimum_of_its_windows() {
     assert!(p.method.starts_with("exact"), "{}", p.method);
     assert_eq!(p.lower_bound, p.tag_count());
     // Every window holds k + 1 = 2 tags; every tag says why it is there.
-    for w in &p.planning_windows {
+    for w in p.planning_windows.iter() {
         assert!(w.iter().filter(|&&i| p.selected[i as usize]).count() >= 2);
     }
     for t in &p.tags {

@@ -28,6 +28,7 @@
 
 pub use super::turns::CHORD_M;
 use super::turns::{heading_samples, intrinsic_resets, point_at, walk_edge, TurnWindow, TURN_DEG};
+use super::window_sets::{WindowInfo, WindowMap};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::route::{next_leg, section_points, SectionPoint};
@@ -497,20 +498,14 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
     out
 }
 
-/// A window of budget 1 that must hold `k + 1` tags.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct WindowInfo {
-    /// Length of the stretch it lies in (m).
-    pub stretch_m: f64,
-    /// The stretch starts at a chain's start (the prior).
-    pub at_start: bool,
-}
-
 /// Adds the windows of a chain to `out` (keyed by their sorted site ids;
 /// the longest stretch kept).
-pub(crate) fn add_windows(cb: &ChainBudget, out: &mut HashMap<Vec<u32>, WindowInfo>) {
+pub(crate) fn add_windows(cb: &ChainBudget, out: &mut WindowMap) {
     let mut j = 0usize;
     for (ri, w) in cb.resets.windows(2).enumerate() {
+        if out.full() {
+            return;
+        }
         let ((b0, c0), (b1, c1)) = (w[0], w[1]);
         while j < cb.sites.len() && cb.sites[j].0 < b0 {
             j += 1;
@@ -544,9 +539,10 @@ pub(crate) fn add_windows(cb: &ChainBudget, out: &mut HashMap<Vec<u32>, WindowIn
             let mut ids = ids;
             ids.sort_unstable();
             ids.dedup();
-            let e = out.entry(ids).or_default();
-            if info.stretch_m > e.stretch_m {
-                *e = info.clone();
+            if let Some(e) = out.entry(&ids) {
+                if info.stretch_m > e.stretch_m {
+                    *e = info.clone();
+                }
             }
         }
     }
@@ -622,7 +618,7 @@ pub(crate) fn straight_windows(
     model: &EdgeModel,
     straight: &std::collections::HashSet<(u32, u32)>,
     used: &[bool],
-    out: &mut HashMap<Vec<u32>, WindowInfo>,
+    out: &mut WindowMap,
 ) {
     let n = model.dir.len();
     let mut next: Vec<Vec<u32>> = vec![Vec::new(); n];
@@ -635,6 +631,9 @@ pub(crate) fn straight_windows(
         v.sort_unstable();
     }
     for (e, _) in used.iter().enumerate().filter(|x| *x.1) {
+        if out.full() {
+            return;
+        }
         let mut starts: Vec<(f64, bool)> = vec![(0.0, true)];
         starts.extend(model.sites[e].iter().map(|s| (s.0, false)));
         starts.extend(
@@ -702,10 +701,11 @@ pub(crate) fn straight_windows(
                 if reach_at <= stop {
                     ids.sort_unstable();
                     ids.dedup();
-                    let w = out.entry(ids).or_default();
                     let m = if rate > 0.0 { 1.0 / rate } else { 0.0 };
-                    if w.stretch_m < m {
-                        w.stretch_m = m;
+                    if let Some(w) = out.entry(&ids) {
+                        if w.stretch_m < m {
+                            w.stretch_m = m;
+                        }
                     }
                     paths += 1;
                     continue;

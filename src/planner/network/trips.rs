@@ -25,7 +25,8 @@
 use super::traffic::{
     add_windows, chain_budget, chain_use, sample_chain, straight_windows, Chain, ChainBudget,
 };
-use super::traffic::{Destinations, EdgeModel, WindowInfo};
+use super::traffic::{Destinations, EdgeModel};
+use super::window_sets::{SiteWindows, WindowInfo, WindowMap, WindowSets};
 use crate::error::{Error, Result};
 use crate::network::Network;
 use rand::SeedableRng;
@@ -33,13 +34,22 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::cmp::Ordering;
-use std::collections::{BinaryHeap, HashMap, HashSet};
+use std::collections::{BinaryHeap, HashSet};
 
 /// Largest instance (sites in windows) solved exactly.
 pub const EXACT_MAX_SITES: usize = 150;
 
 /// Most certification rounds.
 pub const MAX_ROUNDS: usize = 6;
+
+/// Most site ids over a plan's distinct budget windows (the planning
+/// chains' windows and the straight walks'). The ids are held twice at the
+/// peak, 4 bytes each (the windows, and while they are sorted or covered,
+/// their sorted copy or each site's windows), with about 40 bytes per
+/// window besides; measured in BENCHMARKS.md ("Trips plans on a whole map:
+/// the windows' memory"). Beyond it the plan stops with an error naming the
+/// scenario rather than running out of memory.
+pub const MAX_TRIPS_WINDOW_IDS: usize = 1_000_000_000;
 
 /// What the a-posteriori test established.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -188,27 +198,23 @@ pub(crate) fn sample_chains(
 /// deletion). `Err(w)`: window `w` has fewer than `demand` candidates.
 pub(crate) fn multicover(
     n_sites: usize,
-    windows: &[Vec<u32>],
+    windows: &WindowSets,
     demand: usize,
     cost: &[f64],
     preselected: &[bool],
 ) -> std::result::Result<Vec<bool>, usize> {
-    let mut site_w: Vec<Vec<u32>> = vec![Vec::new(); n_sites];
-    for (w, ids) in windows.iter().enumerate() {
-        if ids.len() < demand {
-            return Err(w);
-        }
-        for &s in ids {
-            site_w[s as usize].push(w as u32);
-        }
+    if let Some(w) = windows.iter().position(|ids| ids.len() < demand) {
+        return Err(w);
     }
+    let site_w = SiteWindows::of(windows, n_sites);
     let mut sel = preselected.to_vec();
     let mut count: Vec<usize> = windows
         .iter()
         .map(|ids| ids.iter().filter(|&&s| sel[s as usize]).count())
         .collect();
     let gain = |s: usize, count: &[usize]| -> usize {
-        site_w[s]
+        site_w
+            .get(s)
             .iter()
             .filter(|&&w| count[w as usize] < demand)
             .count()
@@ -246,7 +252,7 @@ pub(crate) fn multicover(
             continue;
         }
         sel[s] = true;
-        for &w in &site_w[s] {
+        for &w in site_w.get(s) {
             count[w as usize] += 1;
         }
     }
@@ -257,13 +263,13 @@ pub(crate) fn multicover(
     order.sort_by(|&a, &b| {
         cost[b]
             .total_cmp(&cost[a])
-            .then(site_w[a].len().cmp(&site_w[b].len()))
+            .then(site_w.get(a).len().cmp(&site_w.get(b).len()))
             .then(a.cmp(&b))
     });
     for s in order {
-        if site_w[s].iter().all(|&w| count[w as usize] > demand) {
+        if site_w.get(s).iter().all(|&w| count[w as usize] > demand) {
             sel[s] = false;
-            for &w in &site_w[s] {
+            for &w in site_w.get(s) {
                 count[w as usize] -= 1;
             }
         }
@@ -277,7 +283,7 @@ pub(crate) fn multicover(
 /// the node budget ran out).
 pub(crate) fn exact_multicover(
     n_sites: usize,
-    windows: &[Vec<u32>],
+    windows: &WindowSets,
     demand: usize,
     cost: &[f64],
     preselected: &[bool],
@@ -287,7 +293,7 @@ pub(crate) fn exact_multicover(
     let mut var_of: Vec<Option<microlp::Variable>> = vec![None; n_sites];
     let mut prob = microlp::Problem::new(microlp::OptimizationDirection::Minimize);
     let mut n_vars = 0;
-    for w in windows {
+    for w in windows.iter() {
         for &s in w {
             let s = s as usize;
             if var_of[s].is_none() {
@@ -303,7 +309,7 @@ pub(crate) fn exact_multicover(
             }
         }
     }
-    for w in windows {
+    for w in windows.iter() {
         let expr: Vec<(microlp::Variable, f64)> = w
             .iter()
             .filter_map(|&s| var_of[s as usize].map(|v| (v, 1.0)))
@@ -340,17 +346,23 @@ pub(crate) fn exact_multicover(
 /// A lower bound on the number of new tags: windows sharing no candidate
 /// site each need their own (`demand` minus installed ones).
 pub(crate) fn packing_bound(
-    windows: &[Vec<u32>],
+    windows: &WindowSets,
     demand: usize,
     preselected: &[bool],
     n_sites: usize,
 ) -> usize {
     let mut order: Vec<usize> = (0..windows.len()).collect();
-    order.sort_by(|&a, &b| windows[a].len().cmp(&windows[b].len()).then(a.cmp(&b)));
+    order.sort_by(|&a, &b| {
+        windows
+            .get(a)
+            .len()
+            .cmp(&windows.get(b).len())
+            .then(a.cmp(&b))
+    });
     let mut used = vec![false; n_sites];
     let mut lb = 0;
     for w in order {
-        let ids = &windows[w];
+        let ids = windows.get(w);
         if ids.iter().any(|&s| used[s as usize]) {
             continue;
         }
@@ -362,9 +374,6 @@ pub(crate) fn packing_bound(
     }
     lb
 }
-
-/// A selection with the windows (sorted) and their stretches.
-type Solved = (Vec<bool>, Vec<Vec<u32>>, Vec<WindowInfo>);
 
 /// The outcome of planning on trips.
 pub(crate) struct TripsPlan {
@@ -378,8 +387,10 @@ pub(crate) struct TripsPlan {
     pub site_reason: Vec<Option<WindowInfo>>,
     /// Windows in the final planning set.
     pub windows: usize,
+    /// Site ids over those windows.
+    pub window_ids: usize,
     /// The windows themselves (site ids, sorted).
-    pub window_sets: Vec<Vec<u32>>,
+    pub window_sets: WindowSets,
     /// The chains of the planning set and of the final certification round
     /// (for the coverage map).
     pub chains: Vec<ChainBudget>,
@@ -405,6 +416,8 @@ pub(crate) fn plan_trips(
     beta: f64,
     seed: u64,
     mut infeasible: impl FnMut(&WindowInfo, &[u32]) -> Error,
+    max_ids: usize,
+    too_large: impl Fn(usize, usize) -> Error,
 ) -> Result<TripsPlan> {
     let demand = k + 1;
     let plan_chains = sample_chains(
@@ -422,7 +435,14 @@ pub(crate) fn plan_trips(
         .map(|c| chain_budget(model, c, map_matching))
         .collect();
     drop(plan_chains);
-    let mut wmap: HashMap<Vec<u32>, WindowInfo> = HashMap::new();
+    let mut wmap = WindowMap::new(max_ids);
+    let full = |wmap: &WindowMap| -> Result<()> {
+        if wmap.full() {
+            Err(too_large(max_ids, wmap.len()))
+        } else {
+            Ok(())
+        }
+    };
     // With map matching, every straight walk of the network (turns reset);
     // without, the transitions the sampled traffic used.
     let mut straight: HashSet<(u32, u32)> = if map_matching {
@@ -439,19 +459,16 @@ pub(crate) fn plan_trips(
         }
     }
     straight_windows(model, &straight, &used, &mut wmap);
-    let solve = |wmap: &HashMap<Vec<u32>, WindowInfo>,
+    full(&wmap)?;
+    // The cover of the windows in the order of their ids (deterministic).
+    let solve = |wmap: &mut WindowMap,
                  infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error|
-     -> Result<Solved> {
-        let mut keys: Vec<(&Vec<u32>, &WindowInfo)> = wmap.iter().collect();
-        keys.sort_by(|a, b| a.0.cmp(b.0));
-        let windows: Vec<Vec<u32>> = keys.iter().map(|x| x.0.clone()).collect();
-        let infos: Vec<WindowInfo> = keys.iter().map(|x| x.1.clone()).collect();
-        match multicover(n_sites, &windows, demand, cost, preselected) {
-            Ok(sel) => Ok((sel, windows, infos)),
-            Err(w) => Err(infeasible(&infos[w], &windows[w])),
-        }
+     -> Result<Vec<bool>> {
+        let (windows, infos) = wmap.sorted();
+        multicover(n_sites, windows, demand, cost, preselected)
+            .map_err(|w| infeasible(&infos[w], windows.get(w)))
     };
-    let (mut sel, mut windows, mut infos) = solve(&wmap, &mut infeasible)?;
+    let mut sel = solve(&mut wmap, &mut infeasible)?;
     let mut added = 0usize;
     let mut last = (0usize, 0usize, 0.0f64, 0usize, 0.0f64, 0.0f64);
     let mut rounds = 0;
@@ -511,13 +528,13 @@ pub(crate) fn plan_trips(
             if map_matching { &fresh_used } else { &used },
             &mut wmap,
         );
+        full(&wmap)?;
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
-        let (s2, w2, i2) = solve(&wmap, &mut infeasible)?;
-        sel = s2;
-        windows = w2;
-        infos = i2;
+        sel = solve(&mut wmap, &mut infeasible)?;
     }
+    let window_ids = wmap.ids();
+    let (windows, infos) = wmap.into_sorted();
     let (m, nbad, beta_r, wi, wu, wkm) = last;
     let upper = clopper_pearson_upper(nbad, m, beta_r);
     let statement = if holds {
@@ -602,6 +619,7 @@ pub(crate) fn plan_trips(
         },
         site_reason,
         windows: windows.len(),
+        window_ids,
         window_sets: windows,
         chains: budgets,
         planning_km,

@@ -220,6 +220,8 @@ pub struct NetworkPlan {
     pub guarantee: Option<super::trips::TripsGuarantee>,
     /// `trips`: budget windows in the planning set.
     pub windows: usize,
+    /// `trips`: site ids over those windows (what their memory grows with).
+    pub window_ids: usize,
     /// `trips`: km of driving in the planning sample.
     pub planning_km: f64,
     /// `any_walk`: the walk DP's worst walks (longest first), which the
@@ -227,7 +229,7 @@ pub struct NetworkPlan {
     pub design_walks: Vec<super::walks::DesignWalk>,
     /// `trips`: the planning windows (site ids that must hold k + 1 tags).
     #[serde(skip)]
-    pub planning_windows: Vec<Vec<u32>>,
+    pub planning_windows: super::WindowSets,
     /// The traffic model (edges and destinations) the validation samples
     /// its chains from.
     #[serde(skip)]
