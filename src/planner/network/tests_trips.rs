@@ -298,3 +298,75 @@ fn an_any_walk_plan_on_a_small_network_is_the_brute_force_optimum_of_the_walk_dp
     );
     assert!(p.verified);
 }
+
+/// The windows of a chain as `add_windows` made them before it bisected:
+/// every left edge scans the whole stretch (the reference).
+fn windows_by_scan(cb: &super::traffic::ChainBudget) -> std::collections::BTreeMap<Vec<u32>, f64> {
+    let mut out = std::collections::BTreeMap::new();
+    for w in cb.resets.windows(2) {
+        let ((b0, c0), (b1, c1)) = (w[0], w[1]);
+        if b1 - b0 <= 1.0 {
+            continue;
+        }
+        let sites: Vec<(f64, u32)> = cb
+            .sites
+            .iter()
+            .copied()
+            .filter(|s| s.0 >= b0 && s.0 < b1)
+            .collect();
+        let mut lefts = vec![(b0, true)];
+        lefts.extend(
+            sites
+                .iter()
+                .filter(|s| s.0 <= b1 - 1.0)
+                .map(|s| (s.0, false)),
+        );
+        for (a, inclusive) in lefts {
+            let mut ids: Vec<u32> = sites
+                .iter()
+                .filter(|s| (if inclusive { s.0 >= a } else { s.0 > a }) && s.0 <= a + 1.0)
+                .map(|s| s.1)
+                .collect();
+            ids.sort_unstable();
+            ids.dedup();
+            let e = out.entry(ids).or_insert(0.0f64);
+            *e = e.max(c1 - c0);
+        }
+    }
+    out
+}
+
+#[test]
+fn a_chains_windows_by_bisection_equal_the_scan_of_each_stretch() {
+    use super::window_sets::WindowMap;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(23);
+    for case in 0..300 {
+        let mut cb = super::traffic::ChainBudget::default();
+        // Resets at increasing budget positions (some closer than 1, some
+        // far), chainage growing with them.
+        let mut b = 0.0f64;
+        cb.resets.push((0.0, 0.0));
+        for _ in 0..rng.random_range(1..5) {
+            b += [0.5, 1.0, 2.5, 7.0][rng.random_range(0..4)] * rng.random_range(0.5..1.5);
+            cb.resets.push((b, 1000.0 * b));
+        }
+        // Sites in order of position, some at equal positions (a site
+        // passed twice in a loop), ids repeating.
+        let mut x = 0.0f64;
+        while x < b {
+            cb.sites.push((x, rng.random_range(0..40u32)));
+            if rng.random_range(0..5) > 0 {
+                x += rng.random_range(0.0..0.4);
+            }
+        }
+        let mut m = WindowMap::new(usize::MAX);
+        super::traffic::add_windows(&cb, &mut m);
+        let (sets, infos) = m.sorted();
+        let got: std::collections::BTreeMap<Vec<u32>, f64> = sets
+            .iter()
+            .zip(infos)
+            .map(|(s, i)| (s.to_vec(), i.stretch_m))
+            .collect();
+        assert_eq!(got, windows_by_scan(&cb), "case {case}");
+    }
+}

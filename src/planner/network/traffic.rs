@@ -530,13 +530,17 @@ pub(crate) fn add_windows(cb: &ChainBudget, out: &mut WindowMap) {
                 .filter(|s| s.0 <= b1 - 1.0)
                 .map(|s| (s.0, false)),
         );
+        // The sites are in order of position (`chain_budget` sorts them), so
+        // each window's sites are a run of them, found by bisection (a scan
+        // of the stretch per left edge made this quadratic in a stretch's
+        // sites: most of a whole-map plan without map matching, whose
+        // stretches run for kilometres).
+        let mut ids: Vec<u32> = Vec::new();
         for (a, inclusive) in lefts {
-            let ids: Vec<u32> = sites
-                .iter()
-                .filter(|s| (if inclusive { s.0 >= a } else { s.0 > a }) && s.0 <= a + 1.0)
-                .map(|s| s.1)
-                .collect();
-            let mut ids = ids;
+            let lo = sites.partition_point(|s| if inclusive { s.0 < a } else { s.0 <= a });
+            let hi = lo + sites[lo..].partition_point(|s| s.0 <= a + 1.0);
+            ids.clear();
+            ids.extend(sites[lo..hi].iter().map(|s| s.1));
             ids.sort_unstable();
             ids.dedup();
             if let Some(e) = out.entry(&ids) {
