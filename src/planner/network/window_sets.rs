@@ -146,9 +146,10 @@ pub(crate) struct WindowInfo {
 ///
 /// The windows are held once, in a [`WindowSets`]; a hash table of their
 /// indices finds a window already held. (A `HashMap` keyed by each
-/// window's own vector cost a heap block, a key and its slack per window:
-/// 13.8 GB against 8.6 GB with boxed keys and flat copies for the solver,
-/// on Liechtenstein; BENCHMARKS.md.)
+/// window's own vector, copied for the cover, cost a heap block, a key and
+/// growth slack per window and the ids three to four times over: the
+/// Liechtenstein plan without map matching peaked at 13.85 GB, now at
+/// 5.7 GB; BENCHMARKS.md, "Trips plans on a whole map".)
 pub(crate) struct WindowMap {
     sets: WindowSets,
     infos: Vec<WindowInfo>,
