@@ -385,11 +385,7 @@ pub(crate) struct TripsPlan {
     /// Per site: the longest stretch of a window it serves (m) and whether
     /// that stretch starts a chain.
     pub site_reason: Vec<Option<WindowInfo>>,
-    /// Windows in the final planning set.
-    pub windows: usize,
-    /// Site ids over those windows.
-    pub window_ids: usize,
-    /// The windows themselves (site ids, sorted).
+    /// The windows of the final planning set (site ids, sorted).
     pub window_sets: WindowSets,
     /// The chains of the planning set and of the final certification round
     /// (for the coverage map).
@@ -533,7 +529,6 @@ pub(crate) fn plan_trips(
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
         sel = solve(&mut wmap, &mut infeasible)?;
     }
-    let window_ids = wmap.ids();
     let (windows, infos) = wmap.into_sorted();
     let (m, nbad, beta_r, wi, wu, wkm) = last;
     let upper = clopper_pearson_upper(nbad, m, beta_r);
@@ -618,8 +613,6 @@ pub(crate) fn plan_trips(
             worst_chain: wi,
         },
         site_reason,
-        windows: windows.len(),
-        window_ids,
         window_sets: windows,
         chains: budgets,
         planning_km,
