@@ -14,6 +14,10 @@ fn bin(args: &[&str]) -> Output {
         .expect("binary runs")
 }
 
+fn text_of(p: &Path) -> String {
+    std::fs::read_to_string(p).unwrap()
+}
+
 fn repo(rel: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join(rel)
@@ -32,6 +36,8 @@ fn init_writes_scenarios_that_parse_on_a_map_and_without() {
     assert!(text.starts_with("# A starting scenario"), "commented");
     let scn = Scenario::load(&plain).unwrap();
     assert!(matches!(scn.route, RouteKind::Motion { .. }));
+    // No map to match against.
+    assert!(!scn.aiding().map_matching);
     let [g, _, arw, _] = ImuGrade::Industrial.figures();
     assert!((scn.imu.gyro_bias[0] - g * DPH).abs() < 1e-15);
     assert!(scn.imu.gyro_arw > 0.0 && arw > 0.0);
@@ -60,6 +66,18 @@ fn init_writes_scenarios_that_parse_on_a_map_and_without() {
     assert_eq!(v["waypoints"].as_array().unwrap().len(), 2);
     let scn = Scenario::load(&area).unwrap();
     assert_eq!(scn.planner().coverage, Coverage::Network);
+    // On a map the navigator matches it: the area planner's model credits
+    // the turns (without, Liechtenstein's init plan needs 981 tags and 6 min
+    // instead of 30 tags and 49 s; BENCHMARKS.md).
+    assert!(scn.aiding().map_matching);
+    // The map-accuracy keys it shows commented out are the defaults: the
+    // file means the same with them given.
+    let text = text_of(&area);
+    assert!(text.contains("# geometry_error_m = 4.8\n"), "{text}");
+    let given = dir.path().join("sub/given.toml");
+    std::fs::write(&given, text.replace("# geometry_error", "geometry_error")).unwrap();
+    let with_keys = Scenario::load(&given).unwrap();
+    assert_eq!(with_keys.map_error, scn.map_error);
     let RouteKind::Map { map, waypoints, .. } = &scn.route else {
         panic!("not on the map")
     };

@@ -9,6 +9,7 @@
 //! tactical as `helsinki-plan-tactical.toml`, industrial as
 //! `helsinki-route-map-matching.toml`, MEMS as `demo.toml`.
 
+use super::sections::{DEFAULT_MAP_ERROR_CORRELATION_M, DEFAULT_MAP_GEOMETRY_ERROR_M};
 use serde::Deserialize;
 
 /// An IMU class.
@@ -125,13 +126,20 @@ pub fn starter_scenario(s: &Starter) -> String {
                  path = \"{}\"\n\
                  # Terrain heights: a GeoTIFF elevation model (SRTM or Copernicus GLO-30,\n\
                  # WGS-84 degrees) or a list of tiles; without one, heights are 0 m.\n\
-                 # elevation = \"dem.tif\"\n\n\
+                 # elevation = \"dem.tif\"\n\
+                 # The map's accuracy, as map matching sees it (the defaults below):\n\
+                 # 1 sigma per axis (m; OpenStreetMap's typical offset, 0 a surveyed\n\
+                 # map) and the length over which the offset is alike (m).\n\
+                 # geometry_error_m = {}\n\
+                 # geometry_error_correlation_m = {}\n\n\
                  [[route]]\n\
                  # Waypoints [lat, lon] (degrees) the route is planned through on the map{}.\n\
                  waypoints = [{}]\n\
                  # Cruise speed (km/h); slower where the map's maxspeed says so.\n\
                  speed_kmh = 40\n\n",
                 map.replace('\\', "/").replace('"', "\\\""),
+                DEFAULT_MAP_GEOMETRY_ERROR_M,
+                DEFAULT_MAP_ERROR_CORRELATION_M,
                 if s.network {
                     " (network coverage only takes the speed from it)"
                 } else {
@@ -171,7 +179,18 @@ pub fn starter_scenario(s: &Starter) -> String {
          # What the navigator uses besides the IMU.\n\
          odometer = true\n\
          baro = true\n\
-         rfid = true\n\n\
+         rfid = true\n",
+    );
+    if s.map.is_some() {
+        t.push_str(
+            "# Map matching against the map's roads: the position across the matched\n\
+             # road, and along it at turns. It is what lets a plan leave most roads\n\
+             # without tags; false if the vehicle's navigator does not match a map.\n\
+             map_matching = true\n",
+        );
+    }
+    t.push_str(
+        "\n\
          [rfid]\n\
          # Chance that a pass by a tag gives a read.\n\
          read_probability = 0.977\n\n\
