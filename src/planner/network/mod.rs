@@ -80,6 +80,7 @@ pub mod cover;
 pub(crate) mod coverage;
 pub(crate) mod ilp;
 pub(crate) mod instance;
+pub(crate) mod lagrangian;
 pub(crate) mod mm_reach;
 pub(crate) mod parallel;
 pub(crate) mod plan;

@@ -418,9 +418,19 @@ pub(super) fn plan_network_trips(
             "{} over the budget windows of every straight walk{} and of {} sampled chains ({} windows); \
              certified on fresh chains ({} round(s))",
             if tp.exact {
-                "exact set multicover (integer programme, microlp)"
+                "exact set multicover (integer programme, microlp)".to_string()
+            } else if tp.relaxation.improved {
+                format!(
+                    "set multicover by Lagrangian relaxation ({} subgradient iterations; its priced greedy \
+                     beat the plain greedy)",
+                    tp.relaxation.iterations
+                )
             } else {
-                "greedy set multicover with reverse deletion"
+                format!(
+                    "greedy set multicover with reverse deletion (Lagrangian relaxation, {} iterations, \
+                     found nothing cheaper)",
+                    tp.relaxation.iterations
+                )
             },
             if mm { " (a heading change of ≥ 45° within the class's curve distance resets)" } else { " the traffic used" },
             p.planning_chains + g.added_chains,

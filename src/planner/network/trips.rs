@@ -22,6 +22,7 @@
 //! After [`MAX_ROUNDS`] rounds the plan reports the failures and the
 //! Clopper–Pearson upper bound on the violation probability instead.
 
+use super::lagrangian::{relax, Relaxation};
 use super::traffic::{
     add_windows, chain_budget, chain_use, sample_chain, straight_windows, Chain, ChainBudget,
 };
@@ -379,6 +380,9 @@ pub(crate) fn packing_bound(
 pub(crate) struct TripsPlan {
     /// The selection is the exact optimum of the planning windows.
     pub exact: bool,
+    /// The final solve's Lagrangian relaxation (its selection improved on
+    /// the greedy's, its bound, its iterations).
+    pub relaxation: Relaxation,
     pub selected: Vec<bool>,
     pub lower_bound: usize,
     pub guarantee: TripsGuarantee,
@@ -456,15 +460,19 @@ pub(crate) fn plan_trips(
     }
     straight_windows(model, &straight, &used, &mut wmap);
     full(&wmap)?;
-    // The cover of the windows in the order of their ids (deterministic).
+    // The cover of the windows in the order of their ids (deterministic):
+    // the greedy, then the Lagrangian relaxation from it (a cheaper
+    // selection when it finds one, and a lower bound).
     let solve = |wmap: &mut WindowMap,
                  infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error|
-     -> Result<Vec<bool>> {
+     -> Result<(Vec<bool>, Relaxation)> {
         let (windows, infos) = wmap.sorted();
-        multicover(n_sites, windows, demand, cost, preselected)
-            .map_err(|w| infeasible(&infos[w], windows.get(w)))
+        let greedy = multicover(n_sites, windows, demand, cost, preselected)
+            .map_err(|w| infeasible(&infos[w], windows.get(w)))?;
+        let r = relax(n_sites, windows, demand, cost, preselected, &greedy);
+        Ok((r.selected.clone(), r))
     };
-    let mut sel = solve(&mut wmap, &mut infeasible)?;
+    let (mut sel, mut relaxation) = solve(&mut wmap, &mut infeasible)?;
     let mut added = 0usize;
     let mut last = (0usize, 0usize, 0.0f64, 0usize, 0.0f64, 0.0f64);
     let mut rounds = 0;
@@ -527,7 +535,7 @@ pub(crate) fn plan_trips(
         full(&wmap)?;
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
-        sel = solve(&mut wmap, &mut infeasible)?;
+        (sel, relaxation) = solve(&mut wmap, &mut infeasible)?;
     }
     let (windows, infos) = wmap.into_sorted();
     let (m, nbad, beta_r, wi, wu, wkm) = last;
@@ -549,7 +557,10 @@ pub(crate) fn plan_trips(
              (Clopper–Pearson), above ε = {epsilon}"
         )
     };
-    let mut lower_bound = packing_bound(&windows, demand, preselected, n_sites);
+    // The windows have not changed since the last solve: its relaxation's
+    // bound holds for them.
+    let mut lower_bound =
+        packing_bound(&windows, demand, preselected, n_sites).max(relaxation.tag_bound);
     // Small instances: the exact optimum (its tag count is then the bound).
     let mut exact = false;
     if let Some((s_opt, _)) = exact_multicover(
@@ -592,8 +603,10 @@ pub(crate) fn plan_trips(
         }
     }
     budgets.extend(final_budgets);
+    relaxation.selected = Vec::new();
     Ok(TripsPlan {
         exact,
+        relaxation,
         selected: sel,
         lower_bound,
         guarantee: TripsGuarantee {
