@@ -68,7 +68,7 @@ fn init_writes_scenarios_that_parse_on_a_map_and_without() {
     assert_eq!(scn.planner().coverage, Coverage::Network);
     // On a map the navigator matches it: the area planner's model credits
     // the turns (without, Liechtenstein's init plan needs 981 tags and 6 min
-    // instead of 30 tags and 49 s; BENCHMARKS.md).
+    // instead of 28 tags and 48 s; BENCHMARKS.md).
     assert!(scn.aiding().map_matching);
     // The map-accuracy keys it shows commented out are the defaults: the
     // file means the same with them given.

@@ -4,6 +4,12 @@
 //! stated for a fresh chain by an a-posteriori test on chains the plan never
 //! saw.
 //!
+//! The cover: the lazy greedy with reverse deletion ([`multicover`]), then
+//! the Lagrangian relaxation from it (`super::lagrangian`), whose selection
+//! is kept when it costs less; the exact integer programme replaces both
+//! when at most [`EXACT_MAX_SITES`] sites appear and its optimum also holds
+//! the final round's fresh chains.
+//!
 //! # The guarantee
 //!
 //! After planning on `planning_chains` sampled chains, `M` fresh chains are
