@@ -27,6 +27,7 @@
 //!
 //! Deterministic: fixed step rules and iteration counts, no clock.
 
+use super::best_site::BestSite;
 use super::window_sets::{SiteWindows, WindowSets};
 use rayon::prelude::*;
 use std::cmp::Ordering;
@@ -284,38 +285,33 @@ fn primal(
         };
         (sc, mu)
     };
-    // A min-heap on the score; ties to the lower site index.
-    #[derive(PartialEq)]
-    struct Item(f64, usize);
-    impl Eq for Item {}
-    impl Ord for Item {
-        fn cmp(&self, o: &Self) -> Ordering {
-            o.0.total_cmp(&self.0).then_with(|| o.1.cmp(&self.1))
-        }
-    }
-    impl PartialOrd for Item {
-        fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-            Some(self.cmp(o))
-        }
-    }
+    // The least score first (negated), ties to the lower site index.
+    let item = |sc: f64, s: usize| BestSite {
+        score: -sc,
+        site: s,
+        data: sc,
+    };
     let mut heap = BinaryHeap::new();
     for (s, &taken) in sel.iter().enumerate() {
         if !taken {
             let (sc, mu) = score(s, &lack);
             if mu > 0 {
-                heap.push(Item(sc, s));
+                heap.push(item(sc, s));
             }
         }
     }
     // Scores only grow as windows fill (γ rises, μ falls), so a popped
     // site whose score is unchanged is the least.
-    while let Some(Item(sc, s)) = heap.pop() {
+    while let Some(BestSite {
+        site: s, data: sc, ..
+    }) = heap.pop()
+    {
         let (now, mu) = score(s, &lack);
         if mu == 0 {
             continue;
         }
         if now.total_cmp(&sc) != Ordering::Equal {
-            heap.push(Item(now, s));
+            heap.push(item(now, s));
             continue;
         }
         sel[s] = true;

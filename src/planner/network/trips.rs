@@ -28,6 +28,7 @@
 //! After [`MAX_ROUNDS`] rounds the plan reports the failures and the
 //! Clopper–Pearson upper bound on the violation probability instead.
 
+use super::best_site::BestSite;
 use super::lagrangian::{relax, Relaxation};
 use super::traffic::{
     add_windows, chain_budget, chain_use, sample_chain, straight_windows, Chain, ChainBudget,
@@ -40,7 +41,6 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
-use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashSet};
 
 /// Largest instance (sites in windows) solved exactly.
@@ -226,36 +226,34 @@ pub(crate) fn multicover(
             .filter(|&&w| count[w as usize] < demand)
             .count()
     };
-    #[derive(PartialEq)]
-    struct Item(f64, usize, usize);
-    impl Eq for Item {}
-    impl Ord for Item {
-        fn cmp(&self, o: &Self) -> Ordering {
-            self.0.total_cmp(&o.0).then_with(|| o.1.cmp(&self.1))
-        }
-    }
-    impl PartialOrd for Item {
-        fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-            Some(self.cmp(o))
-        }
-    }
     let score = |g: usize, s: usize| g as f64 / cost[s].max(1e-9);
     let mut heap = BinaryHeap::new();
     for (s, &taken) in sel.iter().enumerate() {
         if !taken {
             let g = gain(s, &count);
             if g > 0 {
-                heap.push(Item(score(g, s), s, g));
+                heap.push(BestSite {
+                    score: score(g, s),
+                    site: s,
+                    data: g,
+                });
             }
         }
     }
-    while let Some(Item(_, s, g)) = heap.pop() {
+    while let Some(BestSite {
+        site: s, data: g, ..
+    }) = heap.pop()
+    {
         let g_now = gain(s, &count);
         if g_now == 0 {
             continue;
         }
         if g_now != g {
-            heap.push(Item(score(g_now, s), s, g_now));
+            heap.push(BestSite {
+                score: score(g_now, s),
+                site: s,
+                data: g_now,
+            });
             continue;
         }
         sel[s] = true;
