@@ -335,14 +335,7 @@ fn primal(
             .then(reduced[b].total_cmp(&reduced[a]))
             .then(a.cmp(&b))
     });
-    for s in order {
-        if site_w.get(s).iter().all(|&w| count[w as usize] > demand) {
-            sel[s] = false;
-            for &w in site_w.get(s) {
-                count[w as usize] -= 1;
-            }
-        }
-    }
+    site_w.remove_redundant(order, &mut sel, &mut count, demand);
     sel
 }
 

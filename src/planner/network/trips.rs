@@ -271,14 +271,7 @@ pub(crate) fn multicover(
             .then(site_w.get(a).len().cmp(&site_w.get(b).len()))
             .then(a.cmp(&b))
     });
-    for s in order {
-        if site_w.get(s).iter().all(|&w| count[w as usize] > demand) {
-            sel[s] = false;
-            for &w in site_w.get(s) {
-                count[w as usize] -= 1;
-            }
-        }
-    }
+    site_w.remove_redundant(order, &mut sel, &mut count, demand);
     Ok(sel)
 }
 

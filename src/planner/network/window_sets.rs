@@ -128,6 +128,26 @@ impl SiteWindows {
     pub fn get(&self, s: usize) -> &[u32] {
         &self.windows[self.start[s]..self.start[s + 1]]
     }
+
+    /// Redundancy removal: in `order`, drops each selected site all of
+    /// whose windows hold more than `demand` selected sites (`count`, kept
+    /// up to date).
+    pub fn remove_redundant(
+        &self,
+        order: impl IntoIterator<Item = usize>,
+        sel: &mut [bool],
+        count: &mut [usize],
+        demand: usize,
+    ) {
+        for s in order {
+            if sel[s] && self.get(s).iter().all(|&w| count[w as usize] > demand) {
+                sel[s] = false;
+                for &w in self.get(s) {
+                    count[w as usize] -= 1;
+                }
+            }
+        }
+    }
 }
 
 /// A window of budget 1 that must hold `k + 1` tags.
