@@ -54,12 +54,9 @@ const INITIAL_FACTOR: f64 = 2.0;
 /// this halves the step factor (below a fiftieth of it, the factor grows).
 const WIDE_SPREAD: f64 = 0.05;
 
-/// What the relaxation found.
+/// What the relaxation found besides its selection.
 #[derive(Debug, Clone)]
 pub(crate) struct Relaxation {
-    /// The best selection (installed sites included): the incumbent's
-    /// unless a cheaper one was found.
-    pub selected: Vec<bool>,
     /// The incumbent was improved.
     pub improved: bool,
     /// The best lower bound on the new tags' total cost.
@@ -72,20 +69,24 @@ pub(crate) struct Relaxation {
 }
 
 /// The relaxation of the cover of `windows` (each needing `demand` selected
-/// sites) starting from the feasible `incumbent`; `cost[s]` > 0 is a new
-/// tag's cost at site `s`, `preselected` the installed sites.
+/// sites; `site_w` their transpose) starting from the feasible
+/// `incumbent`; `cost[s]` > 0 is a new tag's cost at site `s`,
+/// `preselected` the installed sites. Returns the best selection
+/// (installed sites included: the incumbent unless a cheaper one was
+/// found) and what else the relaxation found.
 ///
 /// Edge cases: no window short of installed tags → the incumbent, bound 0;
 /// a window with fewer candidates than its demand is the caller's check
 /// (the incumbent is then not feasible and is returned as it is).
 pub(crate) fn relax(
-    n_sites: usize,
     windows: &WindowSets,
+    site_w: &SiteWindows,
     demand: usize,
     cost: &[f64],
     preselected: &[bool],
-    incumbent: &[bool],
-) -> Relaxation {
+    incumbent: Vec<bool>,
+) -> (Vec<bool>, Relaxation) {
+    let n_sites = preselected.len();
     let fresh_cost = |sel: &[bool]| -> f64 {
         sel.iter()
             .zip(preselected)
@@ -94,8 +95,8 @@ pub(crate) fn relax(
             .map(|(_, c)| *c)
             .sum()
     };
+    let mut best = incumbent;
     let mut out = Relaxation {
-        selected: incumbent.to_vec(),
         improved: false,
         cost_bound: 0.0,
         tag_bound: 0,
@@ -110,9 +111,8 @@ pub(crate) fn relax(
         })
         .collect();
     if need.iter().all(|&d| d == 0.0) {
-        return out;
+        return (best, out);
     }
-    let site_w = SiteWindows::of(windows, n_sites);
     // The variables: candidates in some window, not installed.
     let vars: Vec<u32> = (0..n_sites)
         .filter(|&s| !preselected[s] && !site_w.get(s).is_empty())
@@ -122,7 +122,7 @@ pub(crate) fn relax(
         .iter()
         .map(|&s| cost[s as usize])
         .fold(0.0f64, f64::max);
-    let mut ub = fresh_cost(incumbent);
+    let mut ub = fresh_cost(&best);
     // Initial multipliers: each window the cheapest share of a site's cost
     // over the windows the site serves.
     let mut u: Vec<f64> = windows
@@ -186,7 +186,7 @@ pub(crate) fn relax(
         if it % PRIMAL_EVERY == PRIMAL_EVERY - 1 || it + 1 == iterations {
             let sel = primal(
                 windows,
-                &site_w,
+                site_w,
                 demand,
                 &need,
                 cost,
@@ -197,7 +197,7 @@ pub(crate) fn relax(
             let c = fresh_cost(&sel);
             if c < ub - 1e-9 {
                 ub = c;
-                out.selected = sel;
+                best = sel;
                 out.improved = true;
             }
         }
@@ -249,7 +249,7 @@ pub(crate) fn relax(
     } else {
         0
     };
-    out
+    (best, out)
 }
 
 /// The multiplier-priced greedy with redundancy removal (module doc).
@@ -375,12 +375,13 @@ mod tests {
         let w = WindowSets::from_vecs(&sets);
         let cost = vec![1.0; 5];
         let pre = vec![false; 5];
-        let greedy = super::super::trips::multicover(5, &w, 1, &cost, &pre).unwrap();
+        let site_w = SiteWindows::of(&w, 5);
+        let greedy = super::super::trips::multicover(&w, &site_w, 1, &cost, &pre).unwrap();
         assert_eq!(greedy, vec![false, false, true, true, true], "the trap");
-        let r = relax(5, &w, 1, &cost, &pre, &greedy);
+        let (sel, r) = relax(&w, &site_w, 1, &cost, &pre, greedy);
         assert!(r.improved);
-        assert_eq!(r.selected, vec![true, true, false, false, false]);
-        assert!(covers(&r.selected, &w, 1));
+        assert_eq!(sel, vec![true, true, false, false, false]);
+        assert!(covers(&sel, &w, 1));
         // Windows (0, 0) and (1, 4) share no site, so every selection, even
         // fractional, costs at least 2: a bound above 1 proves the two rows.
         assert_eq!(r.tag_bound, 2, "bound {}", r.cost_bound);
@@ -405,13 +406,14 @@ mod tests {
             let w = WindowSets::from_vecs(&sets);
             let cost: Vec<f64> = (0..n).map(|_| rng.random_range(1..4) as f64).collect();
             let pre: Vec<bool> = (0..n).map(|_| rng.random_bool(0.05)).collect();
-            let greedy = super::super::trips::multicover(n, &w, 2, &cost, &pre).unwrap();
-            let r = relax(n, &w, 2, &cost, &pre, &greedy);
-            assert!(covers(&r.selected, &w, 2), "case {case}");
-            assert!(pre.iter().zip(&r.selected).all(|(p, s)| !p || *s));
+            let site_w = SiteWindows::of(&w, n);
+            let greedy = super::super::trips::multicover(&w, &site_w, 2, &cost, &pre).unwrap();
+            let (sel, r) = relax(&w, &site_w, 2, &cost, &pre, greedy.clone());
+            assert!(covers(&sel, &w, 2), "case {case}");
+            assert!(pre.iter().zip(&sel).all(|(p, s)| !p || *s));
             let c =
                 |s: &[bool]| -> f64 { (0..n).filter(|&i| s[i] && !pre[i]).map(|i| cost[i]).sum() };
-            assert!(c(&r.selected) <= c(&greedy) + 1e-9, "case {case}");
+            assert!(c(&sel) <= c(&greedy) + 1e-9, "case {case}");
             improved += usize::from(r.improved);
             let (opt, opt_cost) =
                 super::super::trips::exact_multicover(n, &w, 2, &cost, &pre, &greedy, 1000)

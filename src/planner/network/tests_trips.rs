@@ -7,6 +7,7 @@ use super::trips::{
     chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper, exact_multicover,
     multicover, packing_bound,
 };
+use super::window_sets::SiteWindows;
 use super::*;
 use crate::network::{model_from_polylines, Network, Oneway, RoadAttributes};
 use crate::planner::settings::PlannerSettings;
@@ -96,7 +97,7 @@ fn multicover_is_feasible_and_the_exact_solver_matches_brute_force() {
         let pre = vec![false; n];
         let windows = WindowSets::from_vecs(&windows);
         let opt = brute_force(n, &windows, demand, &cost).expect("windows are satisfiable");
-        let g = multicover(n, &windows, demand, &cost, &pre).unwrap();
+        let g = multicover(&windows, &SiteWindows::of(&windows, n), demand, &cost, &pre).unwrap();
         let gc: f64 = (0..n).filter(|&s| g[s]).map(|s| cost[s]).sum();
         for w in windows.iter() {
             assert!(w.iter().filter(|&&s| g[s as usize]).count() >= demand);
@@ -116,10 +117,11 @@ fn multicover_is_feasible_and_the_exact_solver_matches_brute_force() {
         assert!(lb as f64 * min_cost <= opt + 1e-9);
     }
     // A window with fewer candidates than reads needed is reported.
+    let short = WindowSets::from_vecs(&[vec![0, 1], vec![2]]);
     assert_eq!(
         multicover(
-            3,
-            &WindowSets::from_vecs(&[vec![0, 1], vec![2]]),
+            &short,
+            &SiteWindows::of(&short, 3),
             2,
             &[1.0; 3],
             &[false; 3]

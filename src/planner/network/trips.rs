@@ -202,10 +202,12 @@ pub(crate) fn sample_chains(
 
 /// Greedy set multicover: every window holds `demand` selected sites at the
 /// least total cost (lazy greedy by windows served per cost, then reverse
-/// deletion). `Err(w)`: window `w` has fewer than `demand` candidates.
+/// deletion), with the windows' transpose `site_w` over
+/// `preselected.len()` sites. `Err(w)`: window `w` has fewer than `demand`
+/// candidates.
 pub(crate) fn multicover(
-    n_sites: usize,
     windows: &WindowSets,
+    site_w: &SiteWindows,
     demand: usize,
     cost: &[f64],
     preselected: &[bool],
@@ -213,7 +215,7 @@ pub(crate) fn multicover(
     if let Some(w) = windows.iter().position(|ids| ids.len() < demand) {
         return Err(w);
     }
-    let site_w = SiteWindows::of(windows, n_sites);
+    let n_sites = preselected.len();
     let mut sel = preselected.to_vec();
     let mut count: Vec<usize> = windows
         .iter()
@@ -464,10 +466,11 @@ pub(crate) fn plan_trips(
                  infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error|
      -> Result<(Vec<bool>, Relaxation)> {
         let (windows, infos) = wmap.sorted();
-        let greedy = multicover(n_sites, windows, demand, cost, preselected)
+        // One transpose for both (on a whole map it is the largest array).
+        let site_w = SiteWindows::of(windows, n_sites);
+        let greedy = multicover(windows, &site_w, demand, cost, preselected)
             .map_err(|w| infeasible(&infos[w], windows.get(w)))?;
-        let r = relax(n_sites, windows, demand, cost, preselected, &greedy);
-        Ok((r.selected.clone(), r))
+        Ok(relax(windows, &site_w, demand, cost, preselected, greedy))
     };
     let (mut sel, mut relaxation) = solve(&mut wmap, &mut infeasible)?;
     let mut added = 0usize;
@@ -600,7 +603,6 @@ pub(crate) fn plan_trips(
         }
     }
     budgets.extend(final_budgets);
-    relaxation.selected = Vec::new();
     Ok(TripsPlan {
         exact,
         relaxation,
