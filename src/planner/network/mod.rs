@@ -76,6 +76,7 @@
 //! per-road budgets and worst walks of `any_walk` plans), `window_sets`
 //! (the budget windows of `trips` plans, stored flat).
 
+pub(crate) mod add_drop;
 pub(crate) mod best_site;
 pub mod cover;
 pub(crate) mod coverage;

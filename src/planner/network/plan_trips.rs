@@ -419,17 +419,26 @@ pub(super) fn plan_network_trips(
              certified on fresh chains ({} round(s))",
             if tp.exact {
                 "exact set multicover (integer programme, microlp)".to_string()
-            } else if tp.relaxation.improved {
-                format!(
-                    "set multicover by Lagrangian relaxation ({} subgradient iterations; its priced greedy \
-                     beat the plain greedy)",
-                    tp.relaxation.iterations
-                )
             } else {
                 format!(
-                    "greedy set multicover with reverse deletion (Lagrangian relaxation, {} iterations, \
-                     found nothing cheaper)",
-                    tp.relaxation.iterations
+                    "{}; add-drop local search ({})",
+                    if tp.relaxation.improved {
+                        format!(
+                            "set multicover by Lagrangian relaxation ({} subgradient iterations; its priced \
+                             greedy beat the plain greedy)",
+                            tp.relaxation.iterations
+                        )
+                    } else {
+                        format!(
+                            "greedy set multicover with reverse deletion (Lagrangian relaxation, {} \
+                             iterations, found nothing cheaper)",
+                            tp.relaxation.iterations
+                        )
+                    },
+                    match tp.add_drop.moves {
+                        0 => "no move improved".to_string(),
+                        m => format!("{m} move(s), {} tag(s) fewer", tp.add_drop.tags_saved),
+                    }
                 )
             },
             if mm { " (a heading change of ≥ 45° within the class's curve distance resets)" } else { " the traffic used" },

@@ -6,7 +6,8 @@
 //!
 //! The cover: the lazy greedy with reverse deletion ([`multicover`]), then
 //! the Lagrangian relaxation from it (`super::lagrangian`), whose selection
-//! is kept when it costs less; the exact integer programme replaces both
+//! is kept when it costs less, then add-drop local search on the result
+//! (`super::add_drop`); the exact integer programme replaces both
 //! when at most [`EXACT_MAX_SITES`] sites appear and its optimum also holds
 //! the final round's fresh chains.
 //!
@@ -28,6 +29,7 @@
 //! After [`MAX_ROUNDS`] rounds the plan reports the failures and the
 //! Clopper–Pearson upper bound on the violation probability instead.
 
+use super::add_drop::{add_drop, AddDrop};
 use super::best_site::BestSite;
 use super::lagrangian::{relax, Relaxation};
 use super::traffic::{
@@ -382,6 +384,8 @@ pub(crate) struct TripsPlan {
     /// The final solve's Lagrangian relaxation (its selection improved on
     /// the greedy's, its bound, its iterations).
     pub relaxation: Relaxation,
+    /// The final solve's add-drop local search.
+    pub add_drop: AddDrop,
     pub selected: Vec<bool>,
     pub lower_bound: usize,
     pub guarantee: TripsGuarantee,
@@ -461,18 +465,20 @@ pub(crate) fn plan_trips(
     full(&wmap)?;
     // The cover of the windows in the order of their ids (deterministic):
     // the greedy, then the Lagrangian relaxation from it (a cheaper
-    // selection when it finds one, and a lower bound).
+    // selection when it finds one, and a lower bound), then add-drop moves.
     let solve = |wmap: &mut WindowMap,
                  infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error|
-     -> Result<(Vec<bool>, Relaxation)> {
+     -> Result<(Vec<bool>, Relaxation, AddDrop)> {
         let (windows, infos) = wmap.sorted();
         // One transpose for both (on a whole map it is the largest array).
         let site_w = SiteWindows::of(windows, n_sites);
         let greedy = multicover(windows, &site_w, demand, cost, preselected)
             .map_err(|w| infeasible(&infos[w], windows.get(w)))?;
-        Ok(relax(windows, &site_w, demand, cost, preselected, greedy))
+        let (mut sel, relaxation) = relax(windows, &site_w, demand, cost, preselected, greedy);
+        let ad = add_drop(windows, &site_w, demand, cost, preselected, &mut sel);
+        Ok((sel, relaxation, ad))
     };
-    let (mut sel, mut relaxation) = solve(&mut wmap, &mut infeasible)?;
+    let (mut sel, mut relaxation, mut add_drop) = solve(&mut wmap, &mut infeasible)?;
     let mut added = 0usize;
     let mut last = (0usize, 0usize, 0.0f64, 0usize, 0.0f64, 0.0f64);
     let mut rounds = 0;
@@ -535,7 +541,7 @@ pub(crate) fn plan_trips(
         full(&wmap)?;
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
-        (sel, relaxation) = solve(&mut wmap, &mut infeasible)?;
+        (sel, relaxation, add_drop) = solve(&mut wmap, &mut infeasible)?;
     }
     let (windows, infos) = wmap.into_sorted();
     let (m, nbad, beta_r, wi, wu, wkm) = last;
@@ -606,6 +612,7 @@ pub(crate) fn plan_trips(
     Ok(TripsPlan {
         exact,
         relaxation,
+        add_drop,
         selected: sel,
         lower_bound,
         guarantee: TripsGuarantee {
