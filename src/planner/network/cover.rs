@@ -535,15 +535,15 @@ pub struct GreedyStats {
 
 /// [`greedy`] with its statistics.
 pub fn greedy_with_stats(p: &CoverProblem) -> (Solved, GreedyStats) {
-    greedy_from(p, p.existing_selection(), &mut Vec::new())
+    greedy_from(p, p.existing_selection(), &mut |_| {})
 }
 
 /// [`greedy_with_stats`] from `selected` (installed sites included; reverse
-/// deletion tries only the sites added), appending every round's witnesses to `witnesses`.
+/// deletion tries only the sites added), handing every round's witnesses to `witness`.
 pub(crate) fn greedy_from(
     p: &CoverProblem,
     mut selected: Vec<bool>,
-    witnesses: &mut Vec<Walk>,
+    witness: &mut dyn FnMut(&Walk),
 ) -> (Solved, GreedyStats) {
     let mut stats = GreedyStats::default();
     let need_all = p.k + 1;
@@ -612,7 +612,7 @@ pub(crate) fn greedy_from(
                 need[w as usize] = need[w as usize].saturating_sub(1);
             }
         }
-        witnesses.extend(walks);
+        walks.iter().for_each(&mut *witness);
     }
     // Reverse deletion: most expensive first, then latest added first.
     let mut cands = order.clone();

@@ -269,11 +269,12 @@ pub fn plan_network_on(
     // method and the fallback.
     // Its witnesses (the violating walks of all its rounds) are the
     // windows of the Lagrangian relaxation below.
-    let mut witnesses: Vec<Walk> = Vec::new();
-    let (greedy_sel, st) = match cover::greedy_from(p, p.existing_selection(), &mut witnesses) {
-        (Solved::Feasible(s), st) => (s, st),
-        (Solved::Infeasible(w), _) => return Err(infeasible(&w)),
-    };
+    let mut windows = walk_relax::WitnessWindows::new(p.k + 1);
+    let (greedy_sel, st) =
+        match cover::greedy_from(p, p.existing_selection(), &mut |w| windows.add(w)) {
+            (Solved::Feasible(s), st) => (s, st),
+            (Solved::Infeasible(w), _) => return Err(infeasible(&w)),
+        };
     let greedy_method = format!(
         "greedy: set multicover over violating walks ({} round(s), {} tag(s) added), exact reverse deletion ({} removed), verified by the walk DP",
         st.rounds, st.added, st.removed
@@ -309,7 +310,7 @@ pub fn plan_network_on(
             // cheaper selection (verified by the walk DP) when it finds one,
             // and a lower bound.
             let tr = Instant::now();
-            let (s, r) = walk_relax::improve(p, greedy_sel, witnesses);
+            let (s, r) = walk_relax::improve(p, greedy_sel, windows);
             timings.insert("relax".into(), tr.elapsed().as_secs_f64() * 1e3);
             lb_cost = lb_cost.max(r.cost_bound);
             lb_relax = r.tag_bound;

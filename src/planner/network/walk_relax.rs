@@ -95,30 +95,46 @@ fn fresh_cost(p: &CoverProblem, sel: &[bool]) -> f64 {
         .sum()
 }
 
-/// Adds each walk's sites (sorted, each kept at most `demand` times) as a
-/// window, once per distinct multiset; `false` once the windows are full.
+/// The windows of witness walks, each a walk's sites (sorted, each kept at
+/// most `demand` times), held once per distinct multiset, at most
+/// [`MAX_WINDOW_IDS`] ids in all (later walks are then dropped).
 ///
 /// A walk passing a site more often than the `demand` passes it needs is
 /// met by that site alone however often it passes it, so the repeats
 /// beyond `demand` are dropped: the same binary constraint, and a tighter
 /// relaxation (a site passed twice would otherwise count twice toward a
-/// fractional demand of 1, and the priced greedy would favour it).
-fn add_windows(wmap: &mut WindowMap, walks: &[Walk], demand: usize) -> bool {
-    let mut ids: Vec<u32> = Vec::new();
-    for w in walks {
+/// fractional demand of 1, and the priced greedy would favour it). Only
+/// the windows are kept, not the walks' pieces (on Gothenburg's plan the
+/// greedy's 400 000 witnesses held several hundred MB of pieces).
+pub(crate) struct WitnessWindows {
+    wmap: WindowMap,
+    demand: usize,
+    ids: Vec<u32>,
+}
+
+impl WitnessWindows {
+    /// No windows; each will need `demand` passes.
+    pub fn new(demand: usize) -> Self {
+        Self {
+            wmap: WindowMap::new(MAX_WINDOW_IDS),
+            demand,
+            ids: Vec::new(),
+        }
+    }
+
+    /// Adds the window of a walk (nothing once the windows are full).
+    pub fn add(&mut self, w: &Walk) {
+        let ids = &mut self.ids;
         ids.clear();
         ids.extend_from_slice(&w.sites);
         ids.sort_unstable();
         let mut run = 0;
         ids.dedup_by(|a, b| {
             run = if a == b { run + 1 } else { 0 };
-            run >= demand
+            run >= self.demand
         });
-        if wmap.entry(&ids).is_none() {
-            return false;
-        }
+        let _ = self.wmap.entry(ids);
     }
-    true
 }
 
 /// Exact reverse deletion of the new sites of a feasible selection, the
@@ -143,70 +159,72 @@ fn prune(p: &CoverProblem, mut sel: Vec<bool>) -> Vec<bool> {
     sel
 }
 
-/// The relaxation of the cover of `witnesses` (the greedy's, of all its
-/// rounds; dropped once they are windows) from the greedy's feasible selection `greedy` (module doc).
-/// Returns the best selection found (installed sites included; `greedy`
-/// unless a cheaper one passed the walk DP) and what else was found.
+/// The relaxation of the cover of `windows` (the greedy's witnesses, of
+/// all its rounds) from the greedy's feasible selection `greedy` (module
+/// doc). Returns the best selection found (installed sites included;
+/// `greedy` unless a cheaper one passed the walk DP) and what else was
+/// found.
 ///
-/// Edge cases: no witness (the installed tags alone are feasible), or no
-/// window short of installed passes → `greedy`, bound 0. `greedy` must be
+/// Edge cases: no window (the installed tags alone are feasible), or none
+/// short of installed passes → `greedy`, bound 0. `greedy` must be
 /// feasible (the bound holds regardless; a cheaper selection is only taken
-/// when it passes the DP).
+/// when it passes the DP). Windows full ([`MAX_WINDOW_IDS`]) → the round
+/// under way is the last.
 pub(crate) fn improve(
     p: &CoverProblem,
     greedy: Vec<bool>,
-    witnesses: Vec<Walk>,
+    mut windows: WitnessWindows,
 ) -> (Vec<bool>, WalkRelaxation) {
     let n = p.sites.len();
-    let demand = p.k + 1;
+    let demand = windows.demand;
     let cost: Vec<f64> = p.sites.iter().map(|s| s.cost).collect();
     let pre = p.existing_selection();
     let mut out = WalkRelaxation::default();
-    let mut wmap = WindowMap::new(MAX_WINDOW_IDS);
-    let mut room = add_windows(&mut wmap, &witnesses, demand);
-    drop(witnesses);
     let mut best_cost = fresh_cost(p, &greedy);
     let mut best = greedy;
     let mut work = 0usize;
-    while out.rounds < MAX_ROUNDS && wmap.len() > 0 {
-        let (windows, _) = wmap.sorted();
-        let pairs = windows.total_ids().max(1);
+    while out.rounds < MAX_ROUNDS && windows.wmap.len() > 0 {
+        let (ws, _) = windows.wmap.sorted();
+        let pairs = ws.total_ids().max(1);
         let visits = |iterations: usize| 3 * pairs * iterations;
         let its = lagrangian::MAX_ITERATIONS.min(lagrangian::WORK_BUDGET / visits(1));
         if out.rounds > 0 && work + visits(its.max(1)) > TOTAL_WORK {
             break;
         }
         out.rounds += 1;
-        let site_w = SiteWindows::of(windows, n);
-        let (s, r) = relax(windows, &site_w, demand, &cost, &pre, best.clone());
+        let site_w = SiteWindows::of(ws, n);
+        let (s, r) = relax(ws, &site_w, demand, &cost, &pre, best.clone());
         drop(site_w);
         out.iterations += r.iterations;
         work += visits(r.iterations);
-        out.windows = windows.len();
-        out.window_ids = windows.total_ids();
+        out.windows = ws.len();
+        out.window_ids = ws.total_ids();
         out.cost_bound = out.cost_bound.max(r.cost_bound);
         out.tag_bound = out.tag_bound.max(r.tag_bound);
         if !r.improved {
             break;
         }
-        // Repair: the greedy's rounds from `s`, which collect the walks it
-        // misses (none when it was feasible), then reverse deletion of its
-        // own sites.
-        let mut missed: Vec<Walk> = Vec::new();
-        if let (Solved::Feasible(fixed), _) = cover::greedy_from(p, s, &mut missed) {
+        // Repair: the greedy's rounds from `s`, whose witnesses (the walks
+        // `s` misses; none when it was feasible) join the windows, then
+        // reverse deletion of its own sites.
+        let mut missed = 0usize;
+        let mut add = |w: &Walk| {
+            missed += 1;
+            windows.add(w);
+        };
+        if let (Solved::Feasible(fixed), _) = cover::greedy_from(p, s, &mut add) {
             let fixed = prune(p, fixed);
             let c = fresh_cost(p, &fixed);
             if c < best_cost - 1e-9 {
                 best_cost = c;
                 best = fixed;
                 out.improved = true;
-                out.repaired = !missed.is_empty();
+                out.repaired = missed > 0;
             }
         }
-        if missed.is_empty() || !room {
+        if missed == 0 || windows.wmap.full() {
             break;
         }
-        room = add_windows(&mut wmap, &missed, demand);
     }
     (best, out)
 }
@@ -221,11 +239,16 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// The greedy with its witnesses, as the plan runs it.
-    fn greedy_and_witnesses(p: &CoverProblem) -> Option<(Vec<bool>, Vec<Walk>)> {
+    /// The greedy with its witnesses and their windows, as the plan runs it.
+    fn greedy_and_witnesses(p: &CoverProblem) -> Option<(Vec<bool>, Vec<Walk>, WitnessWindows)> {
         let mut walks = Vec::new();
-        match cover::greedy_from(p, p.existing_selection(), &mut walks).0 {
-            Solved::Feasible(s) => Some((s, walks)),
+        let mut windows = WitnessWindows::new(p.k + 1);
+        let mut add = |w: &Walk| {
+            walks.push(w.clone());
+            windows.add(w);
+        };
+        match cover::greedy_from(p, p.existing_selection(), &mut add).0 {
+            Solved::Feasible(s) => Some((s, walks, windows)),
             Solved::Infeasible(_) => None,
         }
     }
@@ -317,7 +340,7 @@ mod tests {
         };
         let sites = vec![site(5.75, 1.5), site(1.75, 1.0)];
         let p = CoverProblem::new(1, edges, sites, 6.25, 0).unwrap();
-        let (g, walks) = greedy_and_witnesses(&p).unwrap();
+        let (g, walks, windows) = greedy_and_witnesses(&p).unwrap();
         assert_eq!(g, vec![true, false], "the greedy's choice");
         assert!(walks.iter().any(|w| w.sites == [0, 1, 0]), "{walks:?}");
         // Every selection, by the brute-force walk enumeration: the
@@ -333,7 +356,7 @@ mod tests {
             .fold(f64::INFINITY, f64::min);
         assert_eq!(opt, 1.0);
         assert!(fresh_cost(&p, &g) > opt, "the greedy is suboptimal");
-        let (sel, r) = improve(&p, g, walks);
+        let (sel, r) = improve(&p, g, windows);
         assert_eq!(sel, vec![false, true]);
         assert!(r.improved && !r.repaired, "{r:?}");
         assert_eq!(r.tag_bound, 1, "{r:?}");
@@ -351,10 +374,10 @@ mod tests {
         let (mut improved, mut solved, mut bounded) = (0, 0, 0);
         for case in 0..400 {
             let p = random_problem(&mut rng, 14);
-            let Some((g, walks)) = greedy_and_witnesses(&p) else {
+            let Some((g, _, windows)) = greedy_and_witnesses(&p) else {
                 continue;
             };
-            let (sel, r) = improve(&p, g.clone(), walks);
+            let (sel, r) = improve(&p, g.clone(), windows);
             assert!(check(&p, &sel).feasible(), "case {case}");
             assert!(brute_longest(&p, &sel) <= p.reach_m + EPS, "case {case}");
             assert!(
