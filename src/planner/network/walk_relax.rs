@@ -8,9 +8,8 @@
 //! witness is a constraint every feasible selection meets (its length
 //! exceeds `R` whatever is selected), so the witnesses of all the greedy's
 //! rounds form a set multicover — windows of the sites each walk passes,
-//! with repeats when it passes a site again, each needing `k + 1` passes —
-//! whose every feasible selection is at least as cheap as the walk
-//! problem's optimum. Its Lagrangian relaxation (`super::lagrangian`:
+//! with repeats (up to `k + 1`) when it passes a site again, each needing
+//! `k + 1` passes — whose optimum costs at most the walk problem's. Its Lagrangian relaxation (`super::lagrangian`:
 //! subgradient optimisation, and the multiplier-priced greedy of Caprara,
 //! Fischetti & Toth 1999 with redundancy removal) gives
 //!
@@ -32,13 +31,14 @@
 //! was feasible as it was; otherwise the repair's witnesses (those of `S`
 //! first) join the windows and the next round relaxes again. Rounds end
 //! when the relaxation finds nothing cheaper than the incumbent on the
-//! windows, when `S` passed the DP unrepaired, or after [`MAX_ROUNDS`].
+//! windows, when `S` passed the DP unrepaired, when the next relaxation
+//! would pass [`TOTAL_WORK`], or after [`MAX_ROUNDS`].
 //! Every selection returned has passed the exact walk DP.
 //!
 //! Bounded work: at most [`MAX_ROUNDS`] relaxations (each limited by
-//! `lagrangian::WORK_BUDGET`) and repairs, and at most [`MAX_WINDOW_IDS`]
-//! site ids over the windows (a round whose witnesses would pass it adds
-//! those that fit and is the last). Deterministic: windows are kept in the
+//! `lagrangian::WORK_BUDGET`, all together by [`TOTAL_WORK`]) and repairs,
+//! and at most [`MAX_WINDOW_IDS`] site ids over the windows (witnesses
+//! past it are dropped, and the round in which they were is the last). Deterministic: windows are kept in the
 //! order of their ids, and the relaxation and the greedy use no clock and
 //! no randomness.
 
