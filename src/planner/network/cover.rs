@@ -535,13 +535,17 @@ pub struct GreedyStats {
 
 /// [`greedy`] with its statistics.
 pub fn greedy_with_stats(p: &CoverProblem) -> (Solved, GreedyStats) {
-    let mut stats = GreedyStats::default();
-    let s = greedy_inner(p, &mut stats);
-    (s, stats)
+    greedy_from(p, p.existing_selection(), &mut |_| {})
 }
 
-fn greedy_inner(p: &CoverProblem, stats: &mut GreedyStats) -> Solved {
-    let mut selected = p.existing_selection();
+/// [`greedy_with_stats`] from `selected` (installed sites included; reverse
+/// deletion tries only the sites added), handing every round's witnesses to `witness`.
+pub(crate) fn greedy_from(
+    p: &CoverProblem,
+    mut selected: Vec<bool>,
+    witness: &mut dyn FnMut(&Walk),
+) -> (Solved, GreedyStats) {
+    let mut stats = GreedyStats::default();
     let need_all = p.k + 1;
     let mut order: Vec<u32> = Vec::new();
     loop {
@@ -563,7 +567,7 @@ fn greedy_inner(p: &CoverProblem, stats: &mut GreedyStats) -> Solved {
             let free = w.sites.iter().filter(|&&s| !selected[s as usize]).count();
             if free < need[wi] {
                 // Every unselected pass would not be enough.
-                return Solved::Infeasible(w.clone());
+                return (Solved::Infeasible(w.clone()), stats);
             }
             for &s in &w.sites {
                 if !selected[s as usize] {
@@ -577,7 +581,7 @@ fn greedy_inner(p: &CoverProblem, stats: &mut GreedyStats) -> Solved {
                 pieces: vec![(res.violations[0].edge, 0.0, res.violations[0].at_m)],
                 sites: vec![],
             };
-            return Solved::Infeasible(w);
+            return (Solved::Infeasible(w), stats);
         }
         let score = |s: usize, need: &[usize]| -> f64 {
             let hits: usize = by_site[s].iter().filter(|&&w| need[w as usize] > 0).count();
@@ -608,6 +612,7 @@ fn greedy_inner(p: &CoverProblem, stats: &mut GreedyStats) -> Solved {
                 need[w as usize] = need[w as usize].saturating_sub(1);
             }
         }
+        walks.iter().for_each(&mut *witness);
     }
     // Reverse deletion: most expensive first, then latest added first.
     let mut cands = order.clone();
@@ -625,7 +630,7 @@ fn greedy_inner(p: &CoverProblem, stats: &mut GreedyStats) -> Solved {
             stats.removed += 1;
         }
     }
-    Solved::Feasible(selected)
+    (Solved::Feasible(selected), stats)
 }
 
 /// Exact feasibility tests restricted to the ball around a site, for

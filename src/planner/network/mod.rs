@@ -58,9 +58,12 @@
 //!   lazy walk constraints (`ilp`) when the instance is small
 //!   (≤ [`ILP_MAX_CANDIDATES`] candidates) and the solver finishes within its
 //!   node budget; otherwise greedy set multicover with exact reverse deletion
-//!   ([`cover::greedy`]). The plan reports the method and a lower
-//!   bound: the larger of a packing bound (edge-disjoint walks longer than
-//!   `R`, each needing `k + 1` tags) and the integer programme's bound.
+//!   ([`cover::greedy`]), then the Lagrangian relaxation of the multicover
+//!   of the greedy's violating walks (`walk_relax`), whose selection,
+//!   checked by the walk DP, replaces the greedy's when it costs less. The
+//!   plan reports the method and a lower bound: the largest of a packing
+//!   bound (edge-disjoint walks longer than `R`, each needing `k + 1`
+//!   tags), the integer programme's bound and the relaxation's.
 //! * **Validation**: Monte Carlo runs of the real navigator (`sim`) over
 //!   seeded random origin–destination shortest paths of 1.5–4 km, each with
 //!   the planned tags of the directions it drives, read with the scenario's
@@ -72,7 +75,8 @@
 //! verified from outside the crate), `ilp` (the exact
 //! integer programme), `plan` (the planning entry points), `validation`
 //! (Monte Carlo over sampled paths), `types` (the plan's types),
-//! `settings` (the network-specific settings), `walks` (the walk DP's
+//! `settings` (the network-specific settings), `walk_relax` (the
+//! Lagrangian relaxation of `any_walk` plans), `walks` (the walk DP's
 //! per-road budgets and worst walks of `any_walk` plans), `window_sets`
 //! (the budget windows of `trips` plans, stored flat).
 
@@ -95,6 +99,7 @@ pub(crate) mod trips;
 pub(crate) mod turns;
 pub(crate) mod types;
 pub(crate) mod validation;
+pub(crate) mod walk_relax;
 pub(crate) mod walks;
 mod window_sets;
 

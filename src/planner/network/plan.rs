@@ -11,6 +11,7 @@ use super::reach::{reach_class, ReachClass};
 use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::NetworkPlan;
 use super::validation::validate_network_plan;
+use super::walk_relax::{self, WalkRelaxation};
 use super::walks::{through_budgets, walk_budgets, worst_walks, DESIGN_WALKS};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
@@ -34,6 +35,28 @@ fn profile_crossing(prof: &[(f64, f64)], req: f64) -> Option<f64> {
         0.0
     };
     Some(a.0 + t * (b.0 - a.0))
+}
+
+/// The method of a plan the greedy solved: its own when the relaxation
+/// found nothing cheaper.
+fn relaxed_method(r: &WalkRelaxation, greedy: &str) -> String {
+    let what = format!(
+        "{} window(s) of the greedy's violating walks, {} round(s), {} subgradient iterations",
+        r.windows, r.rounds, r.iterations
+    );
+    if r.improved {
+        format!(
+            "set multicover by Lagrangian relaxation ({what}; its priced greedy{} beat the plain greedy), \
+             exact reverse deletion, verified by the walk DP; from {greedy}",
+            if r.repaired {
+                ", repaired by greedy rounds over the walks it missed,"
+            } else {
+                ""
+            }
+        )
+    } else {
+        format!("{greedy} (Lagrangian relaxation: {what}, found nothing cheaper)")
+    }
 }
 
 /// Plans network coverage for a scenario: loads its map, computes the
@@ -218,6 +241,7 @@ pub fn plan_network_on(
     let mut method = String::new();
     let mut lb_cost = lb_pack_cost;
     let mut selected: Option<Vec<bool>> = None;
+    let mut lb_relax = 0usize;
     let infeasible = |w: &Walk| -> Error {
         let metres: f64 = w
             .pieces
@@ -243,10 +267,14 @@ pub fn plan_network_on(
     };
     // The greedy first: a feasible selection, the warm start of the exact
     // method and the fallback.
-    let (greedy_sel, st) = match cover::greedy_with_stats(p) {
-        (Solved::Feasible(s), st) => (s, st),
-        (Solved::Infeasible(w), _) => return Err(infeasible(&w)),
-    };
+    // Its witnesses (the violating walks of all its rounds) are the
+    // windows of the Lagrangian relaxation below.
+    let mut windows = walk_relax::WitnessWindows::new(p.k + 1);
+    let (greedy_sel, st) =
+        match cover::greedy_from(p, p.existing_selection(), &mut |w| windows.add(w)) {
+            (Solved::Feasible(s), st) => (s, st),
+            (Solved::Infeasible(w), _) => return Err(infeasible(&w)),
+        };
     let greedy_method = format!(
         "greedy: set multicover over violating walks ({} round(s), {} tag(s) added), exact reverse deletion ({} removed), verified by the walk DP",
         st.rounds, st.added, st.removed
@@ -278,8 +306,16 @@ pub fn plan_network_on(
     let sel = match selected {
         Some(s) => s,
         None => {
-            method.push_str(&greedy_method);
-            greedy_sel
+            // The Lagrangian relaxation of the witnesses' multicover: a
+            // cheaper selection (verified by the walk DP) when it finds one,
+            // and a lower bound.
+            let tr = Instant::now();
+            let (s, r) = walk_relax::improve(p, greedy_sel, windows);
+            timings.insert("relax".into(), tr.elapsed().as_secs_f64() * 1e3);
+            lb_cost = lb_cost.max(r.cost_bound);
+            lb_relax = r.tag_bound;
+            method.push_str(&relaxed_method(&r, &greedy_method));
+            s
         }
     };
     timings.insert("solve".into(), t.elapsed().as_secs_f64() * 1e3);
@@ -293,7 +329,8 @@ pub fn plan_network_on(
         lb_pack.max((lb_cost / max_cost - 1e-9).ceil().max(0.0) as usize)
     } else {
         lb_pack
-    };
+    }
+    .max(lb_relax);
     // What the walk DP says per road: the budgets behind coverage.geojson
     // and the tags' reasons.
     let physical = built.physical_edges;

@@ -129,9 +129,14 @@ impl SiteWindows {
         &self.windows[self.start[s]..self.start[s + 1]]
     }
 
-    /// Redundancy removal: in `order`, drops each selected site all of
-    /// whose windows hold more than `demand` selected sites (`count`, kept
-    /// up to date).
+    /// Redundancy removal: in `order`, drops each selected site whose
+    /// windows all keep at least `demand` selected sites without it
+    /// (`count`, kept up to date, counts a site as often as a window holds
+    /// it). A window may hold a site `m` times (a walk passing it again):
+    /// dropping the site takes `m` from its count, so the window needs
+    /// `count ≥ demand + m`; for windows of distinct sites this is
+    /// `count > demand`. The site's windows come in increasing order, so a
+    /// window held `m` times is a run of `m` equal entries.
     pub fn remove_redundant(
         &self,
         order: impl IntoIterator<Item = usize>,
@@ -140,7 +145,8 @@ impl SiteWindows {
         demand: usize,
     ) {
         for s in order {
-            if sel[s] && self.get(s).iter().all(|&w| count[w as usize] > demand) {
+            let spare = |run: &[u32]| count[run[0] as usize] >= demand + run.len();
+            if sel[s] && self.get(s).chunk_by(|a, b| a == b).all(spare) {
                 sel[s] = false;
                 for &w in self.get(s) {
                     count[w as usize] -= 1;
