@@ -1,6 +1,7 @@
-//! Lagrangian relaxation of a trips plan's set multicover: a lower bound on
-//! the tags any selection needs, and better selections than the plain
-//! greedy's.
+//! Lagrangian relaxation of a set multicover (a trips plan's budget
+//! windows; an any-walk plan's witness walks, `super::walk_relax`): a lower
+//! bound on the tags any selection needs, and better selections than the
+//! plain greedy's.
 //!
 //! The cover asks, for every budget window `w`, `d_w` = `k + 1` − (the
 //! installed tags in it) selected sites at the least total cost. Relaxing
