@@ -79,64 +79,48 @@ impl Droppable {
 /// greedy (dearest first) instead of the best subset.
 const EXACT_DROP_MAX: usize = 12;
 
-/// The dearest subset of `cands[..]` (sorted dearest first) that can leave
-/// the selection together, by depth-first search with the bound "chosen +
-/// the rest cannot beat the best". `count` is restored on return.
-#[allow(clippy::too_many_arguments)]
-fn best_drop(
-    cands: &[u32],
-    rest: f64,
-    site_w: &SiteWindows,
-    cost: &[f64],
+/// The search for the dearest subset of sites that can leave the
+/// selection together.
+struct DropSearch<'a> {
+    site_w: &'a SiteWindows,
+    cost: &'a [f64],
     demand: usize,
-    count: &mut [usize],
-    chosen: &mut Vec<u32>,
-    value: f64,
-    best: &mut (f64, Vec<u32>),
-) {
-    if value > best.0 + 1e-12 {
-        *best = (value, chosen.clone());
-    }
-    let Some((&s, tail)) = cands.split_first() else {
-        return;
-    };
-    if value + rest <= best.0 + 1e-12 {
-        return;
-    }
-    let c = cost[s as usize];
-    let ws = site_w.get(s as usize);
-    if spare(ws, count, demand) {
-        for &w in ws {
-            count[w as usize] -= 1;
+    /// Selected sites per window, restored after each branch.
+    count: &'a mut [usize],
+    chosen: Vec<u32>,
+    /// The best subset's cost and sites.
+    best: (f64, Vec<u32>),
+}
+
+impl DropSearch<'_> {
+    /// Depth-first over `cands` (sorted dearest first; `rest` their cost),
+    /// with the bound "chosen + the rest cannot beat the best"; `value` is
+    /// the cost of `chosen`.
+    fn search(&mut self, cands: &[u32], rest: f64, value: f64) {
+        if value > self.best.0 + 1e-12 {
+            self.best = (value, self.chosen.clone());
         }
-        chosen.push(s);
-        best_drop(
-            tail,
-            rest - c,
-            site_w,
-            cost,
-            demand,
-            count,
-            chosen,
-            value + c,
-            best,
-        );
-        chosen.pop();
-        for &w in ws {
-            count[w as usize] += 1;
+        let Some((&s, tail)) = cands.split_first() else {
+            return;
+        };
+        if value + rest <= self.best.0 + 1e-12 {
+            return;
         }
+        let c = self.cost[s as usize];
+        let ws = self.site_w.get(s as usize);
+        if spare(ws, self.count, self.demand) {
+            for &w in ws {
+                self.count[w as usize] -= 1;
+            }
+            self.chosen.push(s);
+            self.search(tail, rest - c, value + c);
+            self.chosen.pop();
+            for &w in ws {
+                self.count[w as usize] += 1;
+            }
+        }
+        self.search(tail, rest - c, value);
     }
-    best_drop(
-        tail,
-        rest - c,
-        site_w,
-        cost,
-        demand,
-        count,
-        chosen,
-        value,
-        best,
-    );
 }
 
 /// Whether `s` can leave the selection: every window holding it keeps at
@@ -226,21 +210,17 @@ pub(crate) fn add_drop(
             });
             dropped.clear();
             if near.len() <= EXACT_DROP_MAX {
-                let mut chosen = Vec::new();
-                let mut best = (0.0, Vec::new());
-                let rest: f64 = near.iter().map(|&s| cost[s as usize]).sum();
-                best_drop(
-                    &near,
-                    rest,
+                let mut search = DropSearch {
                     site_w,
                     cost,
                     demand,
-                    &mut count,
-                    &mut chosen,
-                    0.0,
-                    &mut best,
-                );
-                dropped.extend_from_slice(&best.1);
+                    count: &mut count,
+                    chosen: Vec::new(),
+                    best: (0.0, Vec::new()),
+                };
+                let rest: f64 = near.iter().map(|&s| cost[s as usize]).sum();
+                search.search(&near, rest, 0.0);
+                dropped.extend_from_slice(&search.best.1);
             } else {
                 dropped.extend(near.iter().copied().filter(|&s| {
                     let ws = site_w.get(s as usize);
@@ -297,11 +277,6 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-
-    fn covers(sel: &[bool], w: &WindowSets, demand: usize) -> bool {
-        w.iter()
-            .all(|ids| ids.iter().filter(|&&s| sel[s as usize]).count() >= demand)
-    }
 
     /// Sites 0 and 1 each serve half of the windows; site 2 serves all of
     /// them. From {0, 1} one move reaches {2}; an installed site is never
@@ -391,7 +366,7 @@ mod tests {
                 |s: &[bool]| -> f64 { (0..n).filter(|&i| s[i] && !pre[i]).map(|i| cost[i]).sum() };
             let mut sel = greedy.clone();
             let r = add_drop(&w, &site_w, 2, &cost, &pre, &mut sel);
-            assert!(covers(&sel, &w, 2), "case {case}");
+            assert!(w.covered_by(&sel, 2), "case {case}");
             assert!(pre.iter().zip(&sel).all(|(p, s)| !p || *s), "case {case}");
             assert!((c(&greedy) - r.saved - c(&sel)).abs() < 1e-9, "case {case}");
             moves += r.moves;
@@ -417,7 +392,7 @@ mod tests {
                     }
                     let better = c(&try_sel) < c(&sel) - 1e-9;
                     assert!(
-                        !(better && covers(&try_sel, &w, 2)),
+                        !(better && w.covered_by(&try_sel, 2)),
                         "case {case}: adding {t}, dropping mask {mask:b} of {near:?} improves"
                     );
                 }

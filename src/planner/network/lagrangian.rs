@@ -346,11 +346,6 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn covers(sel: &[bool], w: &WindowSets, demand: usize) -> bool {
-        w.iter()
-            .all(|ids| ids.iter().filter(|&&s| sel[s as usize]).count() >= demand)
-    }
-
     /// The greedy's classic trap: two sites (rows) cover every window, but
     /// a site covering more windows at first (column blocks of 8, 4, 2)
     /// leads the greedy to take the three blocks. The priced greedy takes
@@ -382,7 +377,7 @@ mod tests {
         let (sel, r) = relax(&w, &site_w, 1, &cost, &pre, greedy);
         assert!(r.improved);
         assert_eq!(sel, vec![true, true, false, false, false]);
-        assert!(covers(&sel, &w, 1));
+        assert!(w.covered_by(&sel, 1));
         // Windows (0, 0) and (1, 4) share no site, so every selection, even
         // fractional, costs at least 2: a bound above 1 proves the two rows.
         assert_eq!(r.tag_bound, 2, "bound {}", r.cost_bound);
@@ -410,7 +405,7 @@ mod tests {
             let site_w = SiteWindows::of(&w, n);
             let greedy = super::super::trips::multicover(&w, &site_w, 2, &cost, &pre).unwrap();
             let (sel, r) = relax(&w, &site_w, 2, &cost, &pre, greedy.clone());
-            assert!(covers(&sel, &w, 2), "case {case}");
+            assert!(w.covered_by(&sel, 2), "case {case}");
             assert!(pre.iter().zip(&sel).all(|(p, s)| !p || *s));
             let c =
                 |s: &[bool]| -> f64 { (0..n).filter(|&i| s[i] && !pre[i]).map(|i| cost[i]).sum() };
@@ -419,7 +414,7 @@ mod tests {
             let (opt, opt_cost) =
                 super::super::trips::exact_multicover(n, &w, 2, &cost, &pre, &greedy, 1000)
                     .expect("small instances solve exactly");
-            assert!(covers(&opt, &w, 2));
+            assert!(w.covered_by(&opt, 2));
             // Tolerance: the bound is a sum of floating-point products.
             assert!(
                 r.cost_bound <= opt_cost + 1e-6,

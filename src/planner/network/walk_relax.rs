@@ -253,11 +253,6 @@ mod tests {
         }
     }
 
-    fn covers(sel: &[bool], w: &WindowSets, demand: usize) -> bool {
-        w.iter()
-            .all(|ids| ids.iter().filter(|&&s| sel[s as usize]).count() >= demand)
-    }
-
     /// A window passing site 0 twice and site 1 once, needing 2 passes,
     /// with both selected: dropping site 0 leaves 1 pass, dropping site 1
     /// leaves 2. Redundancy removal must keep site 0 and may drop site 1.
@@ -270,7 +265,7 @@ mod tests {
         site_w.remove_redundant([0, 1], &mut sel, &mut count, 2);
         assert_eq!(sel, vec![true, false]);
         assert_eq!(count, vec![2]);
-        assert!(covers(&sel, &w, 2));
+        assert!(w.covered_by(&sel, 2));
     }
 
     /// The relaxation on random windows with repeated sites (walks passing
@@ -301,12 +296,12 @@ mod tests {
             let all = vec![true; n];
             let site_w = SiteWindows::of(&w, n);
             let (sel, r) = relax(&w, &site_w, 2, &cost, &pre, all.clone());
-            assert!(covers(&sel, &w, 2), "case {case}");
+            assert!(w.covered_by(&sel, 2), "case {case}");
             improved += usize::from(r.improved);
             // The optimum by enumerating every selection.
             let opt = (0u32..1 << n)
                 .map(|m| (0..n).map(|i| m >> i & 1 == 1).collect::<Vec<bool>>())
-                .filter(|s| covers(s, &w, 2))
+                .filter(|s| w.covered_by(s, 2))
                 .map(|s| (0..n).filter(|&i| s[i]).map(|i| cost[i]).sum::<f64>())
                 .fold(f64::INFINITY, f64::min);
             assert!(

@@ -89,6 +89,13 @@ impl WindowSets {
         &self.sites[self.start[i]..self.start[i + 1]]
     }
 
+    /// Every window holds at least `demand` sites of the selection `sel`
+    /// (one flag per site; a site a window holds twice counts twice).
+    pub fn covered_by(&self, sel: &[bool], demand: usize) -> bool {
+        self.iter()
+            .all(|ids| ids.iter().filter(|&&s| sel[s as usize]).count() >= demand)
+    }
+
     /// The windows in order.
     pub fn iter(&self) -> impl ExactSizeIterator<Item = &[u32]> + '_ {
         self.start.windows(2).map(|r| &self.sites[r[0]..r[1]])
