@@ -40,34 +40,50 @@ pub(crate) struct AddDrop {
 }
 
 /// For each window, the selected sites that may be dropped (not installed),
-/// stored flat; rebuilt after each move (moves are few).
+/// stored flat; rebuilt in place after each move (moves are few). On a
+/// whole map (10 M windows) its offsets are the search's largest array.
 struct Droppable {
     sites: Vec<u32>,
     start: Vec<usize>,
 }
 
 impl Droppable {
-    fn of(site_w: &SiteWindows, n_windows: usize, sel: &[bool], preselected: &[bool]) -> Self {
+    fn new(n_windows: usize) -> Self {
+        Self {
+            sites: Vec::new(),
+            start: vec![0; n_windows + 1],
+        }
+    }
+
+    /// Fills the index for the selection `sel` (counting sort by window,
+    /// the offsets serving as the cursors and shifted back after).
+    fn rebuild(&mut self, site_w: &SiteWindows, sel: &[bool], preselected: &[bool]) {
         let free = |s: usize| sel[s] && !preselected[s];
-        let mut start = vec![0usize; n_windows + 1];
+        let n_windows = self.start.len() - 1;
+        self.start.fill(0);
         for s in (0..sel.len()).filter(|&s| free(s)) {
             for &w in site_w.get(s) {
-                start[w as usize + 1] += 1;
+                self.start[w as usize + 1] += 1;
             }
         }
         for i in 0..n_windows {
-            start[i + 1] += start[i];
+            self.start[i + 1] += self.start[i];
         }
-        let mut fill = start.clone();
-        let mut sites = vec![0u32; start[n_windows]];
+        self.sites.clear();
+        self.sites.resize(self.start[n_windows], 0);
+        // Window w's cursor is start[w]; after the fill it has reached
+        // start[w + 1], so shifting the offsets right restores them.
         for s in (0..sel.len()).filter(|&s| free(s)) {
             for &w in site_w.get(s) {
-                let f = &mut fill[w as usize];
-                sites[*f] = s as u32;
+                let f = &mut self.start[w as usize];
+                self.sites[*f] = s as u32;
                 *f += 1;
             }
         }
-        Self { sites, start }
+        for i in (1..=n_windows).rev() {
+            self.start[i] = self.start[i - 1];
+        }
+        self.start[0] = 0;
     }
 
     fn get(&self, w: usize) -> &[u32] {
@@ -86,7 +102,7 @@ struct DropSearch<'a> {
     cost: &'a [f64],
     demand: usize,
     /// Selected sites per window, restored after each branch.
-    count: &'a mut [usize],
+    count: &'a mut [u32],
     chosen: Vec<u32>,
     /// The best subset's cost and sites.
     best: (f64, Vec<u32>),
@@ -127,9 +143,9 @@ impl DropSearch<'_> {
 /// least `demand` selected sites without it (a site a window holds twice,
 /// as a walk passing it twice, counts twice). `ws` is `s`'s windows in
 /// increasing order, so a window's repeats are adjacent.
-fn spare(ws: &[u32], count: &[usize], demand: usize) -> bool {
+fn spare(ws: &[u32], count: &[u32], demand: usize) -> bool {
     ws.chunk_by(|a, b| a == b)
-        .all(|run| count[run[0] as usize] >= demand + run.len())
+        .all(|run| count[run[0] as usize] as usize >= demand + run.len())
 }
 
 /// Improves the feasible selection `sel` of the cover of `windows` (each
@@ -156,11 +172,13 @@ pub(crate) fn add_drop(
 ) -> AddDrop {
     let n = sel.len();
     let mut out = AddDrop::default();
-    let mut count: Vec<usize> = windows
+    // Selected sites per window (at most the window's length: fits u32).
+    let mut count: Vec<u32> = windows
         .iter()
-        .map(|ids| ids.iter().filter(|&&s| sel[s as usize]).count())
+        .map(|ids| ids.iter().filter(|&&s| sel[s as usize]).count() as u32)
         .collect();
-    let mut droppable = Droppable::of(site_w, windows.len(), sel, preselected);
+    let mut droppable = Droppable::new(windows.len());
+    droppable.rebuild(site_w, sel, preselected);
     let mut mark = vec![false; n];
     let mut work = 0usize;
     let mut near: Vec<u32> = Vec::new();
@@ -255,7 +273,7 @@ pub(crate) fn add_drop(
                 out.saved += gain;
                 out.tags_saved += dropped.len() - 1;
                 moved = true;
-                droppable = Droppable::of(site_w, windows.len(), sel, preselected);
+                droppable.rebuild(site_w, sel, preselected);
             } else {
                 for &w in tw {
                     count[w as usize] -= 1;
