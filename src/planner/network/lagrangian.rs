@@ -253,6 +253,41 @@ pub(crate) fn relax(
     (best, out)
 }
 
+/// The greedy priced by multipliers `u` found elsewhere (one per window,
+/// `u ≥ 0`; `super::lp_bound`'s), with redundancy removal: the same
+/// selection rule as the relaxation's own (module doc). Feasible whenever
+/// every window has enough candidates.
+pub(crate) fn priced_selection(
+    windows: &WindowSets,
+    site_w: &SiteWindows,
+    demand: usize,
+    cost: &[f64],
+    preselected: &[bool],
+    u: &[f64],
+) -> Vec<bool> {
+    let need: Vec<f64> = windows
+        .iter()
+        .map(|ids| {
+            let have = ids.iter().filter(|&&s| preselected[s as usize]).count();
+            demand.saturating_sub(have) as f64
+        })
+        .collect();
+    let reduced: Vec<f64> = (0..preselected.len())
+        .into_par_iter()
+        .map(|s| cost[s] - site_w.get(s).iter().map(|&w| u[w as usize]).sum::<f64>())
+        .collect();
+    primal(
+        windows,
+        site_w,
+        demand,
+        &need,
+        cost,
+        preselected,
+        u,
+        &reduced,
+    )
+}
+
 /// The multiplier-priced greedy with redundancy removal (module doc).
 #[allow(clippy::too_many_arguments)]
 fn primal(

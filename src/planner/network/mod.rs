@@ -87,6 +87,7 @@ pub(crate) mod coverage;
 pub(crate) mod ilp;
 pub(crate) mod instance;
 pub(crate) mod lagrangian;
+pub(crate) mod lp_bound;
 pub(crate) mod mm_reach;
 pub(crate) mod parallel;
 pub(crate) mod plan;

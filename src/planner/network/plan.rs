@@ -41,8 +41,18 @@ fn profile_crossing(prof: &[(f64, f64)], req: f64) -> Option<f64> {
 /// found nothing cheaper.
 fn relaxed_method(r: &WalkRelaxation, greedy: &str) -> String {
     let what = format!(
-        "{} window(s) of the greedy's violating walks, {} round(s), {} subgradient iterations",
-        r.windows, r.rounds, r.iterations
+        "{} window(s) of the greedy's violating walks, {} round(s), {} subgradient iterations{}",
+        r.windows,
+        r.rounds,
+        r.iterations,
+        if r.lp_iterations > 0 {
+            format!(
+                "; lower bound also from their linear programme, {} primal–dual iterations: {:.1}",
+                r.lp_iterations, r.lp_cost_bound
+            )
+        } else {
+            String::new()
+        }
     );
     if r.improved {
         format!(
@@ -310,7 +320,7 @@ pub fn plan_network_on(
             // cheaper selection (verified by the walk DP) when it finds one,
             // and a lower bound.
             let tr = Instant::now();
-            let (s, r) = walk_relax::improve(p, greedy_sel, windows);
+            let (s, r) = walk_relax::improve(p, greedy_sel, windows, lb_pack);
             timings.insert("relax".into(), tr.elapsed().as_secs_f64() * 1e3);
             lb_cost = lb_cost.max(r.cost_bound);
             lb_relax = r.tag_bound;

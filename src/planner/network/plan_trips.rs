@@ -416,13 +416,20 @@ pub(super) fn plan_network_trips(
         tolerate_missed_reads: k,
         method: format!(
             "{} over the budget windows of every straight walk{} and of {} sampled chains ({} windows); \
-             certified on fresh chains ({} round(s))",
+             certified on fresh chains ({} round(s)){}",
             if tp.exact {
                 "exact set multicover (integer programme, microlp)".to_string()
             } else {
                 format!(
                     "{}; add-drop local search ({})",
-                    if tp.relaxation.improved {
+                    if tp.lp_priced {
+                        format!(
+                            "set multicover by a greedy priced by the windows' linear programme ({} \
+                             primal–dual iterations; cheaper than the Lagrangian relaxation's, {} \
+                             subgradient iterations)",
+                            tp.lp.iterations, tp.relaxation.iterations
+                        )
+                    } else if tp.relaxation.improved {
                         format!(
                             "set multicover by Lagrangian relaxation ({} subgradient iterations; its priced \
                              greedy beat the plain greedy)",
@@ -444,10 +451,20 @@ pub(super) fn plan_network_trips(
             if mm { " (a heading change of ≥ 45° within the class's curve distance resets)" } else { " the traffic used" },
             p.planning_chains + g.added_chains,
             tp.window_sets.len(),
-            g.rounds
+            g.rounds,
+            if tp.lp.iterations > 0 {
+                format!(
+                    "; lower bound also from the windows' linear programme ({} primal–dual iterations: \
+                     {:.1} tags' cost)",
+                    tp.lp.iterations, tp.lp.cost_bound
+                )
+            } else {
+                String::new()
+            }
         ),
         lower_bound: tp.lower_bound,
-        lower_bound_cost: tp.lower_bound as f64 * if min_cost.is_finite() { min_cost } else { 0.0 },
+        lower_bound_cost: (tp.lower_bound as f64 * if min_cost.is_finite() { min_cost } else { 0.0 })
+            .max(tp.lp.cost_bound),
         reach_m,
         steady_reach_m: steady,
         start_reach_m: start,

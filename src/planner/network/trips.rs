@@ -7,7 +7,10 @@
 //! The cover: the lazy greedy with reverse deletion ([`multicover`]), then
 //! the Lagrangian relaxation from it (`super::lagrangian`), whose selection
 //! is kept when it costs less, then add-drop local search on the result
-//! (`super::add_drop`); the exact integer programme replaces both
+//! (`super::add_drop`); then the windows' linear programme
+//! (`super::lp_bound`), whose multipliers price the greedy again (with its
+//! own add-drop moves; the cheapest selection wins) and whose bound joins
+//! the packing and relaxation bounds; the exact integer programme replaces them all
 //! when at most [`EXACT_MAX_SITES`] sites appear and its optimum also holds
 //! the final round's fresh chains.
 //!
@@ -31,7 +34,9 @@
 
 use super::add_drop::{add_drop, AddDrop};
 use super::best_site::BestSite;
+use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
+use super::lp_bound::{iterations_for, lp_duals_within, LpBound, MAX_ITERATIONS as LP_MAX};
 use super::traffic::{
     add_windows, chain_budget, chain_use, sample_chain, straight_windows, Chain, ChainBudget,
 };
@@ -377,6 +382,22 @@ pub(crate) fn packing_bound(
     lb
 }
 
+/// Scales of the linear programme's multipliers that price the greedy: the
+/// multipliers themselves and two perturbations (Caprara, Fischetti & Toth
+/// 1999 perturb theirs likewise); on Gothenburg's trips plan scale 1 gave
+/// 309 tags and 0.99 and 1.01 308 (BENCHMARKS.md, "The lower bound from
+/// the linear programme").
+const LP_PRICE_SCALES: [f64; 3] = [1.0, 0.99, 1.01];
+
+/// One solve of the planning windows.
+struct Solve {
+    sel: Vec<bool>,
+    relaxation: Relaxation,
+    add_drop: AddDrop,
+    lp: LpBound,
+    lp_priced: bool,
+}
+
 /// The outcome of planning on trips.
 pub(crate) struct TripsPlan {
     /// The selection is the exact optimum of the planning windows.
@@ -386,6 +407,11 @@ pub(crate) struct TripsPlan {
     pub relaxation: Relaxation,
     /// The final solve's add-drop local search.
     pub add_drop: AddDrop,
+    /// The bound from the final windows' linear programme.
+    pub lp: LpBound,
+    /// The selection is the greedy priced by that programme's multipliers
+    /// (with add-drop moves), cheaper than the relaxation's.
+    pub lp_priced: bool,
     pub selected: Vec<bool>,
     pub lower_bound: usize,
     pub guarantee: TripsGuarantee,
@@ -467,18 +493,57 @@ pub(crate) fn plan_trips(
     // the greedy, then the Lagrangian relaxation from it (a cheaper
     // selection when it finds one, and a lower bound), then add-drop moves.
     let solve = |wmap: &mut WindowMap,
-                 infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error|
-     -> Result<(Vec<bool>, Relaxation, AddDrop)> {
+                 infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error,
+                 weight: Option<f64>|
+     -> Result<Solve> {
         let (windows, infos) = wmap.sorted();
-        // One transpose for both (on a whole map it is the largest array).
+        // One transpose for all (on a whole map it is the largest array).
         let site_w = SiteWindows::of(windows, n_sites);
         let greedy = multicover(windows, &site_w, demand, cost, preselected)
             .map_err(|w| infeasible(&infos[w], windows.get(w)))?;
         let (mut sel, relaxation) = relax(windows, &site_w, demand, cost, preselected, greedy);
-        let ad = add_drop(windows, &site_w, demand, cost, preselected, &mut sel);
-        Ok((sel, relaxation, ad))
+        let mut ad = add_drop(windows, &site_w, demand, cost, preselected, &mut sel);
+        // The linear programme's multipliers price the greedy again (they
+        // are much nearer the programme's optimum than the subgradient's);
+        // each selection gets its own add-drop moves and the cheapest wins.
+        let (mut lp, mut lp_priced) = (LpBound::default(), false);
+        if iterations_for(windows.total_ids()).is_some() {
+            let (b, y) =
+                lp_duals_within(windows, &site_w, demand, cost, preselected, LP_MAX, weight);
+            lp = b;
+            let fresh = |s: &[bool]| -> f64 {
+                (0..n_sites)
+                    .filter(|&i| s[i] && !preselected[i])
+                    .map(|i| cost[i])
+                    .sum()
+            };
+            for scale in LP_PRICE_SCALES {
+                if y.is_empty() {
+                    break;
+                }
+                let u: Vec<f64> = y.iter().map(|v| v * scale).collect();
+                let mut s = priced_selection(windows, &site_w, demand, cost, preselected, &u);
+                let a = add_drop(windows, &site_w, demand, cost, preselected, &mut s);
+                if windows.covered_by(&s, demand) && fresh(&s) < fresh(&sel) - 1e-9 {
+                    (sel, ad, lp_priced) = (s, a, true);
+                }
+            }
+        }
+        Ok(Solve {
+            sel,
+            relaxation,
+            add_drop: ad,
+            lp,
+            lp_priced,
+        })
     };
-    let (mut sel, mut relaxation, mut add_drop) = solve(&mut wmap, &mut infeasible)?;
+    let Solve {
+        mut sel,
+        mut relaxation,
+        mut add_drop,
+        mut lp,
+        mut lp_priced,
+    } = solve(&mut wmap, &mut infeasible, None)?;
     let mut added = 0usize;
     let mut last = (0usize, 0usize, 0.0f64, 0usize, 0.0f64, 0.0f64);
     let mut rounds = 0;
@@ -541,7 +606,13 @@ pub(crate) fn plan_trips(
         full(&wmap)?;
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
-        (sel, relaxation, add_drop) = solve(&mut wmap, &mut infeasible)?;
+        Solve {
+            sel,
+            relaxation,
+            add_drop,
+            lp,
+            lp_priced,
+        } = solve(&mut wmap, &mut infeasible, Some(lp.weight))?;
     }
     let (windows, infos) = wmap.into_sorted();
     let (m, nbad, beta_r, wi, wu, wkm) = last;
@@ -565,8 +636,10 @@ pub(crate) fn plan_trips(
     };
     // The windows have not changed since the last solve: its relaxation's
     // bound holds for them.
-    let mut lower_bound =
-        packing_bound(&windows, demand, preselected, n_sites).max(relaxation.tag_bound);
+    // So does its linear programme's.
+    let mut lower_bound = packing_bound(&windows, demand, preselected, n_sites)
+        .max(relaxation.tag_bound)
+        .max(lp.tag_bound);
     // Small instances: the exact optimum (its tag count is then the bound).
     let mut exact = false;
     if let Some((s_opt, _)) = exact_multicover(
@@ -612,6 +685,8 @@ pub(crate) fn plan_trips(
     Ok(TripsPlan {
         exact,
         relaxation,
+        lp,
+        lp_priced,
         add_drop,
         selected: sel,
         lower_bound,
