@@ -508,15 +508,23 @@ pub(crate) fn plan_trips(
         // each selection gets its own add-drop moves and the cheapest wins.
         let (mut lp, mut lp_priced) = (LpBound::default(), false);
         if iterations_for(windows.total_ids()).is_some() {
-            let (b, y) =
-                lp_duals_within(windows, &site_w, demand, cost, preselected, LP_MAX, weight);
-            lp = b;
             let fresh = |s: &[bool]| -> f64 {
                 (0..n_sites)
                     .filter(|&i| s[i] && !preselected[i])
                     .map(|i| cost[i])
                     .sum()
             };
+            let (b, y) = lp_duals_within(
+                windows,
+                &site_w,
+                demand,
+                cost,
+                preselected,
+                LP_MAX,
+                weight,
+                Some(fresh(&sel)),
+            );
+            lp = b;
             for scale in LP_PRICE_SCALES {
                 if y.is_empty() {
                     break;
