@@ -104,13 +104,7 @@ pub(crate) fn relax(
         iterations: 0,
     };
     // Residual demand per window (installed tags count).
-    let need: Vec<f64> = windows
-        .iter()
-        .map(|ids| {
-            let have = ids.iter().filter(|&&s| preselected[s as usize]).count();
-            demand.saturating_sub(have) as f64
-        })
-        .collect();
+    let need: Vec<f64> = windows.residual_demand(demand, preselected);
     if need.iter().all(|&d| d == 0.0) {
         return (best, out);
     }
@@ -265,13 +259,7 @@ pub(crate) fn priced_selection(
     preselected: &[bool],
     u: &[f64],
 ) -> Vec<bool> {
-    let need: Vec<f64> = windows
-        .iter()
-        .map(|ids| {
-            let have = ids.iter().filter(|&&s| preselected[s as usize]).count();
-            demand.saturating_sub(have) as f64
-        })
-        .collect();
+    let need: Vec<f64> = windows.residual_demand(demand, preselected);
     let reduced: Vec<f64> = (0..preselected.len())
         .into_par_iter()
         .map(|s| cost[s] - site_w.get(s).iter().map(|&w| u[w as usize]).sum::<f64>())

@@ -257,13 +257,7 @@ pub(crate) fn lp_duals_within(
     incumbent: Option<f64>,
 ) -> (LpBound, Vec<f64>) {
     let n_sites = preselected.len();
-    let need: Vec<f64> = windows
-        .iter()
-        .map(|ids| {
-            let have = ids.iter().filter(|&&s| preselected[s as usize]).count();
-            demand.saturating_sub(have) as f64
-        })
-        .collect();
+    let need: Vec<f64> = windows.residual_demand(demand, preselected);
     if need.iter().all(|&d| d == 0.0) {
         return (LpBound::default(), Vec::new());
     }
@@ -373,6 +367,22 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
+    /// A random chain of 12–40 sites with 5–29 interval windows of 3–7
+    /// sites, costs 1–3 and 5 % installed (the shape of trips plans, as in
+    /// `super::super::lagrangian`'s test).
+    fn random_chain(rng: &mut ChaCha8Rng) -> (usize, WindowSets, Vec<f64>, Vec<bool>) {
+        let n = rng.random_range(12..40usize);
+        let mut sets: Vec<Vec<u32>> = Vec::new();
+        for _ in 0..rng.random_range(5..30) {
+            let len = rng.random_range(3..8u32);
+            let a = rng.random_range(0..n as u32 - len);
+            sets.push((a..a + len).collect());
+        }
+        let cost: Vec<f64> = (0..n).map(|_| rng.random_range(1..4) as f64).collect();
+        let pre: Vec<bool> = (0..n).map(|_| rng.random_bool(0.05)).collect();
+        (n, WindowSets::from_vecs(&sets), cost, pre)
+    }
+
     fn bound(sets: &[Vec<u32>], n: usize, demand: usize, cost: &[f64], pre: &[bool]) -> LpBound {
         let w = WindowSets::from_vecs(sets);
         let site_w = SiteWindows::of(&w, n);
@@ -432,16 +442,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(23);
         let (mut at_least, mut cases) = (0, 0);
         for case in 0..60 {
-            let n = rng.random_range(12..40usize);
-            let mut sets: Vec<Vec<u32>> = Vec::new();
-            for _ in 0..rng.random_range(5..30) {
-                let len = rng.random_range(3..8u32);
-                let a = rng.random_range(0..n as u32 - len);
-                sets.push((a..a + len).collect());
-            }
-            let w = WindowSets::from_vecs(&sets);
-            let cost: Vec<f64> = (0..n).map(|_| rng.random_range(1..4) as f64).collect();
-            let pre: Vec<bool> = (0..n).map(|_| rng.random_bool(0.05)).collect();
+            let (n, w, cost, pre) = random_chain(&mut rng);
             let site_w = SiteWindows::of(&w, n);
             let greedy = super::super::trips::multicover(&w, &site_w, 2, &cost, &pre).unwrap();
             let b = lp_bound(&w, &site_w, 2, &cost, &pre);
@@ -472,16 +473,7 @@ mod tests {
     fn the_priced_selection_covers_every_window() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         for case in 0..40 {
-            let n = rng.random_range(12..40usize);
-            let mut sets: Vec<Vec<u32>> = Vec::new();
-            for _ in 0..rng.random_range(5..30) {
-                let len = rng.random_range(3..8u32);
-                let a = rng.random_range(0..n as u32 - len);
-                sets.push((a..a + len).collect());
-            }
-            let w = WindowSets::from_vecs(&sets);
-            let cost: Vec<f64> = (0..n).map(|_| rng.random_range(1..4) as f64).collect();
-            let pre: Vec<bool> = (0..n).map(|_| rng.random_bool(0.05)).collect();
+            let (n, w, cost, pre) = random_chain(&mut rng);
             let site_w = SiteWindows::of(&w, n);
             let (b, y) = lp_duals(&w, &site_w, 2, &cost, &pre);
             if y.is_empty() {

@@ -96,6 +96,17 @@ impl WindowSets {
             .all(|ids| ids.iter().filter(|&&s| sel[s as usize]).count() >= demand)
     }
 
+    /// Per window, the selected sites it still lacks once the installed
+    /// sites `preselected` count (`demand` less their number, at least 0).
+    pub fn residual_demand(&self, demand: usize, preselected: &[bool]) -> Vec<f64> {
+        self.iter()
+            .map(|ids| {
+                let have = ids.iter().filter(|&&s| preselected[s as usize]).count();
+                demand.saturating_sub(have) as f64
+            })
+            .collect()
+    }
+
     /// The windows in order.
     pub fn iter(&self) -> impl ExactSizeIterator<Item = &[u32]> + '_ {
         self.start.windows(2).map(|r| &self.sites[r[0]..r[1]])
