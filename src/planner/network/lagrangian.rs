@@ -366,7 +366,7 @@ fn primal(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::{Rng, SeedableRng};
+    use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
     /// The greedy's classic trap: two sites (rows) cover every window, but
@@ -415,16 +415,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let mut improved = 0;
         for case in 0..40 {
-            let n = rng.random_range(12..40usize);
-            let mut sets: Vec<Vec<u32>> = Vec::new();
-            for _ in 0..rng.random_range(5..30) {
-                let len = rng.random_range(3..8u32);
-                let a = rng.random_range(0..n as u32 - len);
-                sets.push((a..a + len).collect());
-            }
-            let w = WindowSets::from_vecs(&sets);
-            let cost: Vec<f64> = (0..n).map(|_| rng.random_range(1..4) as f64).collect();
-            let pre: Vec<bool> = (0..n).map(|_| rng.random_bool(0.05)).collect();
+            let (n, w, cost, pre) = super::super::lp_bound::tests::random_chain(&mut rng);
             let site_w = SiteWindows::of(&w, n);
             let greedy = super::super::trips::multicover(&w, &site_w, 2, &cost, &pre).unwrap();
             let (sel, r) = relax(&w, &site_w, 2, &cost, &pre, greedy.clone());

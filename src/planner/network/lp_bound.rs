@@ -362,15 +362,15 @@ pub(crate) fn lp_duals_within(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
     /// A random chain of 12–40 sites with 5–29 interval windows of 3–7
-    /// sites, costs 1–3 and 5 % installed (the shape of trips plans, as in
+    /// sites, costs 1–3 and 5 % installed (the shape of trips plans; also
     /// `super::super::lagrangian`'s test).
-    fn random_chain(rng: &mut ChaCha8Rng) -> (usize, WindowSets, Vec<f64>, Vec<bool>) {
+    pub(crate) fn random_chain(rng: &mut ChaCha8Rng) -> (usize, WindowSets, Vec<f64>, Vec<bool>) {
         let n = rng.random_range(12..40usize);
         let mut sets: Vec<Vec<u32>> = Vec::new();
         for _ in 0..rng.random_range(5..30) {
