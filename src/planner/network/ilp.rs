@@ -233,7 +233,8 @@ pub fn solve(p: &CoverProblem, limits: IlpLimits, warm: Option<&[bool]>) -> IlpO
 mod tests {
     use super::*;
     use crate::planner::network::cover::tests::random_problem;
-    use crate::planner::network::cover::{check, greedy, Solved};
+    use crate::planner::network::cover::{check, Solved};
+    use crate::planner::network::greedy::greedy;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 

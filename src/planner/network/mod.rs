@@ -58,7 +58,7 @@
 //!   lazy walk constraints (`ilp`) when the instance is small
 //!   (≤ [`ILP_MAX_CANDIDATES`] candidates) and the solver finishes within its
 //!   node budget; otherwise greedy set multicover with exact reverse deletion
-//!   ([`cover::greedy`]), then the Lagrangian relaxation of the multicover
+//!   ([`greedy::greedy`]), then the Lagrangian relaxation of the multicover
 //!   of the greedy's violating walks (`walk_relax`), whose selection,
 //!   checked by the walk DP, replaces the greedy's when it costs less. The
 //!   plan reports the method and a lower bound: the largest of a packing
@@ -84,6 +84,7 @@ pub(crate) mod add_drop;
 pub(crate) mod best_site;
 pub mod cover;
 pub(crate) mod coverage;
+pub mod greedy;
 pub(crate) mod ilp;
 pub(crate) mod instance;
 pub(crate) mod lagrangian;
@@ -213,7 +214,7 @@ mod tests {
         // Exact: the lower bound is the optimum's cost, and the greedy is
         // never cheaper.
         assert!((p.lower_bound_cost - p.total_cost).abs() < 1e-9);
-        if let Solved::Feasible(g) = cover::greedy(prob) {
+        if let Solved::Feasible(g) = greedy::greedy(prob) {
             assert!(g.iter().filter(|&&x| x).count() >= p.tag_count());
         }
         // The 30 km/h one-way street adds a slower speed class.

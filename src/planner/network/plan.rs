@@ -4,6 +4,7 @@
 
 use super::cover::{self, Solved, Walk};
 use super::coverage::EdgeCoverage;
+use super::greedy;
 use super::ilp::{self, IlpLimits, IlpOutcome};
 use super::instance::{build, classes_in_use, describe_walk, speed_key};
 use super::mm_reach::{profile_bound, straight_profiles};
@@ -281,7 +282,7 @@ pub fn plan_network_on(
     // windows of the Lagrangian relaxation below.
     let mut windows = walk_relax::WitnessWindows::new(p.k + 1);
     let (greedy_sel, st) =
-        match cover::greedy_from(p, p.existing_selection(), &mut |w| windows.add(w)) {
+        match greedy::greedy_from(p, p.existing_selection(), &mut |w| windows.add(w)) {
             (Solved::Feasible(s), st) => (s, st),
             (Solved::Infeasible(w), _) => return Err(infeasible(&w)),
         };

@@ -1,5 +1,5 @@
 //! The Lagrangian relaxation of an `any_walk` plan's cover: fewer tags than
-//! the greedy's ([`cover::greedy`]) where it finds them, and a lower bound.
+//! the greedy's ([`greedy::greedy`]) where it finds them, and a lower bound.
 //!
 //! An `any_walk` plan asks that every walk longer than the reach `R` pass
 //! `k + 1` selected sites, counted with multiplicity; there are infinitely
@@ -23,10 +23,10 @@
 //! selection (the incumbent: the greedy's at first; it covers every walk,
 //! so every window) and, when the relaxation finds a cheaper selection `S`,
 //! repairs it with the greedy's own rounds started from `S`
-//! ([`cover::greedy_from`]: the exact DP's witnesses against `S`, a greedy
+//! ([`greedy::greedy_from`]: the exact DP's witnesses against `S`, a greedy
 //! multicover of them, until the DP passes; then reverse deletion of the
 //! sites added), followed by the exact reverse deletion of `S`'s own sites
-//! ([`cover::LocalChecker`], dearest first). The repaired selection
+//! ([`greedy::LocalChecker`], dearest first). The repaired selection
 //! replaces the incumbent when it costs less. When `S` needed no repair it
 //! was feasible as it was; otherwise the repair's witnesses (those of `S`
 //! first) join the windows and the next round relaxes again. Rounds end
@@ -42,7 +42,8 @@
 //! order of their ids, and the relaxation and the greedy use no clock and
 //! no randomness.
 
-use super::cover::{self, CoverProblem, LocalChecker, Solved, Walk};
+use super::cover::{CoverProblem, Solved, Walk};
+use super::greedy::{self, LocalChecker};
 use super::lagrangian::{self, relax};
 use super::lp_bound::{iterations_for, lp_bound};
 use super::window_sets::{SiteWindows, WindowMap};
@@ -230,7 +231,7 @@ pub(crate) fn improve(
             missed += 1;
             windows.add(w);
         };
-        if let (Solved::Feasible(fixed), _) = cover::greedy_from(p, s, &mut add) {
+        if let (Solved::Feasible(fixed), _) = greedy::greedy_from(p, s, &mut add) {
             let fixed = prune(p, fixed);
             let c = fresh_cost(p, &fixed);
             if c < best_cost - 1e-9 {
@@ -278,7 +279,7 @@ mod tests {
             walks.push(w.clone());
             windows.add(w);
         };
-        match cover::greedy_from(p, p.existing_selection(), &mut add).0 {
+        match greedy::greedy_from(p, p.existing_selection(), &mut add).0 {
             Solved::Feasible(s) => Some((s, walks, windows)),
             Solved::Infeasible(_) => None,
         }
