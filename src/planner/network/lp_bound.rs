@@ -75,6 +75,8 @@ pub(crate) struct LpBound {
     pub iterations: usize,
     /// The primal weight that won the race.
     pub weight: f64,
+    /// The bound proves the caller's incumbent optimal (it stopped there).
+    pub proved: bool,
 }
 
 /// The programme's data with the installed sites taken out.
@@ -98,7 +100,6 @@ struct Programme<'a> {
 }
 
 /// One run of the method: its iterate and the best bound seen.
-#[derive(Clone)]
 struct Run {
     weight: f64,
     x: Vec<f64>,
@@ -356,6 +357,7 @@ pub(crate) fn lp_duals_within(
             tag_bound,
             iterations: iterations_run,
             weight: win.weight,
+            proved: win.best >= p.enough,
         },
         win.best_y,
     )
@@ -513,8 +515,10 @@ pub(crate) mod tests {
         let proven = run(Some(10.0));
         assert_eq!(proven.tag_bound, 10, "{proven:?}");
         assert!(proven.iterations < MAX_ITERATIONS, "{proven:?}");
+        assert!(proven.proved, "{proven:?}");
         let full = run(Some(11.0));
         assert_eq!(full.iterations, MAX_ITERATIONS, "{full:?}");
+        assert!(!full.proved, "{full:?}");
         assert_eq!(full.tag_bound, 10, "{full:?}");
         assert_eq!(run(None).iterations, MAX_ITERATIONS);
     }

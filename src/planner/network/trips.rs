@@ -36,7 +36,7 @@ use super::add_drop::{add_drop, AddDrop};
 use super::best_site::BestSite;
 use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
-use super::lp_bound::{iterations_for, lp_duals_within, LpBound, MAX_ITERATIONS as LP_MAX};
+use super::lp_bound::{lp_duals_within, LpBound, MAX_ITERATIONS as LP_MAX};
 use super::traffic::{
     add_windows, chain_budget, chain_use, sample_chain, straight_windows, Chain, ChainBudget,
 };
@@ -506,29 +506,26 @@ pub(crate) fn plan_trips(
         // The linear programme's multipliers price the greedy again (they
         // are much nearer the programme's optimum than the subgradient's);
         // each selection gets its own add-drop moves and the cheapest wins.
-        let (mut lp, mut lp_priced) = (LpBound::default(), false);
-        if iterations_for(windows.total_ids()).is_some() {
-            let fresh = |s: &[bool]| -> f64 {
-                (0..n_sites)
-                    .filter(|&i| s[i] && !preselected[i])
-                    .map(|i| cost[i])
-                    .sum()
-            };
-            let (b, y) = lp_duals_within(
-                windows,
-                &site_w,
-                demand,
-                cost,
-                preselected,
-                LP_MAX,
-                weight,
-                Some(fresh(&sel)),
-            );
-            lp = b;
+        // Nothing to price when the bound proves the incumbent optimal.
+        let fresh = |s: &[bool]| -> f64 {
+            (0..n_sites)
+                .filter(|&i| s[i] && !preselected[i])
+                .map(|i| cost[i])
+                .sum()
+        };
+        let (lp, y) = lp_duals_within(
+            windows,
+            &site_w,
+            demand,
+            cost,
+            preselected,
+            LP_MAX,
+            weight,
+            Some(fresh(&sel)),
+        );
+        let mut lp_priced = false;
+        if !lp.proved && !y.is_empty() {
             for scale in LP_PRICE_SCALES {
-                if y.is_empty() {
-                    break;
-                }
                 let u: Vec<f64> = y.iter().map(|v| v * scale).collect();
                 let mut s = priced_selection(windows, &site_w, demand, cost, preselected, &u);
                 let a = add_drop(windows, &site_w, demand, cost, preselected, &mut s);
