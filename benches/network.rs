@@ -1,6 +1,7 @@
 //! Road network benchmarks: load + index + topology on every real map in
 //! ../shared/data/maps (skipped when absent), point queries on the grid and the
-//! R-tree, and synthetic street grids up to one million segments.
+//! R-tree, synthetic street grids up to one million segments, and shortest
+//! paths with and without landmarks.
 //!
 //! Run: `cargo bench --bench network`
 
@@ -8,6 +9,9 @@ use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criteri
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use waymark::network::{model_from_polylines, LoadOptions, Network, TagSet};
+use waymark::route::{
+    shortest_path, shortest_path_with, Landmarks, SectionPoint, DEFAULT_LANDMARKS,
+};
 
 fn shared(name: &str) -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -134,5 +138,76 @@ fn synthetic(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, real_maps, point_queries, synthetic);
+/// Deterministic pairs of points on sections of the largest strongly
+/// connected part (every pair routable), from the same sequence as
+/// [`query_points`].
+fn route_pairs(net: &Network, n: usize) -> Vec<(SectionPoint, SectionPoint)> {
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let main: Vec<usize> = (0..net.sections.len())
+        .filter(|&i| {
+            let s = &net.sections[i];
+            let l = net.topology.largest_scc;
+            net.topology.scc_of(s.start) == l && net.topology.scc_of(s.end) == l
+        })
+        .collect();
+    let mut point = || {
+        let i = main[(next() * main.len() as f64) as usize];
+        SectionPoint {
+            section: i as u32,
+            offset_m: next() * net.sections[i].length_m,
+        }
+    };
+    (0..n).map(|_| (point(), point())).collect()
+}
+
+/// Shortest paths between random points: A* on the straight line alone and
+/// with landmarks (the trip sampler's), and the landmarks' build.
+fn routing(c: &mut Criterion) {
+    let mut g = c.benchmark_group("shortest_path_x1000");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    for name in ["monaco.osm.pbf", "gothenburg-roads.geojson", "liechtenstein.osm.pbf"] {
+        let Some(path) = shared(name) else { continue };
+        let net = Network::load(&path, &LoadOptions::default()).unwrap();
+        let pairs = route_pairs(&net, 1000);
+        let lm = Landmarks::build(&net, DEFAULT_LANDMARKS);
+        g.throughput(Throughput::Elements(pairs.len() as u64));
+        g.bench_function(BenchmarkId::new("line", name), |b| {
+            b.iter(|| {
+                pairs
+                    .iter()
+                    .filter_map(|&(a, z)| shortest_path(&net, a, z, None))
+                    .map(|p| p.1)
+                    .sum::<f64>()
+            })
+        });
+        g.bench_function(BenchmarkId::new("landmarks", name), |b| {
+            b.iter(|| {
+                pairs
+                    .iter()
+                    .filter_map(|&(a, z)| shortest_path_with(&net, Some(&lm), a, z, None))
+                    .map(|p| p.1)
+                    .sum::<f64>()
+            })
+        });
+    }
+    g.finish();
+    let mut g = c.benchmark_group("landmarks_build");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    for name in ["monaco.osm.pbf", "gothenburg-roads.geojson", "liechtenstein.osm.pbf"] {
+        let Some(path) = shared(name) else { continue };
+        let net = Network::load(&path, &LoadOptions::default()).unwrap();
+        g.bench_function(name, |b| {
+            b.iter(|| Landmarks::build(&net, DEFAULT_LANDMARKS))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, real_maps, point_queries, synthetic, routing);
 criterion_main!(benches);

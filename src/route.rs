@@ -15,6 +15,9 @@ use geo::{Distance, Euclidean};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
+mod landmarks;
+pub use landmarks::{Landmarks, Towards, ACTIVE, DEFAULT_LANDMARKS};
+
 /// Default distance within which a waypoint must lie from a road (m).
 pub const DEFAULT_SNAP_TOLERANCE_M: f64 = 100.0;
 
@@ -181,6 +184,20 @@ pub fn shortest_path(
     to: SectionPoint,
     start_dir: Option<bool>,
 ) -> Option<(Pieces, f64)> {
+    shortest_path_with(net, None, from, to, start_dir)
+}
+
+/// [`shortest_path`] guided by landmark lower bounds as well as the straight
+/// line (the same length; far fewer nodes settled on a city map, so worth
+/// building [`Landmarks`] when a caller routes thousands of paths on one
+/// map). Between paths of exactly equal length the one returned may differ.
+pub fn shortest_path_with(
+    net: &Network,
+    landmarks: Option<&Landmarks>,
+    from: SectionPoint,
+    to: SectionPoint,
+    start_dir: Option<bool>,
+) -> Option<(Pieces, f64)> {
     let sf = &net.sections[from.section as usize];
     let mut best: Option<(Pieces, f64)> = None;
     let dir_ok = |fwd: bool| start_dir.is_none_or(|d| d == fwd);
@@ -216,7 +233,7 @@ pub fn shortest_path(
     SCRATCH.with(|cell| {
         let mut scratch = cell.borrow_mut();
         scratch.reset(net.nodes.len());
-        a_star(net, from, to, start_dir, best, &mut scratch)
+        a_star(net, landmarks, from, to, start_dir, best, &mut scratch)
     })
 }
 
@@ -277,6 +294,7 @@ thread_local! {
 /// The A* part of [`shortest_path`], with `best` the same-section answer.
 fn a_star(
     net: &Network,
+    landmarks: Option<&Landmarks>,
     from: SectionPoint,
     to: SectionPoint,
     start_dir: Option<bool>,
@@ -294,15 +312,24 @@ fn a_star(
     if st.oneway.allows_backward() || to.offset_m >= st.length_m {
         targets.push((st.end, false, (st.length_m - to.offset_m).max(0.0)));
     }
+    // Per target, the landmarks that bound it best from `from`'s section.
+    let toward: Vec<Option<Towards>> = targets
+        .iter()
+        .map(|&(tn, _, _)| landmarks.map(|l| l.towards(sf.start, tn)))
+        .collect();
     let h = |node: NodeId| -> f64 {
         let p = net.nodes[node as usize].enu;
         targets
             .iter()
-            .map(|&(tn, _, rest)| {
+            .zip(&toward)
+            .map(|(&(tn, _, rest), toward)| {
                 let q = net.nodes[tn as usize].enu;
                 // sqrt of the squares: `hypot`'s overflow care is not needed
                 // for map coordinates and costs several times more.
-                ((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1])).sqrt() + rest
+                let line = ((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1])).sqrt();
+                // The larger of two consistent heuristics is consistent.
+                let roads = toward.as_ref().map_or(0.0, |t| t.from(node));
+                line.max(roads) + rest
             })
             .fold(f64::INFINITY, f64::min)
     };
@@ -507,8 +534,19 @@ pub fn next_leg(
     b: SectionPoint,
     arrive_dir: Option<bool>,
 ) -> Option<(Pieces, f64)> {
-    shortest_path(net, a, b, arrive_dir)
-        .or_else(|| arrive_dir.and_then(|_| shortest_path(net, a, b, None)))
+    next_leg_with(net, None, a, b, arrive_dir)
+}
+
+/// [`next_leg`] guided by landmarks ([`shortest_path_with`]).
+pub fn next_leg_with(
+    net: &Network,
+    landmarks: Option<&Landmarks>,
+    a: SectionPoint,
+    b: SectionPoint,
+    arrive_dir: Option<bool>,
+) -> Option<(Pieces, f64)> {
+    shortest_path_with(net, landmarks, a, b, arrive_dir)
+        .or_else(|| arrive_dir.and_then(|_| shortest_path_with(net, landmarks, a, b, None)))
 }
 
 /// Joins the legs between consecutive snapped points (`what` names them in

@@ -7,7 +7,9 @@ use proptest::prelude::*;
 use std::path::Path;
 use std::sync::OnceLock;
 use waymark::network::{LoadOptions, Network};
-use waymark::route::{plan_route, shortest_path, SectionPoint};
+use waymark::route::{
+    plan_route, shortest_path, shortest_path_with, Landmarks, SectionPoint, DEFAULT_LANDMARKS,
+};
 
 fn helsinki() -> &'static Network {
     static NET: OnceLock<Network> = OnceLock::new();
@@ -15,6 +17,11 @@ fn helsinki() -> &'static Network {
         let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("maps/helsinki.osm.pbf");
         Network::load(&p, &LoadOptions::default()).expect("bundled map loads")
     })
+}
+
+fn landmarks() -> &'static Landmarks {
+    static LM: OnceLock<Landmarks> = OnceLock::new();
+    LM.get_or_init(|| Landmarks::build(helsinki(), DEFAULT_LANDMARKS))
 }
 
 fn node_graph(net: &Network) -> DiGraph<(), f64, u32> {
@@ -80,6 +87,47 @@ proptest! {
             }
             (None, None) => {}
             (e, g) => prop_assert!(false, "reference {:?} vs route {:?}", e, g.map(|x| x.1)),
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    /// Landmarks bound every distance from below (∞ only where no path
+    /// exists), and A* guided by them finds the reference's length between
+    /// any two points, nodes or not, in the map's main part or not.
+    #[test]
+    fn landmark_bounds_hold_and_guided_paths_are_shortest(
+        a in 0usize..100_000, b in 0usize..100_000, fa in 0.0f64..1.0, fb in 0.0f64..1.0,
+    ) {
+        let net = helsinki();
+        let lm = landmarks();
+        prop_assert_eq!(lm.nodes().len(), DEFAULT_LANDMARKS);
+        let g = node_graph(net);
+        let (na, nb) = ((a % net.nodes.len()) as u32, (b % net.nodes.len()) as u32);
+        let reference = dijkstra(&g, NodeIndex::new(na as usize), Some(NodeIndex::new(nb as usize)), |e| *e.weight());
+        let bound = lm.lower_bound(na, nb);
+        match reference.get(&NodeIndex::new(nb as usize)) {
+            // Exact distances summed in different orders: 1 mm of slack.
+            Some(&d) => prop_assert!(bound <= d + 1e-3, "bound {bound} m above the distance {d} m"),
+            None => {}
+        }
+        if bound.is_infinite() {
+            prop_assert!(!reference.contains_key(&NodeIndex::new(nb as usize)));
+        }
+        // Points inside sections: the plain search is the reference here
+        // (itself checked against petgraph above).
+        let (sa, sb) = (a % net.sections.len(), b % net.sections.len());
+        let pa = SectionPoint { section: sa as u32, offset_m: fa * net.sections[sa].length_m };
+        let pb = SectionPoint { section: sb as u32, offset_m: fb * net.sections[sb].length_m };
+        for dir in [None, Some(true), Some(false)] {
+            let plain = shortest_path(net, pa, pb, dir).map(|p| p.1);
+            let guided = shortest_path_with(net, Some(lm), pa, pb, dir).map(|p| p.1);
+            match (plain, guided) {
+                (Some(x), Some(y)) => prop_assert!((x - y).abs() < 1e-3, "plain {x} m, guided {y} m"),
+                (None, None) => {}
+                (x, y) => prop_assert!(false, "plain {:?} vs guided {:?}", x, y),
+            }
         }
     }
 }

@@ -195,7 +195,7 @@ pub(super) fn plan_network_trips(
                     i + 1
                 )));
             }
-            Destinations::listed(pts, &w).map_err(|e| {
+            Destinations::listed(net, pts, &w).map_err(|e| {
                 Error::InvalidParameter(format!(
                     "{}: {}",
                     path.display(),

@@ -31,7 +31,10 @@ use super::turns::{heading_samples, intrinsic_resets, point_at, walk_edge, TurnW
 use super::window_sets::{WindowInfo, WindowMap};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
-use crate::route::{next_leg, section_points, SectionPoint};
+use crate::route::{
+    next_leg_with, section_points, Landmarks, SectionPoint, DEFAULT_LANDMARKS,
+};
+use std::sync::Arc;
 use rand::Rng;
 use std::collections::HashMap;
 
@@ -209,6 +212,9 @@ pub(crate) struct Destinations {
     points: Vec<SectionPoint>,
     /// Cumulative weights (of the points, or of the sections' lengths).
     cum: Vec<f64>,
+    /// Landmark bounds guiding the trips' shortest paths (thousands per
+    /// chain of trips; built once per plan).
+    landmarks: Arc<Landmarks>,
 }
 
 /// Per section: both its ends lie in the largest strongly connected part of
@@ -278,11 +284,12 @@ impl Destinations {
         Ok(Self {
             points: Vec::new(),
             cum,
+            landmarks: Arc::new(Landmarks::build(net, DEFAULT_LANDMARKS)),
         })
     }
 
     /// Listed points with weights (> 0 in all).
-    pub fn listed(points: Vec<SectionPoint>, weights: &[f64]) -> Result<Self> {
+    pub fn listed(net: &Network, points: Vec<SectionPoint>, weights: &[f64]) -> Result<Self> {
         let mut cum = Vec::with_capacity(weights.len());
         let mut t = 0.0;
         for &w in weights {
@@ -294,7 +301,11 @@ impl Destinations {
                 "trips need at least two destinations with a positive weight".into(),
             ));
         }
-        Ok(Self { points, cum })
+        Ok(Self {
+            points,
+            cum,
+            landmarks: Arc::new(Landmarks::build(net, DEFAULT_LANDMARKS)),
+        })
     }
 
     fn draw<R: Rng>(&self, net: &Network, rng: &mut R) -> SectionPoint {
@@ -369,7 +380,7 @@ pub(crate) fn sample_chain<R: Rng>(
         let next = dest.draw(net, rng);
         if next == cur {
             failures += 1;
-        } else if let Some((pieces, _)) = next_leg(net, cur, next, arrive) {
+        } else if let Some((pieces, _)) = next_leg_with(net, Some(&dest.landmarks), cur, next, arrive) {
             trips += 1;
             for (ds, from, to) in pieces {
                 let Some(&e) = model.index.get(&(ds.section, ds.forward)) else {
