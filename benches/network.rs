@@ -171,7 +171,11 @@ fn route_pairs(net: &Network, n: usize) -> Vec<(SectionPoint, SectionPoint)> {
 fn routing(c: &mut Criterion) {
     let mut g = c.benchmark_group("shortest_path_x1000");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
-    for name in ["monaco.osm.pbf", "gothenburg-roads.geojson", "liechtenstein.osm.pbf"] {
+    for name in [
+        "monaco.osm.pbf",
+        "gothenburg-roads.geojson",
+        "liechtenstein.osm.pbf",
+    ] {
         let Some(path) = shared(name) else { continue };
         let net = Network::load(&path, &LoadOptions::default()).unwrap();
         let pairs = route_pairs(&net, 1000);
@@ -199,7 +203,11 @@ fn routing(c: &mut Criterion) {
     g.finish();
     let mut g = c.benchmark_group("landmarks_build");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
-    for name in ["monaco.osm.pbf", "gothenburg-roads.geojson", "liechtenstein.osm.pbf"] {
+    for name in [
+        "monaco.osm.pbf",
+        "gothenburg-roads.geojson",
+        "liechtenstein.osm.pbf",
+    ] {
         let Some(path) = shared(name) else { continue };
         let net = Network::load(&path, &LoadOptions::default()).unwrap();
         g.bench_function(name, |b| {

@@ -84,6 +84,7 @@ pub(crate) mod add_drop;
 pub(crate) mod best_site;
 pub mod cover;
 pub(crate) mod coverage;
+pub(crate) mod dominance;
 pub mod greedy;
 pub(crate) mod ilp;
 pub(crate) mod instance;

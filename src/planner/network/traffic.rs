@@ -31,12 +31,10 @@ use super::turns::{heading_samples, intrinsic_resets, point_at, walk_edge, TurnW
 use super::window_sets::{WindowInfo, WindowMap};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
-use crate::route::{
-    next_leg_with, section_points, Landmarks, SectionPoint, DEFAULT_LANDMARKS,
-};
-use std::sync::Arc;
+use crate::route::{next_leg_with, section_points, Landmarks, SectionPoint, DEFAULT_LANDMARKS};
 use rand::Rng;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// Most trips in one chain (a guard against a shift far longer than the
 /// network's trips).
@@ -380,7 +378,9 @@ pub(crate) fn sample_chain<R: Rng>(
         let next = dest.draw(net, rng);
         if next == cur {
             failures += 1;
-        } else if let Some((pieces, _)) = next_leg_with(net, Some(&dest.landmarks), cur, next, arrive) {
+        } else if let Some((pieces, _)) =
+            next_leg_with(net, Some(&dest.landmarks), cur, next, arrive)
+        {
             trips += 1;
             for (ds, from, to) in pieces {
                 let Some(&e) = model.index.get(&(ds.section, ds.forward)) else {

@@ -515,7 +515,6 @@ pub(crate) fn plan_trips(
         };
         let (lp, y) = lp_duals_within(
             windows,
-            &site_w,
             demand,
             cost,
             preselected,

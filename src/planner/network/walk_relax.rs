@@ -251,8 +251,7 @@ pub(crate) fn improve(
     let (ws, _) = windows.wmap.sorted();
     let could_beat = out.tag_bound as f64 * LP_REACH >= to_beat as f64;
     if could_beat && !ws.is_empty() && iterations_for(ws.total_ids()).is_some() {
-        let site_w = SiteWindows::of(ws, n);
-        let lp = lp_bound(ws, &site_w, demand, &cost, &pre);
+        let lp = lp_bound(ws, demand, &cost, &pre);
         out.lp_iterations = lp.iterations;
         out.lp_cost_bound = lp.cost_bound;
         out.cost_bound = out.cost_bound.max(lp.cost_bound);

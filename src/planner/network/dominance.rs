@@ -1,0 +1,244 @@
+//! The rows of the windows' linear programme that matter: windows still
+//! short, and not implied by another window.
+//!
+//! A window `u` implies a window `w` when every variable site of `u` is in
+//! `w` (as many times) and `u` needs at least as many: for any `x ≥ 0`,
+//! `A_w x ≥ A_u x ≥ d_u ≥ d_w`. Such a `w` can be dropped from the
+//! programme without changing its optimum (nor any selection's
+//! feasibility), and its multiplier is 0. Budget windows nest heavily:
+//! a chain's stretch that needs `k + 1` tags holds the shorter stretch of
+//! the same road that needs them too, and the straight walks through a
+//! junction repeat each other's windows past it. On Gothenburg's trips plan
+//! 77 % of the windows, holding 73 % of the window–site pairs, are implied
+//! (BENCHMARKS.md, "Implied windows"), so each iteration of
+//! `super::lp_bound` visits a quarter of the pairs.
+//!
+//! The search is complete and cheap: a window inside `w` starts (its first
+//! variable site) at one of `w`'s sites, so `w`'s candidates are the
+//! windows starting at its sites, on average (windows ÷ sites) per site. A
+//! 64-bit signature of each window's sites rejects most candidates before
+//! the exact test, a merge of two sorted lists. Among windows with the same
+//! sites and need, the first is kept. Deterministic (no hashing by address,
+//! results collected in window order).
+
+use super::window_sets::WindowSets;
+use rayon::prelude::*;
+
+/// The rows kept: their sites (variable ones only), needs, and the window
+/// each came from.
+pub(crate) struct Rows {
+    /// Per kept window, its variable sites (sorted, with repeats).
+    pub sets: WindowSets,
+    /// Per kept window, the selected sites it still needs (> 0).
+    pub need: Vec<f64>,
+    /// Per kept window, its index among the windows given.
+    pub window: Vec<u32>,
+}
+
+/// The windows with `need > 0` that no other window implies (module doc),
+/// restricted to the sites with `var` set (one flag per site). `windows`'
+/// ids are sorted within each window (as [`WindowSets`] keeps them).
+///
+/// Edge cases: a window with no variable site is kept when it still needs
+/// sites (it makes the programme infeasible; the caller's business); no
+/// window short → no rows.
+pub(crate) fn essential_rows(windows: &WindowSets, need: &[f64], var: &[bool]) -> Rows {
+    let n = windows.len();
+    // One of 64 bits per site (a multiplicative hash of its id).
+    let bit = |s: u32| 1u64 << (s.wrapping_mul(0x9E37_79B9) >> 26);
+    let (sig, size): (Vec<u64>, Vec<u32>) = (0..n)
+        .into_par_iter()
+        .map(|w| {
+            windows
+                .get(w)
+                .iter()
+                .filter(|&&s| var[s as usize])
+                .fold((0u64, 0u32), |(m, c), &s| (m | bit(s), c + 1))
+        })
+        .unzip();
+    let implies = |u: usize, w: usize| -> bool {
+        if need[u] < need[w] || size[u] > size[w] || sig[u] & !sig[w] != 0 {
+            return false;
+        }
+        // Multiset inclusion of u's variable sites in w's (both sorted).
+        let (vu, vw) = (windows.get(u), windows.get(w));
+        let mut j = 0;
+        for &s in vu.iter().filter(|&&s| var[s as usize]) {
+            while j < vw.len() && (vw[j] < s || !var[vw[j] as usize]) {
+                j += 1;
+            }
+            if j == vw.len() || vw[j] != s {
+                return false;
+            }
+            j += 1;
+        }
+        // Equal rows: the first is kept.
+        size[u] < size[w] || need[u] > need[w] || u < w
+    };
+    // Windows by their first variable site: every window inside `w` is
+    // listed under one of `w`'s sites, exactly once.
+    let first: Vec<Option<u32>> = (0..n)
+        .map(|w| windows.get(w).iter().copied().find(|&s| var[s as usize]))
+        .collect();
+    let mut start = vec![0usize; var.len() + 1];
+    for &f in first.iter().flatten() {
+        start[f as usize + 1] += 1;
+    }
+    for i in 0..var.len() {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut by_first = vec![0u32; start[var.len()]];
+    for (w, f) in first.iter().enumerate() {
+        if let Some(f) = f {
+            by_first[fill[*f as usize]] = w as u32;
+            fill[*f as usize] += 1;
+        }
+    }
+    let keep: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|w| {
+            if need[w] <= 0.0 {
+                return false;
+            }
+            let ids = windows.get(w);
+            !ids.iter().enumerate().any(|(i, &s)| {
+                // Each distinct variable site once.
+                var[s as usize]
+                    && (i == 0 || ids[i - 1] != s)
+                    && by_first[start[s as usize]..start[s as usize + 1]]
+                        .iter()
+                        .any(|&u| u as usize != w && implies(u as usize, w))
+            })
+        })
+        .collect();
+    let kept = keep.iter().filter(|&&k| k).count();
+    let ids: usize = (0..n).filter(|&w| keep[w]).map(|w| size[w] as usize).sum();
+    let mut sets = WindowSets::with_capacity(kept, ids);
+    let mut rows_need = Vec::with_capacity(kept);
+    let mut window = Vec::with_capacity(kept);
+    let mut buf: Vec<u32> = Vec::new();
+    for w in (0..n).filter(|&w| keep[w]) {
+        buf.clear();
+        buf.extend(windows.get(w).iter().copied().filter(|&s| var[s as usize]));
+        sets.push(&buf);
+        rows_need.push(need[w]);
+        window.push(w as u32);
+    }
+    Rows {
+        sets,
+        need: rows_need,
+        window,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn rows(sets: &[Vec<u32>], need: &[f64], var: &[bool]) -> Vec<(Vec<u32>, f64, u32)> {
+        let w = WindowSets::from_vecs(sets);
+        let r = essential_rows(&w, need, var);
+        (0..r.sets.len())
+            .map(|i| (r.sets.get(i).to_vec(), r.need[i], r.window[i]))
+            .collect()
+    }
+
+    #[test]
+    fn nested_windows_keep_the_inner_one() {
+        let var = vec![true; 6];
+        let got = rows(
+            &[vec![0, 1, 2, 3], vec![1, 2], vec![1, 2, 4], vec![4, 5]],
+            &[2.0, 2.0, 2.0, 2.0],
+            &var,
+        );
+        assert_eq!(got, vec![(vec![1, 2], 2.0, 1), (vec![4, 5], 2.0, 3)]);
+    }
+
+    #[test]
+    fn a_smaller_need_or_a_repeat_decides() {
+        let var = vec![true; 4];
+        // [1, 2] needs 1 and does not imply [0, 1, 2] needing 2; the
+        // repeated site: [1, 1] is not inside [0, 1, 2] (one 1 there).
+        let got = rows(
+            &[vec![0, 1, 2], vec![1, 2], vec![1, 1], vec![1, 1, 3]],
+            &[2.0, 1.0, 2.0, 2.0],
+            &var,
+        );
+        assert_eq!(
+            got.iter().map(|r| r.2).collect::<Vec<_>>(),
+            vec![0, 1, 2],
+            "{got:?}"
+        );
+        // Equal rows: the first stays.
+        let got = rows(&[vec![0, 1], vec![0, 1]], &[1.0, 1.0], &var);
+        assert_eq!(got.iter().map(|r| r.2).collect::<Vec<_>>(), vec![0]);
+    }
+
+    #[test]
+    fn installed_sites_and_met_windows_leave_the_rows() {
+        // Site 0 installed: window 0's variable part is [1, 2], which
+        // window 1 ([1, 2, 3]) holds; window 2 is met.
+        let var = vec![false, true, true, true];
+        let got = rows(
+            &[vec![0, 1, 2], vec![1, 2, 3], vec![2, 3]],
+            &[1.0, 1.0, 0.0],
+            &var,
+        );
+        assert_eq!(got, vec![(vec![1, 2], 1.0, 0)]);
+    }
+
+    /// On random chains: the kept rows admit exactly the integer selections
+    /// all windows admit (every subset of the sites, by brute force), and
+    /// no kept row is implied by another (the search is complete).
+    #[test]
+    fn dropped_windows_are_implied_by_kept_ones() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xd0);
+        for _ in 0..200 {
+            let n = rng.random_range(4..12usize);
+            let var: Vec<bool> = (0..n).map(|_| rng.random_bool(0.9)).collect();
+            let mut sets = Vec::new();
+            let mut need = Vec::new();
+            for _ in 0..rng.random_range(1..12) {
+                let a = rng.random_range(0..n as u32);
+                let b = rng.random_range(a..n as u32) + 1;
+                let mut s: Vec<u32> = (a..b).collect();
+                if rng.random_bool(0.2) {
+                    s.push(a);
+                    s.sort_unstable();
+                }
+                sets.push(s);
+                need.push(rng.random_range(0..3) as f64);
+            }
+            let got = rows(&sets, &need, &var);
+            for x in 0..(1u32 << n) {
+                let chosen = |s: u32| var[s as usize] && x >> s & 1 == 1;
+                let meets =
+                    |ids: &[u32], d: f64| ids.iter().filter(|&&s| chosen(s)).count() as f64 >= d;
+                let all = sets.iter().zip(&need).all(|(s, &d)| meets(s, d));
+                let kept = got.iter().all(|(s, d, _)| meets(s, *d));
+                assert_eq!(
+                    all, kept,
+                    "sets {sets:?} need {need:?} var {var:?} kept {got:?}"
+                );
+            }
+            for (i, (a, da, _)) in got.iter().enumerate() {
+                for (j, (b, db, _)) in got.iter().enumerate() {
+                    let inside = |x: &[u32], y: &[u32]| {
+                        let mut y = y.to_vec();
+                        x.iter()
+                            .all(|s| y.iter().position(|t| t == s).map(|p| y.remove(p)).is_some())
+                    };
+                    assert!(
+                        // (An empty row, an infeasible programme, is kept
+                        // as it is and implies every row vacuously.)
+                        i == j || a.is_empty() || !(inside(a, b) && da >= db),
+                        "row {a:?} ({da}) implies row {b:?} ({db}): {got:?}"
+                    );
+                }
+            }
+        }
+    }
+}
