@@ -9,9 +9,7 @@ use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criteri
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use waymark::network::{model_from_polylines, LoadOptions, Network, TagSet};
-use waymark::route::{
-    shortest_path, shortest_path_with, Landmarks, SectionPoint, DEFAULT_LANDMARKS,
-};
+use waymark::route::{shortest_path_with, Landmarks, SectionPoint, DEFAULT_LANDMARKS};
 
 fn shared(name: &str) -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -169,49 +167,43 @@ fn route_pairs(net: &Network, n: usize) -> Vec<(SectionPoint, SectionPoint)> {
 /// Shortest paths between random points: A* on the straight line alone and
 /// with landmarks (the trip sampler's), and the landmarks' build.
 fn routing(c: &mut Criterion) {
-    let mut g = c.benchmark_group("shortest_path_x1000");
-    g.sample_size(10).measurement_time(Duration::from_secs(10));
-    for name in [
+    let maps: Vec<(&str, Network)> = [
         "monaco.osm.pbf",
         "gothenburg-roads.geojson",
         "liechtenstein.osm.pbf",
-    ] {
-        let Some(path) = shared(name) else { continue };
-        let net = Network::load(&path, &LoadOptions::default()).unwrap();
-        let pairs = route_pairs(&net, 1000);
-        let lm = Landmarks::build(&net, DEFAULT_LANDMARKS);
+    ]
+    .into_iter()
+    .filter_map(|name| {
+        Some((
+            name,
+            Network::load(&shared(name)?, &LoadOptions::default()).unwrap(),
+        ))
+    })
+    .collect();
+    let mut g = c.benchmark_group("shortest_path_x1000");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    for (name, net) in &maps {
+        let pairs = route_pairs(net, 1000);
+        let lm = Landmarks::build(net, DEFAULT_LANDMARKS);
         g.throughput(Throughput::Elements(pairs.len() as u64));
-        g.bench_function(BenchmarkId::new("line", name), |b| {
-            b.iter(|| {
-                pairs
-                    .iter()
-                    .filter_map(|&(a, z)| shortest_path(&net, a, z, None))
-                    .map(|p| p.1)
-                    .sum::<f64>()
-            })
-        });
-        g.bench_function(BenchmarkId::new("landmarks", name), |b| {
-            b.iter(|| {
-                pairs
-                    .iter()
-                    .filter_map(|&(a, z)| shortest_path_with(&net, Some(&lm), a, z, None))
-                    .map(|p| p.1)
-                    .sum::<f64>()
-            })
-        });
+        for (how, guide) in [("line", None), ("landmarks", Some(&lm))] {
+            g.bench_function(BenchmarkId::new(how, name), |b| {
+                b.iter(|| {
+                    pairs
+                        .iter()
+                        .filter_map(|&(a, z)| shortest_path_with(net, guide, a, z, None))
+                        .map(|p| p.1)
+                        .sum::<f64>()
+                })
+            });
+        }
     }
     g.finish();
     let mut g = c.benchmark_group("landmarks_build");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
-    for name in [
-        "monaco.osm.pbf",
-        "gothenburg-roads.geojson",
-        "liechtenstein.osm.pbf",
-    ] {
-        let Some(path) = shared(name) else { continue };
-        let net = Network::load(&path, &LoadOptions::default()).unwrap();
-        g.bench_function(name, |b| {
-            b.iter(|| Landmarks::build(&net, DEFAULT_LANDMARKS))
+    for (name, net) in &maps {
+        g.bench_function(*name, |b| {
+            b.iter(|| Landmarks::build(net, DEFAULT_LANDMARKS))
         });
     }
     g.finish();
