@@ -16,7 +16,7 @@ use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 mod landmarks;
-pub use landmarks::{Landmarks, Towards, ACTIVE, DEFAULT_LANDMARKS};
+pub use landmarks::{Landmarks, Towards, ACTIVE, DEFAULT_LANDMARKS, MAX_LANDMARK_BYTES};
 
 /// Default distance within which a waypoint must lie from a road (m).
 pub const DEFAULT_SNAP_TOLERANCE_M: f64 = 100.0;

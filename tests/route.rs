@@ -170,3 +170,23 @@ fn waypoint_off_the_map_is_an_error() {
     assert!(plan_route(net, &[[60.1675, 24.9490]]).is_err());
     assert!(plan_route(net, &[[f64::NAN, 24.9], [60.1675, 24.9490]]).is_err());
 }
+
+/// With no landmark (a map too large for their memory cap gets fewer, down
+/// to none) the guided search is the plain one.
+#[test]
+fn no_landmarks_is_the_straight_line_search() {
+    let net = helsinki();
+    let none = Landmarks::build(net, 0);
+    assert!(none.nodes().is_empty());
+    assert_eq!(none.lower_bound(0, 1), 0.0);
+    for i in 0..50u32 {
+        let (a, b) = (
+            (i * 7919) % net.nodes.len() as u32,
+            (i * 104_729 + 13) % net.nodes.len() as u32,
+        );
+        let (pa, pb) = (point_at_node(net, a), point_at_node(net, b));
+        let plain = shortest_path(net, pa, pb, None).map(|p| p.1);
+        let guided = shortest_path_with(net, Some(&none), pa, pb, None).map(|p| p.1);
+        assert_eq!(plain, guided, "nodes {a} → {b}");
+    }
+}

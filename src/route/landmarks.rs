@@ -33,6 +33,11 @@ use std::collections::BinaryHeap;
 /// size; more gives tighter bounds at more work per settled node.
 pub const DEFAULT_LANDMARKS: usize = 16;
 
+/// Most bytes the distances may take (256 MiB): 16 landmarks up to 1 M
+/// nodes (a country's roads), fewer beyond, none past 16 M nodes (A* then
+/// runs on the straight line alone, as without landmarks).
+pub const MAX_LANDMARK_BYTES: usize = 1 << 28;
+
 /// Distances to and from a few landmarks, per node.
 #[derive(Debug, Clone)]
 pub struct Landmarks {
@@ -115,14 +120,16 @@ impl Arcs {
 
 impl Landmarks {
     /// Chooses up to `count` landmarks in the network's largest strongly
-    /// connected part and stores the distances to and from each (two
-    /// Dijkstra searches over the whole map per landmark).
+    /// connected part (fewer when their distances would pass
+    /// [`MAX_LANDMARK_BYTES`]) and stores the distances to and from each
+    /// (two Dijkstra searches over the whole map per landmark).
     pub fn build(net: &Network, count: usize) -> Self {
         let nn = net.nodes.len();
         let main: Vec<NodeId> = (0..nn as NodeId)
             .filter(|&n| net.topology.scc_of(n) == net.topology.largest_scc)
             .collect();
-        let count = count.min(main.len());
+        let per_landmark = 2 * std::mem::size_of::<f64>() * nn.max(1);
+        let count = count.min(main.len()).min(MAX_LANDMARK_BYTES / per_landmark);
         let forward = Arcs::of(net, false);
         let backward = Arcs::of(net, true);
         let mut to = vec![f64::INFINITY; nn * count];
