@@ -39,16 +39,20 @@ fn real_maps(c: &mut Criterion) {
     g.finish();
 }
 
-/// Deterministic query points: near segment midpoints (real roads), jittered
-/// by up to ±40 m, from a fixed linear congruential sequence.
-fn query_points(net: &Network, n: usize) -> Vec<[f64; 2]> {
-    let mut state: u64 = 0x2545_F491_4F6C_DD1D;
-    let mut next = || {
+/// Uniforms in [0, 1) from a fixed linear congruential sequence.
+fn uniforms(mut state: u64) -> impl FnMut() -> f64 {
+    move || {
         state = state
             .wrapping_mul(6_364_136_223_846_793_005)
             .wrapping_add(1_442_695_040_888_963_407);
         (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    }
+}
+
+/// Deterministic query points: near segment midpoints (real roads), jittered
+/// by up to ±40 m, from a fixed linear congruential sequence.
+fn query_points(net: &Network, n: usize) -> Vec<[f64; 2]> {
+    let mut next = uniforms(0x2545_F491_4F6C_DD1D);
     (0..n)
         .map(|_| {
             let s = &net.segments[(next() * net.segments.len() as f64) as usize];
@@ -137,16 +141,9 @@ fn synthetic(c: &mut Criterion) {
 }
 
 /// Deterministic pairs of points on sections of the largest strongly
-/// connected part (every pair routable), from the same sequence as
-/// [`query_points`].
+/// connected part (every pair routable), from [`uniforms`].
 fn route_pairs(net: &Network, n: usize) -> Vec<(SectionPoint, SectionPoint)> {
-    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = uniforms(0x9E37_79B9_7F4A_7C15);
     let main: Vec<usize> = (0..net.sections.len())
         .filter(|&i| {
             let s = &net.sections[i];

@@ -16,7 +16,8 @@ use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 mod landmarks;
-pub use landmarks::{Landmarks, Towards, ACTIVE, DEFAULT_LANDMARKS, MAX_LANDMARK_BYTES};
+use landmarks::Towards;
+pub use landmarks::{Landmarks, DEFAULT_LANDMARKS, MAX_LANDMARK_BYTES};
 
 /// Default distance within which a waypoint must lie from a road (m).
 pub const DEFAULT_SNAP_TOLERANCE_M: f64 = 100.0;
@@ -304,32 +305,33 @@ fn a_star(
     let sf = &net.sections[from.section as usize];
     let st = &net.sections[to.section as usize];
     let dir_ok = |fwd: bool| start_dir.is_none_or(|d| d == fwd);
-    // Entry nodes of the target section and the remaining cost from each.
-    let mut targets: Vec<(NodeId, bool, f64)> = Vec::with_capacity(2);
+    // Entry nodes of the target section, the remaining cost from each, and
+    // the landmarks that bound the way there best from `from`'s section.
+    let towards = |tn: NodeId| landmarks.map(|l| l.towards(sf.start, tn));
+    let mut targets: Vec<(NodeId, bool, f64, Option<Towards>)> = Vec::with_capacity(2);
     if st.oneway.allows_forward() || to.offset_m <= 0.0 {
-        targets.push((st.start, true, to.offset_m.max(0.0)));
+        targets.push((st.start, true, to.offset_m.max(0.0), towards(st.start)));
     }
     if st.oneway.allows_backward() || to.offset_m >= st.length_m {
-        targets.push((st.end, false, (st.length_m - to.offset_m).max(0.0)));
+        targets.push((
+            st.end,
+            false,
+            (st.length_m - to.offset_m).max(0.0),
+            towards(st.end),
+        ));
     }
-    // Per target, the landmarks that bound it best from `from`'s section.
-    let toward: Vec<Option<Towards>> = targets
-        .iter()
-        .map(|&(tn, _, _)| landmarks.map(|l| l.towards(sf.start, tn)))
-        .collect();
     let h = |node: NodeId| -> f64 {
         let p = net.nodes[node as usize].enu;
         targets
             .iter()
-            .zip(&toward)
-            .map(|(&(tn, _, rest), toward)| {
-                let q = net.nodes[tn as usize].enu;
+            .map(|(tn, _, rest, toward)| {
+                let q = net.nodes[*tn as usize].enu;
                 // sqrt of the squares: `hypot`'s overflow care is not needed
                 // for map coordinates and costs several times more.
                 let line = ((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1])).sqrt();
                 // The larger of two consistent heuristics is consistent.
                 let roads = toward.as_ref().map_or(0.0, |t| t.from(node));
-                line.max(roads) + rest
+                line.max(roads) + *rest
             })
             .fold(f64::INFINITY, f64::min)
     };
@@ -370,7 +372,7 @@ fn a_star(
         if f >= current_best {
             break;
         }
-        for &(tn, fwd, rest) in &targets {
+        for &(tn, fwd, rest, _) in &targets {
             if tn == node && cost + rest < best_target.map_or(bound(&best), |t| t.2) {
                 best_target = Some((tn, fwd, cost + rest));
             }

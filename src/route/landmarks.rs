@@ -205,7 +205,7 @@ impl Landmarks {
     /// behind the target helps little, and reading all of them at every
     /// settled node costs more than the few extra nodes it saves). Still a
     /// lower bound and consistent: the largest of some of the landmarks'.
-    pub fn towards(&self, s: NodeId, t: NodeId) -> Towards<'_> {
+    pub(super) fn towards(&self, s: NodeId, t: NodeId) -> Towards<'_> {
         let mut picks = [usize::MAX; ACTIVE];
         let mut vals = [f64::NEG_INFINITY; ACTIVE];
         for l in 0..self.count {
@@ -231,11 +231,11 @@ impl Landmarks {
 }
 
 /// Landmarks read per settled node by [`Landmarks::towards`].
-pub const ACTIVE: usize = 4;
+const ACTIVE: usize = 4;
 
 /// A target and the landmarks chosen for it ([`Landmarks::towards`]).
 #[derive(Debug, Clone, Copy)]
-pub struct Towards<'a> {
+pub(super) struct Towards<'a> {
     lm: &'a Landmarks,
     t: NodeId,
     picks: [usize; ACTIVE],
@@ -245,7 +245,7 @@ pub struct Towards<'a> {
 impl Towards<'_> {
     /// A lower bound on the road distance from `v` to the target (m).
     #[inline]
-    pub fn from(&self, v: NodeId) -> f64 {
+    pub(super) fn from(&self, v: NodeId) -> f64 {
         self.picks[..self.n]
             .iter()
             .fold(0.0, |b, &l| b.max(self.lm.bound_by(l, v, self.t)))
