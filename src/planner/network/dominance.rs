@@ -132,6 +132,37 @@ pub(crate) fn essential_rows(windows: &WindowSets, need: &[f64], var: &[bool]) -
     }
 }
 
+/// The windows a cover needs: those of [`essential_rows`] for `demand`
+/// selected sites per window once the installed sites `preselected` count,
+/// with all their sites (installed ones included), in window order, and
+/// their indices among `windows`.
+///
+/// A selection holding `preselected` covers these windows exactly when it
+/// covers all of `windows` (each dropped window is met or implied by a kept
+/// one), so greedy, relaxation and add-drop may work on them alone and name
+/// the same feasible selections.
+///
+/// Edge cases: every window met by installed sites → no windows.
+pub(crate) fn essential_windows(
+    windows: &WindowSets,
+    demand: usize,
+    preselected: &[bool],
+) -> (WindowSets, Vec<u32>) {
+    let need = windows.residual_demand(demand, preselected);
+    let free: Vec<bool> = preselected.iter().map(|&p| !p).collect();
+    let rows = essential_rows(windows, &need, &free);
+    let ids = rows
+        .window
+        .iter()
+        .map(|&w| windows.get(w as usize).len())
+        .sum();
+    let mut sets = WindowSets::with_capacity(rows.window.len(), ids);
+    for &w in &rows.window {
+        sets.push(windows.get(w as usize));
+    }
+    (sets, rows.window)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -238,6 +269,41 @@ mod tests {
                         "row {a:?} ({da}) implies row {b:?} ({db}): {got:?}"
                     );
                 }
+            }
+        }
+    }
+
+    /// The windows kept for a cover with installed sites admit exactly the
+    /// selections (holding the installed sites) that all windows admit,
+    /// keep their full site lists, and name their place among all windows.
+    #[test]
+    fn essential_windows_admit_the_same_selections() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xe5);
+        for _ in 0..200 {
+            let n = rng.random_range(4..12usize);
+            let pre: Vec<bool> = (0..n).map(|_| rng.random_bool(0.15)).collect();
+            let demand = rng.random_range(1..3usize);
+            let sets: Vec<Vec<u32>> = (0..rng.random_range(1..12))
+                .map(|_| {
+                    let a = rng.random_range(0..n as u32);
+                    let b = rng.random_range(a..n as u32) + 1;
+                    (a..b).collect()
+                })
+                .collect();
+            let all = WindowSets::from_vecs(&sets);
+            let (sub, kept) = essential_windows(&all, demand, &pre);
+            assert_eq!(sub.len(), kept.len());
+            for (i, &w) in kept.iter().enumerate() {
+                assert_eq!(sub.get(i), all.get(w as usize));
+            }
+            assert!(kept.windows(2).all(|p| p[0] < p[1]), "{kept:?}");
+            for x in 0..(1u32 << n) {
+                let sel: Vec<bool> = (0..n).map(|s| pre[s] || x >> s & 1 == 1).collect();
+                assert_eq!(
+                    all.covered_by(&sel, demand),
+                    sub.covered_by(&sel, demand),
+                    "sets {sets:?} pre {pre:?} demand {demand} kept {kept:?} sel {sel:?}"
+                );
             }
         }
     }

@@ -43,6 +43,7 @@
 //! no randomness.
 
 use super::cover::{CoverProblem, Solved, Walk};
+use super::dominance::essential_windows;
 use super::greedy::{self, LocalChecker};
 use super::lagrangian::{self, relax};
 use super::lp_bound::{iterations_for, lp_bound};
@@ -203,7 +204,12 @@ pub(crate) fn improve(
     let mut best = greedy;
     let mut work = 0usize;
     while out.rounds < MAX_ROUNDS && windows.wmap.len() > 0 {
-        let (ws, _) = windows.wmap.sorted();
+        let (all, _) = windows.wmap.sorted();
+        let (n_all, ids_all) = (all.len(), all.total_ids());
+        // The windows no other implies (`super::dominance`): the same
+        // feasible selections on fewer pairs.
+        let (ws, _) = essential_windows(all, demand, &pre);
+        let ws = &ws;
         let pairs = ws.total_ids().max(1);
         let visits = |iterations: usize| 3 * pairs * iterations;
         let its = lagrangian::MAX_ITERATIONS.min(lagrangian::WORK_BUDGET / visits(1));
@@ -216,8 +222,8 @@ pub(crate) fn improve(
         drop(site_w);
         out.iterations += r.iterations;
         work += visits(r.iterations);
-        out.windows = ws.len();
-        out.window_ids = ws.total_ids();
+        out.windows = n_all;
+        out.window_ids = ids_all;
         out.cost_bound = out.cost_bound.max(r.cost_bound);
         out.tag_bound = out.tag_bound.max(r.tag_bound);
         if !r.improved {
