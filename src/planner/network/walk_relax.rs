@@ -19,7 +19,8 @@
 //! * a selection covering the witnesses, cheaper than the greedy's when the
 //!   priced greedy finds one. It need not cover every walk.
 //!
-//! So each round relaxes the witness windows from the best feasible
+//! So each round relaxes the witness windows (those no other implies,
+//! `super::dominance`: the same feasible selections) from the best feasible
 //! selection (the incumbent: the greedy's at first; it covers every walk,
 //! so every window) and, when the relaxation finds a cheaper selection `S`,
 //! repairs it with the greedy's own rounds started from `S`
