@@ -215,3 +215,41 @@ fn destinations_need_finite_weights_and_two_places() {
     );
     assert!(d.join("o/plan.json").exists());
 }
+
+#[test]
+fn a_score_with_no_true_road_matched_is_zero_not_negative_zero() {
+    // `Iterator::sum` of no f64 is -0.0: a truth road the track never
+    // drove printed "precision_length -0.0000" (and -0.0 in the JSON).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("t.csv"),
+        "t_s,lat,lon\n0,60.17,24.94\n1,60.171,24.941\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("truth.csv"), "road_id\n675858715\n").unwrap();
+    let out = run(
+        &[
+            "match",
+            "--map",
+            &helsinki(),
+            "--track",
+            "t.csv",
+            "--truth",
+            "truth.csv",
+            "--json",
+        ],
+        d,
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let score = &v["score"];
+    assert_eq!(score["correct_roads"], 0, "{score}");
+    for k in ["precision_length", "recall_length"] {
+        let x = score[k].as_f64().unwrap();
+        assert!(x == 0.0 && x.is_sign_positive(), "{k} = {x}");
+    }
+    assert!(stderr.contains("precision_length 0.0000"), "{stderr}");
+    assert!(!stderr.contains("-0.0"), "{stderr}");
+}
