@@ -116,9 +116,8 @@ fn absurd_numbers_in_input_files_print_short() {
 }
 
 /// A ladder of six two-way residential roads about 1 km across (south of
-/// Helsinki), written to `dir/lad.geojson`, and a trips scenario planning
-/// it with the destinations `dest.csv`, written to `dir/s.toml`.
-fn ladder_trips(dir: &Path) {
+/// Helsinki), each named `name`, written to `dir/lad.geojson`.
+fn ladder(dir: &Path, name: &str) {
     let mut roads = Vec::new();
     for k in 0..4 {
         let lon = 24.90 + 0.005 * f64::from(k);
@@ -131,9 +130,10 @@ fn ladder_trips(dir: &Path) {
         .enumerate()
         .map(|(i, r)| {
             format!(
-                r#"{{"type":"Feature","id":{},"properties":{{"highway":"residential"}},
+                r#"{{"type":"Feature","id":{},"properties":{{"highway":"residential","name":{}}},
                 "geometry":{{"type":"LineString","coordinates":[[{},{}],[{},{}]]}}}}"#,
                 i + 1,
+                serde_json::to_string(name).unwrap(),
                 r[0][0],
                 r[0][1],
                 r[1][0],
@@ -149,6 +149,12 @@ fn ladder_trips(dir: &Path) {
         ),
     )
     .unwrap();
+}
+
+/// [`ladder`] and a trips scenario planning it with the destinations
+/// `dest.csv`, written to `dir/s.toml`.
+fn ladder_trips(dir: &Path) {
+    ladder(dir, "Ladder Road");
     std::fs::write(
         dir.join("s.toml"),
         "name = \"ladder\"\nrequirement_m = 20.0\n[map]\npath = \"lad.geojson\"\n\
@@ -252,4 +258,25 @@ fn a_score_with_no_true_road_matched_is_zero_not_negative_zero() {
     }
     assert!(stderr.contains("precision_length 0.0000"), "{stderr}");
     assert!(!stderr.contains("-0.0"), "{stderr}");
+}
+
+#[test]
+fn a_road_name_with_control_characters_keeps_the_error_on_one_line() {
+    // A map's road name with a line break and an escape sequence, quoted
+    // by an infeasible plan's error: two lines, and the terminal's colour
+    // changed.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ladder(d, "Evil\nRoad\u{1b}[31mRed");
+    std::fs::write(
+        d.join("r.toml"),
+        "name = \"ladder\"\nrequirement_m = 3.0\n[map]\npath = \"lad.geojson\"\n\
+         [[route]]\nwaypoints = [[60.100, 24.915], [60.110, 24.900]]\nspeed_kmh = 40\n\
+         [navigator]\nmode = \"integrated\"\n[imu]\ngrade = \"industrial\"\nrate_hz = 100\n\
+         [aiding]\nrfid = true\n[planner]\nmin_spacing_m = 1e9\n",
+    )
+    .unwrap();
+    let out = run(&["plan", "r.toml", "--runs", "0", "--out", "o", "-q"], d);
+    let e = fails_with(&out, &["infeasible", "\"Evil Road [31mRed\""]);
+    assert!(!e.contains('\u{1b}'), "{e:?}");
 }
