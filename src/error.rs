@@ -1,6 +1,7 @@
 //! The library's error type. Every variant names the file (where there is one)
 //! and says what is wrong in one line, so the command line can print it as is.
 
+use crate::decimal::shorten_numbers;
 use std::path::PathBuf;
 
 /// Errors from loading, indexing and analysing road networks, reading
@@ -60,17 +61,20 @@ pub enum Error {
 }
 
 impl Error {
+    // The constructors print long numbers short (`1e300`, not 301 digits):
+    // a message quotes the absurd value a file held, and Rust writes an
+    // `f64` in full decimal form (see `decimal::shorten_numbers`).
     pub(crate) fn format(path: &std::path::Path, message: impl Into<String>) -> Self {
         Error::Format {
             path: path.to_path_buf(),
-            message: message.into(),
+            message: shorten_numbers(&message.into()),
         }
     }
 
     pub(crate) fn scenario(path: &std::path::Path, message: impl Into<String>) -> Self {
         Error::Scenario {
             path: path.to_path_buf(),
-            message: message.into(),
+            message: shorten_numbers(&message.into()),
         }
     }
 
@@ -78,7 +82,7 @@ impl Error {
         Error::Table {
             path: path.to_path_buf(),
             line,
-            message: message.into(),
+            message: shorten_numbers(&message.into()),
         }
     }
 

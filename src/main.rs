@@ -269,8 +269,7 @@ impl Out {
         } else if self.json {
             let _ = writeln!(std::io::stderr(), "{args}");
         } else {
-            // A closed pipe (e.g. `| head`) is not an error.
-            let _ = writeln!(std::io::stdout(), "{args}");
+            stdout_written(writeln!(std::io::stdout(), "{args}"));
         }
     }
 
@@ -281,7 +280,7 @@ impl Out {
         } else if self.json {
             let _ = write!(std::io::stderr(), "{args}");
         } else {
-            let _ = write!(std::io::stdout(), "{args}");
+            stdout_written(write!(std::io::stdout(), "{args}"));
         }
     }
 
@@ -343,7 +342,10 @@ fn main() -> ExitCode {
         // The signal handler removed the file being written: its exit code.
         Err(_) if waymark::fsio::stopping() => ExitCode::from(130),
         Err(e) => {
-            eprintln!("waymark: error: {e:#}");
+            // Not `eprintln!`: it panics (exit 101) when stderr cannot be
+            // written (`2>/dev/full`); the exit code still says it failed.
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stderr(), "waymark: error: {e:#}");
             ExitCode::from(1)
         }
     }
@@ -482,13 +484,45 @@ fn run(cli: Cli) -> Result<()> {
     };
     if json && !value.is_null() {
         use std::io::Write as _;
-        let _ = writeln!(
+        stdout_written(writeln!(
             std::io::stdout(),
             "{}",
             serde_json::to_string_pretty(&value)?
-        );
+        ));
     }
-    Ok(())
+    stdout_finished()
+}
+
+/// The first failure to write a result on stdout, other than a closed pipe.
+static STDOUT_ERROR: std::sync::Mutex<Option<std::io::Error>> = std::sync::Mutex::new(None);
+
+/// Records the outcome of writing a result on stdout. A closed pipe (e.g.
+/// `| head`) is not an error; any other failure (a full disk behind
+/// `> out.json`) fails the command once it is done, rather than exit 0 with
+/// its result lost.
+fn stdout_written(r: std::io::Result<()>) {
+    if let Err(e) = r {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            STDOUT_ERROR
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .get_or_insert(e);
+        }
+    }
+}
+
+/// Flushes stdout; an error if a result could not be written on it.
+fn stdout_finished() -> Result<()> {
+    use std::io::Write as _;
+    stdout_written(std::io::stdout().flush());
+    match STDOUT_ERROR
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .take()
+    {
+        Some(e) => Err(anyhow::anyhow!("standard output: {e}")),
+        None => Ok(()),
+    }
 }
 
 /// The bar and notes of a job, on stderr (see [`Out`]).
@@ -735,11 +769,11 @@ fn inspect(
         // Printed here, in the report's own field order, as before `--json`
         // became common to every command.
         use std::io::Write as _;
-        let _ = writeln!(
+        stdout_written(writeln!(
             std::io::stdout(),
             "{}",
             serde_json::to_string_pretty(&report)?
-        );
+        ));
         return Ok(serde_json::Value::Null);
     }
     out.text_raw(format_args!("{}", report.to_text()));

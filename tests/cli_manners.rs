@@ -402,3 +402,51 @@ fn progress_bar_only_on_a_terminal_and_not_with_quiet() {
     assert!(logs[0].contains("/100 runs"), "bar drawn: {}", logs[0]);
     assert!(!logs[1].contains("/100 runs"), "-q: no bar: {}", logs[1]);
 }
+
+#[test]
+fn a_result_that_cannot_be_written_fails_but_a_closed_pipe_does_not() {
+    // stdout on a full disk (`--json > out.json`) lost the result with exit
+    // 0; stderr that cannot be written made the error path panic (exit 101).
+    let full = Path::new("/dev/full");
+    if !full.exists() {
+        eprintln!("skipped: no /dev/full on this system");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let map = repo("tests/data/small.osm");
+    let waymark = || {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_waymark"));
+        c.current_dir(dir.path());
+        c
+    };
+    let dev_full = || std::fs::OpenOptions::new().write(true).open(full).unwrap();
+    for args in [
+        vec!["network", "inspect", map.as_str(), "--json"],
+        vec!["network", "inspect", map.as_str()],
+    ] {
+        let out = waymark().args(&args).stdout(dev_full()).output().unwrap();
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            err.starts_with("waymark: error: standard output: ") && err.contains("No space"),
+            "{args:?}: {err}"
+        );
+    }
+    let out = waymark()
+        .args(["network", "inspect", "missing.osm"])
+        .stderr(dev_full())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    // A reader that stops early (`| head`) is no error.
+    let mut child = waymark()
+        .args(["network", "inspect", map.as_str(), "--json"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}

@@ -271,3 +271,77 @@ fn area_scenario(d: &Path) -> (PathBuf, String) {
     std::fs::write(&scn, &text).unwrap();
     (scn, text)
 }
+
+#[test]
+fn an_input_among_the_files_a_command_replaces_is_refused() {
+    // Planning again with the installed tags read from the earlier plan's
+    // own folder (`existing_tags = "plan/tags.csv"`, `--out plan`) replaced
+    // them with the new plan's tags.csv: 0 new tags, so the installed tags
+    // were gone and the file held a header alone.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let demo = std::fs::read_to_string(scenario("demo.toml"))
+        .unwrap()
+        .replace("../maps/", &format!("{}/maps/", env!("CARGO_MANIFEST_DIR")));
+    std::fs::write(d.join("demo.toml"), &demo).unwrap();
+    succeeded(&run(
+        &["plan", "demo.toml", "--out", "plan", "--runs", "0", "-q"],
+        d,
+    ));
+    let installed = std::fs::read_to_string(d.join("plan/tags.csv")).unwrap();
+    assert!(installed.lines().count() > 1, "{installed}");
+    std::fs::write(
+        d.join("again.toml"),
+        demo.replace(
+            "[planner]\n",
+            "[planner]\nexisting_tags = \"plan/tags.csv\"\n",
+        ),
+    )
+    .unwrap();
+    let one_line = |out: &Output, needles: &[&str]| {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        for n in needles {
+            assert!(stderr.contains(n), "{n:?} not in {stderr}");
+        }
+    };
+    one_line(
+        &run(&["plan", "again.toml", "--out", "plan", "--runs", "0"], d),
+        &[
+            "plan/tags.csv: planner.existing_tags",
+            "output folder's tags.csv",
+            "choose another --out",
+        ],
+    );
+    assert_eq!(
+        std::fs::read_to_string(d.join("plan/tags.csv")).unwrap(),
+        installed
+    );
+    // Into another folder it plans, keeping the installed tags.
+    succeeded(&run(
+        &["plan", "again.toml", "--out", "plan2", "--runs", "0", "-q"],
+        d,
+    ));
+    // simulate --tags: a file the simulation writes in its folder.
+    std::fs::create_dir(d.join("sim")).unwrap();
+    std::fs::write(d.join("sim/errors.csv"), &installed).unwrap();
+    one_line(
+        &run(
+            &[
+                "simulate",
+                "demo.toml",
+                "--tags",
+                "sim/errors.csv",
+                "--out",
+                "sim",
+            ],
+            d,
+        ),
+        &["sim/errors.csv: --tags", "output folder's errors.csv"],
+    );
+    assert_eq!(
+        std::fs::read_to_string(d.join("sim/errors.csv")).unwrap(),
+        installed
+    );
+}

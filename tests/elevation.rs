@@ -789,6 +789,53 @@ fn bad_elevation_models_are_one_line_errors() {
     assert_eq!(MAX_DEM_PIXELS, 1 << 27);
 }
 
+#[test]
+fn heights_no_terrain_has_are_refused_naming_the_file() {
+    // Heights of 3e38 m (a float raster's damaged or unmarked no-data
+    // pixels) made the navigator diverge, blamed on the [imu] and [filter]
+    // settings; 1e6 m and -20 km simulated a drive 1000 km up or 20 km
+    // down without a word.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (name, h, shown) in [
+        ("float-max.tif", 3e38, "e38 m"),
+        ("space.tif", 1e6, "1000000 m"),
+        ("deep.tif", -20_000.0, "-20000 m"),
+        ("neg.tif", -3e38, "e38 m"),
+    ] {
+        write_dem(&d.join(name), helsinki(), |_, _| h);
+        let scn = scenario(d, &format!("elevation = \"{name}\""), ROUTE);
+        for cmd in ["simulate", "plan"] {
+            let out = run(&[cmd, scn.to_str().unwrap(), "--out", "out", "-q"], d);
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{cmd} {name}: {err}");
+            assert_eq!(err.trim_end().lines().count(), 1, "{cmd} {name}: {err}");
+            for w in [
+                name,
+                shown,
+                "outside -1000 to 10000 m",
+                "not a terrain height",
+            ] {
+                assert!(err.contains(w), "{cmd} {name}: {w:?} not in {err}");
+            }
+            assert!(!d.join("out").exists(), "{cmd} {name}: an output folder");
+        }
+    }
+    // The range's ends are terrain (a plane at the limits still runs).
+    write_dem(&d.join("high.tif"), helsinki(), |_, _| 9_000.0);
+    let scn = scenario(d, "elevation = \"high.tif\"", ROUTE);
+    let out = run(
+        &["simulate", scn.to_str().unwrap(), "--out", "out", "-q"],
+        d,
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// The portal heights (the DEM's) of the tunnel-or-bridge structure each
 /// structure road belongs to: structures are the connected sets of
 /// structure sections; portals their nodes that end the network or touch

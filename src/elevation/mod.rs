@@ -12,7 +12,8 @@
 //!   surround the point is used; failing that, the first whose area covers
 //!   it.
 //! * A point outside every tile, or next to a no-data pixel, is an error
-//!   naming the file(s) and the point: there is no silent fallback height.
+//!   naming the file(s) and the point: there is no silent fallback height;
+//!   so is a height outside [`TERRAIN_HEIGHT_RANGE_M`].
 //! * Heights are the file's values: for SRTM and GLO-30, metres above the
 //!   EGM96 / EGM2008 geoid, not the WGS-84 ellipsoid (a constant offset over
 //!   a map's extent to within a few decimetres: the barometer and the
@@ -33,6 +34,14 @@ use std::path::{Path, PathBuf};
 /// raster as f32; ten Copernicus GLO-30 1° tiles of 3600 × 3600 fit).
 /// Checked from each file's header before its raster is decoded.
 pub const MAX_DEM_PIXELS: u64 = 1 << 27;
+
+/// Terrain heights a route may take from an elevation model (m): as a
+/// scenario's heights (`route[0].height_m`, a tag's `height_m`), from
+/// below the Dead Sea's shore to above Everest. A height beyond is a
+/// damaged pixel or another unit, and it made the navigator diverge (at
+/// 3e38 m) or run 1000 km above the ground (at 1e6 m) without a word about
+/// the file.
+pub const TERRAIN_HEIGHT_RANGE_M: (f64, f64) = (-1000.0, 10_000.0);
 
 /// A digital elevation model: one or more GeoTIFF tiles.
 #[derive(Debug, Clone)]
@@ -116,12 +125,25 @@ impl Dem {
     }
 
     fn value(&self, tile: usize, v: Option<f64>, lat: f64, lon: f64) -> Result<f64> {
-        v.ok_or_else(|| {
+        let h = v.ok_or_else(|| {
             self.error(
                 tile,
                 format!("no height at {lat:.6}, {lon:.6}: a pixel next to it is no data (GDAL_NODATA or NaN)"),
             )
-        })
+        })?;
+        let (lo, hi) = TERRAIN_HEIGHT_RANGE_M;
+        if !(lo..=hi).contains(&h) {
+            return Err(self.error(
+                tile,
+                format!(
+                    "the height at {lat:.6}, {lon:.6} is {} m, outside {lo} to {hi} m: not a \
+                     terrain height (a damaged pixel, heights not in metres, or no data \
+                     without a GDAL_NODATA tag)",
+                    crate::decimal::short_number(h.round())
+                ),
+            ));
+        }
+        Ok(h)
     }
 
     fn error(&self, tile: usize, message: String) -> Error {

@@ -143,17 +143,22 @@ fn on_section(net: &Network, p: &MatchedPoint) -> OnSection {
 
 /// Scores matched lengths against true lengths.
 pub fn score(matched: &RoadLengths, truth: &RoadLengths) -> Score {
-    let matched_length_m: f64 = matched.values().sum();
-    let truth_length_m: f64 = truth.values().sum();
-    let on_truth: f64 = matched
-        .iter()
-        .filter(|(k, _)| truth.contains_key(*k))
-        .map(|(_, v)| v)
-        .sum();
-    let covered: f64 = truth
-        .iter()
-        .map(|(k, t)| matched.get(k).map_or(0.0, |m| m.min(*t)))
-        .sum();
+    // Sums from +0: `Iterator::sum` of no `f64` is -0.0, which printed a
+    // precision of "-0.0000" when no matched road was a true one.
+    let total = |it: &mut dyn Iterator<Item = f64>| it.fold(0.0, |a, x| a + x);
+    let matched_length_m = total(&mut matched.values().copied());
+    let truth_length_m = total(&mut truth.values().copied());
+    let on_truth = total(
+        &mut matched
+            .iter()
+            .filter(|(k, _)| truth.contains_key(*k))
+            .map(|(_, v)| *v),
+    );
+    let covered = total(
+        &mut truth
+            .iter()
+            .map(|(k, t)| matched.get(k).map_or(0.0, |m| m.min(*t))),
+    );
     let correct = matched.keys().filter(|k| truth.contains_key(*k)).count();
     let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
     Score {

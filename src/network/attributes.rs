@@ -167,7 +167,7 @@ impl<'a> TagSet<'a> {
         let highway = self.highway.unwrap_or("road");
         RoadAttributes {
             id,
-            name: self.name.map(str::to_owned),
+            name: self.name.map(printable_name),
             highway: highway.to_owned(),
             oneway: parse_oneway(self.oneway, self.junction, highway),
             lanes: self.lanes.and_then(parse_lanes),
@@ -183,6 +183,16 @@ impl<'a> TagSet<'a> {
                 .unwrap_or(0),
         }
     }
+}
+
+/// A road's name as messages and files print it: each control character
+/// (a line break, an escape sequence's ESC) a space. Names are the map's
+/// text: a name holding a line break split the one-line error that quotes
+/// it, and an ESC sent its terminal colours.
+fn printable_name(name: &str) -> String {
+    name.chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .collect()
 }
 
 /// Direction of travel from `oneway`, `junction` and the road class.

@@ -3,7 +3,8 @@
 
 use crate::error::{Error, Result};
 use crate::fsio::write_atomic;
-use std::path::Path;
+use crate::scenario::{RouteKind, Scenario};
+use std::path::{Path, PathBuf};
 
 /// Checks, before any work starts, that `dir` can become a command's output
 /// folder: it is a folder or does not exist yet, and its nearest existing
@@ -66,6 +67,60 @@ pub(super) fn check_distinct_files(
                         } else {
                             "replace the other output"
                         }
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The files of a scenario that a command reads besides the scenario
+/// itself, each with the field that names it: the map, the elevation
+/// model's tiles, the installed tags and the destinations.
+pub(super) fn scenario_inputs(scn: &Scenario) -> Vec<(PathBuf, &'static str)> {
+    let mut inputs = Vec::new();
+    if let RouteKind::Map { map, .. } = &scn.route {
+        inputs.push((map.clone(), "map.path"));
+    }
+    for tile in &scn.elevation {
+        inputs.push((tile.clone(), "map.elevation"));
+    }
+    let p = scn.planner();
+    if let Some(f) = &p.existing_tags {
+        inputs.push((f.clone(), "planner.existing_tags"));
+    }
+    if let Some(f) = &p.destinations {
+        inputs.push((f.clone(), "planner.destinations"));
+    }
+    inputs
+}
+
+/// Checks, before any work, that no input is a file the command replaces in
+/// its output folder `dir` (`own`, as given to [`clear_outputs`], and the
+/// report made from the folder): `planner.existing_tags = "plan/tags.csv"`
+/// with `--out plan` replaced the installed tags with the new plan's, and a
+/// plan that adds no tag left an empty file. The copy of the scenario
+/// (`scenario.toml`) is not one of them: it may be run again into its own
+/// folder.
+pub(super) fn check_inputs_outside_outputs(
+    dir: &Path,
+    own: &[&str],
+    inputs: &[(&Path, &str)],
+) -> Result<()> {
+    for (input, field) in inputs {
+        let Some(id) = file_identity(input) else {
+            continue;
+        };
+        for name in own.iter().chain(&["report.html"]) {
+            if file_identity(&dir.join(name)).as_ref() == Some(&id) {
+                return Err(Error::format(
+                    input,
+                    format!(
+                        "{field} is the output folder's {name}, which this command replaces: \
+                         writing it would destroy the input; choose another --out, or move \
+                         the file out of {}",
+                        dir.display()
                     ),
                 ));
             }

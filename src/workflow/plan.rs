@@ -1,6 +1,9 @@
 //! `waymark plan`: plan, validate, write the plan folder.
 
-use super::inputs::{check_out_dir, clear_outputs, keep_inputs, PLAN_OUTPUTS};
+use super::inputs::{
+    check_inputs_outside_outputs, check_out_dir, clear_outputs, keep_inputs, scenario_inputs,
+    PLAN_OUTPUTS,
+};
 use super::progress::Progress;
 use crate::elevation::Dem;
 use crate::error::{Error, Result};
@@ -230,6 +233,13 @@ pub fn plan_folder(job: &PlanJob, progress: &dyn Progress) -> Result<PlanOutcome
     let t0 = Instant::now();
     let scn = Scenario::load(job.scenario)?;
     check_out_dir(job.out_dir)?;
+    let inputs = scenario_inputs(&scn);
+    let inputs: Vec<(&Path, &str)> = inputs.iter().map(|(p, f)| (p.as_path(), *f)).collect();
+    check_inputs_outside_outputs(
+        job.out_dir,
+        &[PLAN_OUTPUTS, &["tags.meta.json", "inputs.json"]].concat(),
+        &inputs,
+    )?;
     let mut settings = PlannerSettings::from_scenario(&scn)?;
     if let Some(r) = job.runs {
         settings.validation_runs = r;

@@ -1,6 +1,9 @@
 //! `waymark simulate`: Monte Carlo runs of a scenario, written to a folder.
 
-use super::inputs::{check_out_dir, clear_outputs, keep_inputs, SIMULATION_OUTPUTS};
+use super::inputs::{
+    check_inputs_outside_outputs, check_out_dir, clear_outputs, keep_inputs, scenario_inputs,
+    SIMULATION_OUTPUTS,
+};
 use super::progress::Progress;
 use crate::error::{Error, Result};
 use crate::scenario::Scenario;
@@ -8,6 +11,16 @@ use crate::sim::tags::{load_tags_csv, refuse_ids_of_scenario_tags, Tag};
 use crate::sim::{output, simulate_with, SimResult, TruthSource};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// What `waymark simulate` writes beside [`SIMULATION_OUTPUTS`]: the
+/// example runs and the record of its inputs (an input must not be one).
+const SIMULATION_EXTRA_OUTPUTS: [&str; 5] = [
+    "errors_median_run.csv",
+    "tag_passes_median_run.csv",
+    "errors_worst_run.csv",
+    "tag_passes_worst_run.csv",
+    "inputs.json",
+];
 
 /// What to simulate and where to write it.
 #[derive(Debug, Clone, Copy)]
@@ -74,6 +87,16 @@ pub fn simulate_folder(job: &SimulateJob, progress: &dyn Progress) -> Result<Sim
     }
     let scn = Scenario::load(job.scenario)?;
     check_out_dir(job.out_dir)?;
+    let mut inputs = scenario_inputs(&scn);
+    if let Some(t) = job.tags {
+        inputs.push((t.to_path_buf(), "--tags"));
+    }
+    let inputs: Vec<(&Path, &str)> = inputs.iter().map(|(p, f)| (p.as_path(), *f)).collect();
+    check_inputs_outside_outputs(
+        job.out_dir,
+        &[SIMULATION_OUTPUTS, &SIMULATION_EXTRA_OUTPUTS].concat(),
+        &inputs,
+    )?;
     let truth = TruthSource::new(&scn)?;
     simulate_loaded(job, &scn, &truth, progress, t0)
 }

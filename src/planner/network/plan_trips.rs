@@ -24,13 +24,19 @@ use std::time::Instant;
 /// Snap distance of listed destinations (m).
 const DESTINATION_SNAP_M: f64 = 100.0;
 
+/// Largest weight of a listed destination: weights are relative (a share
+/// of the trips), and 1e9 destinations of this weight still add up to a
+/// finite total (1e308 twice overflowed to infinity, and every trip then
+/// started at the last destination).
+const MAX_DESTINATION_WEIGHT: f64 = 1e9;
+
 /// Reads `planner.destinations`: `lat,lon[,weight]` per line, an optional
 /// header, each point snapped to the nearest road.
 fn read_destinations(
     path: &std::path::Path,
     net: &Network,
 ) -> Result<(Vec<SectionPoint>, Vec<f64>)> {
-    let err = |m: String| Error::InvalidParameter(format!("{}: {m}", path.display()));
+    let err = |m: String| Error::format(path, m);
     // Limited like a tag file: an endless input (`/dev/zero`) or a huge
     // file is refused, not read until memory runs out.
     let text = crate::fsio::read_text_limited(
@@ -66,8 +72,13 @@ fn read_destinations(
             }
             None => 1.0,
         };
-        if !(weight.is_finite() && weight >= 0.0) {
-            return Err(err(format!("line {}: weight {weight} must be ≥ 0", i + 1)));
+        if !(weight.is_finite() && (0.0..=MAX_DESTINATION_WEIGHT).contains(&weight)) {
+            return Err(err(format!(
+                "line {}: weight {} must be between 0 and {} (weights are relative)",
+                i + 1,
+                crate::decimal::short_number(weight),
+                crate::decimal::short_number(MAX_DESTINATION_WEIGHT)
+            )));
         }
         let (p, _, _) = snap(net, [lat, lon], DESTINATION_SNAP_M).map_err(|e| {
             err(format!(
@@ -188,22 +199,23 @@ pub(super) fn plan_network_trips(
         Some(path) => {
             let (pts, w) = read_destinations(path, net)?;
             if let Some(i) = pts.iter().position(|q| !main[q.section as usize]) {
-                return Err(Error::InvalidParameter(format!(
-                    "{}: destination {} lies on a road outside the network's main connected part \
-                     (trips from or to it cannot be routed both ways)",
-                    path.display(),
-                    i + 1
-                )));
+                return Err(Error::format(
+                    path,
+                    format!(
+                        "destination {} lies on a road outside the network's main connected \
+                         part (trips from or to it cannot be routed both ways)",
+                        i + 1
+                    ),
+                ));
             }
             Destinations::listed(net, pts, &w).map_err(|e| {
-                Error::InvalidParameter(format!(
-                    "{}: {}",
-                    path.display(),
+                Error::format(
+                    path,
                     match e {
                         Error::InvalidParameter(m) => m,
                         o => o.to_string(),
-                    }
-                ))
+                    },
+                )
             })?
         }
         None => Destinations::by_length(net, &model, &main)?,

@@ -294,9 +294,17 @@ impl Destinations {
             t += w;
             cum.push(t);
         }
-        if points.len() < 2 || t <= 0.0 {
+        // Two places to drive between: a trip from a destination to itself
+        // is no trip, and a destination of weight 0 is never drawn.
+        let mut places = points.iter().zip(weights).filter(|(_, &w)| w > 0.0);
+        let two_places = places
+            .next()
+            .is_some_and(|(first, _)| places.any(|(p, _)| p != first));
+        if points.len() < 2 || !(t > 0.0 && t.is_finite()) || !two_places {
             return Err(Error::InvalidParameter(
-                "trips need at least two destinations with a positive weight".into(),
+                "trips need at least two destinations with a positive weight at different \
+                 places on the roads"
+                    .into(),
             ));
         }
         Ok(Self {
