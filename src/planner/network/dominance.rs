@@ -24,6 +24,10 @@
 use super::window_sets::WindowSets;
 use rayon::prelude::*;
 
+/// Candidate tests (window pairs sharing a first site) the search makes at
+/// most; past it every window still short is kept.
+pub(crate) const MAX_CANDIDATE_TESTS: u64 = 4_000_000_000;
+
 /// The rows kept: their sites (variable ones only), needs, and the window
 /// each came from.
 pub(crate) struct Rows {
@@ -41,8 +45,17 @@ pub(crate) struct Rows {
 ///
 /// Edge cases: a window with no variable site is kept when it still needs
 /// sites (it makes the programme infeasible; the caller's business); no
-/// window short → no rows.
+/// window short → no rows; past [`MAX_CANDIDATE_TESTS`] candidate tests
+/// (long windows sharing their sites: Liechtenstein without map matching
+/// would need 1.6·10¹¹ to 8.3·10¹¹, Gothenburg's trips plan needs 1.3·10⁹)
+/// the search is skipped and every window still short is a row.
 pub(crate) fn essential_rows(windows: &WindowSets, need: &[f64], var: &[bool]) -> Rows {
+    essential_rows_within(windows, need, var, MAX_CANDIDATE_TESTS)
+}
+
+/// [`essential_rows`] with at most `max_tests` candidate tests: past them,
+/// every window still short is kept.
+fn essential_rows_within(windows: &WindowSets, need: &[f64], var: &[bool], max_tests: u64) -> Rows {
     let n = windows.len();
     // One of 64 bits per site (a multiplicative hash of its id).
     let bit = |s: u32| 1u64 << (s.wrapping_mul(0x9E37_79B9) >> 26);
@@ -95,11 +108,31 @@ pub(crate) fn essential_rows(windows: &WindowSets, need: &[f64], var: &[bool]) -
             fill[*f as usize] += 1;
         }
     }
+    // The candidate tests the search would make: on long windows that
+    // share their sites (plans without map matching) they grow with the
+    // square of the windows' length, so past the budget no window is
+    // dropped (all are kept: a valid, larger programme).
+    let tests: u64 = (0..n)
+        .into_par_iter()
+        .filter(|&w| need[w] > 0.0)
+        .map(|w| {
+            let ids = windows.get(w);
+            ids.iter()
+                .enumerate()
+                .filter(|&(i, &s)| var[s as usize] && (i == 0 || ids[i - 1] != s))
+                .map(|(_, &s)| (start[s as usize + 1] - start[s as usize]) as u64)
+                .sum::<u64>()
+        })
+        .sum();
+    let search = tests <= max_tests;
     let keep: Vec<bool> = (0..n)
         .into_par_iter()
         .map(|w| {
             if need[w] <= 0.0 {
                 return false;
+            }
+            if !search {
+                return true;
             }
             let ids = windows.get(w);
             !ids.iter().enumerate().any(|(i, &s)| {
@@ -306,5 +339,22 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Past the budget of candidate tests nothing is dropped: every window
+    /// still short is a row (a valid, larger programme).
+    #[test]
+    fn past_the_test_budget_every_short_window_is_kept() {
+        let sets = [vec![0, 1, 2, 3], vec![1, 2], vec![1, 2, 4], vec![4, 5]];
+        let w = WindowSets::from_vecs(&sets);
+        let var = vec![true; 6];
+        let need = [2.0, 2.0, 0.0, 2.0];
+        assert_eq!(
+            essential_rows_within(&w, &need, &var, u64::MAX).window,
+            vec![1, 3]
+        );
+        let all = essential_rows_within(&w, &need, &var, 0);
+        assert_eq!(all.window, vec![0, 1, 3]);
+        assert_eq!(all.sets.get(0), &[0, 1, 2, 3]);
     }
 }

@@ -613,6 +613,14 @@ pub const MAX_UTURNS: u8 = 1;
 /// Most paths followed from one window start (a guard against forks).
 const MAX_PATHS: usize = 256;
 
+/// Most steps (an edge entered) from one window start. Walks that end at a
+/// bend close no window and so do not count towards [`MAX_PATHS`]; where
+/// the reach is long (a loose requirement) or the budget does not grow
+/// (rate 0), such walks fork without end and, round a ring of straight
+/// transitions, never end at all. Windows a truncated start misses are
+/// left to the certification rounds, as for [`MAX_PATHS`].
+const MAX_STEPS: usize = 1 << 16;
+
 /// A straight walk's state at an edge.
 struct Step {
     edge: u32,
@@ -667,6 +675,7 @@ pub(crate) fn straight_windows(
         );
         for (x0, inclusive) in starts {
             let mut paths = 0usize;
+            let mut steps = 0usize;
             // Stack of (edge, position along it, budget so far, sites so far,
             // a U-turn made, the headings of the last CURVE_M, chainage).
             let mut stack: Vec<Step> = vec![Step {
@@ -679,6 +688,10 @@ pub(crate) fn straight_windows(
                 c: 0.0,
             }];
             while let Some(st) = stack.pop() {
+                steps += 1;
+                if steps > MAX_STEPS {
+                    break;
+                }
                 let Step {
                     edge: ed,
                     x,
