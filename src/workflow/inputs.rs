@@ -106,7 +106,7 @@ pub(super) fn scenario_inputs(scn: &Scenario) -> Vec<(PathBuf, &'static str)> {
 pub(super) fn check_inputs_outside_outputs(
     dir: &Path,
     own: &[&str],
-    inputs: &[(&Path, &str)],
+    inputs: &[(PathBuf, &str)],
 ) -> Result<()> {
     for (input, field) in inputs {
         let Some(id) = file_identity(input) else {

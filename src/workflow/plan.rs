@@ -233,12 +233,10 @@ pub fn plan_folder(job: &PlanJob, progress: &dyn Progress) -> Result<PlanOutcome
     let t0 = Instant::now();
     let scn = Scenario::load(job.scenario)?;
     check_out_dir(job.out_dir)?;
-    let inputs = scenario_inputs(&scn);
-    let inputs: Vec<(&Path, &str)> = inputs.iter().map(|(p, f)| (p.as_path(), *f)).collect();
     check_inputs_outside_outputs(
         job.out_dir,
         &[PLAN_OUTPUTS, &["tags.meta.json", "inputs.json"]].concat(),
-        &inputs,
+        &scenario_inputs(&scn),
     )?;
     let mut settings = PlannerSettings::from_scenario(&scn)?;
     if let Some(r) = job.runs {

@@ -91,7 +91,6 @@ pub fn simulate_folder(job: &SimulateJob, progress: &dyn Progress) -> Result<Sim
     if let Some(t) = job.tags {
         inputs.push((t.to_path_buf(), "--tags"));
     }
-    let inputs: Vec<(&Path, &str)> = inputs.iter().map(|(p, f)| (p.as_path(), *f)).collect();
     check_inputs_outside_outputs(
         job.out_dir,
         &[SIMULATION_OUTPUTS, &SIMULATION_EXTRA_OUTPUTS].concat(),

@@ -254,6 +254,14 @@ mod tests {
         assert_eq!(got, vec![(vec![1, 2], 1.0, 0)]);
     }
 
+    /// A random stretch of consecutive sites among `n` (a window along a
+    /// chain).
+    fn stretch(rng: &mut ChaCha8Rng, n: usize) -> Vec<u32> {
+        let a = rng.random_range(0..n as u32);
+        let b = rng.random_range(a..n as u32) + 1;
+        (a..b).collect()
+    }
+
     /// On random chains: the kept rows admit exactly the integer selections
     /// all windows admit (every subset of the sites, by brute force), and
     /// no kept row is implied by another (the search is complete).
@@ -266,11 +274,9 @@ mod tests {
             let mut sets = Vec::new();
             let mut need = Vec::new();
             for _ in 0..rng.random_range(1..12) {
-                let a = rng.random_range(0..n as u32);
-                let b = rng.random_range(a..n as u32) + 1;
-                let mut s: Vec<u32> = (a..b).collect();
+                let mut s = stretch(&mut rng, n);
                 if rng.random_bool(0.2) {
-                    s.push(a);
+                    s.push(s[0]);
                     s.sort_unstable();
                 }
                 sets.push(s);
@@ -317,11 +323,7 @@ mod tests {
             let pre: Vec<bool> = (0..n).map(|_| rng.random_bool(0.15)).collect();
             let demand = rng.random_range(1..3usize);
             let sets: Vec<Vec<u32>> = (0..rng.random_range(1..12))
-                .map(|_| {
-                    let a = rng.random_range(0..n as u32);
-                    let b = rng.random_range(a..n as u32) + 1;
-                    (a..b).collect()
-                })
+                .map(|_| stretch(&mut rng, n))
                 .collect();
             let all = WindowSets::from_vecs(&sets);
             let (sub, kept) = essential_windows(&all, demand, &pre);
