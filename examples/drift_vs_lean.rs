@@ -5,7 +5,12 @@
 //! from the track?" (issue 15). Complete-path precision and recall by
 //! length, both models with `waymark match`'s defaults from the track.
 //!
-//! Usage: cargo run --release --example drift_vs_lean
+//! Usage: cargo run --release --example drift_vs_lean [noisy]
+//!
+//! With `noisy`: white noise of 10-60 m with and without drift, at 10 m and
+//! 200 m spacing, and σ̂ per track (the error `waymark match` estimates from
+//! the track) in place of z: the measurement behind "Could σ̂ choose the
+//! model?" in the same BENCHMARKS.md section.
 //!
 //! Tracks: the U routes over parallel two-way roads of
 //! tests/matching_accuracy.rs on the Gothenburg map, and eight seeded
@@ -18,7 +23,7 @@ mod parallel;
 
 use waymark::matching::cpath::complete_path;
 use waymark::matching::evaluate::score;
-use waymark::matching::options::MatchOptions;
+use waymark::matching::options::{self, MatchOptions};
 use waymark::matching::path_out::path_lengths;
 use waymark::matching::{along_route, match_track, HmmMatcher, HmmModel, Matcher, TrackModel};
 use waymark::network::{LoadOptions, Network};
@@ -49,14 +54,31 @@ fn random_routes(net: &Network, n: usize, min_m: f64) -> Vec<Route> {
     out
 }
 
-fn run(name: &str, net: &Network, routes: &[Route]) {
+fn run(name: &str, net: &Network, routes: &[Route], noisy: bool) {
     let drift = MatchOptions::default();
     let lean = MatchOptions {
         model: HmmModel::Independent,
         ..MatchOptions::default()
     };
-    for spacing in [1.0, 10.0, 30.0, 50.0, 100.0, 170.0, 300.0] {
-        for (dmax, noise) in [(30.0, 2.0), (10.0, 2.0), (0.0, 5.0)] {
+    let (spacings, conditions): (&[f64], &[(f64, f64)]) = if noisy {
+        (
+            &[10.0, 200.0],
+            &[
+                (0.0, 10.0),
+                (0.0, 30.0),
+                (0.0, 60.0),
+                (20.0, 50.0),
+                (50.0, 50.0),
+            ],
+        )
+    } else {
+        (
+            &[1.0, 10.0, 30.0, 50.0, 100.0, 170.0, 300.0],
+            &[(30.0, 2.0), (10.0, 2.0), (0.0, 5.0)],
+        )
+    };
+    for &spacing in spacings {
+        for &(dmax, noise) in conditions {
             let mut acc = [[0.0f64; 4]; 2];
             let mut zs = Vec::new();
             for (k, route) in routes.iter().enumerate() {
@@ -72,7 +94,11 @@ fn run(name: &str, net: &Network, routes: &[Route]) {
                         seed: 500 + k as u64,
                     },
                 );
-                zs.push(stat(net, &t.fixes));
+                zs.push(if noisy {
+                    options::estimate_sigma_m(net, &t.fixes).unwrap_or(f64::NAN)
+                } else {
+                    stat(net, &t.fixes)
+                });
                 for (j, o) in [drift, lean].iter().enumerate() {
                     let params = o.hmm_params(net, &t.fixes);
                     let mut m = HmmMatcher::new(net, params);
@@ -87,7 +113,8 @@ fn run(name: &str, net: &Network, routes: &[Route]) {
                 }
             }
             let z: Vec<String> = zs.iter().map(|z| format!("{z:.1}")).collect();
-            println!("{name} sp {spacing} drift {dmax} noise {noise}: drift P {:.3} R {:.3} | lean P {:.3} R {:.3} | z {}", acc[0][0]/acc[0][1], acc[0][2]/acc[0][3], acc[1][0]/acc[1][1], acc[1][2]/acc[1][3], z.join(" "));
+            let label = if noisy { "sigma-hat" } else { "z" };
+            println!("{name} sp {spacing} drift {dmax} noise {noise}: drift P {:.3} R {:.3} | lean P {:.3} R {:.3} | {label} {}", acc[0][0]/acc[0][1], acc[0][2]/acc[0][3], acc[1][0]/acc[1][1], acc[1][2]/acc[1][3], z.join(" "));
         }
     }
 }
@@ -120,7 +147,8 @@ fn stat(net: &Network, fixes: &[waymark::matching::Fix]) -> f64 {
 }
 
 fn main() {
-    // The real traces: z per track.
+    let noisy = std::env::args().nth(1).as_deref() == Some("noisy");
+    // The real traces: z and σ̂ per track.
     let real = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real");
     for (map, track) in [
         ("fmm-network.geojson", "fmm-trips.geojson"),
@@ -135,9 +163,10 @@ fn main() {
                 .map(|&i| waymark::matching::track::to_fix(&net, &rows[i]))
                 .collect();
             println!(
-                "{track} track {id}: {} fixes, z {:.2}",
+                "{track} track {id}: {} fixes, z {:.2}, sigma-hat {:.1} m",
                 f.len(),
-                stat(&net, &f)
+                stat(&net, &f),
+                options::estimate_sigma_m(&net, &f).unwrap_or(f64::NAN)
             );
         }
     }
@@ -148,8 +177,8 @@ fn main() {
     )
     .unwrap();
     let pr = parallel_routes(&g);
-    run("parallel", &g, &pr);
+    run("parallel", &g, &pr, noisy);
     let h = Network::load(&maps.join("helsinki.osm.pbf"), &LoadOptions::default()).unwrap();
     let hr = random_routes(&h, 8, 1200.0);
-    run("helsinki", &h, &hr);
+    run("helsinki", &h, &hr, noisy);
 }
