@@ -189,7 +189,7 @@ enum Command {
         /// Base seed of the validation (default: the scenario's `seed`, else 1).
         #[arg(long)]
         seed: Option<u64>,
-        /// Also find the uniform-spacing baseline: the largest spacing that passes the plan's covariance check (any k consecutive tags missed) and whose validation keeps ≥ 99 % of distance within the requirement.
+        /// Also compute a baseline. Route coverage: the uniform-spacing baseline, the largest spacing that passes the plan's covariance check (any k consecutive tags missed) and whose validation keeps ≥ 99 % of distance within the requirement. Network coverage: the validation's chains, runs and seeds driven again without the planned tags (installed ones kept), to show what the tags buy.
         #[arg(long)]
         baseline: bool,
         /// Print one JSON object (plan.json's content and the files) on stdout.

@@ -88,6 +88,8 @@ fn network_plan_cli_on_helsinki_writes_verified_validated_plan() {
     );
     assert!(v["max_horizontal_error_m"].as_f64().unwrap() > 0.0);
     assert!(v["worst_lat"].as_f64().unwrap() > 60.0);
+    // No baseline without `--baseline`.
+    assert!(v["without_new_tags"].is_null(), "{v}");
     // Files: one CSV row and one feature per new tag, with payloads.
     let csv = std::fs::read_to_string(o.join("tags.csv")).unwrap();
     let rows: Vec<&str> = csv
@@ -288,4 +290,117 @@ coverage = "network"
     let s = PlannerSettings::from_scenario(&scn).unwrap();
     let e = plan_network(&scn, &s, 1, false).unwrap_err().to_string();
     assert!(e.contains("infeasible") && e.contains("road "), "{e}");
+}
+
+/// `plan --baseline` on a network plan: the validation's chains, runs and
+/// seeds driven again without the planned tags (installed ones kept), and
+/// the samples where the planner's own budget says tags are needed.
+#[test]
+fn network_plan_baseline_drives_the_same_chains_without_the_new_tags() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let ok = |out: &std::process::Output| {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    let plan_args = |scn: &Path, out: &str, runs: &str| {
+        run(
+            &[
+                "plan",
+                scn.to_str().unwrap(),
+                "--out",
+                out,
+                "--runs",
+                runs,
+                "--baseline",
+            ],
+            dir.path(),
+        )
+    };
+
+    // A fresh plan: the baseline has no tag at all.
+    let stdout = ok(&plan_args(
+        &repo("scenarios/helsinki-network-plan.toml"),
+        "a",
+        "6",
+    ));
+    assert!(stdout.contains("baseline: the same chains"), "{stdout}");
+    assert!(
+        stdout.contains("where the plan's model needs tags"),
+        "{stdout}"
+    );
+    let plan = json(&dir.path().join("a/plan.json"));
+    let v = &plan["validation"];
+    let b = &v["without_new_tags"];
+    assert_eq!(b["tags"], 0, "{b}");
+    // The same chains and runs: as many thinned samples.
+    assert_eq!(b["thinned_samples"], v["thinned_samples"]);
+    let over = v["over_budget_samples"].as_u64().unwrap();
+    assert!(over <= v["thinned_samples"].as_u64().unwrap());
+    assert!(v["over_budget_within"].as_u64().unwrap() <= over);
+    assert!(b["over_budget_within"].as_u64().unwrap() <= over);
+    assert!(v["max_budget_without_tags"].as_f64().unwrap() >= 0.0);
+    // Without this plan's tags the drives are not the same: with the tags
+    // removed at least one figure moves (an any-walk plan without map
+    // matching credit puts tags on most chains).
+    assert_ne!(
+        (
+            &b["fraction_within_requirement"],
+            &b["median_run_max_m"],
+            &b["max_horizontal_error_m"]
+        ),
+        (
+            &v["fraction_within_requirement"],
+            &v["median_run_max_m"],
+            &v["max_horizontal_error_m"]
+        ),
+        "the baseline drove the plan's tags"
+    );
+
+    // Re-planned with that plan installed: no new tag, so the baseline
+    // keeps every tag and must reproduce the validation exactly (same
+    // chains, runs and seeds).
+    let s2 = scenario_file(dir.path(), |t| {
+        t.replace(
+            "validation_runs = 100",
+            &format!(
+                "existing_tags = \"{}\"",
+                dir.path().join("a/tags.csv").display()
+            ),
+        )
+    });
+    ok(&plan_args(&s2, "b", "6"));
+    let plan2 = json(&dir.path().join("b/plan.json"));
+    assert_eq!(plan2["tag_count"], 0);
+    let v2 = &plan2["validation"];
+    let b2 = &v2["without_new_tags"];
+    assert_eq!(b2["tags"], plan2["existing_kept"]);
+    assert!(b2["tags"].as_u64().unwrap() > 0);
+    for k in [
+        "fraction_within_requirement",
+        "thinned_within",
+        "median_run_max_m",
+        "max_horizontal_error_m",
+        "runs_exceeding",
+    ] {
+        assert_eq!(b2[k], v2[k], "{k}");
+    }
+    assert_eq!(b2["over_budget_within"], v2["over_budget_within"]);
+
+    // Without validation runs there is nothing to compare: one error line.
+    let out = plan_args(&repo("scenarios/helsinki-network-plan.toml"), "c", "0");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--baseline") && err.contains("--runs 0"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(!dir.path().join("c/plan.json").exists());
 }

@@ -159,6 +159,44 @@ impl NetworkPlanFile {
                     v.worst_lon,
                     v.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default()
                 ));
+            lines.push(format!(
+                "where the plan's model needs tags (its budget without tags above 1, at most {:.2} on these drives): \
+                 {} of {} samples, {} within {} m; max error there {:.2} m",
+                v.max_budget_without_tags,
+                v.over_budget_samples,
+                v.thinned_samples,
+                v.over_budget_within,
+                p.requirement_m,
+                v.over_budget_max_error_m,
+            ));
+            if let Some(b) = &v.without_new_tags {
+                lines.push(format!(
+                    "baseline: the same chains, runs and seeds {}: {:.2} % of time within {} m; {}; \
+                     {} run(s) with a maximum above it (median run maximum {:.2} m); max horizontal error {:.2} m \
+                     (chain {}, run {}, t = {:.0} s{}); where the model needs tags {} of {} samples within, max error there {:.2} m; \
+                     map matching on the wrong road {:.2} % of fixes (with the plan {:.2} %)",
+                    if b.tags > 0 {
+                        format!("with only the {} installed tag(s)", b.tags)
+                    } else {
+                        "without any tag".to_string()
+                    },
+                    100.0 * b.fraction_within_requirement,
+                    p.requirement_m,
+                    b.rule,
+                    b.runs_exceeding,
+                    b.median_run_max_m,
+                    b.max_horizontal_error_m,
+                    b.worst_path,
+                    b.worst_run,
+                    b.worst_t_s,
+                    b.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default(),
+                    b.over_budget_within,
+                    v.over_budget_samples,
+                    b.over_budget_max_error_m,
+                    100.0 * b.map_matching_wrong_road_share,
+                    100.0 * v.map_matching_wrong_road_share,
+                ));
+            }
             if let Some(d) = &v.design_walks {
                 lines.push(format!(
                     "validation on the walk DP's {} worst walk(s), {} run(s) each, their tags missed and every other tag read: {}; \
@@ -413,10 +451,10 @@ fn network_plan_folder(
     progress: &dyn Progress,
     t0: Instant,
 ) -> Result<PlanOutcome> {
-    if job.baseline {
+    if job.baseline && settings.validation_runs == 0 {
         return Err(Error::InvalidParameter(
-            "--baseline compares with uniform spacing along a route; it does not apply to \
-             coverage = \"network\""
+            "--baseline: a network plan's baseline is its validation driven without the \
+             planned tags, so it needs validation runs (--runs 0 was given)"
                 .into(),
         ));
     }
@@ -447,6 +485,7 @@ fn network_plan_folder(
             &plan,
             settings.validation_runs,
             seed,
+            job.baseline,
         )?);
     }
     super::finite::check_network_plan(job.scenario, scn, &plan)?;

@@ -118,7 +118,9 @@ pub use trips::{
     ALLOWED_VIOLATIONS, MAX_TRIPS_WINDOW_IDS,
 };
 pub use turns::TURN_DEG;
-pub use types::{DesignWalkValidation, NetworkPlan, NetworkTag, NetworkValidation};
+pub use types::{
+    DesignWalkValidation, NetworkPlan, NetworkTag, NetworkValidation, NoTagsValidation,
+};
 pub use validation::{share_rule, validate_network_plan, THINNING_S};
 pub use walks::DesignWalk;
 pub use window_sets::WindowSets;
@@ -305,7 +307,7 @@ mod tests {
             );
         }
         // Driven with their tags missed: the design case holds.
-        let v = validate_network_plan(&scn, &net, &p, 4, 7).unwrap();
+        let v = validate_network_plan(&scn, &net, &p, 4, 7, false).unwrap();
         let d = v.design_walks.unwrap();
         assert_eq!(d.walks, w.len());
         assert!(d.passed, "{}", d.rule);

@@ -87,6 +87,7 @@ pub fn plan_network(
             &plan,
             settings.validation_runs,
             seed,
+            false,
         )?);
     }
     Ok(plan)

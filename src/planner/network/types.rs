@@ -109,8 +109,72 @@ pub struct NetworkValidation {
     pub worst_lon: f64,
     /// Road of the worst point (input id), when found.
     pub worst_road_id: Option<String>,
+    /// Thinned samples where the planner's own budget along the drive,
+    /// without tags, exceeds 1 (its predicted bound would pass the
+    /// requirement there had no tag been read since the last turn map
+    /// matching observes): the only samples where the validation tests
+    /// what the tags are for.
+    pub over_budget_samples: usize,
+    /// Of which within the requirement.
+    pub over_budget_within: usize,
+    /// Largest horizontal error (m) at any 1 Hz sample over budget (0 when
+    /// none).
+    pub over_budget_max_error_m: f64,
+    /// Largest budget without tags met on the validation drives (1: the
+    /// predicted bound reaches the requirement).
+    pub max_budget_without_tags: f64,
     /// `any_walk`: the walk DP's worst walks driven with their tags missed.
     pub design_walks: Option<DesignWalkValidation>,
+    /// `plan --baseline`: the same chains, runs and seeds driven with only
+    /// the installed tags (none in a fresh plan): what the navigator does
+    /// without the planned tags. `None` without `--baseline`.
+    pub without_new_tags: Option<NoTagsValidation>,
+}
+
+/// The validation's baseline: the same chains, runs and seeds as the
+/// plan's validation, driven with only the installed tags (none in a fresh
+/// plan), judged by the same rule.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NoTagsValidation {
+    /// Installed tags kept in the baseline (0 in a fresh plan).
+    pub tags: usize,
+    /// Share of run time within the requirement.
+    pub fraction_within_requirement: f64,
+    /// Error samples thinned for the interval (one per 30 s per run).
+    pub thinned_samples: usize,
+    /// Of which within the requirement.
+    pub thinned_within: usize,
+    /// One-sided 95 % Clopper–Pearson lower bound of the share within.
+    pub share_lower_95: f64,
+    /// The rule holds without the planned tags.
+    pub passed: bool,
+    /// The rule in words, with the figures.
+    pub rule: String,
+    /// Runs whose maximum error exceeds the requirement.
+    pub runs_exceeding: usize,
+    /// Median over runs of each run's maximum error (m).
+    pub median_run_max_m: f64,
+    /// Of the validation's samples over budget (`over_budget_samples`),
+    /// those within the requirement without the planned tags.
+    pub over_budget_within: usize,
+    /// Largest error (m) at any 1 Hz sample over budget, without the tags.
+    pub over_budget_max_error_m: f64,
+    /// Largest horizontal error (m).
+    pub max_horizontal_error_m: f64,
+    /// Chain of the worst point.
+    pub worst_path: usize,
+    /// Run of the worst point.
+    pub worst_run: u64,
+    /// Time of the worst point (s).
+    pub worst_t_s: f64,
+    /// Latitude of the worst point (degrees).
+    pub worst_lat: f64,
+    /// Longitude of the worst point (degrees).
+    pub worst_lon: f64,
+    /// Road of the worst point (input id), when found.
+    pub worst_road_id: Option<String>,
+    /// Share of map-matching fixes on the wrong road.
+    pub map_matching_wrong_road_share: f64,
 }
 
 /// `any_walk` plans: the validation on the walk DP's worst walks, each

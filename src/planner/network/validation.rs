@@ -23,7 +23,7 @@
 
 use super::settings::map_route;
 use super::trips::{clopper_pearson_lower, sample_chains};
-use super::types::{DesignWalkValidation, NetworkPlan, NetworkValidation};
+use super::types::{DesignWalkValidation, NetworkPlan, NetworkValidation, NoTagsValidation};
 use crate::elevation::Dem;
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
@@ -116,57 +116,213 @@ fn drive(
 /// Driving per validation chain (s), unless the shift is shorter.
 pub const VALIDATION_CHAIN_S: f64 = 3600.0;
 
-/// Monte Carlo validation over `runs` runs on fresh chains of trips (module
-/// doc).
-pub fn validate_network_plan(
+/// What driving the validation chains gave: the time and thinned-sample
+/// counts within the requirement, each run's maximum, the worst sample and
+/// the map feed's counts.
+struct ChainOutcome {
+    n_thin: usize,
+    n_within_thin: usize,
+    within_t: f64,
+    total_t: f64,
+    run_max: Vec<f64>,
+    /// Error, chain, run, time, distance along, position, road.
+    worst: (f64, usize, u64, f64, f64, [f64; 2], Option<String>),
+    hours: f64,
+    length_m: f64,
+    fed: u64,
+    wrong: u64,
+    /// Thinned samples where the planner's budget without tags exceeds 1
+    /// (its predicted bound beyond the requirement), and of them within.
+    over_budget: usize,
+    over_budget_within: usize,
+    /// Largest error (m) at any 1 Hz row over budget, and the largest
+    /// budget met.
+    over_budget_max_m: f64,
+    max_budget: f64,
+}
+
+/// The planner's budget along one chain without tags: consumed since the
+/// last reset (a turn map matching observes, the chain's start), as a
+/// function of the chainage.
+struct BudgetProfile {
+    /// Chainage (m) and budget at each piece end, the start first.
+    c: Vec<f64>,
+    b: Vec<f64>,
+    /// Resets: chainage (m) and budget, in order.
+    reset_c: Vec<f64>,
+    reset_b: Vec<f64>,
+}
+
+impl BudgetProfile {
+    /// The profile along a validation drive's route: its spans as the
+    /// planner's pieces (as `traffic::sample_chain` makes them), then the
+    /// planner's own budget view of that chain.
+    fn new(model: &super::traffic::EdgeModel, route: &crate::route::Route, mm: bool) -> Self {
+        let mut chain = super::traffic::Chain {
+            points: Vec::new(),
+            pieces: Vec::new(),
+            length_m: route.length_m,
+            duration_s: 0.0,
+        };
+        // Chainage along the route at each piece's end.
+        let mut ends = Vec::new();
+        for sp in &route.spans {
+            let Some(&e) = model.index.get(&(sp.section.section, sp.section.forward)) else {
+                continue;
+            };
+            let len_e = model.length[e as usize];
+            let (a0, a1) = if sp.section.forward {
+                (sp.from_offset_m, sp.to_offset_m)
+            } else {
+                (len_e - sp.from_offset_m, len_e - sp.to_offset_m)
+            };
+            let (a0, a1) = (a0.clamp(0.0, len_e), a1.clamp(0.0, len_e));
+            if a1 - a0 <= 0.0 {
+                continue;
+            }
+            chain.pieces.push(super::traffic::Piece { edge: e, a0, a1 });
+            ends.push(sp.end_chainage_m);
+        }
+        let cb = super::traffic::chain_budget(model, &chain, mm);
+        let (mut c, mut b) = (vec![0.0], vec![0.0]);
+        for (&x, &(_, _, b1)) in ends.iter().zip(&cb.pieces) {
+            c.push(x);
+            b.push(b1);
+        }
+        // The budget view's own chainage runs over the pieces alone; its
+        // resets are placed on the route by their budget position.
+        let reset_b: Vec<f64> = cb.resets.iter().map(|r| r.0).collect();
+        let reset_c = reset_b
+            .iter()
+            .map(|&rb| {
+                let i = b.partition_point(|&v| v < rb);
+                if i == 0 {
+                    0.0
+                } else if i >= b.len() {
+                    c[c.len() - 1]
+                } else if b[i] > b[i - 1] {
+                    c[i - 1] + (rb - b[i - 1]) / (b[i] - b[i - 1]) * (c[i] - c[i - 1])
+                } else {
+                    c[i - 1]
+                }
+            })
+            .collect();
+        Self {
+            c,
+            b,
+            reset_c,
+            reset_b,
+        }
+    }
+
+    /// Budget consumed since the last reset at chainage `x` (m).
+    fn since_reset(&self, x: f64) -> f64 {
+        let i = self.c.partition_point(|&v| v <= x);
+        let b = if i == 0 {
+            0.0
+        } else if i >= self.c.len() {
+            self.b[self.b.len() - 1]
+        } else {
+            let (c0, c1) = (self.c[i - 1], self.c[i]);
+            let t = if c1 > c0 { (x - c0) / (c1 - c0) } else { 0.0 };
+            self.b[i - 1] + t * (self.b[i] - self.b[i - 1])
+        };
+        let j = self.reset_c.partition_point(|&v| v <= x);
+        let r = if j == 0 { 0.0 } else { self.reset_b[j - 1] };
+        (b - r).max(0.0)
+    }
+}
+
+impl ChainOutcome {
+    /// Median over runs of each run's maximum error (m).
+    fn median_run_max(&self) -> f64 {
+        let mut sorted = self.run_max.clone();
+        sorted.sort_by(f64::total_cmp);
+        sorted.get(sorted.len() / 2).copied().unwrap_or(0.0)
+    }
+
+    /// Share of run time within the requirement (1 without any time).
+    fn fraction_within(&self) -> f64 {
+        if self.total_t > 0.0 {
+            self.within_t / self.total_t
+        } else {
+            1.0
+        }
+    }
+
+    /// Runs whose maximum exceeds `req`.
+    fn exceeding(&self, req: f64) -> usize {
+        self.run_max.iter().filter(|&&m| m > req).count()
+    }
+}
+
+/// Drives every chain `per_chain` times with the plan's tags on the
+/// directions it drives (only the installed ones when `existing_only`),
+/// the runs of chain `ci` seeded `seed + 1000 ci`.
+#[allow(clippy::too_many_arguments)]
+fn drive_chains(
     scn: &Scenario,
     net: &std::sync::Arc<Network>,
     plan: &NetworkPlan,
-    runs: u64,
+    chains: &[super::traffic::Chain],
+    per_chain: u64,
     seed: u64,
-) -> Result<NetworkValidation> {
+    existing_only: bool,
+) -> Result<ChainOutcome> {
     let (_, _, height_m) = map_route(scn)?;
-    let Some(cm) = plan.chain_model.as_ref() else {
-        return Err(Error::InvalidParameter(
-            "the plan carries no traffic model to validate on".into(),
-        ));
-    };
     let p = scn.planner();
     let dem = open_dem(scn)?;
-    let n_chains = p.validation_chains.min(runs.max(1) as usize).max(1);
-    let per_chain = runs.max(1).div_ceil(n_chains as u64);
-    let shift = p.shift_s.min(VALIDATION_CHAIN_S);
-    let chains = sample_chains(
-        net,
-        &cm.model,
-        &cm.dest,
-        shift,
-        seed,
-        0x7661_6c69_6400,
-        n_chains,
-    )?;
     let profile = SpeedProfile {
         speed_mps: p.vehicle_speed_mps,
         ..Default::default()
     };
     let req = plan.requirement_m;
-    let (mut n_thin, mut n_within_thin) = (0usize, 0usize);
-    let (mut within_t, mut total_t) = (0.0, 0.0);
-    let mut run_max: Vec<f64> = Vec::new();
-    let mut worst = (0.0f64, 0usize, 0u64, 0.0, 0.0, [0.0, 0.0], None);
-    let mut hours = 0.0;
-    let mut length = 0.0;
-    let mut fed = 0u64;
-    let mut wrong = 0u64;
+    let mut o = ChainOutcome {
+        n_thin: 0,
+        n_within_thin: 0,
+        within_t: 0.0,
+        total_t: 0.0,
+        run_max: Vec::new(),
+        worst: (0.0, 0, 0, 0.0, 0.0, [0.0, 0.0], None),
+        hours: 0.0,
+        length_m: 0.0,
+        fed: 0,
+        wrong: 0,
+        over_budget: 0,
+        over_budget_within: 0,
+        over_budget_max_m: 0.0,
+        max_budget: 0.0,
+    };
+    let cm = plan.chain_model.as_ref();
     for (ci, chain) in chains.iter().enumerate() {
         let route = plan_route_points(net, &chain.points)?;
         let start = route.vertices.first().map_or([0.0, 0.0], |v| v.lat_lon);
         let located = scn.located_at(start);
         let (rp, dirs) = drive(net, &route, &profile, height_m, scn.dt, dem.as_ref())?;
-        let tags = plan.sim_tags(Some(&dirs));
-        length += route.length_m;
+        let profile_b = cm.map(|cm| BudgetProfile::new(&cm.model, &route, plan.map_matching));
+        let tags: Vec<_> = if existing_only {
+            let ids: HashSet<&str> = plan
+                .tags
+                .iter()
+                .filter(|t| t.existing)
+                .map(|t| t.tag_id.as_str())
+                .collect();
+            plan.sim_tags(Some(&dirs))
+                .into_iter()
+                .filter(|t| ids.contains(t.id.as_str()))
+                .collect()
+        } else {
+            plan.sim_tags(Some(&dirs))
+        };
+        o.length_m += route.length_m;
         let truth = TruthSource::from_route(std::sync::Arc::clone(net), route, rp);
-        hours += truth.duration_s() / 3600.0;
+        // Sample distances (along the simulated drive) to the route's chainage.
+        let to_chainage = truth.route().map_or(1.0, |r| r.length_m)
+            / truth
+                .samples()
+                .last()
+                .map_or(1.0, |x| x.distance_m.max(1.0));
+        o.hours += truth.duration_s() / 3600.0;
         let res = simulate_with(
             &located,
             &truth,
@@ -177,16 +333,16 @@ pub fn validate_network_plan(
         )?;
         for r in &res.runs {
             if let Some(c) = r.map_feed {
-                fed += c.fed;
-                wrong += c.wrong_road;
+                o.fed += c.fed;
+                o.wrong += c.wrong_road;
             }
             let mut next_thin = 0.0;
             let mut m = 0.0f64;
             for w in r.rows.windows(2) {
                 let dt = (w[1].t_s - w[0].t_s).max(0.0);
-                total_t += dt;
+                o.total_t += dt;
                 if w[1].horizontal_m <= req {
-                    within_t += dt;
+                    o.within_t += dt;
                 }
             }
             for row in &r.rows {
@@ -203,15 +359,28 @@ pub fn validate_network_plan(
                     ));
                 }
                 m = m.max(row.horizontal_m);
+                let u = profile_b
+                    .as_ref()
+                    .map_or(0.0, |pb| pb.since_reset(row.distance_m * to_chainage));
+                o.max_budget = o.max_budget.max(u);
+                if u > 1.0 {
+                    o.over_budget_max_m = o.over_budget_max_m.max(row.horizontal_m);
+                }
                 if row.t_s >= next_thin {
-                    n_thin += 1;
+                    o.n_thin += 1;
                     if row.horizontal_m <= req {
-                        n_within_thin += 1;
+                        o.n_within_thin += 1;
+                    }
+                    if u > 1.0 {
+                        o.over_budget += 1;
+                        if row.horizontal_m <= req {
+                            o.over_budget_within += 1;
+                        }
                     }
                     next_thin += THINNING_S;
                 }
-                if row.horizontal_m > worst.0 {
-                    worst = (
+                if row.horizontal_m > o.worst.0 {
+                    o.worst = (
                         row.horizontal_m,
                         ci,
                         r.run,
@@ -222,65 +391,131 @@ pub fn validate_network_plan(
                     );
                 }
             }
-            run_max.push(m);
+            o.run_max.push(m);
         }
-        if worst.1 == ci && worst.0 > 0.0 {
+        if o.worst.1 == ci && o.worst.0 > 0.0 {
             if let (Some(a), Some(route)) = (
-                truth.samples().find(|a| a.t >= worst.3 - 0.5 * scn.dt),
+                truth.samples().find(|a| a.t >= o.worst.3 - 0.5 * scn.dt),
                 truth.route(),
             ) {
-                worst.5 = [a.state.lat.to_degrees(), a.state.lon.to_degrees()];
+                o.worst.5 = [a.state.lat.to_degrees(), a.state.lon.to_degrees()];
                 let scale = route.length_m
                     / truth
                         .samples()
                         .last()
                         .map_or(1.0, |x| x.distance_m.max(1.0));
-                let span = route.span_at(worst.4 * scale);
-                worst.6 = Some(net.roads[span.road as usize].attributes.id.clone());
+                let span = route.span_at(o.worst.4 * scale);
+                o.worst.6 = Some(net.roads[span.road as usize].attributes.id.clone());
             }
         }
     }
+    Ok(o)
+}
+
+/// Monte Carlo validation over `runs` runs on fresh chains of trips (module
+/// doc). With `baseline`, the same chains, runs and seeds are driven again
+/// with only the installed tags (none in a fresh plan), so the report can
+/// show what the planned tags buy over map matching alone
+/// ([`NetworkValidation::without_new_tags`]).
+pub fn validate_network_plan(
+    scn: &Scenario,
+    net: &std::sync::Arc<Network>,
+    plan: &NetworkPlan,
+    runs: u64,
+    seed: u64,
+    baseline: bool,
+) -> Result<NetworkValidation> {
+    let Some(cm) = plan.chain_model.as_ref() else {
+        return Err(Error::InvalidParameter(
+            "the plan carries no traffic model to validate on".into(),
+        ));
+    };
+    let p = scn.planner();
+    let n_chains = p.validation_chains.min(runs.max(1) as usize).max(1);
+    let per_chain = runs.max(1).div_ceil(n_chains as u64);
+    let shift = p.shift_s.min(VALIDATION_CHAIN_S);
+    let chains = sample_chains(
+        net,
+        &cm.model,
+        &cm.dest,
+        shift,
+        seed,
+        0x7661_6c69_6400,
+        n_chains,
+    )?;
+    let req = plan.requirement_m;
     let conf = p.requirement_confidence;
-    let (lower, passed, rule) = share_rule(n_within_thin, n_thin, req, conf);
-    let exceeding = run_max.iter().filter(|&&m| m > req).count();
-    let mut sorted = run_max.clone();
-    sorted.sort_by(f64::total_cmp);
-    let median_max = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+    let o = drive_chains(scn, net, plan, &chains, per_chain, seed, false)?;
+
+    let (lower, passed, rule) = share_rule(o.n_within_thin, o.n_thin, req, conf);
+    let without_new_tags = if baseline {
+        let b = drive_chains(scn, net, plan, &chains, per_chain, seed, true)?;
+
+        let (lower, passed, rule) = share_rule(b.n_within_thin, b.n_thin, req, conf);
+        Some(NoTagsValidation {
+            tags: plan.tags.iter().filter(|t| t.existing).count(),
+            fraction_within_requirement: b.fraction_within(),
+            thinned_samples: b.n_thin,
+            thinned_within: b.n_within_thin,
+            share_lower_95: lower,
+            passed,
+            rule,
+            runs_exceeding: b.exceeding(req),
+            median_run_max_m: b.median_run_max(),
+            over_budget_within: b.over_budget_within,
+            over_budget_max_error_m: b.over_budget_max_m,
+            max_horizontal_error_m: b.worst.0,
+            worst_path: b.worst.1,
+            worst_run: b.worst.2,
+            worst_t_s: b.worst.3,
+            worst_lat: b.worst.5[0],
+            worst_lon: b.worst.5[1],
+            worst_road_id: b.worst.6.clone(),
+            map_matching_wrong_road_share: if b.fed > 0 {
+                b.wrong as f64 / b.fed as f64
+            } else {
+                0.0
+            },
+        })
+    } else {
+        None
+    };
     Ok(NetworkValidation {
         runs: per_chain * chains.len() as u64,
         paths: chains.len(),
         runs_per_path: per_chain,
-        paths_length_km: length / 1000.0,
-        chain_hours: hours,
+        paths_length_km: o.length_m / 1000.0,
+        chain_hours: o.hours,
         seed,
-        fraction_within_requirement: if total_t > 0.0 {
-            within_t / total_t
-        } else {
-            1.0
-        },
-        thinned_samples: n_thin,
-        thinned_within: n_within_thin,
+        fraction_within_requirement: o.fraction_within(),
+        thinned_samples: o.n_thin,
+        thinned_within: o.n_within_thin,
         share_lower_95: lower,
         requirement_confidence: conf,
         passed,
-        runs_exceeding: exceeding,
-        median_run_max_m: median_max,
-        map_matching_fed: fed,
-        map_matching_wrong_road_share: if fed > 0 {
-            wrong as f64 / fed as f64
+        runs_exceeding: o.exceeding(req),
+        median_run_max_m: o.median_run_max(),
+        map_matching_fed: o.fed,
+        map_matching_wrong_road_share: if o.fed > 0 {
+            o.wrong as f64 / o.fed as f64
         } else {
             0.0
         },
         rule,
-        max_horizontal_error_m: worst.0,
-        worst_path: worst.1,
-        worst_run: worst.2,
-        worst_t_s: worst.3,
-        worst_distance_m: worst.4,
-        worst_lat: worst.5[0],
-        worst_lon: worst.5[1],
-        worst_road_id: worst.6,
+        max_horizontal_error_m: o.worst.0,
+        worst_path: o.worst.1,
+        worst_run: o.worst.2,
+        worst_t_s: o.worst.3,
+        worst_distance_m: o.worst.4,
+        worst_lat: o.worst.5[0],
+        worst_lon: o.worst.5[1],
+        worst_road_id: o.worst.6,
+        over_budget_samples: o.over_budget,
+        over_budget_within: o.over_budget_within,
+        over_budget_max_error_m: o.over_budget_max_m,
+        max_budget_without_tags: o.max_budget,
         design_walks: validate_design_walks(scn, net, plan, runs, seed)?,
+        without_new_tags,
     })
 }
 
