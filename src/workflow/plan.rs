@@ -197,6 +197,23 @@ impl NetworkPlanFile {
                     100.0 * v.map_matching_wrong_road_share,
                 ));
             }
+            if let Some(st) = &v.over_budget_stretches {
+                lines.push(format!(
+                    "over-budget stretches: the {} where the plan's budget without tags peaks highest on {} fresh chains ({:.2}–{:.2}), \
+                     each driven {} time(s) from {:.0} m before its turn, on the samples over budget: with the plan {}, max error {:.2} m; \
+                     without the new tags {}, max error {:.2} m",
+                    st.stretches,
+                    st.searched_chains,
+                    st.peak_budget_min,
+                    st.peak_budget_max,
+                    st.runs_per_stretch,
+                    st.lead_in_m,
+                    st.with_tags.rule,
+                    st.with_tags.max_horizontal_error_m,
+                    st.without_new_tags.rule,
+                    st.without_new_tags.max_horizontal_error_m,
+                ));
+            }
             if let Some(d) = &v.design_walks {
                 lines.push(format!(
                     "validation on the walk DP's {} worst walk(s), {} run(s) each, their tags missed and every other tag read: {}; \

@@ -120,6 +120,7 @@ pub use trips::{
 pub use turns::TURN_DEG;
 pub use types::{
     DesignWalkValidation, NetworkPlan, NetworkTag, NetworkValidation, NoTagsValidation,
+    StretchFigures, StretchValidation,
 };
 pub use validation::{share_rule, validate_network_plan, THINNING_S};
 pub use walks::DesignWalk;

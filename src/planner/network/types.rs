@@ -129,6 +129,54 @@ pub struct NetworkValidation {
     /// the installed tags (none in a fresh plan): what the navigator does
     /// without the planned tags. `None` without `--baseline`.
     pub without_new_tags: Option<NoTagsValidation>,
+    /// `plan --baseline`: the stretches where the planner's budget without
+    /// tags passes 1, driven with and without the new tags. `None` without
+    /// `--baseline` or when no searched chain passes 1.
+    pub over_budget_stretches: Option<StretchValidation>,
+}
+
+/// The stretches of fresh chains of the plan's traffic where the
+/// planner's budget without tags passes 1 (its predicted bound would pass the requirement),
+/// each driven from a lead-in before its resetting turn to the next reset,
+/// with the plan's tags and without the new ones (same runs and seeds),
+/// judged on the samples over budget by the validation's rule.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StretchValidation {
+    /// Fresh chains searched for stretches (sampled, not driven).
+    pub searched_chains: usize,
+    /// Stretches driven (the largest budgets first).
+    pub stretches: usize,
+    /// Runs per stretch, each way.
+    pub runs_per_stretch: u64,
+    /// Route driven before each stretch's resetting turn (m).
+    pub lead_in_m: f64,
+    /// Smallest and largest budget at a driven stretch's end.
+    pub peak_budget_min: f64,
+    /// Largest budget at a driven stretch's end.
+    pub peak_budget_max: f64,
+    /// With the plan's tags.
+    pub with_tags: StretchFigures,
+    /// With only the installed tags (none in a fresh plan).
+    pub without_new_tags: StretchFigures,
+}
+
+/// One side of [`StretchValidation`].
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct StretchFigures {
+    /// Samples over budget (one per 30 s per run, and each run's end).
+    pub thinned_samples: usize,
+    /// Of which within the requirement.
+    pub thinned_within: usize,
+    /// One-sided 95 % Clopper–Pearson lower bound of the share within.
+    pub share_lower_95: f64,
+    /// The rule holds.
+    pub passed: bool,
+    /// The rule in words, with the figures.
+    pub rule: String,
+    /// Runs whose maximum over budget exceeds the requirement.
+    pub runs_exceeding: usize,
+    /// Largest horizontal error over budget (m).
+    pub max_horizontal_error_m: f64,
 }
 
 /// The validation's baseline: the same chains, runs and seeds as the

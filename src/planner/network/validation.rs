@@ -23,7 +23,10 @@
 
 use super::settings::map_route;
 use super::trips::{clopper_pearson_lower, sample_chains};
-use super::types::{DesignWalkValidation, NetworkPlan, NetworkValidation, NoTagsValidation};
+use super::types::{
+    DesignWalkValidation, NetworkPlan, NetworkValidation, NoTagsValidation, StretchFigures,
+    StretchValidation,
+};
 use crate::elevation::Dem;
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
@@ -189,30 +192,52 @@ impl BudgetProfile {
             c.push(x);
             b.push(b1);
         }
-        // The budget view's own chainage runs over the pieces alone; its
-        // resets are placed on the route by their budget position.
         let reset_b: Vec<f64> = cb.resets.iter().map(|r| r.0).collect();
-        let reset_c = reset_b
-            .iter()
-            .map(|&rb| {
-                let i = b.partition_point(|&v| v < rb);
-                if i == 0 {
-                    0.0
-                } else if i >= b.len() {
-                    c[c.len() - 1]
-                } else if b[i] > b[i - 1] {
-                    c[i - 1] + (rb - b[i - 1]) / (b[i] - b[i - 1]) * (c[i] - c[i - 1])
-                } else {
-                    c[i - 1]
-                }
-            })
-            .collect();
-        Self {
+        let mut out = Self {
             c,
             b,
-            reset_c,
+            reset_c: Vec::new(),
             reset_b,
+        };
+        // The budget view's own chainage runs over the pieces alone; its
+        // resets are placed on the route by their budget position.
+        out.reset_c = out
+            .reset_b
+            .iter()
+            .map(|&rb| out.chainage_at_budget(rb))
+            .collect();
+        out
+    }
+
+    /// The first chainage (m) where the budget reaches `rb`.
+    fn chainage_at_budget(&self, rb: f64) -> f64 {
+        let (b, c) = (&self.b, &self.c);
+        let i = b.partition_point(|&v| v < rb);
+        if i == 0 {
+            0.0
+        } else if i >= b.len() {
+            c[c.len() - 1]
+        } else if b[i] > b[i - 1] {
+            c[i - 1] + (rb - b[i - 1]) / (b[i] - b[i - 1]) * (c[i] - c[i - 1])
+        } else {
+            c[i - 1]
         }
+    }
+
+    /// The stretches between two resets whose budget passes 1: (reset,
+    /// where the budget reaches 1, the next reset) in chainage (m), and the
+    /// budget used at that next reset.
+    fn over_budget(&self) -> Vec<([f64; 3], f64)> {
+        (1..self.reset_b.len())
+            .filter(|&j| self.reset_b[j] - self.reset_b[j - 1] > 1.0)
+            .map(|j| {
+                let over = self.chainage_at_budget(self.reset_b[j - 1] + 1.0);
+                (
+                    [self.reset_c[j - 1], over, self.reset_c[j]],
+                    self.reset_b[j] - self.reset_b[j - 1],
+                )
+            })
+            .collect()
     }
 
     /// Budget consumed since the last reset at chainage `x` (m).
@@ -448,6 +473,11 @@ pub fn validate_network_plan(
     let o = drive_chains(scn, net, plan, &chains, per_chain, seed, false)?;
 
     let (lower, passed, rule) = share_rule(o.n_within_thin, o.n_thin, req, conf);
+    let over_budget_stretches = if baseline {
+        validate_stretches(scn, net, plan, runs, seed)?
+    } else {
+        None
+    };
     let without_new_tags = if baseline {
         let b = drive_chains(scn, net, plan, &chains, per_chain, seed, true)?;
 
@@ -516,7 +546,207 @@ pub fn validate_network_plan(
         max_budget_without_tags: o.max_budget,
         design_walks: validate_design_walks(scn, net, plan, runs, seed)?,
         without_new_tags,
+        over_budget_stretches,
     })
+}
+
+/// Most over-budget stretches the baseline's stretch test drives.
+pub const MAX_STRETCHES: usize = 8;
+
+/// Chains of [`VALIDATION_CHAIN_S`] sampled (not driven) to find the
+/// stretches: the validation's own chains meet only a few.
+pub const STRETCH_SEARCH_CHAINS: usize = 64;
+
+/// Route driven before a stretch's resetting turn (m): the navigator's
+/// start (its initial alignment, the planner's shorter start reach) is
+/// kept away from the stretch, and the turns on the way let map matching
+/// settle the filter as on a long drive.
+pub const STRETCH_LEAD_IN_M: f64 = 5000.0;
+
+/// The pieces of `route` between chainages `c0` and `c1` (m), as
+/// [`route_from_pieces`] takes them.
+fn sub_route_pieces(
+    route: &crate::route::Route,
+    c0: f64,
+    c1: f64,
+) -> Vec<(crate::network::DirectedSection, f64, f64)> {
+    let mut out = Vec::new();
+    for sp in &route.spans {
+        let (s0, s1) = (sp.start_chainage_m, sp.end_chainage_m);
+        if s1 <= c0 || s0 >= c1 {
+            continue;
+        }
+        let (a, b) = (c0.max(s0), c1.min(s1));
+        if b - a < 1e-3 {
+            continue;
+        }
+        let off = |x: f64| {
+            if s1 > s0 {
+                sp.from_offset_m + (x - s0) / (s1 - s0) * (sp.to_offset_m - sp.from_offset_m)
+            } else {
+                sp.from_offset_m
+            }
+        };
+        out.push((sp.section, off(a), off(b)));
+    }
+    out
+}
+
+/// `plan --baseline`: the stretches where the planner's budget without
+/// tags passes 1 on [`STRETCH_SEARCH_CHAINS`] fresh chains of the plan's
+/// traffic (their own random stream; the largest budgets first, at most
+/// [`MAX_STRETCHES`]), each driven from
+/// [`STRETCH_LEAD_IN_M`] before its resetting turn to the next reset,
+/// with the plan's tags and without the new ones, the same runs and seeds
+/// both ways. Samples are taken over budget only (one per [`THINNING_S`]
+/// and each run's last row, where the budget peaks). `None` when no chain
+/// passes 1.
+fn validate_stretches(
+    scn: &Scenario,
+    net: &std::sync::Arc<Network>,
+    plan: &NetworkPlan,
+    runs: u64,
+    seed: u64,
+) -> Result<Option<StretchValidation>> {
+    let Some(cm) = plan.chain_model.as_ref() else {
+        return Ok(None);
+    };
+    let shift = scn.planner().shift_s.min(VALIDATION_CHAIN_S);
+    let chains = sample_chains(
+        net,
+        &cm.model,
+        &cm.dest,
+        shift,
+        seed,
+        0x7374_7265_7463,
+        STRETCH_SEARCH_CHAINS,
+    )?;
+    let (_, _, height_m) = map_route(scn)?;
+    let dem = open_dem(scn)?;
+    let profile = SpeedProfile {
+        speed_mps: scn.planner().vehicle_speed_mps,
+        ..Default::default()
+    };
+    let req = plan.requirement_m;
+    let conf = scn.planner().requirement_confidence;
+    // (peak budget, chain, [reset, over, next reset]) over every chain.
+    let mut found: Vec<(f64, usize, [f64; 3])> = Vec::new();
+    let mut routes = Vec::with_capacity(chains.len());
+    for (ci, chain) in chains.iter().enumerate() {
+        let route = plan_route_points(net, &chain.points)?;
+        let pb = BudgetProfile::new(&cm.model, &route, plan.map_matching);
+        found.extend(pb.over_budget().into_iter().map(|(c, u)| (u, ci, c)));
+        routes.push(route);
+    }
+    if found.is_empty() {
+        return Ok(None);
+    }
+    found.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    // One stretch per directed section where the budget passes 1: chains
+    // that drove the same straight give the same test.
+    let mut seen = HashSet::new();
+    found.retain(|&(_, ci, [_, over, _])| {
+        let d = routes[ci].span_at(over).section;
+        seen.insert((d.section, d.forward))
+    });
+    found.truncate(MAX_STRETCHES);
+    let n = found.len();
+    let per = runs.div_ceil(n as u64).max(MIN_RUNS_PER_WALK);
+    let existing: HashSet<&str> = plan
+        .tags
+        .iter()
+        .filter(|t| t.existing)
+        .map(|t| t.tag_id.as_str())
+        .collect();
+    let mut figures = [StretchFigures::default(), StretchFigures::default()];
+    let mut counts = [(0usize, 0usize); 2];
+    let mut peaks = (f64::INFINITY, 0.0f64);
+    for (si, &(peak, ci, [reset, over, end])) in found.iter().enumerate() {
+        peaks = (peaks.0.min(peak), peaks.1.max(peak));
+        let from = (reset - STRETCH_LEAD_IN_M).max(0.0);
+        let pieces = sub_route_pieces(&routes[ci], from, end);
+        let route = route_from_pieces(net, &pieces)?;
+        let start = route.vertices.first().map_or([0.0, 0.0], |v| v.lat_lon);
+        let located = scn.located_at(start);
+        let (rp, dirs) = drive(net, &route, &profile, height_m, scn.dt, dem.as_ref())?;
+        let all = plan.sim_tags(Some(&dirs));
+        let truth = TruthSource::from_route(std::sync::Arc::clone(net), route, rp);
+        let to_chainage = truth.route().map_or(1.0, |r| r.length_m)
+            / truth
+                .samples()
+                .last()
+                .map_or(1.0, |x| x.distance_m.max(1.0));
+        for (k, f) in figures.iter_mut().enumerate() {
+            let tags: Vec<_> = if k == 0 {
+                all.clone()
+            } else {
+                all.iter()
+                    .filter(|t| existing.contains(t.id.as_str()))
+                    .cloned()
+                    .collect()
+            };
+            let res = simulate_with(
+                &located,
+                &truth,
+                &tags,
+                per,
+                seed.wrapping_add(0x7374_7265 + 1000 * si as u64),
+                None,
+            )?;
+            for r in &res.runs {
+                let rows: Vec<_> = r
+                    .rows
+                    .iter()
+                    .filter(|row| from + row.distance_m * to_chainage >= over)
+                    .collect();
+                let mut next = f64::NEG_INFINITY;
+                let mut m = 0.0f64;
+                for (i, row) in rows.iter().enumerate() {
+                    if !row.horizontal_m.is_finite() {
+                        return Err(Error::scenario(
+                            &scn.path,
+                            format!(
+                                "over-budget stretch {si}, run {}: the navigation error is not \
+                                 finite at t = {:.0} s",
+                                r.run, row.t_s
+                            ),
+                        ));
+                    }
+                    m = m.max(row.horizontal_m);
+                    if row.t_s >= next || i + 1 == rows.len() {
+                        counts[k].0 += 1;
+                        if row.horizontal_m <= req {
+                            counts[k].1 += 1;
+                        }
+                        next = row.t_s + THINNING_S;
+                    }
+                }
+                if m > req {
+                    f.runs_exceeding += 1;
+                }
+                f.max_horizontal_error_m = f.max_horizontal_error_m.max(m);
+            }
+        }
+    }
+    for (f, &(n_thin, n_within)) in figures.iter_mut().zip(&counts) {
+        let (lower, passed, rule) = share_rule(n_within, n_thin, req, conf);
+        f.thinned_samples = n_thin;
+        f.thinned_within = n_within;
+        f.share_lower_95 = lower;
+        f.passed = passed;
+        f.rule = rule;
+    }
+    let [with_tags, without_new_tags] = figures;
+    Ok(Some(StretchValidation {
+        searched_chains: chains.len(),
+        stretches: n,
+        runs_per_stretch: per,
+        lead_in_m: STRETCH_LEAD_IN_M,
+        peak_budget_min: peaks.0,
+        peak_budget_max: peaks.1,
+        with_tags,
+        without_new_tags,
+    }))
 }
 
 /// Fewest runs per design walk.
