@@ -428,7 +428,7 @@ pub(super) fn plan_network_trips(
         tolerate_missed_reads: k,
         method: format!(
             "{} over the budget windows of every straight walk{} and of {} sampled chains ({} windows); \
-             certified on fresh chains ({} round(s)){}",
+             certified on fresh chains ({} round(s)){}{}",
             if tp.exact {
                 "exact set multicover (integer programme, microlp)".to_string()
             } else {
@@ -469,6 +469,16 @@ pub(super) fn plan_network_trips(
                     "; lower bound also from the windows' linear programme ({} primal–dual iterations: \
                      {:.1} tags' cost)",
                     tp.lp.iterations, tp.lp.cost_bound
+                )
+            } else {
+                String::new()
+            },
+            if tp.walks_cut > 0 {
+                format!(
+                    "; the straight walks from {} start(s) stopped at {} edges entered (forks \
+                     without end; the windows they missed are left to the certification rounds)",
+                    tp.walks_cut,
+                    super::traffic::MAX_STEPS
                 )
             } else {
                 String::new()

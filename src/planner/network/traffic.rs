@@ -619,7 +619,18 @@ const MAX_PATHS: usize = 256;
 /// (rate 0), such walks fork without end and, round a ring of straight
 /// transitions, never end at all. Windows a truncated start misses are
 /// left to the certification rounds, as for [`MAX_PATHS`].
-const MAX_STEPS: usize = 1 << 16;
+pub(crate) const MAX_STEPS: usize = 1 << 16;
+
+/// What [`straight_windows`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct WalkStats {
+    /// Window starts walked from.
+    pub starts: usize,
+    /// Starts whose walks were cut at [`MAX_STEPS`] edges entered.
+    pub cut: usize,
+    /// Most edges entered from one start.
+    pub most_steps: usize,
+}
 
 /// A straight walk's state at an edge.
 struct Step {
@@ -644,13 +655,26 @@ struct Step {
 /// bends that reset; each walk reaching a budget of 1 gives the window of
 /// the sites it passes within it. A stretch that traffic enters at any of
 /// its junctions (or starts on) is then covered even where no sampled chain
-/// drove exactly that combination.
+/// drove exactly that combination. At most [`MAX_STEPS`] edges are entered
+/// from one start; the starts cut there are counted.
 pub(crate) fn straight_windows(
     model: &EdgeModel,
     straight: &std::collections::HashSet<(u32, u32)>,
     used: &[bool],
     out: &mut WindowMap,
-) {
+) -> WalkStats {
+    straight_windows_within(model, straight, used, out, MAX_STEPS)
+}
+
+/// [`straight_windows`] with at most `max_steps` edges entered per start.
+fn straight_windows_within(
+    model: &EdgeModel,
+    straight: &std::collections::HashSet<(u32, u32)>,
+    used: &[bool],
+    out: &mut WindowMap,
+    max_steps: usize,
+) -> WalkStats {
+    let mut stats = WalkStats::default();
     let n = model.dir.len();
     let mut next: Vec<Vec<u32>> = vec![Vec::new(); n];
     for &(a, b) in straight {
@@ -663,7 +687,7 @@ pub(crate) fn straight_windows(
     }
     for (e, _) in used.iter().enumerate().filter(|x| *x.1) {
         if out.full() {
-            return;
+            return stats;
         }
         let mut starts: Vec<(f64, bool)> = vec![(0.0, true)];
         starts.extend(model.sites[e].iter().map(|s| (s.0, false)));
@@ -687,11 +711,13 @@ pub(crate) fn straight_windows(
                 win: TurnWindow::default(),
                 c: 0.0,
             }];
+            stats.starts += 1;
             while let Some(st) = stack.pop() {
-                steps += 1;
-                if steps > MAX_STEPS {
+                if steps == max_steps {
+                    stats.cut += 1;
                     break;
                 }
+                steps += 1;
                 let Step {
                     edge: ed,
                     x,
@@ -772,8 +798,10 @@ pub(crate) fn straight_windows(
                     });
                 }
             }
+            stats.most_steps = stats.most_steps.max(steps);
         }
     }
+    stats
 }
 
 /// Every junction transition that does not reset (map matching on): onto
@@ -809,4 +837,191 @@ pub(crate) fn geometric_straight(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::turns::CURVE_M;
+    use super::*;
+    use crate::network::{model_from_polylines, Oneway, RoadAttributes};
+    use std::collections::BTreeMap;
+
+    /// A triangle lattice of straight roads northward: junction `j` of row
+    /// `i` (`j` = 0..=`i`) lies 100 m × `i` north and 20 m × (2`j` − `i`)
+    /// east; from each junction of rows 0 to `rows` − 1 a road leads to
+    /// each of the two nearest junctions of the next row (11.3° either side
+    /// of north, so every continuation turns 22.6°: straight on). Road ids
+    /// are "`i`/`j`w" and "`i`/`j`e" (the row and junction they leave).
+    fn lattice(rows: usize, oneway: Oneway) -> Network {
+        let (la, lo) = (60.17f64, 24.94f64);
+        let m_lat = 111_320.0;
+        let m_lon = 111_320.0 * la.to_radians().cos();
+        let at = |i: usize, j: usize| {
+            let (n, e) = (100.0 * i as f64, 20.0 * (2.0 * j as f64 - i as f64));
+            [la + n / m_lat, lo + e / m_lon]
+        };
+        let mut roads = Vec::new();
+        for i in 0..rows {
+            for j in 0..=i {
+                for (side, to) in [("w", j), ("e", j + 1)] {
+                    let attributes = RoadAttributes {
+                        id: format!("{i}/{j}{side}"),
+                        name: None,
+                        highway: "primary".into(),
+                        oneway,
+                        lanes: None,
+                        width_m: None,
+                        maxspeed_kmh: Some(50.0),
+                        tunnel: false,
+                        bridge: false,
+                        layer: 0,
+                    };
+                    roads.push((attributes, vec![vec![at(i, j), at(i + 1, to)]]));
+                }
+            }
+        }
+        Network::from_model(model_from_polylines(roads).unwrap(), None).unwrap()
+    }
+
+    /// Every permitted direction of every section, one reach `reach_m` for
+    /// all, map matching's turn resets on (curve distance [`CURVE_M`]) and
+    /// candidate sites every `spacing_m` (none: `None`).
+    fn edge_model(net: &Network, reach_m: f64, spacing_m: Option<f64>) -> EdgeModel {
+        let mut dir = Vec::new();
+        for (si, s) in net.sections.iter().enumerate() {
+            for fwd in [true, false] {
+                let allowed = if fwd {
+                    s.oneway.allows_forward()
+                } else {
+                    s.oneway.allows_backward()
+                };
+                if allowed {
+                    dir.push((si as SectionId, fwd));
+                }
+            }
+        }
+        let n = dir.len();
+        let mut id = 0u32;
+        let sites = dir
+            .iter()
+            .map(|&(sec, _)| {
+                let len = net.sections[sec as usize].length_m;
+                let k = spacing_m.map_or(0, |sp| (len / sp).ceil() as usize);
+                (0..k)
+                    .map(|i| {
+                        id += 1;
+                        ((i as f64 + 0.5) * len / k as f64, id - 1)
+                    })
+                    .collect()
+            })
+            .collect();
+        EdgeModel::new(
+            net,
+            dir,
+            vec![13.9; n],
+            vec![1.0 / reach_m; n],
+            sites,
+            vec![CURVE_M; n],
+            (0.0, 0.0),
+        )
+    }
+
+    /// The windows of a map: site ids → longest stretch (m).
+    fn windows(m: &mut WindowMap) -> BTreeMap<Vec<u32>, f64> {
+        let (sets, infos) = m.sorted();
+        sets.iter()
+            .zip(infos)
+            .map(|(s, i)| (s.to_vec(), i.stretch_m))
+            .collect()
+    }
+
+    #[test]
+    fn straight_walks_forking_without_a_window_stop_at_max_steps_per_start() {
+        // One-way roads north, 17 rows: a walk from a road leaving row i
+        // forks at every junction up to row 17, where no road goes on, and
+        // never reaches the 5 km reach (the lattice is 1.7 km long): no
+        // window closes, so MAX_PATHS never counts, and it enters
+        // 1 + 2 + … + 2^(16 − i) = 2^(17 − i) − 1 roads.
+        let rows = 17;
+        let net = lattice(rows, Oneway::Forward);
+        let model = edge_model(&net, 5000.0, None);
+        assert_eq!(model.dir.len(), rows * (rows + 1));
+        let straight = geometric_straight(&net, &model);
+        // Every junction of rows 1–16 continues both incoming roads onto
+        // both outgoing ones.
+        assert_eq!(straight.len(), 4 * (rows - 1) * rows / 2);
+        // Walks from the roads leaving row 0 (2 of them: 2^17 − 1 roads
+        // entered each) and row 1 (4: 2^16 − 1 each): with MAX_STEPS = 2^16
+        // the first pass the limit, the others stay just within it.
+        let row_of = |e: usize| -> usize {
+            let sec = &net.sections[model.dir[e].0 as usize];
+            let id = &net.roads[sec.road as usize].attributes.id;
+            id.split('/').next().unwrap().parse().unwrap()
+        };
+        let used: Vec<bool> = (0..model.dir.len()).map(|e| row_of(e) <= 1).collect();
+        assert_eq!(used.iter().filter(|&&u| u).count(), 6);
+        let per_start = [(2usize, (1usize << 17) - 1), (4, (1 << 16) - 1)];
+        let want_cut: usize = per_start
+            .iter()
+            .filter(|s| s.1 > MAX_STEPS)
+            .map(|s| s.0)
+            .sum();
+        assert!(
+            want_cut > 0,
+            "MAX_STEPS = {MAX_STEPS} cuts no walk of this lattice (2^17 − 1 roads at most): the \
+             guard is gone, or the lattice needs more rows"
+        );
+
+        // Unbounded (the reference: it ends, the lattice has no cycle).
+        let mut all = WindowMap::new(usize::MAX);
+        let free = straight_windows_within(&model, &straight, &used, &mut all, usize::MAX);
+        assert_eq!(
+            free,
+            WalkStats {
+                starts: 6,
+                cut: 0,
+                most_steps: (1 << 17) - 1
+            }
+        );
+        assert_eq!(all.len(), 0, "no walk reaches the 5 km reach");
+
+        // With the guard: the starts on row 0 stop at MAX_STEPS roads and
+        // are counted, those on row 1 are not cut.
+        let mut capped = WindowMap::new(usize::MAX);
+        let stats = straight_windows(&model, &straight, &used, &mut capped);
+        assert_eq!(
+            stats,
+            WalkStats {
+                starts: 6,
+                cut: want_cut,
+                most_steps: MAX_STEPS
+            }
+        );
+        assert_eq!(capped.len(), 0);
+    }
+
+    #[test]
+    fn the_step_limit_cuts_no_walk_of_an_ordinary_network() {
+        // Two-way roads (walks also turn back sharply onto the other road
+        // of a junction, and make one U-turn), a site every 25 m, a reach
+        // of 300 m: the windows close within the paths' limit, far from
+        // MAX_STEPS, and are those of the unbounded enumeration.
+        let net = lattice(4, Oneway::Both);
+        let model = edge_model(&net, 300.0, Some(25.0));
+        let straight = geometric_straight(&net, &model);
+        assert!(straight.iter().any(|&(_, b)| b & UTURN_FLAG != 0));
+        let used = vec![true; model.dir.len()];
+        let mut capped = WindowMap::new(usize::MAX);
+        let stats = straight_windows(&model, &straight, &used, &mut capped);
+        let mut all = WindowMap::new(usize::MAX);
+        let free = straight_windows_within(&model, &straight, &used, &mut all, usize::MAX);
+        assert_eq!(stats, free);
+        assert_eq!(stats.cut, 0);
+        // 20 roads × 2 directions × (1 + 5 sites) starts.
+        assert_eq!(stats.starts, 240);
+        assert!(stats.most_steps < MAX_STEPS, "{stats:?}");
+        let w = windows(&mut capped);
+        assert!(w.len() > 100, "{} windows", w.len());
+        assert_eq!(w, windows(&mut all));
+    }
 }

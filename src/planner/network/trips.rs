@@ -427,6 +427,10 @@ pub(crate) struct TripsPlan {
     /// Trips' ends and lengths of the first planning chains (for the
     /// validation's independence, only counts are kept).
     pub planning_km: f64,
+    /// Straight-walk starts whose enumeration stopped at
+    /// [`super::traffic::MAX_STEPS`] edges (the windows they missed are
+    /// left to the certification rounds).
+    pub walks_cut: usize,
 }
 
 /// Plans tags for trips (module doc).
@@ -488,7 +492,10 @@ pub(crate) fn plan_trips(
             used[p.0 as usize] = true;
         }
     }
-    straight_windows(model, &straight, &used, &mut wmap);
+    // Walk starts cut at the step limit: without map matching each round
+    // walks again from every edge used, so its count replaces the last;
+    // with it, each round walks from fresh edges only, so counts add up.
+    let mut walks_cut = straight_windows(model, &straight, &used, &mut wmap).cut;
     full(&wmap)?;
     // The cover of the windows in the order of their ids (deterministic):
     // the greedy, then the Lagrangian relaxation from it (a cheaper
@@ -608,12 +615,14 @@ pub(crate) fn plan_trips(
                 used[p.0 as usize] = true;
             }
         }
-        straight_windows(
+        let cut = straight_windows(
             model,
             &straight,
             if map_matching { &fresh_used } else { &used },
             &mut wmap,
-        );
+        )
+        .cut;
+        walks_cut = if map_matching { walks_cut + cut } else { cut };
         full(&wmap)?;
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
@@ -721,5 +730,6 @@ pub(crate) fn plan_trips(
         window_sets: windows,
         chains: budgets,
         planning_km,
+        walks_cut,
     })
 }
