@@ -159,21 +159,23 @@ impl NetworkPlanFile {
                     v.worst_lon,
                     v.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default()
                 ));
-            lines.push(format!(
-                "where the plan's model needs tags (its budget without tags above 1, at most {:.2} on these drives): \
-                 {} of {} samples, {} within {} m; max error there {:.2} m",
+            if let (Some(u), Some(n), Some(w), Some(m)) = (
                 v.max_budget_without_tags,
                 v.over_budget_samples,
-                v.thinned_samples,
                 v.over_budget_within,
-                p.requirement_m,
                 v.over_budget_max_error_m,
-            ));
+            ) {
+                lines.push(format!(
+                    "where the plan's model needs tags (its budget without tags above 1, at most {u:.2} on these drives): \
+                     {n} of {} samples, {w} within {} m; max error there {m:.2} m",
+                    v.thinned_samples, p.requirement_m,
+                ));
+            }
             if let Some(b) = &v.without_new_tags {
                 lines.push(format!(
                     "baseline: the same chains, runs and seeds {}: {:.2} % of time within {} m; {}; \
                      {} run(s) with a maximum above it (median run maximum {:.2} m); max horizontal error {:.2} m \
-                     (chain {}, run {}, t = {:.0} s{}); where the model needs tags {} of {} samples within, max error there {:.2} m; \
+                     (chain {}, run {}, t = {:.0} s{}){}; \
                      map matching on the wrong road {:.2} % of fixes (with the plan {:.2} %)",
                     if b.tags > 0 {
                         format!("with only the {} installed tag(s)", b.tags)
@@ -190,9 +192,12 @@ impl NetworkPlanFile {
                     b.worst_run,
                     b.worst_t_s,
                     b.worst_road_id.as_ref().map(|r| format!(", road {r}")).unwrap_or_default(),
-                    b.over_budget_within,
-                    v.over_budget_samples,
-                    b.over_budget_max_error_m,
+                    match (b.over_budget_within, v.over_budget_samples, b.over_budget_max_error_m) {
+                        (Some(w), Some(n), Some(m)) => format!(
+                            "; where the model needs tags {w} of {n} samples within, max error there {m:.2} m"
+                        ),
+                        _ => String::new(),
+                    },
                     100.0 * b.map_matching_wrong_road_share,
                     100.0 * v.map_matching_wrong_road_share,
                 ));

@@ -114,15 +114,16 @@ pub struct NetworkValidation {
     /// requirement there had no tag been read since the last turn map
     /// matching observes): the only samples where the validation tests
     /// what the tags are for.
-    pub over_budget_samples: usize,
+    /// `None` for plans without map matching's credit (no budget resets).
+    pub over_budget_samples: Option<usize>,
     /// Of which within the requirement.
-    pub over_budget_within: usize,
+    pub over_budget_within: Option<usize>,
     /// Largest horizontal error (m) at any 1 Hz sample over budget (0 when
     /// none).
-    pub over_budget_max_error_m: f64,
+    pub over_budget_max_error_m: Option<f64>,
     /// Largest budget without tags met on the validation drives (1: the
     /// predicted bound reaches the requirement).
-    pub max_budget_without_tags: f64,
+    pub max_budget_without_tags: Option<f64>,
     /// `any_walk`: the walk DP's worst walks driven with their tags missed.
     pub design_walks: Option<DesignWalkValidation>,
     /// `plan --baseline`: the same chains, runs and seeds driven with only
@@ -203,10 +204,11 @@ pub struct NoTagsValidation {
     /// Median over runs of each run's maximum error (m).
     pub median_run_max_m: f64,
     /// Of the validation's samples over budget (`over_budget_samples`),
-    /// those within the requirement without the planned tags.
-    pub over_budget_within: usize,
+    /// those within the requirement without the planned tags (`None`
+    /// without map matching's credit).
+    pub over_budget_within: Option<usize>,
     /// Largest error (m) at any 1 Hz sample over budget, without the tags.
-    pub over_budget_max_error_m: f64,
+    pub over_budget_max_error_m: Option<f64>,
     /// Largest horizontal error (m).
     pub max_horizontal_error_m: f64,
     /// Chain of the worst point.

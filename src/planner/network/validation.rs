@@ -324,7 +324,11 @@ fn drive_chains(
         let start = route.vertices.first().map_or([0.0, 0.0], |v| v.lat_lon);
         let located = scn.located_at(start);
         let (rp, dirs) = drive(net, &route, &profile, height_m, scn.dt, dem.as_ref())?;
-        let profile_b = cm.map(|cm| BudgetProfile::new(&cm.model, &route, plan.map_matching));
+        // Without map matching's credit the planner's chains carry no
+        // budget between resets (`any_walk` plans its walks instead).
+        let profile_b = cm
+            .filter(|_| plan.map_matching)
+            .map(|cm| BudgetProfile::new(&cm.model, &route, plan.map_matching));
         let tags: Vec<_> = if existing_only {
             let ids: HashSet<&str> = plan
                 .tags
@@ -492,8 +496,8 @@ pub fn validate_network_plan(
             rule,
             runs_exceeding: b.exceeding(req),
             median_run_max_m: b.median_run_max(),
-            over_budget_within: b.over_budget_within,
-            over_budget_max_error_m: b.over_budget_max_m,
+            over_budget_within: plan.map_matching.then_some(b.over_budget_within),
+            over_budget_max_error_m: plan.map_matching.then_some(b.over_budget_max_m),
             max_horizontal_error_m: b.worst.0,
             worst_path: b.worst.1,
             worst_run: b.worst.2,
@@ -540,10 +544,10 @@ pub fn validate_network_plan(
         worst_lat: o.worst.5[0],
         worst_lon: o.worst.5[1],
         worst_road_id: o.worst.6,
-        over_budget_samples: o.over_budget,
-        over_budget_within: o.over_budget_within,
-        over_budget_max_error_m: o.over_budget_max_m,
-        max_budget_without_tags: o.max_budget,
+        over_budget_samples: plan.map_matching.then_some(o.over_budget),
+        over_budget_within: plan.map_matching.then_some(o.over_budget_within),
+        over_budget_max_error_m: plan.map_matching.then_some(o.over_budget_max_m),
+        max_budget_without_tags: plan.map_matching.then_some(o.max_budget),
         design_walks: validate_design_walks(scn, net, plan, runs, seed)?,
         without_new_tags,
         over_budget_stretches,
@@ -562,6 +566,11 @@ pub const STRETCH_SEARCH_CHAINS: usize = 64;
 /// kept away from the stretch, and the turns on the way let map matching
 /// settle the filter as on a long drive.
 pub const STRETCH_LEAD_IN_M: f64 = 5000.0;
+
+/// Most route driven past the point where a stretch's budget passes 1 (m):
+/// a long straight (a motorway) is tested on its first kilometres, where
+/// the planner already needs a tag.
+pub const STRETCH_MAX_OVER_M: f64 = 5000.0;
 
 /// The pieces of `route` between chainages `c0` and `c1` (m), as
 /// [`route_from_pieces`] takes them.
@@ -598,7 +607,9 @@ fn sub_route_pieces(
 /// [`MAX_STRETCHES`]), each driven from
 /// [`STRETCH_LEAD_IN_M`] before its resetting turn to the next reset,
 /// with the plan's tags and without the new ones, the same runs and seeds
-/// both ways. Samples are taken over budget only (one per [`THINNING_S`]
+/// both ways; past [`STRETCH_MAX_OVER_M`] over budget a drive stops. Plans
+/// without map matching's credit have no such stretches (`None`). Samples
+/// are taken over budget only (one per [`THINNING_S`]
 /// and each run's last row, where the budget peaks). `None` when no chain
 /// passes 1.
 fn validate_stretches(
@@ -611,6 +622,11 @@ fn validate_stretches(
     let Some(cm) = plan.chain_model.as_ref() else {
         return Ok(None);
     };
+    // Without map matching's credit the budget resets only where a chain
+    // starts: every chain is one stretch, which the validation drives.
+    if !plan.map_matching {
+        return Ok(None);
+    }
     let shift = scn.planner().shift_s.min(VALIDATION_CHAIN_S);
     let chains = sample_chains(
         net,
@@ -664,6 +680,7 @@ fn validate_stretches(
     for (si, &(peak, ci, [reset, over, end])) in found.iter().enumerate() {
         peaks = (peaks.0.min(peak), peaks.1.max(peak));
         let from = (reset - STRETCH_LEAD_IN_M).max(0.0);
+        let end = end.min(over + STRETCH_MAX_OVER_M);
         let pieces = sub_route_pieces(&routes[ci], from, end);
         let route = route_from_pieces(net, &pieces)?;
         let start = route.vertices.first().map_or([0.0, 0.0], |v| v.lat_lon);
@@ -850,4 +867,104 @@ fn validate_design_walks(
         worst_walk,
         walk_max_m: walk_max,
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::DirectedSection;
+    use crate::route::{Route, RouteSpan};
+
+    /// A profile from piece ends and reset budgets, resets placed as
+    /// `BudgetProfile::new` places them.
+    fn profile(c: &[f64], b: &[f64], resets: &[f64]) -> BudgetProfile {
+        let mut p = BudgetProfile {
+            c: c.to_vec(),
+            b: b.to_vec(),
+            reset_c: Vec::new(),
+            reset_b: resets.to_vec(),
+        };
+        p.reset_c = resets.iter().map(|&r| p.chainage_at_budget(r)).collect();
+        p
+    }
+
+    #[test]
+    fn budget_since_the_last_reset_and_the_stretches_past_one() {
+        // Pieces ending at 100, 300 and 600 m with budgets 0.5, 1.5 and
+        // 1.8; resets at the start, at 100 m (budget 0.5) and at the end.
+        let p = profile(
+            &[0.0, 100.0, 300.0, 600.0],
+            &[0.0, 0.5, 1.5, 1.8],
+            &[0.0, 0.5, 1.8],
+        );
+        assert_eq!(p.reset_c, vec![0.0, 100.0, 600.0]);
+        // Linear within a piece, measured from the last reset at or before x.
+        assert!((p.since_reset(50.0) - 0.25).abs() < 1e-12);
+        assert!((p.since_reset(100.0) - 0.0).abs() < 1e-12);
+        assert!((p.since_reset(200.0) - 0.5).abs() < 1e-12);
+        assert!((p.since_reset(450.0) - 1.15).abs() < 1e-12);
+        // Past the end the budget holds its last value (then the end's
+        // own reset clears it).
+        assert!((p.since_reset(599.0) - (1.8 - 0.001 - 0.5)).abs() < 1e-9);
+        // One stretch passes 1: from the reset at 100 m, over budget from
+        // 300 m (budget 1.5 = 0.5 + 1), to the next reset at 600 m, peak 1.3.
+        let s = p.over_budget();
+        assert_eq!(s.len(), 1);
+        let ([r, o, e], u) = s[0];
+        assert_eq!((r, e), (100.0, 600.0));
+        assert!(
+            (o - 300.0).abs() < 1e-9 && (u - 1.3).abs() < 1e-12,
+            "{o} {u}"
+        );
+    }
+
+    #[test]
+    fn a_flat_budget_maps_to_the_first_chainage_reaching_it() {
+        // A piece of rate 0 (100 to 200 m): budget 0.4 is reached at 100 m.
+        let p = profile(
+            &[0.0, 100.0, 200.0, 400.0],
+            &[0.0, 0.4, 0.4, 1.6],
+            &[0.0, 1.6],
+        );
+        assert_eq!(p.chainage_at_budget(0.4), 100.0);
+        assert!((p.chainage_at_budget(1.0) - 300.0).abs() < 1e-9);
+        // Below the start and past the end: clamped.
+        assert_eq!(p.chainage_at_budget(-1.0), 0.0);
+        assert_eq!(p.chainage_at_budget(9.0), 400.0);
+        let s = p.over_budget();
+        assert_eq!(s.len(), 1);
+        assert!((s[0].0[1] - 300.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn sub_route_pieces_cut_spans_at_chainages_in_both_directions() {
+        let span = |section, forward, c0, c1, f, t| RouteSpan {
+            start_chainage_m: c0,
+            end_chainage_m: c1,
+            section: DirectedSection { section, forward },
+            road: 0,
+            from_offset_m: f,
+            to_offset_m: t,
+        };
+        let route = Route {
+            vertices: Vec::new(),
+            spans: vec![
+                span(1, true, 0.0, 100.0, 10.0, 110.0),
+                span(2, false, 100.0, 250.0, 200.0, 50.0),
+            ],
+            length_m: 250.0,
+            waypoints: Vec::new(),
+        };
+        let p = sub_route_pieces(&route, 50.0, 180.0);
+        assert_eq!(p.len(), 2);
+        assert_eq!((p[0].0.section, p[0].0.forward), (1, true));
+        assert!((p[0].1 - 60.0).abs() < 1e-9 && (p[0].2 - 110.0).abs() < 1e-9);
+        assert_eq!((p[1].0.section, p[1].0.forward), (2, false));
+        assert!((p[1].1 - 200.0).abs() < 1e-9 && (p[1].2 - 120.0).abs() < 1e-9);
+        // A range inside one span, and one touching a span only at its end.
+        let q = sub_route_pieces(&route, 120.0, 130.0);
+        assert_eq!(q.len(), 1);
+        assert!((q[0].1 - 180.0).abs() < 1e-9 && (q[0].2 - 170.0).abs() < 1e-9);
+        assert_eq!(sub_route_pieces(&route, 100.0, 100.0).len(), 0);
+    }
 }
