@@ -161,21 +161,119 @@ impl AtomicFile {
 
     /// Syncs the temporary file and renames it to the final path.
     pub fn commit(mut self) -> Result<()> {
+        self.sync()?;
+        self.rename() // on an error, Drop removes the temporary file
+    }
+
+    /// The final path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Flushes and syncs the temporary file (the first half of
+    /// [`AtomicFile::commit`]: where a full disk shows).
+    fn sync(&mut self) -> Result<()> {
         let file = self
             .file
-            .take()
+            .as_mut()
             .expect("an uncommitted AtomicFile has its file");
-        let result = (|| -> std::io::Result<()> {
-            let f = file.into_inner().map_err(|e| e.into_error())?;
-            f.sync_all()?;
-            std::fs::rename(&self.tmp, &self.path)
-        })();
-        match result {
-            Ok(()) => {
-                forget(&self.tmp);
-                Ok(())
+        file.flush()
+            .and_then(|()| file.get_ref().sync_all())
+            .map_err(|e| Error::io(&self.path, e))
+    }
+
+    /// Renames the synced temporary file to the final path (the second
+    /// half of [`AtomicFile::commit`]).
+    fn rename(&mut self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        self.file = None;
+        forget(&self.tmp);
+        Ok(())
+    }
+}
+
+/// A command's output files written all or none: each goes to its
+/// [`AtomicFile`], and [`OutputSet::commit`] renames them into place only
+/// once every one is complete. Dropped without a commit (an error in a later
+/// step, a failed output), it removes every temporary file and every folder
+/// it created, so a failed command leaves no new file behind.
+#[derive(Debug, Default)]
+pub struct OutputSet {
+    files: Vec<AtomicFile>,
+    /// Folders created for the outputs, outermost first.
+    made_dirs: Vec<PathBuf>,
+}
+
+impl OutputSet {
+    /// An empty set.
+    pub fn new() -> OutputSet {
+        OutputSet::default()
+    }
+
+    /// Starts writing `path`, creating its missing folders (removed again if
+    /// the set is not committed); hand the file back with [`OutputSet::add`].
+    pub fn create(&mut self, path: &Path) -> Result<AtomicFile> {
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            let mut missing = Vec::new();
+            let mut p = Some(parent);
+            while let Some(q) = p.filter(|q| !q.as_os_str().is_empty() && !q.exists()) {
+                missing.push(q.to_path_buf());
+                p = q.parent();
             }
-            Err(e) => Err(Error::io(&self.path, e)), // Drop removes the temporary file.
+            for dir in missing.into_iter().rev() {
+                std::fs::create_dir(&dir).map_err(|e| Error::io(&dir, e))?;
+                self.made_dirs.push(dir);
+            }
+        }
+        AtomicFile::create(path)
+    }
+
+    /// Adds a file being written to the set.
+    pub fn add(&mut self, file: AtomicFile) {
+        self.files.push(file);
+    }
+
+    /// Writes `bytes` as the output `path`, to be renamed into place by
+    /// [`OutputSet::commit`].
+    pub fn write(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
+        let mut f = self.create(path)?;
+        f.write_all(bytes).map_err(|e| Error::io(path, e))?;
+        self.add(f);
+        Ok(())
+    }
+
+    /// Syncs every file, then renames each into place. Should a rename fail
+    /// (the sync succeeded, so only a path that changed meanwhile does), the
+    /// outputs already renamed that did not exist before are removed again
+    /// (one that replaced an earlier file keeps the new content).
+    pub fn commit(mut self) -> Result<()> {
+        for f in &mut self.files {
+            f.sync()?;
+        }
+        let mut new_files = Vec::new();
+        let files = std::mem::take(&mut self.files);
+        for mut f in files {
+            let existed = f.path.symlink_metadata().is_ok();
+            if let Err(e) = f.rename() {
+                for p in &new_files {
+                    let _ = std::fs::remove_file(p);
+                }
+                return Err(e); // dropping the set removes the rest
+            }
+            if !existed {
+                new_files.push(f.path.clone());
+            }
+        }
+        self.made_dirs.clear();
+        Ok(())
+    }
+}
+
+impl Drop for OutputSet {
+    fn drop(&mut self) {
+        self.files.clear(); // each removes its temporary file
+        for dir in self.made_dirs.iter().rev() {
+            let _ = std::fs::remove_dir(dir); // only if empty
         }
     }
 }

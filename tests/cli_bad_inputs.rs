@@ -280,3 +280,108 @@ fn a_road_name_with_control_characters_keeps_the_error_on_one_line() {
     let e = fails_with(&out, &["infeasible", "\"Evil Road [31mRed\""]);
     assert!(!e.contains('\u{1b}'), "{e:?}");
 }
+
+#[test]
+fn absurd_track_times_are_refused_at_their_line() {
+    // A time of 1e300 s (or of the year 9999) was taken as it was: the
+    // matcher's gaps and speeds then came from a time no track holds.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let matched = |track: &str| {
+        run(
+            &[
+                "match",
+                "--map",
+                &helsinki(),
+                "--track",
+                track,
+                "--out",
+                "m.csv",
+            ],
+            d,
+        )
+    };
+    let gpx = |t: &str| {
+        format!(
+            r#"<?xml version="1.0"?><gpx version="1.1" creator="x"><trk><trkseg>
+        <trkpt lat="60.17" lon="24.94"><time>2020-01-01T00:00:00Z</time></trkpt>
+        <trkpt lat="60.171" lon="24.941"><time>{t}</time></trkpt>
+        </trkseg></trk></gpx>"#
+        )
+    };
+    let geojson = |times: &str, fourth: &str| {
+        format!(
+            r#"{{"type":"FeatureCollection","features":[{{"type":"Feature",
+            "properties":{{{times}}},
+            "geometry":{{"type":"LineString","coordinates":[[24.94,60.17,0,0],[24.941,60.171,0,{fourth}]]}}}}]}}"#
+        )
+    };
+    for (name, text, needles) in [
+        // CSV: read whole (interleaved tracks) and streamed.
+        (
+            "t.csv",
+            "t_s,lat,lon\n0,60.17,24.94\n1e300,60.171,24.941\n".to_string(),
+            vec!["t.csv:3", "t_s 1e300", "1e11"],
+        ),
+        (
+            "t.csv",
+            "t_s,lat,lon,track_id\n-1e300,60.17,24.94,a\n0,60.17,24.94,b\n1,60.171,24.941,a\n"
+                .to_string(),
+            vec!["t.csv:2", "t_s -1e300", "1e11"],
+        ),
+        (
+            "t.csv",
+            "t_s,lat,lon\n0,60.17,24.94\n300000000000,60.171,24.941\n".to_string(),
+            vec!["t.csv:3", "t_s 300000000000", "1e11"],
+        ),
+        (
+            "t.csv",
+            "t_s,lat,lon\n-inf,60.17,24.94\n1,60.171,24.941\n".to_string(),
+            vec!["t.csv:2", "t_s", "-inf"],
+        ),
+        (
+            "t.gpx",
+            gpx("9999-12-31T23:59:59Z"),
+            vec!["t.gpx", "point 2", "1e11"],
+        ),
+        (
+            "t.geojson",
+            geojson("", "1e300"),
+            vec!["t.geojson", "point 2", "1e300", "1e11"],
+        ),
+        (
+            "t.geojson",
+            geojson(r#""times":[0, 1e300]"#, "0"),
+            vec!["t.geojson", "point 2", "1e300", "1e11"],
+        ),
+        (
+            "t.geojson",
+            geojson(r#""times":["0", "-1e300"]"#, "0"),
+            vec!["t.geojson", "point 2", "-1e300", "1e11"],
+        ),
+    ] {
+        std::fs::write(d.join(name), &text).unwrap();
+        let e = fails_with(&matched(name), &needles);
+        assert!(e.len() < 300, "{e}");
+        assert!(!d.join("m.csv").exists(), "{text}");
+    }
+    // Times at the limit's scale, as ordinary Unix times, still match.
+    for (name, text) in [
+        (
+            "t.csv",
+            "t_s,lat,lon\n1700000000,60.17,24.94\n1700000001,60.171,24.941\n".to_string(),
+        ),
+        ("t.gpx", gpx("2020-01-01T00:01:00Z")),
+        ("t.geojson", geojson("", "60")),
+    ] {
+        std::fs::write(d.join(name), &text).unwrap();
+        let out = matched(name);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{name}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::remove_file(d.join("m.csv")).unwrap();
+    }
+}

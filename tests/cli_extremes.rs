@@ -851,3 +851,49 @@ fn an_absurd_pitch_rate_is_refused() {
     );
     succeeded_finite(&simulate(d, "m.toml"));
 }
+
+#[test]
+fn a_map_elevation_of_the_wrong_type_says_what_is_expected() {
+    // `elevation = 1` gave serde's "data did not match any variant of
+    // untagged enum OneOrMany": neither the field's form nor the type.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (line, needles) in [
+        (
+            "elevation = 1",
+            vec!["map.elevation", "integer", "a GeoTIFF path", "list"],
+        ),
+        (
+            "elevation = 1e300",
+            vec!["map.elevation", "1e300", "a GeoTIFF path"],
+        ),
+        (
+            "elevation = { file = \"dem.tif\" }",
+            vec!["map.elevation", "type: table", "a GeoTIFF path", "list"],
+        ),
+        ("elevation = true", vec!["map.elevation", "boolean"]),
+        // Another field's array, named as TOML names it.
+        (
+            "geometry_error_m = [1]",
+            vec!["map.geometry_error_m", "type: array"],
+        ),
+        (
+            "elevation = [\"dem.tif\", 2]",
+            vec!["map.elevation[1]", "integer", "a GeoTIFF path"],
+        ),
+    ] {
+        let scn = map_matching(d, "s.toml", line);
+        let e = fails_with(
+            &simulate(d, &scn),
+            &[&["s.toml: line "][..], &needles].concat(),
+        );
+        assert!(!e.contains("untagged"), "{e}");
+        assert!(e.len() < 250, "{e}");
+        assert!(!d.join("o").exists());
+    }
+    // A path and a list of paths are read as before (here: a missing file).
+    for line in ["elevation = \"dem.tif\"", "elevation = [\"dem.tif\"]"] {
+        let scn = map_matching(d, "s.toml", line);
+        fails_with(&simulate(d, &scn), &["dem.tif"]);
+    }
+}

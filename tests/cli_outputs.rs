@@ -345,3 +345,102 @@ fn an_input_among_the_files_a_command_replaces_is_refused() {
         installed
     );
 }
+
+#[test]
+fn a_match_whose_later_output_fails_leaves_no_output() {
+    // `--out m.csv --path P` where P could not be written (a folder's name,
+    // a name too long for its temporary file): m.csv was written and left
+    // behind, and a missing folder on the way to P was created.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("track.csv"), TRACK).unwrap();
+    // The same fixes as GPX: read whole, not streamed.
+    std::fs::write(
+        d.join("track.gpx"),
+        "<?xml version=\"1.0\"?><gpx version=\"1.1\" creator=\"x\"><trk><trkseg>\
+         <trkpt lat=\"60.16987\" lon=\"24.93838\"><time>2020-01-01T00:00:00Z</time></trkpt>\
+         <trkpt lat=\"60.17011\" lon=\"24.93819\"><time>2020-01-01T00:00:01Z</time></trkpt>\
+         <trkpt lat=\"60.17036\" lon=\"24.93800\"><time>2020-01-01T00:00:02Z</time></trkpt>\
+         </trkseg></trk></gpx>",
+    )
+    .unwrap();
+    let map = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("maps/helsinki.osm.pbf")
+        .display()
+        .to_string();
+    let long = format!("{}.csv", "p".repeat(250));
+    let listing = || {
+        let mut names: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    };
+    let before = listing();
+    for track in ["track.csv", "track.gpx"] {
+        for option in ["--path", "--path-geojson"] {
+            for (target, needle) in [
+                ("sub/..", "sub/.."),
+                ("p.csv/", "p.csv/"),
+                ("new/p.csv/", "new/p.csv/"),
+                (long.as_str(), "ppppp"),
+            ] {
+                let args = [
+                    "match", "--map", &map, "--track", track, "--out", "m.csv", option, target,
+                ];
+                let out = run(&args, d);
+                let stderr = String::from_utf8_lossy(&out.stderr);
+                assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+                assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+                assert!(stderr.contains(needle), "{args:?}: {stderr}");
+                assert_eq!(listing(), before, "{args:?}: {stderr}");
+            }
+        }
+        // An earlier output of the same name is left as it was.
+        std::fs::write(d.join("m.csv"), "old").unwrap();
+        let out = run(
+            &[
+                "match",
+                "--map",
+                &map,
+                "--track",
+                track,
+                "--out",
+                "m.csv",
+                "--path",
+                "p.csv",
+                "--path-geojson",
+                &long,
+            ],
+            d,
+        );
+        assert_eq!(out.status.code(), Some(1));
+        assert_eq!(std::fs::read_to_string(d.join("m.csv")).unwrap(), "old");
+        assert!(!d.join("p.csv").exists());
+        std::fs::remove_file(d.join("m.csv")).unwrap();
+        // All three written when they can be.
+        let out = run(
+            &[
+                "match",
+                "--map",
+                &map,
+                "--track",
+                track,
+                "--out",
+                "m.csv",
+                "--path",
+                "a/p.csv",
+                "--path-geojson",
+                "a/p.geojson",
+            ],
+            d,
+        );
+        succeeded(&out);
+        for f in ["m.csv", "a/p.csv", "a/p.geojson"] {
+            assert!(d.join(f).is_file(), "{f}");
+        }
+        std::fs::remove_dir_all(d.join("a")).unwrap();
+        std::fs::remove_file(d.join("m.csv")).unwrap();
+    }
+}

@@ -11,12 +11,13 @@
 //!   property, else its feature number. Times come from a `coordTimes`,
 //!   `times` or `timestamps` property (one per position: RFC 3339 strings or
 //!   numbers of seconds), or from a fourth coordinate; else none.
-//! - A time earlier than the one before it in the same track is an error.
+//! - A time earlier than the one before it in the same track is an error,
+//!   as is one beyond ±[`MAX_ABS_TIME_S`] (1e11 s).
 //!
 //! For GPX and GeoJSON, a row's `line` is the point's number in the file
 //! (1-based, counting every track point in order).
 
-use super::track::{read_text, read_track_text, TrackRow};
+use super::track::{read_text, read_track_text, time_beyond_limit, TrackRow};
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -76,7 +77,7 @@ pub fn sniff_file(path: &Path) -> Result<TrackFormat> {
     }
 }
 
-pub use super::track::WHOLE_FILE_LIMIT_BYTES;
+pub use super::track::{MAX_ABS_TIME_S, WHOLE_FILE_LIMIT_BYTES};
 
 /// Reads a track file of any supported format.
 pub fn read_track_file(path: &Path) -> Result<(Vec<TrackRow>, TrackFormat)> {
@@ -126,6 +127,15 @@ fn rows_of(path: &Path, tracks: Vec<RawTrack>) -> Result<Vec<TrackRow>> {
                 ));
             }
             if t.is_finite() {
+                if t.abs() > MAX_ABS_TIME_S {
+                    return Err(Error::format(
+                        path,
+                        format!(
+                            "track {id}, point {number}: {}",
+                            time_beyond_limit(&format!("time {t} s"))
+                        ),
+                    ));
+                }
                 if let Some((prev, pn)) = last {
                     if t < prev {
                         return Err(Error::format(

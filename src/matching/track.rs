@@ -2,8 +2,8 @@
 //!
 //! TRACK.csv: a header row naming at least `t_s`, `lat`, `lon`, optionally
 //! `heading_deg` (clockwise from north), `speed_mps` and `track_id`, in any
-//! order; rows in time order within each track. Every problem is reported
-//! with the file and line.
+//! order; rows in time order within each track, times within
+//! ±[`MAX_ABS_TIME_S`]. Every problem is reported with the file and line.
 
 use super::{Fix, MatchedPoint};
 use crate::decimal::{push_display, push_fixed};
@@ -62,6 +62,22 @@ pub(crate) struct CsvTable<'a> {
 /// tracks), and the largest truth file: bytes. A CSV of contiguous tracks
 /// is streamed without a limit.
 pub const WHOLE_FILE_LIMIT_BYTES: u64 = 512 << 20;
+
+/// The largest time a track may give, either side of zero (s): about 3,169
+/// years, so a Unix time from 1199 BC to AD 5138 or a time from a
+/// track's start. Beyond it a time is a mistake (`1e300`, a time in
+/// milliseconds or nanoseconds since the epoch), whose gaps and speeds the
+/// matcher would take as they were.
+pub const MAX_ABS_TIME_S: f64 = 1e11;
+
+/// The message for a time beyond [`MAX_ABS_TIME_S`] (`what`: how the file
+/// names it, with its value).
+pub(crate) fn time_beyond_limit(what: &str) -> String {
+    format!(
+        "{what} is beyond the limit of ±1e11 s (3,169 years; a Unix time in seconds is \
+         about 1.7e9 now: a time in milliseconds or nanoseconds?)"
+    )
+}
 
 /// Reads a file as UTF-8 text without a byte-order mark.
 pub(crate) fn read_text(path: &Path, what: &str) -> Result<String> {
@@ -282,6 +298,13 @@ pub(crate) fn parse_row(
         unreachable!("columns() finds t_s, lat and lon")
     };
     let t_s = number(path, line, "t_s", &f[ct])?;
+    if t_s.abs() > MAX_ABS_TIME_S {
+        return Err(Error::table(
+            path,
+            line,
+            time_beyond_limit(&format!("t_s {}", &f[ct])),
+        ));
+    }
     let lat = number(path, line, "lat", &f[clat])?;
     let lon = number(path, line, "lon", &f[clon])?;
     if !(-90.0..=90.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) {

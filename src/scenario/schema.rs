@@ -247,13 +247,60 @@ pub struct MapSection {
 }
 
 /// One file or a list of files.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Clone)]
 pub enum OneOrMany {
     /// One file.
     One(PathBuf),
     /// Several files.
     Many(Vec<PathBuf>),
+}
+
+/// Read by its form, not as an untagged enum: serde's untagged error
+/// ("data did not match any variant of untagged enum OneOrMany") names
+/// neither the value's type nor what is expected.
+impl<'de> Deserialize<'de> for OneOrMany {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Files;
+        impl<'de> serde::de::Visitor<'de> for Files {
+            type Value = OneOrMany;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str(
+                    "a GeoTIFF path (\"dem.tif\") or a list of GeoTIFF paths ([\"a.tif\", \"b.tif\"])",
+                )
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<OneOrMany, E> {
+                Ok(OneOrMany::One(PathBuf::from(v)))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<OneOrMany, A::Error> {
+                let mut files = Vec::new();
+                while let Some(f) = seq.next_element::<File>()? {
+                    files.push(f.0);
+                }
+                Ok(OneOrMany::Many(files))
+            }
+        }
+        /// One path of the list (its own type, for its own expectation).
+        struct File(PathBuf);
+        impl<'de> Deserialize<'de> for File {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                struct OnePath;
+                impl serde::de::Visitor<'_> for OnePath {
+                    type Value = File;
+                    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                        f.write_str("a GeoTIFF path (\"dem.tif\")")
+                    }
+                    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<File, E> {
+                        Ok(File(PathBuf::from(v)))
+                    }
+                }
+                d.deserialize_str(OnePath)
+            }
+        }
+        d.deserialize_any(Files)
+    }
 }
 
 /// `[[route]]`: waypoints on the map, or a start and motion commands.

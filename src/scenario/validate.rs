@@ -29,7 +29,11 @@ const MAX_ODOMETER_NOISE_MPS: f64 = 10.0;
 /// where the error is about a value, the field holding it (e.g.
 /// `line 12: planner.coverage "everything" is not one of routes, network`).
 fn toml_error(text: &str, e: &toml::de::Error) -> String {
-    let msg = shorten_numbers(&e.message().replace('\n', " "));
+    // serde's names of TOML's kinds of value: a table is a "map", an array
+    // a "sequence".
+    let msg = shorten_numbers(&e.message().replace('\n', " "))
+        .replace("invalid type: map,", "invalid type: table,")
+        .replace("invalid type: sequence,", "invalid type: array,");
     let msg = msg.trim();
     let Some(span) = e.span() else {
         return msg.to_string();

@@ -2,8 +2,7 @@
 
 use super::inputs::{check_distinct_files, check_out_dir};
 use crate::error::{Error, Result};
-use crate::fsio::write_atomic;
-use crate::fsio::AtomicFile;
+use crate::fsio::OutputSet;
 use crate::matching::evaluate::{self, Score};
 use crate::matching::inputs::{read_track_file, sniff_file, TrackFormat};
 use crate::matching::options::MatchOptions;
@@ -139,8 +138,18 @@ fn model_name(o: &MatchOptions) -> Option<&'static str> {
     (o.method == Method::Hmm).then(|| o.model.as_str())
 }
 
-/// The output's folder is checked before any work, made when writing.
-fn check_out(file: &Path) -> Result<()> {
+/// The output (given as `option`) and its folder are checked before any
+/// work; the folder is made when writing.
+fn check_out(file: &Path, option: &str) -> Result<()> {
+    // `sub/..`, `p.csv/`: a folder's name, whatever is there now (after a
+    // first output was written, it could not be written as a file).
+    let text = file.as_os_str().as_encoded_bytes();
+    if file.file_name().is_none() || text.ends_with(b"/") || text.ends_with(b"/.") {
+        return Err(Error::format(
+            file,
+            format!("{option} names a folder, not a file; give a file name"),
+        ));
+    }
     if let Some(parent) = file.parent().filter(|p| !p.as_os_str().is_empty()) {
         check_out_dir(parent)?;
     }
@@ -148,13 +157,6 @@ fn check_out(file: &Path) -> Result<()> {
         return Err(Error::format(file, "the output file is an existing folder"));
     }
     Ok(())
-}
-
-fn write_out(file: &Path, text: &str) -> Result<()> {
-    if let Some(parent) = file.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-    }
-    write_atomic(file, text.as_bytes())
 }
 
 /// The error of a track none of whose points lies near a road of the map
@@ -170,16 +172,32 @@ fn nothing_matched<'p>(job: &MatchJob, params: impl Iterator<Item = &'p HmmParam
     )
 }
 
+/// Adds the complete path's files asked for (`--path`, `--path-geojson`) to
+/// `files`; their names.
+fn write_paths(
+    files: &mut OutputSet,
+    job: &MatchJob,
+    net: &Network,
+    tracks: &[(&str, &[crate::matching::cpath::PathStep])],
+) -> Result<Vec<String>> {
+    let mut names = Vec::new();
+    if let Some(f) = job.path {
+        files.write(f, path_out::path_csv(net, tracks).as_bytes())?;
+        names.push(f.display().to_string());
+    }
+    if let Some(f) = job.path_geojson {
+        files.write(f, path_out::path_geojson(net, tracks).as_bytes())?;
+        names.push(f.display().to_string());
+    }
+    Ok(names)
+}
+
 /// Matches the track file to the map and writes the matched CSV (and the
 /// complete path, when asked); with a truth file, scores the complete path
 /// by length and count.
 pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
     let t0 = Instant::now();
     job.options.validate()?;
-    check_out(job.out_file)?;
-    for f in [job.path, job.path_geojson].into_iter().flatten() {
-        check_out(f)?;
-    }
     let outputs: Vec<(&Path, &str)> = [
         (Some(job.out_file), "--out"),
         (job.path, "--path"),
@@ -188,6 +206,9 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
     .into_iter()
     .filter_map(|(p, o)| p.map(|p| (p, o)))
     .collect();
+    for (f, option) in &outputs {
+        check_out(f, option)?;
+    }
     let inputs: Vec<(&Path, &str)> = [
         (Some(job.map), "--map"),
         (Some(job.track), "--track"),
@@ -222,20 +243,18 @@ pub fn match_file(job: &MatchJob) -> Result<MatchOutcome> {
     if matched == 0 {
         return Err(nothing_matched(job, outcomes.iter().map(|o| &o.params)));
     }
-    write_out(job.out_file, &tr::matched_csv(&net, &rows, &points))?;
+    // All outputs or none: each is complete before any is renamed into place.
+    let mut files = OutputSet::new();
+    files.write(
+        job.out_file,
+        tr::matched_csv(&net, &rows, &points).as_bytes(),
+    )?;
     let tracks: Vec<(&str, &[_])> = outcomes
         .iter()
         .map(|o| (o.track_id.as_str(), &o.path[..]))
         .collect();
-    let mut path_files = Vec::new();
-    if let Some(f) = job.path {
-        write_out(f, &path_out::path_csv(&net, &tracks))?;
-        path_files.push(f.display().to_string());
-    }
-    if let Some(f) = job.path_geojson {
-        write_out(f, &path_out::path_geojson(&net, &tracks))?;
-        path_files.push(f.display().to_string());
-    }
+    let path_files = write_paths(&mut files, job, &net, &tracks)?;
+    files.commit()?;
     let mut breaks = Vec::new();
     let mut spans = Vec::new();
     let mut unmatched_tracks = Vec::new();
@@ -306,10 +325,8 @@ fn streamed(
     load_ms: f64,
 ) -> Result<Option<MatchOutcome>> {
     let t1 = Instant::now();
-    if let Some(parent) = job.out_file.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-    }
-    let mut file = AtomicFile::create(job.out_file)?;
+    let mut files = OutputSet::new();
+    let mut file = files.create(job.out_file)?;
     let keep_path = job.path.is_some() || job.path_geojson.is_some();
     let Some(r) = match_csv_stream(
         net,
@@ -327,21 +344,14 @@ fn streamed(
     if matched == 0 {
         return Err(nothing_matched(job, r.tracks.iter().map(|o| &o.params)));
     }
-    file.commit()?;
+    files.add(file);
     let tracks: Vec<(&str, &[_])> = r
         .tracks
         .iter()
         .map(|o| (o.track_id.as_str(), &o.path[..]))
         .collect();
-    let mut path_files = Vec::new();
-    if let Some(f) = job.path {
-        write_out(f, &path_out::path_csv(net, &tracks))?;
-        path_files.push(f.display().to_string());
-    }
-    if let Some(f) = job.path_geojson {
-        write_out(f, &path_out::path_geojson(net, &tracks))?;
-        path_files.push(f.display().to_string());
-    }
+    let path_files = write_paths(&mut files, job, net, &tracks)?;
+    files.commit()?;
     let mut breaks = Vec::new();
     let mut spans = Vec::new();
     let mut unmatched_tracks = Vec::new();
