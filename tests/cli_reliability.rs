@@ -836,13 +836,14 @@ fn sigterm_while_match_writes_removes_the_temporary_file() {
 }
 
 #[test]
-fn a_route_through_thousands_of_waypoints_is_built_in_linear_time() {
+fn a_route_through_thousands_of_waypoints_is_simulated() {
     // The lane path summed every lane step from the route's start at each
     // of its points: quadratic in the route's length. 2,000 waypoints
     // between two corners of the demo's streets (a 1,800 km route: each leg
     // drives round a block) took minutes before the first second could be
     // simulated (1,000 waypoints 28 s of CPU, 3,000 waypoints 262 s); now
-    // 1,000 take 1 s, 3,000 3 s and 10,000 10 s.
+    // 1,000 take 1 s, 3,000 3 s and 10,000 10 s (BENCHMARKS.md, "Routes
+    // through thousands of waypoints").
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let waypoints: Vec<&str> = (0..2000)
@@ -871,7 +872,9 @@ fn a_route_through_thousands_of_waypoints_is_built_in_linear_time() {
         );
     assert!(text.contains("duration_s = 60") && text.contains("[60.1680, 24.9400]"));
     std::fs::write(d.join("many.toml"), text).unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_waymark"))
+    // No deadline here (the project measures speed in BENCHMARKS.md, not
+    // in timed tests): the run must build the route and finish.
+    let out = Command::new(env!("CARGO_BIN_EXE_waymark"))
         .args([
             "simulate",
             "many.toml",
@@ -883,19 +886,8 @@ fn a_route_through_thousands_of_waypoints_is_built_in_linear_time() {
             "-q",
         ])
         .current_dir(d)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
+        .output()
         .unwrap();
-    let t0 = std::time::Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if t0.elapsed() > std::time::Duration::from_secs(40) {
-            child.kill().unwrap();
-            child.wait().unwrap();
-            panic!("still building the route after 40 s");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
-    let v = succeeded_finite(&child.wait_with_output().unwrap());
+    let v = succeeded_finite(&out);
     assert_eq!(v["duration_s"].as_f64(), Some(60.0), "{v}");
 }
