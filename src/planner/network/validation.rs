@@ -32,7 +32,7 @@ use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::route::{plan_route_points, route_from_pieces};
 use crate::scenario::Scenario;
-use crate::sim::{simulate_with, TruthSource};
+use crate::sim::{simulate_with, ErrorRow, TruthSource};
 use crate::trajectory::{route_heights, RoutePlan, SpeedProfile};
 use std::collections::HashSet;
 
@@ -554,6 +554,29 @@ pub fn validate_network_plan(
     })
 }
 
+/// One run's error samples over `rows`: one per [`THINNING_S`] and the last
+/// row (where a walk's or stretch's budget peaks). Returns the samples, of
+/// them those within `req`, and the largest error over every row; `Err`
+/// with the time (s) of the first row whose error is not finite.
+fn thin_rows(rows: &[&ErrorRow], req: f64) -> std::result::Result<(usize, usize, f64), f64> {
+    let (mut n, mut within, mut m) = (0usize, 0usize, 0.0f64);
+    let mut next = f64::NEG_INFINITY;
+    for (i, row) in rows.iter().enumerate() {
+        if !row.horizontal_m.is_finite() {
+            return Err(row.t_s);
+        }
+        m = m.max(row.horizontal_m);
+        if row.t_s >= next || i + 1 == rows.len() {
+            n += 1;
+            if row.horizontal_m <= req {
+                within += 1;
+            }
+            next = row.t_s + THINNING_S;
+        }
+    }
+    Ok((n, within, m))
+}
+
 /// Most over-budget stretches the baseline's stretch test drives.
 pub const MAX_STRETCHES: usize = 8;
 
@@ -716,28 +739,18 @@ fn validate_stretches(
                     .iter()
                     .filter(|row| from + row.distance_m * to_chainage >= over)
                     .collect();
-                let mut next = f64::NEG_INFINITY;
-                let mut m = 0.0f64;
-                for (i, row) in rows.iter().enumerate() {
-                    if !row.horizontal_m.is_finite() {
-                        return Err(Error::scenario(
-                            &scn.path,
-                            format!(
-                                "over-budget stretch {si}, run {}: the navigation error is not \
-                                 finite at t = {:.0} s",
-                                r.run, row.t_s
-                            ),
-                        ));
-                    }
-                    m = m.max(row.horizontal_m);
-                    if row.t_s >= next || i + 1 == rows.len() {
-                        counts[k].0 += 1;
-                        if row.horizontal_m <= req {
-                            counts[k].1 += 1;
-                        }
-                        next = row.t_s + THINNING_S;
-                    }
-                }
+                let (n_thin, n_within, m) = thin_rows(&rows, req).map_err(|t| {
+                    Error::scenario(
+                        &scn.path,
+                        format!(
+                            "over-budget stretch {si}, run {}: the navigation error is not \
+                             finite at t = {t:.0} s",
+                            r.run
+                        ),
+                    )
+                })?;
+                counts[k].0 += n_thin;
+                counts[k].1 += n_within;
                 if m > req {
                     f.runs_exceeding += 1;
                 }
@@ -818,29 +831,19 @@ fn validate_design_walks(
             None,
         )?;
         for r in &res.runs {
-            let mut next = f64::NEG_INFINITY;
-            let mut m = 0.0f64;
             let walk_rows: Vec<_> = r
                 .rows
                 .iter()
                 .filter(|row| row.distance_m >= w.lead_in_m)
                 .collect();
-            for (i, row) in walk_rows.iter().enumerate() {
-                if !row.horizontal_m.is_finite() {
-                    return Err(Error::InvalidParameter(format!(
-                        "design walk {wi}, run {}: the navigation error is not finite at t = {:.0} s",
-                        r.run, row.t_s
-                    )));
-                }
-                m = m.max(row.horizontal_m);
-                if row.t_s >= next || i + 1 == walk_rows.len() {
-                    n_thin += 1;
-                    if row.horizontal_m <= req {
-                        n_within += 1;
-                    }
-                    next = row.t_s + THINNING_S;
-                }
-            }
+            let (n, within, m) = thin_rows(&walk_rows, req).map_err(|t| {
+                Error::InvalidParameter(format!(
+                    "design walk {wi}, run {}: the navigation error is not finite at t = {t:.0} s",
+                    r.run
+                ))
+            })?;
+            n_thin += n;
+            n_within += within;
             if m > req {
                 exceeding += 1;
             }
