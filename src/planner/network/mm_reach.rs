@@ -119,9 +119,23 @@ impl MatchedReach {
     }
 }
 
+/// Distance (m) from each corner of a calibration road to the extra vertex
+/// placed on either side of it. The truth's path rounds each vertex with an
+/// arc using up to half of the neighbouring legs (`crate::trajectory`'s
+/// route plan): on legs hundreds of metres long a right-angle corner became
+/// an arc of radius 250 m, up to 73 m off the road, and a weak turn after a
+/// long first leg an arc of radius 2.4 km, 76 m off. With vertices this
+/// close the arc's radius is at most `CORNER_VERTEX_M / 2 / tan(θ/2)` (5 m
+/// for a right angle, 12 m for 45°), so the path keeps within about a metre
+/// of the road, as a vehicle turning at a junction does; the bends of the
+/// slow curve (legs of `CURVE_M / CURVE_CORNERS`) keep their radius.
+const CORNER_VERTEX_M: f64 = 10.0;
+
 /// A road of straight legs (heading clockwise from north in degrees,
 /// length m) as a network with one two-way road; returns its truth at
-/// `speed_mps` and the chainages of its corners, in order.
+/// `speed_mps` and the chainages of its corners, in order. Legs longer than
+/// `2 · CORNER_VERTEX_M + 1` m get a vertex `CORNER_VERTEX_M` from each end
+/// ([`CORNER_VERTEX_M`]: the truth turns where the road does).
 fn synthetic_drive(
     scn: &Scenario,
     lat_deg: f64,
@@ -133,14 +147,25 @@ fn synthetic_drive(
     let m_per_deg_lat = 111_320.0;
     let m_per_deg_lon = 111_320.0 * lat_deg.to_radians().cos();
     let mut pts = vec![[lat_deg, lon_deg]];
+    // Index in `pts` of each corner (the end of every leg but the last).
+    let mut corner_at: Vec<usize> = Vec::with_capacity(legs.len());
     for &(h, len) in legs {
         let p = pts[pts.len() - 1];
         let h = h.to_radians();
-        pts.push([
-            p[0] + len * h.cos() / m_per_deg_lat,
-            p[1] + len * h.sin() / m_per_deg_lon,
-        ]);
+        let at = |d: f64| {
+            [
+                p[0] + d * h.cos() / m_per_deg_lat,
+                p[1] + d * h.sin() / m_per_deg_lon,
+            ]
+        };
+        if len > 2.0 * CORNER_VERTEX_M + 1.0 {
+            pts.push(at(CORNER_VERTEX_M));
+            pts.push(at(len - CORNER_VERTEX_M));
+        }
+        pts.push(at(len));
+        corner_at.push(pts.len() - 1);
     }
+    corner_at.pop();
     let attrs = RoadAttributes {
         id: "calibration".into(),
         name: None,
@@ -154,11 +179,11 @@ fn synthetic_drive(
         layer: 0,
     };
     let ends = [pts[0], pts[pts.len() - 1]];
-    let corners = pts.len() - 2;
     let net = Network::from_model(model_from_polylines(vec![(attrs, vec![pts])])?, None)?;
     let route = plan_route(&net, &ends)?;
-    let turns: Vec<f64> = (1..=corners)
-        .filter_map(|i| route.vertices.get(i).map(|v| v.chainage_m))
+    let turns: Vec<f64> = corner_at
+        .iter()
+        .filter_map(|&i| route.vertices.get(i).map(|v| v.chainage_m))
         .collect();
     let profile = SpeedProfile {
         speed_mps,
@@ -569,4 +594,189 @@ pub(crate) fn matched_classes(
         out.profiles.entry(k).or_insert_with(|| c.profile.clone());
     }
     Ok(out)
+}
+
+/// Measurement, not a check: the covariance engine's 95 % bound on the
+/// calibration drives beside the Monte Carlo error of the same drives
+/// (`cargo test --release --lib mm_reach_mc -- --ignored --nocapture`).
+#[cfg(test)]
+mod mm_reach_mc {
+    use super::*;
+    use crate::sim::simulate_with;
+
+    fn scenario() -> Scenario {
+        let p = std::env::var("MC_SCN")
+            .unwrap_or_else(|_| "scenarios/helsinki-network-trips.toml".into());
+        Scenario::load(std::path::Path::new(&p)).unwrap()
+    }
+
+    fn compare(
+        scn: &Scenario,
+        name: &str,
+        legs: &[(f64, f64)],
+        from_corner: Option<usize>,
+        runs: u64,
+    ) {
+        let (lat, lon, h) = (60.17, 24.94, 10.0);
+        let v = 50.0 / 3.6;
+        let (truth, corners) = synthetic_drive(scn, lat, lon, h, v, legs).unwrap();
+        let from = from_corner.map_or(0.0, |i| corners[i]);
+        let located = scn.located_at([lat, lon]);
+        let cov = run(&located, &truth, from, 1e9, 0.95, None, true, true).unwrap();
+        let res = simulate_with(&located, &truth, &[], runs, 1, None).unwrap();
+        println!("== {name}: from {from:.0} m, {runs} runs");
+        if std::env::var("MC_DETAIL").is_ok() {
+            for r in res.runs.iter().take(3) {
+                println!("   run {} feed {:?}", r.run, r.map_feed);
+                let mut next = from - 300.0;
+                for row in &r.rows {
+                    if row.distance_m >= next && row.distance_m <= from + 1500.0 {
+                        println!(
+                            "     d {:7.0} t {:6.0} e {:7.2} n {:7.2} h {:7.2} b {:6.2}",
+                            row.distance_m - from,
+                            row.t_s,
+                            row.east_m,
+                            row.north_m,
+                            row.horizontal_m,
+                            row.bound95_m
+                        );
+                        next = row.distance_m + 50.0;
+                    }
+                }
+            }
+        }
+        println!("   d_m  cov_bound  mc_q95  mc_q50  mc_max  filt_bound_mean");
+        let mut d = 250.0;
+        while d < truth.samples().last().unwrap().distance_m - from {
+            let at = from + d;
+            let mut e: Vec<f64> = Vec::new();
+            let mut fb = 0.0;
+            for r in &res.runs {
+                let i = r.rows.partition_point(|x| x.distance_m < at);
+                if let Some(row) = r.rows.get(i) {
+                    e.push(row.horizontal_m);
+                    fb += row.bound95_m;
+                }
+            }
+            if e.is_empty() {
+                break;
+            }
+            fb /= e.len() as f64;
+            e.sort_by(f64::total_cmp);
+            let q = |p: f64| e[((p * e.len() as f64).ceil() as usize).clamp(1, e.len()) - 1];
+            println!(
+                "{:6.0} {:10.2} {:7.2} {:7.2} {:7.2} {:8.2}",
+                d,
+                cov.profile
+                    .get((d / 10.0) as usize)
+                    .map_or(f64::NAN, |x| x.1),
+                q(0.95),
+                q(0.5),
+                e[e.len() - 1],
+                fb
+            );
+            d += if d < 2000.0 { 250.0 } else { 1000.0 };
+        }
+    }
+
+    #[test]
+    #[ignore]
+    fn mm_reach_mc() {
+        let scn = scenario();
+        let runs: u64 = std::env::var("MC_RUNS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(40);
+        let which = std::env::var("MC_WHICH").unwrap_or_else(|_| "abc".into());
+        if which.contains('a') {
+            compare(
+                &scn,
+                "start (prior, straight)",
+                &[(0.0, 8_000.0)],
+                None,
+                runs,
+            );
+        }
+        if which.contains('b') {
+            let mut legs = warm_up(3_000.0);
+            let last = legs.last().unwrap().0;
+            legs.push((last + TURN_DEG, 14_000.0));
+            compare(
+                &scn,
+                "turn after warm-up",
+                &legs,
+                Some(WARM_UP_LEGS - 1),
+                runs,
+            );
+        }
+        if which.contains('c') {
+            for first in [1_000.0, 2_500.0] {
+                let legs = [(0.0, first), (TURN_DEG, 12_000.0)];
+                compare(
+                    &scn,
+                    &format!("one turn after {first} m"),
+                    &legs,
+                    Some(0),
+                    runs,
+                );
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod calibration_roads {
+    use super::*;
+    use crate::geodesy::Geodetic;
+
+    /// The truth of a calibration drive stays on its road through the
+    /// corners, as a vehicle turning at a junction does. Before the corner
+    /// vertices ([`CORNER_VERTEX_M`]) the warm-up's right-angle corners were
+    /// arcs of radius 250 m, up to 73 m off the road. Bound: a right-angle
+    /// arc of radius 5 m lies r(1 − cos 45°) = 1.46 m from the legs' lines,
+    /// plus the integration's rounding; 2 m.
+    #[test]
+    fn calibration_truth_follows_its_road() {
+        let scn = Scenario::load(std::path::Path::new(
+            "scenarios/helsinki-network-trips.toml",
+        ))
+        .unwrap();
+        let mut legs = warm_up(3_000.0);
+        let last = legs.last().unwrap().0;
+        legs.push((last + TURN_DEG, 2_000.0));
+        let (truth, corners) =
+            synthetic_drive(&scn, 60.17, 24.94, 10.0, 50.0 / 3.6, &legs).unwrap();
+        assert_eq!(corners.len(), WARM_UP_LEGS);
+        for (i, c) in corners.iter().enumerate() {
+            // Corner i ends leg i (500 m legs), to the 0.2 % of the
+            // degree-length approximation the legs are laid out with.
+            let want = 500.0 * (i + 1) as f64;
+            assert!((c - want).abs() < 0.003 * want, "corner {i} at {c} m");
+        }
+        let net = truth.network().unwrap();
+        let mut worst = 0.0f64;
+        let mut n = 0;
+        for s in truth.samples().step_by(10) {
+            let e = net.frame.to_enu(&Geodetic {
+                lat: s.state.lat,
+                lon: s.state.lon,
+                height: 0.0,
+            });
+            let d = net
+                .segments
+                .iter()
+                .map(|g| {
+                    let d = [g.b[0] - g.a[0], g.b[1] - g.a[1]];
+                    let l2 = d[0] * d[0] + d[1] * d[1];
+                    let u =
+                        (((e[0] - g.a[0]) * d[0] + (e[1] - g.a[1]) * d[1]) / l2).clamp(0.0, 1.0);
+                    (e[0] - g.a[0] - u * d[0]).hypot(e[1] - g.a[1] - u * d[1])
+                })
+                .fold(f64::INFINITY, f64::min);
+            worst = worst.max(d);
+            n += 1;
+        }
+        assert!(n > 1000, "{n} samples");
+        assert!(worst < 2.0, "the truth strays {worst:.2} m from its road");
+    }
 }
