@@ -860,13 +860,15 @@ fn validate_design_walks(
     Ok(Some(DesignWalkValidation {
         walks: n,
         runs_per_walk: per_walk,
-        thinned_samples: n_thin,
-        thinned_within: n_within,
-        share_lower_95: lower,
-        passed,
-        rule,
-        runs_exceeding: exceeding,
-        max_horizontal_error_m: max_err,
+        figures: StretchFigures {
+            thinned_samples: n_thin,
+            thinned_within: n_within,
+            share_lower_95: lower,
+            passed,
+            rule,
+            runs_exceeding: exceeding,
+            max_horizontal_error_m: max_err,
+        },
         worst_walk,
         walk_max_m: walk_max,
     }))
