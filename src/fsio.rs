@@ -158,6 +158,20 @@ impl AtomicFile {
         let name = path.file_name().ok_or_else(|| {
             Error::InvalidParameter(format!("{}: not a file path", path.display()))
         })?;
+        // Refused here rather than at the rename, after other outputs of
+        // an [`OutputSet`] may have replaced earlier files.
+        if name.len() > MAX_NAME_BYTES {
+            return Err(Error::io(
+                path,
+                std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    format!(
+                        "the file name is {} bytes long, above the limit of {MAX_NAME_BYTES}",
+                        name.len()
+                    ),
+                ),
+            ));
+        }
         let tmp = dir.join(temporary_name(&name.to_string_lossy()));
         // Created and registered under the lock, so that a signal handler's
         // [`remove_temporaries`] sees every temporary file there is.
@@ -414,6 +428,14 @@ mod tests {
         let t = temporary_name(&"é".repeat(125));
         assert!(t.len() <= MAX_NAME_BYTES && t.starts_with(".é"), "{t}");
         assert!(temporary_name("out.csv").starts_with(".out.csv.tmp"));
+        // A name too long for the file itself: refused before any temporary.
+        let e = AtomicFile::create(&dir.path().join("a".repeat(256))).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("256 bytes long, above the limit of 255"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
     }
 
     #[test]
