@@ -111,8 +111,33 @@ pub fn stopping() -> bool {
     pending().1
 }
 
+/// Longest file name (bytes) the temporary files are given: `NAME_MAX` of
+/// Linux's file systems (and of macOS's and Windows' in UTF-16 units).
+const MAX_NAME_BYTES: usize = 255;
+
+/// Temporary files started by this process, numbering them.
+static STARTED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// The hidden temporary name for an output named `name`: `.NAME.tmpPID-N`,
+/// N counting this process's temporary files (so two files of one name, or
+/// of two long names cut to the same start, never share one); `NAME` is cut
+/// at a character boundary to keep the whole within [`MAX_NAME_BYTES`] (an
+/// output named with 245 bytes or more could not be written otherwise).
+fn temporary_name(name: &str) -> String {
+    let suffix = format!(
+        ".tmp{}-{}",
+        std::process::id(),
+        STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    );
+    let mut end = name.len().min(MAX_NAME_BYTES - 1 - suffix.len());
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!(".{}{suffix}", &name[..end])
+}
+
 /// An output file written atomically: the bytes go to a hidden temporary
-/// file beside `path` (`.NAME.tmpPID`), which [`AtomicFile::commit`] syncs
+/// file beside `path` (`.NAME.tmpPID-N`, [`temporary_name`]), which [`AtomicFile::commit`] syncs
 /// and renames into place. Dropped without a commit (an error, a panic), the
 /// temporary file is removed and `path` is left as it was; the binary also
 /// removes it on SIGINT and SIGTERM ([`remove_temporaries`]).
@@ -133,11 +158,21 @@ impl AtomicFile {
         let name = path.file_name().ok_or_else(|| {
             Error::InvalidParameter(format!("{}: not a file path", path.display()))
         })?;
-        let tmp = dir.join(format!(
-            ".{}.tmp{}",
-            name.to_string_lossy(),
-            std::process::id()
-        ));
+        // Refused here rather than at the rename, after other outputs of
+        // an [`OutputSet`] may have replaced earlier files.
+        if name.len() > MAX_NAME_BYTES {
+            return Err(Error::io(
+                path,
+                std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    format!(
+                        "the file name is {} bytes long, above the limit of {MAX_NAME_BYTES}",
+                        name.len()
+                    ),
+                ),
+            ));
+        }
+        let tmp = dir.join(temporary_name(&name.to_string_lossy()));
         // Created and registered under the lock, so that a signal handler's
         // [`remove_temporaries`] sees every temporary file there is.
         let file = {
@@ -355,6 +390,52 @@ mod tests {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
         // (remove_temporaries is tested through the binary, on SIGTERM: here
         // it would remove other tests' files being written.)
+    }
+
+    #[test]
+    fn outputs_named_with_250_bytes_are_written_atomically() {
+        let dir = tempfile::tempdir().unwrap();
+        // 250 bytes: the temporary name `.NAME.tmpPID` was 260 and more,
+        // past the file systems' 255, and the write failed.
+        let name = "a".repeat(249) + "1";
+        assert_eq!(name.len(), 250);
+        let p = dir.path().join(&name);
+        write_atomic(&p, b"one").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"one");
+        // Two such files at once, their names the same but for the last
+        // byte (the temporary names cut there): each keeps its own bytes.
+        let q = dir.path().join("a".repeat(249) + "2");
+        let (mut f, mut g) = (
+            AtomicFile::create(&p).unwrap(),
+            AtomicFile::create(&q).unwrap(),
+        );
+        assert_ne!(f.tmp, g.tmp);
+        f.write_all(b"two").unwrap();
+        g.write_all(b"three").unwrap();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
+        f.commit().unwrap();
+        g.commit().unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        assert_eq!(std::fs::read(&q).unwrap(), b"three");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+        // Dropped uncommitted: the old file is kept, no temporary left.
+        let mut f = AtomicFile::create(&p).unwrap();
+        f.write_all(b"half").unwrap();
+        drop(f);
+        assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+        // A name of multi-byte characters is cut at a character boundary.
+        let t = temporary_name(&"é".repeat(125));
+        assert!(t.len() <= MAX_NAME_BYTES && t.starts_with(".é"), "{t}");
+        assert!(temporary_name("out.csv").starts_with(".out.csv.tmp"));
+        // A name too long for the file itself: refused before any temporary.
+        let e = AtomicFile::create(&dir.path().join("a".repeat(256))).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("256 bytes long, above the limit of 255"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
     }
 
     #[test]

@@ -96,6 +96,25 @@ fn init_writes_scenarios_that_parse_on_a_map_and_without() {
 }
 
 #[test]
+fn an_output_named_with_250_bytes_is_written() {
+    // Its temporary file `.NAME.tmpPID` was past the file systems' 255
+    // bytes: "File name too long (os error 36)".
+    let dir = tempfile::tempdir().unwrap();
+    let name = "s".repeat(245) + ".toml";
+    assert_eq!(name.len(), 250);
+    let p = dir.path().join(&name);
+    let o = bin(&["init", "--out", p.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    Scenario::load(&p).unwrap();
+    // Nothing else is left in the folder (no temporary file).
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, [name]);
+}
+
+#[test]
 fn grade_presets_fill_left_out_fields_and_given_fields_override() {
     let dir = tempfile::tempdir().unwrap();
     let base = std::fs::read_to_string(repo("scenarios/demo.toml")).unwrap();

@@ -835,23 +835,15 @@ fn sigterm_while_match_writes_removes_the_temporary_file() {
     sigterm_mid_write_leaves_nothing(dir.path(), &args, 120);
 }
 
-#[test]
-fn a_route_through_thousands_of_waypoints_is_simulated() {
-    // The lane path summed every lane step from the route's start at each
-    // of its points: quadratic in the route's length. 2,000 waypoints
-    // between two corners of the demo's streets (a 1,800 km route: each leg
-    // drives round a block) took minutes before the first second could be
-    // simulated (1,000 waypoints 28 s of CPU, 3,000 waypoints 262 s); now
-    // 1,000 take 1 s, 3,000 3 s and 10,000 10 s (BENCHMARKS.md, "Routes
-    // through thousands of waypoints").
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let waypoints: Vec<&str> = (0..2000)
+/// The demo with `n` waypoints alternating between its start and `other`,
+/// no stops, `speed_kmh` and `duration_s = 60`.
+fn waypoints_scenario(n: usize, other: &str, speed_kmh: f64) -> String {
+    let waypoints: Vec<&str> = (0..n)
         .map(|i| {
             if i % 2 == 0 {
                 "[60.1660, 24.9380]"
             } else {
-                "[60.1680, 24.9400]"
+                other
             }
         })
         .collect();
@@ -865,13 +857,98 @@ fn a_route_through_thousands_of_waypoints_is_simulated() {
             "waypoints = [[60.1660, 24.9380], [60.1770, 24.9510], [60.1660, 24.9380]]",
             &format!("waypoints = [{}]", waypoints.join(", ")),
         )
+        .replace("speed_kmh = 50\n", &format!("speed_kmh = {speed_kmh}\n"))
         .replace("stops = [ { at_m = 1500, duration_s = 20 } ]\n", "")
         .replace(
             "requirement_m = 20.0\n",
             "requirement_m = 20.0\nduration_s = 60\n",
         );
-    assert!(text.contains("duration_s = 60") && text.contains("[60.1680, 24.9400]"));
-    std::fs::write(d.join("many.toml"), text).unwrap();
+    assert!(text.contains("duration_s = 60") && text.contains(other));
+    assert!(text.contains(&format!("speed_kmh = {speed_kmh}\n")));
+    text
+}
+
+/// A corner of the demo's streets 250 m from its start: each leg drives
+/// round a block (about 0.9 km).
+const NEAR: &str = "[60.1680, 24.9400]";
+/// The demo's far end, 1.4 km from its start (great-circle).
+const FAR: &str = "[60.1770, 24.9510]";
+
+#[test]
+fn a_route_too_long_to_drive_in_30_days_is_refused_before_it_is_built() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // 4,000 waypoints 1.4 km apart at 5 km/h: at least 4,842 km (the
+    // great-circle distances less the 100 m each waypoint may be snapped),
+    // 40 days. Refused from the waypoints alone, before the map is loaded
+    // (the old binary routed 8,000 km and sampled it, 1.8 GB and 10 s,
+    // before the drive's 30-day limit refused it); duration_s = 60 does
+    // not lift it, as the route would be built whole.
+    std::fs::write(d.join("far.toml"), waypoints_scenario(4000, FAR, 5.0)).unwrap();
+    for cmd in ["simulate", "plan"] {
+        let out = run(&[cmd, "far.toml", "--out", "o", "-q"], d);
+        fails_with(
+            &out,
+            &[
+                "far.toml: route[0]: its 4000 waypoints are 4842 km apart at least \
+                 (great-circle distances between consecutive waypoints), a drive of at least \
+                 40.4 days at speed_kmh = 5, above the limit of 30 days",
+                "use fewer or closer waypoints",
+            ],
+        );
+        assert!(!d.join("o").exists(), "{cmd}: nothing written");
+    }
+    // 1,000 waypoints 250 m apart at 1 km/h: the great-circle bound (48 m a
+    // leg) passes, the routed length (about 900 km, 37 days) does not; it
+    // is refused before the route is sampled.
+    std::fs::write(d.join("blocks.toml"), waypoints_scenario(1000, NEAR, 1.0)).unwrap();
+    let out = run(&["simulate", "blocks.toml", "--out", "o", "-q"], d);
+    let err = fails_with(
+        &out,
+        &[
+            "blocks.toml: route[0]: the route through its waypoints is ",
+            "days at speed_kmh = 1.0, above the limit of 30 days",
+            "use fewer or closer waypoints",
+        ],
+    );
+    let km: f64 = err
+        .split("waypoints is ")
+        .nth(1)
+        .and_then(|r| r.split(" km").next())
+        .and_then(|k| k.parse().ok())
+        .expect("the route's length");
+    assert!((800.0..1000.0).contains(&km), "{err}");
+    assert!(!d.join("o").exists());
+    // The same at 2 km/h (about 19 days) is driven: duration_s = 60 stops it.
+    std::fs::write(d.join("blocks.toml"), waypoints_scenario(1000, NEAR, 2.0)).unwrap();
+    let v = succeeded_finite(&run(
+        &[
+            "simulate",
+            "blocks.toml",
+            "--runs",
+            "1",
+            "--out",
+            "o",
+            "--json",
+            "-q",
+        ],
+        d,
+    ));
+    assert_eq!(v["duration_s"].as_f64(), Some(60.0), "{v}");
+}
+
+#[test]
+fn a_route_through_thousands_of_waypoints_is_simulated() {
+    // The lane path summed every lane step from the route's start at each
+    // of its points: quadratic in the route's length. 2,000 waypoints
+    // between two corners of the demo's streets (a 1,800 km route: each leg
+    // drives round a block) took minutes before the first second could be
+    // simulated (1,000 waypoints 28 s of CPU, 3,000 waypoints 262 s); now
+    // 1,000 take 1 s, 3,000 3 s and 10,000 10 s (BENCHMARKS.md, "Routes
+    // through thousands of waypoints").
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("many.toml"), waypoints_scenario(2000, NEAR, 50.0)).unwrap();
     // No deadline here (the project measures speed in BENCHMARKS.md, not
     // in timed tests): the run must build the route and finish.
     let out = Command::new(env!("CARGO_BIN_EXE_waymark"))

@@ -101,6 +101,9 @@ fn area_report_draws_every_tag_and_its_figures_and_the_coverage_when_given() {
     };
     assert!(html.contains(&format!("data-level=\"{level}\">Plan of {n} new tag(s)")));
     assert!(html.contains("<th>walk check</th>") && !html.contains("<th>certification</th>"));
+    // Without --baseline nothing compares the plan with its drives
+    // without the new tags.
+    assert!(!html.contains("What the new tags buy") && !html.contains("Over-budget stretches"));
     // A plan for traffic states its certification instead of a walk check.
     let mut traffic = plan.clone();
     traffic["guarantee"] = serde_json::json!({
@@ -114,6 +117,7 @@ fn area_report_draws_every_tag_and_its_figures_and_the_coverage_when_given() {
         "<th>certification</th><td>holds: 1007 of 1009 fresh chains hold it; the worst certification chain uses 111 % of the error budget"
     ));
     assert!(!html.contains("<th>walk check</th>"));
+    baseline_is_shown_beside_the_plan(&out, &plan);
     std::fs::write(out.join("plan.json"), plan.to_string()).unwrap();
 
     // The area planner's coverage.geojson: three pieces along the first
@@ -177,5 +181,167 @@ fn area_report_draws_every_tag_and_its_figures_and_the_coverage_when_given() {
     assert!(
         err.contains("coverage.geojson") && err.contains("'bound_m' is missing or not a number"),
         "{err}"
+    );
+}
+
+/// `plan --baseline`: the validation's figures beside those of the same
+/// drives without the new tags, and the over-budget stretches both ways.
+/// The baseline's objects are made by the library's own types (so their
+/// JSON is what `plan` writes), with figures like helsinki-network-plan's
+/// without tags and monaco-network-trips' stretches (BENCHMARKS "What the
+/// tags buy").
+fn baseline_is_shown_beside_the_plan(out: &Path, plan: &serde_json::Value) {
+    use waymark::planner::network::{NoTagsValidation, StretchFigures, StretchValidation};
+    let (req, conf) = (20.0, 0.95);
+    let (lower, passed, rule) = waymark::planner::network::share_rule(218, 303, req, conf);
+    let without = NoTagsValidation {
+        tags: 0,
+        fraction_within_requirement: 0.7166,
+        thinned_samples: 303,
+        thinned_within: 218,
+        share_lower_95: lower,
+        passed,
+        rule,
+        runs_exceeding: 2,
+        median_run_max_m: 59.64,
+        over_budget_within: Some(1),
+        over_budget_max_error_m: Some(24.5),
+        max_horizontal_error_m: 138.69,
+        worst_path: 1,
+        worst_run: 1,
+        worst_t_s: 2908.0,
+        worst_lat: 60.17,
+        worst_lon: 24.94,
+        worst_road_id: None,
+        map_matching_wrong_road_share: 0.0411,
+    };
+    let side = |within: usize, max: f64, exceeding: usize| {
+        let (share_lower_95, passed, rule) =
+            waymark::planner::network::share_rule(within, 320, req, conf);
+        StretchFigures {
+            thinned_samples: 320,
+            thinned_within: within,
+            share_lower_95,
+            passed,
+            rule,
+            runs_exceeding: exceeding,
+            max_horizontal_error_m: max,
+        }
+    };
+    let stretches = StretchValidation {
+        searched_chains: 64,
+        stretches: 4,
+        runs_per_stretch: 20,
+        lead_in_m: 5000.0,
+        peak_budget_min: 1.23,
+        peak_budget_max: 1.92,
+        with_tags: side(320, 1.31, 0),
+        without_new_tags: side(305, 25.72, 3),
+    };
+    let mut p = plan.clone();
+    let v = &mut p["validation"];
+    v["without_new_tags"] = serde_json::to_value(&without).unwrap();
+    v["over_budget_stretches"] = serde_json::to_value(&stretches).unwrap();
+    v["over_budget_samples"] = 3.into();
+    v["over_budget_within"] = 3.into();
+    v["over_budget_max_error_m"] = 0.23.into();
+    v["max_budget_without_tags"] = 1.67.into();
+    let v = &p["validation"];
+    std::fs::write(out.join("plan.json"), p.to_string()).unwrap();
+    ok(&bin(&["report", out.to_str().unwrap()]));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(!html.contains("NaN"));
+    let section = &html[html
+        .find("<h3 id=\"baseline\">What the new tags buy</h3>")
+        .expect("the baseline's section")..];
+    assert!(section.contains("driven again without any tag"));
+    // Each row: the plan's own validation, then the drives without tags.
+    let row = |k: &str, a: String, b: &str| {
+        let r = format!("<tr><th>{k}</th><td>{a}</td><td>{b}</td></tr>");
+        assert!(section.contains(&r), "{r} in {section}");
+    };
+    row(
+        "time within 20 m",
+        format!(
+            "{:.2} %",
+            100.0 * v["fraction_within_requirement"].as_f64().unwrap()
+        ),
+        "71.66 %",
+    );
+    row(
+        "thinned samples within 20 m",
+        format!(
+            "{} of {} (lower 95 % bound {:.4})",
+            v["thinned_within"],
+            v["thinned_samples"],
+            v["share_lower_95"].as_f64().unwrap()
+        ),
+        &format!("218 of 303 (lower 95 % bound {lower:.4})"),
+    );
+    let (n, within) = (
+        v["thinned_samples"].as_u64().unwrap(),
+        v["thinned_within"].as_u64().unwrap(),
+    );
+    let badge = if v["passed"].as_bool().unwrap() {
+        "pass\" data-level=\"green\">passed"
+    } else if within as f64 >= conf * n as f64 {
+        "warn\" data-level=\"amber\">not shown (too few samples)"
+    } else {
+        "fail\" data-level=\"red\">FAILED"
+    };
+    row(
+        "rule",
+        format!("<span class=\"verdict {badge}</span>"),
+        "<span class=\"verdict fail\" data-level=\"red\">FAILED</span>",
+    );
+    row(
+        "max horizontal error",
+        format!("{:.2} m", v["max_horizontal_error_m"].as_f64().unwrap()),
+        "138.69 m",
+    );
+    row(
+        "median of the per-run maxima",
+        format!("{:.2} m", v["median_run_max_m"].as_f64().unwrap()),
+        "59.64 m",
+    );
+    row(
+        "runs exceeding the requirement",
+        format!("{} of 2", v["runs_exceeding"]),
+        "2 of 2",
+    );
+    row(
+        "samples where the plan&apos;s budget without tags passes 1",
+        "3 of 3 within; max error 0.23 m".into(),
+        "1 of 3 within; max error 24.50 m",
+    );
+    assert!(section.contains("Largest budget without tags on these drives: 1.67"));
+    // The stretches, with and without the new tags.
+    let section = &section[section
+        .find("<h3 id=\"over-budget-stretches\">Over-budget stretches</h3>")
+        .expect("the stretches' section")..];
+    assert!(section.contains(
+        "The 4 stretch(es) where the plan&apos;s budget without tags peaks highest (1.23–1.92) on 64 fresh chain(s), each driven 20 time(s) from 5000 m"
+    ));
+    let (lower_with, lower_without) = (
+        stretches.with_tags.share_lower_95,
+        stretches.without_new_tags.share_lower_95,
+    );
+    row(
+        "samples within 20 m",
+        format!("320 of 320 (lower 95 % bound {lower_with:.4})"),
+        &format!("305 of 320 (lower 95 % bound {lower_without:.4})"),
+    );
+    // 305 of 320 reaches 0.95 observed, but its lower bound does not.
+    assert!(lower_without < conf && !stretches.without_new_tags.passed);
+    row(
+        "rule",
+        "<span class=\"verdict pass\" data-level=\"green\">passed</span>".into(),
+        "<span class=\"verdict warn\" data-level=\"amber\">not shown (too few samples)</span>",
+    );
+    row("max horizontal error", "1.31 m".into(), "25.72 m");
+    row(
+        "runs exceeding the requirement",
+        "0 of 80".into(),
+        "3 of 80",
     );
 }

@@ -91,6 +91,7 @@ pub(super) fn route(
                 c.range(&format!("route[0].waypoints[{i}] longitude"), p[1], -180.0, 180.0)?;
             }
             let speed = c.range("route[0].speed_kmh", r.speed_kmh.unwrap_or(40.0), 1.0, 300.0)?;
+            check_waypoint_distances(c, w, speed)?;
             let mut profile = crate::trajectory::route::SpeedProfile {
                 speed_mps: speed / 3.6,
                 ..Default::default()
@@ -133,6 +134,58 @@ pub(super) fn route(
             })
         }
     }
+}
+
+/// Smallest radius of curvature of the WGS-84 ellipsoid (m, b²/a, the
+/// meridian's at the equator): great-circle distances on a sphere of this
+/// radius are at most the distances on the ellipsoid.
+const MIN_EARTH_RADIUS_M: f64 = 6_335_439.0;
+
+/// Great-circle distance (m) between two [latitude, longitude] points in
+/// degrees, on a sphere of [`MIN_EARTH_RADIUS_M`].
+fn great_circle_m(a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (la, lb) = (a[0].to_radians(), b[0].to_radians());
+    let dlat = lb - la;
+    let dlon = (b[1] - a[1]).to_radians();
+    let h = (0.5 * dlat).sin().powi(2) + la.cos() * lb.cos() * (0.5 * dlon).sin().powi(2);
+    2.0 * MIN_EARTH_RADIUS_M * h.sqrt().min(1.0).asin()
+}
+
+/// A lower bound of the length (m) of a route through `waypoints`: each
+/// leg at least the great-circle distance between its waypoints less the
+/// distance each may be snapped to a road
+/// ([`crate::route::DEFAULT_SNAP_TOLERANCE_M`]).
+fn waypoints_length_lower_bound_m(waypoints: &[[f64; 2]]) -> f64 {
+    let snap = 2.0 * crate::route::DEFAULT_SNAP_TOLERANCE_M;
+    waypoints
+        .windows(2)
+        .map(|w| (great_circle_m(w[0], w[1]) - snap).max(0.0))
+        .sum()
+}
+
+/// Refuses waypoints whose route could not be driven within the drive
+/// limit ([`MAX_DURATION_S`], 30 days) at `speed_kmh`, from the
+/// waypoints alone: before the map is loaded and the route is built (a
+/// route of thousands of waypoints far apart was routed and sampled every
+/// 2 m, gigabytes, before the drive's duration was checked). `duration_s`
+/// does not lift it: the route is built whole even when the drive stops
+/// earlier.
+fn check_waypoint_distances(c: &Check, waypoints: &[[f64; 2]], speed_kmh: f64) -> Result<()> {
+    let length_m = waypoints_length_lower_bound_m(waypoints);
+    let drive_s = length_m / (speed_kmh / 3.6);
+    if drive_s > MAX_DURATION_S {
+        return Err(c.err(format!(
+            "route[0]: its {} waypoints are {:.0} km apart at least (great-circle distances \
+             between consecutive waypoints), a drive of at least {:.1} days at speed_kmh = {}, \
+             above the limit of 30 days ({MAX_DURATION_S:.0} s; duration_s does not shorten the \
+             route, which is built whole): use fewer or closer waypoints",
+            waypoints.len(),
+            length_m / 1000.0,
+            drive_s / 86_400.0,
+            short_number(speed_kmh)
+        )));
+    }
+    Ok(())
 }
 
 /// `[map] elevation`: the DEM files resolved against the scenario's folder

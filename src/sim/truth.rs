@@ -95,6 +95,7 @@ impl TruthSource {
                     )
                 };
                 let route = crate::route::plan_route(&network, waypoints).map_err(err)?;
+                super::limits::check_route_length(scn, route.length_m, profile.speed_mps)?;
                 let mut centre =
                     RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
                         .map_err(err)?;

@@ -225,10 +225,10 @@ impl NetworkPlanFile {
                      {} run(s) with a maximum above {} m; max horizontal error {:.2} m (walk {})",
                     d.walks,
                     d.runs_per_walk,
-                    d.rule,
-                    d.runs_exceeding,
+                    d.figures.rule,
+                    d.figures.runs_exceeding,
                     p.requirement_m,
-                    d.max_horizontal_error_m,
+                    d.figures.max_horizontal_error_m,
                     d.worst_walk
                 ));
             }

@@ -311,7 +311,7 @@ mod tests {
         let v = validate_network_plan(&scn, &net, &p, 4, 7, false).unwrap();
         let d = v.design_walks.unwrap();
         assert_eq!(d.walks, w.len());
-        assert!(d.passed, "{}", d.rule);
+        assert!(d.figures.passed, "{}", d.figures.rule);
         assert_eq!(d.walk_max_m.len(), w.len());
     }
 

@@ -161,10 +161,12 @@ pub struct StretchValidation {
     pub without_new_tags: StretchFigures,
 }
 
-/// One side of [`StretchValidation`].
+/// The share rule's figures on thinned samples (`share_rule`): one side of
+/// [`StretchValidation`], and flattened into [`DesignWalkValidation`].
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct StretchFigures {
-    /// Samples over budget (one per 30 s per run, and each run's end).
+    /// Samples thinned (one per 30 s per run, and each run's end; over
+    /// budget only for a stretch).
     pub thinned_samples: usize,
     /// Of which within the requirement.
     pub thinned_within: usize,
@@ -174,9 +176,10 @@ pub struct StretchFigures {
     pub passed: bool,
     /// The rule in words, with the figures.
     pub rule: String,
-    /// Runs whose maximum over budget exceeds the requirement.
+    /// Runs whose maximum (over budget, for a stretch) exceeds the
+    /// requirement.
     pub runs_exceeding: usize,
-    /// Largest horizontal error over budget (m).
+    /// Largest horizontal error (m; over budget, for a stretch).
     pub max_horizontal_error_m: f64,
 }
 
@@ -236,20 +239,10 @@ pub struct DesignWalkValidation {
     pub walks: usize,
     /// Runs per walk.
     pub runs_per_walk: u64,
-    /// Error samples thinned (one per 30 s per run, and each run's end).
-    pub thinned_samples: usize,
-    /// Of which within the requirement.
-    pub thinned_within: usize,
-    /// One-sided 95 % Clopper–Pearson lower bound of the share within.
-    pub share_lower_95: f64,
-    /// The rule holds.
-    pub passed: bool,
-    /// The rule in words, with the figures.
-    pub rule: String,
-    /// Runs whose maximum error exceeds the requirement.
-    pub runs_exceeding: usize,
-    /// Largest horizontal error (m) and the walk where it happened.
-    pub max_horizontal_error_m: f64,
+    /// The rule on the samples from each walk's start; its largest error
+    /// is at the walk `worst_walk`.
+    #[serde(flatten)]
+    pub figures: StretchFigures,
     /// Index of that walk in `design_walks`.
     pub worst_walk: usize,
     /// Per walk: the largest error over its runs (m).

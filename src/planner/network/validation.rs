@@ -319,6 +319,13 @@ fn drive_chains(
         max_budget: 0.0,
     };
     let cm = plan.chain_model.as_ref();
+    // The installed tags, which alone are driven with `existing_only`.
+    let installed: HashSet<&str> = plan
+        .tags
+        .iter()
+        .filter(|t| t.existing)
+        .map(|t| t.tag_id.as_str())
+        .collect();
     for (ci, chain) in chains.iter().enumerate() {
         let route = plan_route_points(net, &chain.points)?;
         let start = route.vertices.first().map_or([0.0, 0.0], |v| v.lat_lon);
@@ -329,20 +336,10 @@ fn drive_chains(
         let profile_b = cm
             .filter(|_| plan.map_matching)
             .map(|cm| BudgetProfile::new(&cm.model, &route, plan.map_matching));
-        let tags: Vec<_> = if existing_only {
-            let ids: HashSet<&str> = plan
-                .tags
-                .iter()
-                .filter(|t| t.existing)
-                .map(|t| t.tag_id.as_str())
-                .collect();
-            plan.sim_tags(Some(&dirs))
-                .into_iter()
-                .filter(|t| ids.contains(t.id.as_str()))
-                .collect()
-        } else {
-            plan.sim_tags(Some(&dirs))
-        };
+        let mut tags = plan.sim_tags(Some(&dirs));
+        if existing_only {
+            tags.retain(|t| installed.contains(t.id.as_str()));
+        }
         o.length_m += route.length_m;
         let truth = TruthSource::from_route(std::sync::Arc::clone(net), route, rp);
         // Sample distances (along the simulated drive) to the route's chainage.
@@ -860,13 +857,15 @@ fn validate_design_walks(
     Ok(Some(DesignWalkValidation {
         walks: n,
         runs_per_walk: per_walk,
-        thinned_samples: n_thin,
-        thinned_within: n_within,
-        share_lower_95: lower,
-        passed,
-        rule,
-        runs_exceeding: exceeding,
-        max_horizontal_error_m: max_err,
+        figures: StretchFigures {
+            thinned_samples: n_thin,
+            thinned_within: n_within,
+            share_lower_95: lower,
+            passed,
+            rule,
+            runs_exceeding: exceeding,
+            max_horizontal_error_m: max_err,
+        },
         worst_walk,
         walk_max_m: walk_max,
     }))
