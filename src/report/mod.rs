@@ -3,6 +3,7 @@
 //! nothing loaded from the network) for a `simulate` or `plan` output
 //! folder (or one holding both, as `waymark demo` writes).
 
+mod baseline;
 mod calibration;
 mod folder;
 mod html;

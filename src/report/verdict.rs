@@ -241,6 +241,26 @@ pub fn figures_text(e: &Evidence, share_of: &str) -> String {
     )
 }
 
+/// A finite number of a JSON value, if it is one.
+pub(super) fn num(v: &serde_json::Value) -> Option<f64> {
+    v.as_f64().filter(|x| x.is_finite())
+}
+
+/// A verdict badge: `text` coloured by `level`.
+pub(super) fn badge(level: Level, text: &str) -> String {
+    format!(
+        "<span class=\"verdict {}\" data-level=\"{}\">{}</span>",
+        level.css(),
+        match level {
+            Level::Green => "green",
+            Level::Amber => "amber",
+            Level::Red => "red",
+            Level::Info => "info",
+        },
+        quick_xml::escape::escape(text)
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,31 +21,6 @@ const ROW_BYTES: u64 = std::mem::size_of::<super::records::ErrorRow>() as u64;
 /// stops can be long).
 pub const MAX_SIMULATED_S: f64 = crate::trajectory::motion::MAX_DURATION_S;
 
-/// Checks a map route's routed length (m), before its trajectory is
-/// sampled (every 2 m) and its lane path made: its drive at the cruise
-/// speed `speed_mps` (a lower bound of the drive's duration) against
-/// [`MAX_SIMULATED_S`]. The route is built whole whatever `duration_s`,
-/// so the cap does not lift this limit. (Scenario validation checks the
-/// waypoints' great-circle distances before the map is loaded.)
-pub fn check_route_length(scn: &Scenario, length_m: f64, speed_mps: f64) -> Result<()> {
-    let drive_s = length_m / speed_mps;
-    if !(drive_s.is_finite() && drive_s <= MAX_SIMULATED_S) {
-        return Err(Error::scenario(
-            &scn.path,
-            format!(
-                "route[0]: the route through its waypoints is {:.0} km long, a drive of at least \
-                 {:.1} days at speed_kmh = {:.1}, above the limit of 30 days ({MAX_SIMULATED_S:.0} s; \
-                 duration_s does not shorten the route, which is built whole): use fewer or \
-                 closer waypoints",
-                length_m / 1000.0,
-                drive_s / 86_400.0,
-                speed_mps * 3.6,
-            ),
-        ));
-    }
-    Ok(())
-}
-
 /// Checks `runs` runs of `scn` on `truth` against [`MAX_RUNS`],
 /// [`MAX_SIMULATED_S`] and [`MAX_STORED_ROWS`] before any run starts.
 pub fn check_simulation_size(scn: &Scenario, truth: &TruthSource, runs: u64) -> Result<()> {

@@ -41,9 +41,7 @@ pub use crate::scenario::{NavMode, Scenario};
 pub use bound::{bound95, bound95_of_sigmas, bound_at, lambda_max_2x2, CHI2_2_95};
 pub use finite::{check_runs_finite, suspect_sections};
 pub use integrated::Prepared;
-pub use limits::{
-    check_route_length, check_simulation_size, MAX_RUNS, MAX_SIMULATED_S, MAX_STORED_ROWS,
-};
+pub use limits::{check_simulation_size, MAX_RUNS, MAX_SIMULATED_S, MAX_STORED_ROWS};
 pub use map_feed::FeedCounts;
 pub use metrics::{
     CalibrationState, CalibrationSummary, FaultInterval, MapMatchingSummary, NeesSummary,

@@ -13,6 +13,7 @@ use crate::route::Route;
 use crate::scenario::{RouteKind, Scenario};
 use crate::sensors::rng::{ids, stream};
 use crate::sensors::{Odometer, OdometerModel, RotationModulation, RunMounting};
+use crate::trajectory::motion::MAX_DURATION_S;
 use crate::trajectory::route::RoutePlan;
 use crate::trajectory::{ideal_imu, Avp, MotionPlan};
 use std::sync::Arc;
@@ -95,7 +96,7 @@ impl TruthSource {
                     )
                 };
                 let route = crate::route::plan_route(&network, waypoints).map_err(err)?;
-                super::limits::check_route_length(scn, route.length_m, profile.speed_mps)?;
+                check_route_length(scn, route.length_m, profile.speed_mps)?;
                 let mut centre =
                     RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
                         .map_err(err)?;
@@ -286,4 +287,29 @@ pub(super) fn start_run<'a>(
         pending: None,
     };
     (samples, rec)
+}
+
+/// Checks a map route's routed length (m), before its trajectory is
+/// sampled (every 2 m) and its lane path made: its drive at the cruise
+/// speed `speed_mps` (a lower bound of the drive's duration) against
+/// [`super::MAX_SIMULATED_S`] (`trajectory::motion::MAX_DURATION_S`, read here: `limits` imports this file). The route is built whole whatever `duration_s`,
+/// so the cap does not lift this limit. (Scenario validation checks the
+/// waypoints' great-circle distances before the map is loaded.)
+fn check_route_length(scn: &Scenario, length_m: f64, speed_mps: f64) -> Result<()> {
+    let drive_s = length_m / speed_mps;
+    if !(drive_s.is_finite() && drive_s <= MAX_DURATION_S) {
+        return Err(crate::error::Error::scenario(
+            &scn.path,
+            format!(
+                "route[0]: the route through its waypoints is {:.0} km long, a drive of at least \
+                 {:.1} days at speed_kmh = {:.1}, above the limit of 30 days ({MAX_DURATION_S:.0} s; \
+                 duration_s does not shorten the route, which is built whole): use fewer or \
+                 closer waypoints",
+                length_m / 1000.0,
+                drive_s / 86_400.0,
+                speed_mps * 3.6,
+            ),
+        ));
+    }
+    Ok(())
 }
