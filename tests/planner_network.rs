@@ -325,13 +325,20 @@ fn network_plan_baseline_drives_the_same_chains_without_the_new_tags() {
     };
 
     // A fresh trips plan with map matching: the baseline has no tag at all.
-    // (Monaco: Helsinki's 4 tags cover one straight walk that no sampled
-    // chain drives over budget, so it has no such stretch to drive.)
-    let stdout = ok(&plan_args(
-        &repo("scenarios/monaco-network-trips.toml"),
-        "t",
-        "2",
-    ));
+    // Helsinki's trips at 15 m: at 20 m its 4 tags cover one straight walk
+    // that no sampled chain drives over budget, so there would be no
+    // stretch to drive (and the Monaco map is not bundled with the repo).
+    let trips = std::fs::read_to_string(repo("scenarios/helsinki-network-trips.toml"))
+        .unwrap()
+        .replace(
+            "../maps/helsinki.osm.pbf",
+            repo("maps/helsinki.osm.pbf").to_str().unwrap(),
+        )
+        .replace("requirement_m = 20.0", "requirement_m = 15.0");
+    assert!(trips.contains("requirement_m = 15.0"));
+    let trips_path = dir.path().join("trips15.toml");
+    std::fs::write(&trips_path, trips).unwrap();
+    let stdout = ok(&plan_args(&trips_path, "t", "2"));
     assert!(stdout.contains("baseline: the same chains"), "{stdout}");
     assert!(
         stdout.contains("where the plan's model needs tags"),
@@ -361,8 +368,8 @@ fn network_plan_baseline_drives_the_same_chains_without_the_new_tags() {
     assert_eq!(w["thinned_samples"], wo["thinned_samples"]);
     assert!(w["thinned_samples"].as_u64().unwrap() >= 20 * n);
     // Where the budget passes 1 the plan puts its tags: with them read the
-    // error there is far smaller than without (measured 2.06 m against
-    // 10.70 m at 2 runs; a baseline that kept the tags would tie).
+    // error there is far smaller than without (measured 1.00 m against
+    // 20.32 m at 2 runs; a baseline that kept the tags would tie).
     let (ew, ewo) = (
         w["max_horizontal_error_m"].as_f64().unwrap(),
         wo["max_horizontal_error_m"].as_f64().unwrap(),
