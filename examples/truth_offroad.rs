@@ -3,18 +3,8 @@
 //! (`cargo run --release --example truth_offroad -- SCENARIO.toml...`).
 use std::path::Path;
 use waymark::geodesy::Geodetic;
+use waymark::network::point_segment_distance;
 use waymark::{Scenario, TruthSource};
-
-fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let u = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - u * d[0]).hypot(p[1] - a[1] - u * d[1])
-}
 
 fn main() {
     for arg in std::env::args().skip(1) {
@@ -46,7 +36,7 @@ fn main() {
             let mut best = f64::INFINITY;
             let mut k = j;
             while k + 1 < v.len() && v[k].chainage_m < s.distance_m + 300.0 {
-                best = best.min(seg_dist(p, v[k].enu, v[k + 1].enu));
+                best = best.min(point_segment_distance(p, v[k].enu, v[k + 1].enu));
                 k += 1;
             }
             d.push(best);

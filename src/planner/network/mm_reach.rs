@@ -765,13 +765,7 @@ mod calibration_roads {
             let d = net
                 .segments
                 .iter()
-                .map(|g| {
-                    let d = [g.b[0] - g.a[0], g.b[1] - g.a[1]];
-                    let l2 = d[0] * d[0] + d[1] * d[1];
-                    let u =
-                        (((e[0] - g.a[0]) * d[0] + (e[1] - g.a[1]) * d[1]) / l2).clamp(0.0, 1.0);
-                    (e[0] - g.a[0] - u * d[0]).hypot(e[1] - g.a[1] - u * d[1])
-                })
+                .map(|g| crate::network::point_segment_distance([e[0], e[1]], g.a, g.b))
                 .fold(f64::INFINITY, f64::min);
             worst = worst.max(d);
             n += 1;
