@@ -49,8 +49,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 /// Longest drive of the analysis (m), and its time cap (s).
-const DRIVE_MAX_M: f64 = 30_000.0;
-const DRIVE_MAX_S: f64 = 5_400.0;
+pub(super) const DRIVE_MAX_M: f64 = 30_000.0;
+pub(super) const DRIVE_MAX_S: f64 = 5_400.0;
 /// First leg of the turn drive at most (m).
 const FIRST_LEG_MAX_M: f64 = 3_000.0;
 /// Warm-up of the turn drive: legs with right-angle turns between them.
@@ -58,7 +58,7 @@ pub const WARM_UP_LEGS: usize = 6;
 /// Length of each warm-up leg (m).
 pub const WARM_UP_LEG_M: f64 = 500.0;
 /// Corners of the calibration's slow curve.
-const CURVE_CORNERS: usize = 8;
+pub(super) const CURVE_CORNERS: usize = 8;
 /// The curve distance where only quick turns reset (m): a junction's
 /// corner or a hairpin.
 pub const SHARP_CURVE_M: f64 = 30.0;
@@ -136,7 +136,7 @@ const CORNER_VERTEX_M: f64 = 10.0;
 /// `speed_mps` and the chainages of its corners, in order. Legs longer than
 /// `2 · CORNER_VERTEX_M + 1` m get a vertex `CORNER_VERTEX_M` from each end
 /// ([`CORNER_VERTEX_M`]: the truth turns where the road does).
-fn synthetic_drive(
+pub(super) fn synthetic_drive(
     scn: &Scenario,
     lat_deg: f64,
     lon_deg: f64,
@@ -198,7 +198,7 @@ fn synthetic_drive(
 /// The warm-up before the weak turn: [`WARM_UP_LEGS`] legs of
 /// [`WARM_UP_LEG_M`] alternating north and east (right-angle turns), the
 /// first no longer than the start reach allows.
-fn warm_up(first: f64) -> Vec<(f64, f64)> {
+pub(super) fn warm_up(first: f64) -> Vec<(f64, f64)> {
     (0..WARM_UP_LEGS)
         .map(|i| {
             (
@@ -372,6 +372,19 @@ fn run(
         prev_d = dist;
     }
     Ok(d)
+}
+
+/// Where the engine's bound first exceeds `req` after `from_m` along
+/// `truth` with the map feed (m from the road's start; `None` if it does not
+/// before the road ends).
+pub(super) fn run_bound(
+    scn: &Scenario,
+    truth: &TruthSource,
+    from_m: f64,
+    req: f64,
+    p: f64,
+) -> Result<Option<f64>> {
+    Ok(run(scn, truth, from_m, req, p, None, false, true)?.first_exceed_m)
 }
 
 /// The map-matching reach of speed class `speed_mps` for each of
@@ -618,13 +631,40 @@ mod mm_reach_mc {
         runs: u64,
     ) {
         let (lat, lon, h) = (60.17, 24.94, 10.0);
-        let v = 50.0 / 3.6;
+        let v = kmh() / 3.6;
         let (truth, corners) = synthetic_drive(scn, lat, lon, h, v, legs).unwrap();
         let from = from_corner.map_or(0.0, |i| corners[i]);
         let located = scn.located_at([lat, lon]);
         let cov = run(&located, &truth, from, 1e9, 0.95, None, true, true).unwrap();
         let res = simulate_with(&located, &truth, &[], runs, 1, None).unwrap();
-        println!("== {name}: from {from:.0} m, {runs} runs");
+        println!("== {name}: from {from:.0} m, {runs} runs, {} km/h", kmh());
+        // First passage: where each run's error first exceeds 20 m after
+        // `from` (the drive's end if never).
+        let mut fp: Vec<f64> = res
+            .runs
+            .iter()
+            .map(|r| {
+                r.rows
+                    .iter()
+                    .find(|x| x.distance_m >= from && x.horizontal_m > 20.0)
+                    .map_or(truth.samples().last().unwrap().distance_m, |x| x.distance_m)
+                    - from
+            })
+            .collect();
+        fp.sort_by(f64::total_cmp);
+        let cov20 = cov
+            .profile
+            .iter()
+            .find(|x| x.1 > 20.0)
+            .map_or(f64::NAN, |x| x.0);
+        println!(
+            "   first passage of 20 m: min {:.0} q05 {:.0} q50 {:.0} max {:.0}; bound reaches 20 m at {:.0}",
+            fp[0],
+            fp[((0.05 * fp.len() as f64).ceil() as usize).clamp(1, fp.len()) - 1],
+            fp[fp.len() / 2],
+            fp[fp.len() - 1],
+            cov20
+        );
         if std::env::var("MC_DETAIL").is_ok() {
             for r in res.runs.iter().take(3) {
                 println!("   run {} feed {:?}", r.run, r.map_feed);
@@ -679,6 +719,13 @@ mod mm_reach_mc {
         }
     }
 
+    fn kmh() -> f64 {
+        std::env::var("MC_KMH")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(50.0)
+    }
+
     #[test]
     #[ignore]
     fn mm_reach_mc() {
@@ -700,7 +747,8 @@ mod mm_reach_mc {
         if which.contains('b') {
             let mut legs = warm_up(3_000.0);
             let last = legs.last().unwrap().0;
-            legs.push((last + TURN_DEG, 14_000.0));
+            let v = kmh() / 3.6;
+            legs.push((last + TURN_DEG, 14_000.0f64.min(v * DRIVE_MAX_S * 0.6)));
             compare(
                 &scn,
                 "turn after warm-up",
@@ -720,6 +768,27 @@ mod mm_reach_mc {
                     runs,
                 );
             }
+        }
+        if which.contains('d') {
+            // The least-informed first turn: a straight as long as the
+            // bound's start reach, then TURN_DEG sharp or over CURVE_M.
+            let (lat, lon, h) = (60.17, 24.94, 10.0);
+            let v = kmh() / 3.6;
+            let total = DRIVE_MAX_M.min(v * DRIVE_MAX_S).max(2_000.0);
+            let (truth, _) = synthetic_drive(&scn, lat, lon, h, v, &[(0.0, total)]).unwrap();
+            let located = scn.located_at([lat, lon]);
+            let start = run(&located, &truth, 0.0, 20.0, 0.95, None, true, true).unwrap();
+            let first = start.first_exceed_m.unwrap_or(start.end_m);
+            let rest = (total - first).max(1_000.0);
+            let sharp = [(0.0, first), (TURN_DEG, rest)];
+            compare(&scn, "first turn, sharp", &sharp, Some(0), runs);
+            let step = CURVE_M / CURVE_CORNERS as f64;
+            let mut curve = vec![(0.0, first)];
+            for i in 1..CURVE_CORNERS {
+                curve.push((TURN_DEG * i as f64 / CURVE_CORNERS as f64, step));
+            }
+            curve.push((TURN_DEG, rest));
+            compare(&scn, "first turn, curve", &curve, Some(0), runs);
         }
     }
 }

@@ -96,6 +96,7 @@ pub(crate) mod plan;
 pub(crate) mod plan_trips;
 pub(crate) mod reach;
 pub(crate) mod settings;
+pub(crate) mod simulated_reach;
 pub(crate) mod tag_sites;
 pub(crate) mod traffic;
 pub(crate) mod trips;
@@ -113,6 +114,7 @@ pub use reach::{reach_class, ReachClass};
 pub use settings::{
     scenario_network, UTurns, DEFAULT_NETWORK_SPACING_M, EXISTING_SNAP_M, ILP_MAX_CANDIDATES,
 };
+pub use simulated_reach::{simulated_reach, upper_order_statistic, SimulatedDrive, SimulatedReach};
 pub use trips::{
     chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper, TripsGuarantee,
     ALLOWED_VIOLATIONS, MAX_TRIPS_WINDOW_IDS,
