@@ -938,6 +938,59 @@ fn a_route_too_long_to_drive_in_30_days_is_refused_before_it_is_built() {
 }
 
 #[test]
+fn a_route_too_long_to_hold_in_memory_is_refused_before_it_is_built() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The 30-day limit does not bound a route's memory (at 300 km/h 30
+    // days are 216,000 km): its truth keeps points of its lane path and
+    // speed profile every metre or two, at least 0.21 GB per 1000 km
+    // whatever the IMU rate, the speed and duration_s. 9,000 waypoints
+    // 1.4 km apart at 300 km/h: at least 10,897 km (36 hours), whose truth
+    // needs at least 2.3 GB, above the 2 GiB limit: refused from the
+    // waypoints alone, before the map is loaded.
+    std::fs::write(d.join("far.toml"), waypoints_scenario(9000, FAR, 300.0)).unwrap();
+    for cmd in ["simulate", "plan"] {
+        let out = run(&[cmd, "far.toml", "--out", "o", "-q"], d);
+        fails_with(
+            &out,
+            &[
+                "waymark: error: far.toml: route[0]: its 9000 waypoints are 10897 km apart at \
+                 least (great-circle distances between consecutive waypoints): building the \
+                 truth of a route that long needs at least 2.3 GB of memory, above the limit \
+                 of 2 GiB (2.1 GB;",
+                "at least 0.21 GB per 1000 km, whatever imu.rate_hz, speed_kmh and duration_s",
+                "use fewer or closer waypoints",
+            ],
+        );
+        assert!(!d.join("o").exists(), "{cmd}: nothing written");
+    }
+    // 11,000 waypoints 250 m apart, each leg round a block, at 50 km/h:
+    // the great-circle bound (50 m a leg) passes, as does the drive (about
+    // 10,000 km, 8 days); the routed route's truth (about 2.3 GB) does not.
+    // Refused after routing, before its plans are made (measured by hand:
+    // 0.4 s and 68 MB, where building it would take 2.3 GB).
+    std::fs::write(d.join("blocks.toml"), waypoints_scenario(11000, NEAR, 50.0)).unwrap();
+    let out = run(&["simulate", "blocks.toml", "--out", "o", "-q"], d);
+    let err = fails_with(
+        &out,
+        &[
+            "waymark: error: blocks.toml: route[0]: the route through its 11000 waypoints is ",
+            "building its truth needs about ",
+            " GB of memory, above the limit of 2 GiB (2.1 GB;",
+            "use fewer or closer waypoints",
+        ],
+    );
+    let km: f64 = err
+        .split("waypoints is ")
+        .nth(1)
+        .and_then(|r| r.split(" km").next())
+        .and_then(|k| k.parse().ok())
+        .expect("the route's length");
+    assert!((9000.0..11000.0).contains(&km), "{err}");
+    assert!(!d.join("o").exists());
+}
+
+#[test]
 fn a_route_through_thousands_of_waypoints_is_simulated() {
     // The lane path summed every lane step from the route's start at each
     // of its points: quadratic in the route's length. 2,000 waypoints

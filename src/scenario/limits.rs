@@ -4,13 +4,20 @@
 //! simulation keeps are checked where they are known: the IMU rate and
 //! the motion commands' 30-day limit in validation and the motion compiler,
 //! the drive's length and the kept rows in `sim::limits`; a network plan's
-//! candidate sites once its map is loaded ([`check_network_candidates`]).
+//! candidate sites once its map is loaded ([`check_network_candidates`]);
+//! the memory of a map route's truth from its waypoints when the scenario
+//! is read, then from the routed route before its truth is built
+//! ([`check_route_memory`]).
 
 use super::check::{short_number, Check};
 use super::schema::ScenarioFile;
+use super::sections::LANE_PATH_SPACING_M;
 use super::Scenario;
+use crate::elevation::PROFILE_STEP_M;
 use crate::error::{Error, Result};
 use crate::network::RoadNetwork;
+use crate::route::{Route, RouteSpan, RouteVertex, SnappedWaypoint};
+use crate::trajectory::RoutePlan;
 
 /// Largest scenario file read (bytes): a scenario with thousands of
 /// `[[tag]]` entries is well under 1 MiB.
@@ -183,6 +190,179 @@ pub fn check_network_candidates(scn: &Scenario, net: &RoadNetwork) -> Result<u64
         ));
     }
     Ok(sites as u64)
+}
+
+/// Most memory the truth of a map route may need while it is built
+/// ([`route_truth_bytes`]): 2 GiB, about 9,000 km of city streets (the
+/// Helsinki routes of BENCHMARKS.md: 58 vertices a kilometre), thirty
+/// times the 297 km paper drive. Fixed, not a share of the machine's
+/// memory, so that a scenario is accepted or refused alike on every
+/// machine; of the size of the other in-memory limits (the error rows
+/// [`crate::sim::MAX_STORED_ROWS`], 1.8 GB; a route plan's truth samples,
+/// 1.5 GB), so that a drive at all of them, with a map of the 1 GiB limit,
+/// stays well within the 24 GiB of this project's machines. The 30-day
+/// drive limit does not bound it: at 300 km/h 30 days are 216,000 km,
+/// about 50 GB.
+pub const MAX_ROUTE_TRUTH_BYTES: u64 = 2 << 30;
+
+/// Allowance (bytes per metre of route) for the lateral profile of the
+/// lane path (`sim::lanes`): its wander's knots, 8 bytes every 15 m, and
+/// its lane changes, 2 km apart on average (a test checks it against
+/// those constants).
+pub const LANE_PROFILE_BYTES_PER_M: f64 = 1.0;
+
+/// The lane path's length taken by [`route_truth_bytes`], as a multiple
+/// of the route's: on the outside of a bend the lane is longer than the
+/// centre line (2.7 m a right angle at a 1.75 m offset); on the Helsinki
+/// routes of BENCHMARKS.md it is 0.5 % shorter.
+pub const LANE_PATH_LENGTH_FACTOR: f64 = 1.05;
+
+/// The sizes a map route's memory is estimated from
+/// ([`route_truth_bytes`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RouteCounts {
+    /// Length of the route through the waypoints (m).
+    pub length_m: f64,
+    /// Points of its polyline.
+    pub vertices: u64,
+    /// Its spans (pieces of road).
+    pub spans: u64,
+    /// Its waypoints.
+    pub waypoints: u64,
+    /// Its stops.
+    pub stops: u64,
+    /// Whether its heights come from an elevation model (`[map] elevation`).
+    pub elevation: bool,
+}
+
+impl RouteCounts {
+    /// The counts of a routed `route` of `scn`.
+    pub fn of(scn: &Scenario, route: &Route) -> RouteCounts {
+        let stops = match &scn.route {
+            super::RouteKind::Map { stops, .. } => stops.len() as u64,
+            super::RouteKind::Motion { .. } => 0,
+        };
+        RouteCounts {
+            length_m: route.length_m,
+            vertices: route.vertices.len() as u64,
+            spans: route.spans.len() as u64,
+            waypoints: route.waypoints.len() as u64,
+            stops,
+            elevation: !scn.elevation.is_empty(),
+        }
+    }
+}
+
+/// An upper bound of the memory (bytes) of building the truth of a map
+/// route (`sim::TruthSource`), whatever the IMU rate, the speed and
+/// `duration_s` (the truth's samples are made as they are read; the route
+/// is built whole). Its peak is while the lane path's plan is built:
+/// - the route (its vertices, spans and waypoints);
+/// - the plan of its smoothed centre path, as kept
+///   ([`RoutePlan::memory_bytes`]), with its height profiles on a terrain;
+/// - the lane path: its lateral profile, its polyline every
+///   [`LANE_PATH_SPACING_M`] along the centre path (at most the route's
+///   length) with the route's spans and waypoints, and its plan being built
+///   on a path [`LANE_PATH_LENGTH_FACTOR`] times the route's length, with
+///   at most one turn on the spot per route vertex.
+///
+/// At least 208 bytes a metre (232 on the Helsinki routes of BENCHMARKS.md,
+/// with 58 route vertices a kilometre; 5–7 % above the bytes those builds
+/// allocate, `tests/route_memory.rs`). The elevation model's raster is
+/// not counted: it has its own limit ([`crate::elevation::MAX_DEM_PIXELS`]).
+pub fn route_truth_bytes(c: &RouteCounts) -> u64 {
+    use std::mem::size_of;
+    let size = |n: u64, bytes: usize| n.saturating_mul(bytes as u64);
+    let sum = |terms: &[u64]| terms.iter().fold(0u64, |a, &b| a.saturating_add(b));
+    let per_m = |bytes_per_m: f64| (c.length_m * bytes_per_m).ceil() as u64;
+    let route = |vertices: u64| {
+        sum(&[
+            size(vertices, size_of::<RouteVertex>()),
+            size(c.spans, size_of::<RouteSpan>()),
+            size(c.waypoints, size_of::<SnappedWaypoint>()),
+        ])
+    };
+    let centre = RoutePlan::memory_bytes(c.vertices, c.vertices, c.spans, c.stops, c.length_m);
+    let heights = if c.elevation {
+        // The route's profile and the centre plan's, heights and grades.
+        size(sum(&[per_m(1.0 / PROFILE_STEP_M), 2]), 4 * size_of::<f64>())
+    } else {
+        0
+    };
+    let lane_vertices = sum(&[(c.length_m / LANE_PATH_SPACING_M).ceil() as u64, 2]);
+    // The lateral profile: a step (three f64) and its running sum at each
+    // change of road (at most one per span; the steps in a vector grown by
+    // doubling), and the allowance per metre.
+    let profile = sum(&[
+        size(c.spans, 2 * size_of::<[f64; 3]>() + size_of::<f64>()),
+        per_m(LANE_PROFILE_BYTES_PER_M),
+    ]);
+    let lane = RoutePlan::memory_bytes(
+        lane_vertices,
+        c.vertices,
+        c.spans,
+        c.stops,
+        LANE_PATH_LENGTH_FACTOR * c.length_m,
+    );
+    let building_centre = sum(&[route(c.vertices), centre.peak]);
+    let building_lane = sum(&[
+        route(c.vertices),
+        centre.kept,
+        heights,
+        profile,
+        route(lane_vertices),
+        lane.peak,
+    ]);
+    building_centre.max(building_lane)
+}
+
+/// Checks the memory of building the truth of `scn`'s routed `route`
+/// ([`route_truth_bytes`]) against [`MAX_ROUTE_TRUTH_BYTES`], before its
+/// plan is made. Returns the estimate.
+pub fn check_route_memory(scn: &Scenario, route: &Route) -> Result<u64> {
+    let c = RouteCounts::of(scn, route);
+    let bytes = route_truth_bytes(&c);
+    if bytes > MAX_ROUTE_TRUTH_BYTES {
+        return Err(Error::scenario(
+            &scn.path,
+            format!(
+                "route[0]: the route through its {} waypoints is {:.0} km long ({} vertices): \
+                 building its truth needs about {} of memory, {}",
+                c.waypoints,
+                c.length_m / 1000.0,
+                c.vertices,
+                gigabytes(bytes),
+                over_route_memory_limit()
+            ),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// `bytes` in GB, one decimal.
+pub(super) fn gigabytes(bytes: u64) -> String {
+    format!("{:.1} GB", bytes as f64 / 1e9)
+}
+
+/// The end of an error refusing a route for its memory: the limit, why
+/// the memory grows with the route and what to change.
+pub(super) fn over_route_memory_limit() -> String {
+    let per_1000_km = route_truth_bytes(&RouteCounts {
+        length_m: 1e6,
+        vertices: 0,
+        spans: 0,
+        waypoints: 0,
+        stops: 0,
+        elevation: false,
+    });
+    format!(
+        "above the limit of {} GiB ({}; the route's truth is built whole, with a point every \
+         metre or two: at least {:.2} GB per 1000 km, whatever imu.rate_hz, speed_kmh and \
+         duration_s): use fewer or closer waypoints",
+        MAX_ROUTE_TRUTH_BYTES >> 30,
+        gigabytes(MAX_ROUTE_TRUTH_BYTES),
+        per_1000_km as f64 / 1e9,
+    )
 }
 
 /// Checks the counts of `file` against the limits above, and that a motion

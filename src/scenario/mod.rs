@@ -31,9 +31,10 @@ mod validate;
 
 pub(crate) use check::{short_number, shorten_numbers};
 pub use limits::{
-    check_network_candidates, MAX_ACCEL_ERROR_UG, MAX_GYRO_ARW_DPRH, MAX_GYRO_ERROR_DPH,
-    MAX_NETWORK_CANDIDATE_SITES, MAX_REFINE_ITERATIONS, MAX_RUNS, MAX_SCENARIO_BYTES,
-    MAX_TOLERATED_MISSED_READS,
+    check_network_candidates, check_route_memory, route_truth_bytes, RouteCounts,
+    LANE_PROFILE_BYTES_PER_M, MAX_ACCEL_ERROR_UG, MAX_GYRO_ARW_DPRH, MAX_GYRO_ERROR_DPH,
+    MAX_NETWORK_CANDIDATE_SITES, MAX_REFINE_ITERATIONS, MAX_ROUTE_TRUTH_BYTES, MAX_RUNS,
+    MAX_SCENARIO_BYTES, MAX_TOLERATED_MISSED_READS,
 };
 pub use presets::{starter_scenario, ImuGrade, Starter};
 pub use schema::{
@@ -43,7 +44,7 @@ pub use sections::{
     default_mounting_cost, Aiding, ExternalFix, FilterSettings, LaneModel, MapErrorModel,
     MountingChoice, Navigator, PlannerOptions, RouteKind, Scenario, ScenarioTag, TagPlace,
     DEFAULT_LANE_WANDER_M, DEFAULT_NETWORK_SPACING_M, DEFAULT_ROUTE_SPACING_M,
-    DEFAULT_VERTICAL_TAU_S,
+    DEFAULT_VERTICAL_TAU_S, LANE_PATH_SPACING_M,
 };
 
 #[cfg(test)]

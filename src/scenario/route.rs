@@ -3,7 +3,10 @@
 //! terrain the map route is driven on.
 
 use super::check::{short_number, shorten_numbers, Check};
-use super::limits::{MAX_ELEVATION_FILES, MAX_HEADING_DEG};
+use super::limits::{
+    gigabytes, over_route_memory_limit, route_truth_bytes, RouteCounts, MAX_ELEVATION_FILES,
+    MAX_HEADING_DEG, MAX_ROUTE_TRUTH_BYTES,
+};
 use super::schema::{Coverage, MotionKind, MotionSpec, OneOrMany, ScenarioFile};
 use super::sections::RouteKind;
 use crate::error::{Error, Result};
@@ -164,11 +167,12 @@ fn waypoints_length_lower_bound_m(waypoints: &[[f64; 2]]) -> f64 {
 }
 
 /// Refuses waypoints whose route could not be driven within the drive
-/// limit ([`MAX_DURATION_S`], 30 days) at `speed_kmh`, from the
+/// limit ([`MAX_DURATION_S`], 30 days) at `speed_kmh`, or whose truth
+/// would need more memory than [`MAX_ROUTE_TRUTH_BYTES`], from the
 /// waypoints alone: before the map is loaded and the route is built (a
 /// route of thousands of waypoints far apart was routed and sampled every
 /// 2 m, gigabytes, before the drive's duration was checked). `duration_s`
-/// does not lift it: the route is built whole even when the drive stops
+/// does not lift them: the route is built whole even when the drive stops
 /// earlier.
 fn check_waypoint_distances(c: &Check, waypoints: &[[f64; 2]], speed_kmh: f64) -> Result<()> {
     let length_m = waypoints_length_lower_bound_m(waypoints);
@@ -183,6 +187,28 @@ fn check_waypoint_distances(c: &Check, waypoints: &[[f64; 2]], speed_kmh: f64) -
             length_m / 1000.0,
             drive_s / 86_400.0,
             short_number(speed_kmh)
+        )));
+    }
+    // The same lower bound of the length against the memory of building
+    // its truth (the route's vertices at least its waypoints).
+    let n = waypoints.len() as u64;
+    let bytes = route_truth_bytes(&RouteCounts {
+        length_m,
+        vertices: n,
+        spans: n.saturating_sub(1),
+        waypoints: n,
+        stops: 0,
+        elevation: false,
+    });
+    if bytes > MAX_ROUTE_TRUTH_BYTES {
+        return Err(c.err(format!(
+            "route[0]: its {} waypoints are {:.0} km apart at least (great-circle distances \
+             between consecutive waypoints): building the truth of a route that long needs at \
+             least {} of memory, {}",
+            waypoints.len(),
+            length_m / 1000.0,
+            gigabytes(bytes),
+            over_route_memory_limit()
         )));
     }
     Ok(())

@@ -279,6 +279,13 @@ impl Default for MapErrorModel {
 /// (SDLP; e.g. Verster & Roth 2011, Transportation Research Part F 14(3)).
 pub const DEFAULT_LANE_WANDER_M: f64 = 0.3;
 
+/// Spacing of the polyline of the truth's lane path (m): `sim::lanes`
+/// moves a point of the route's smoothed centre path into its lane this
+/// often. Defined here, below the simulation, because a map route's memory
+/// is estimated from it when the scenario is read
+/// ([`super::limits::route_truth_bytes`]).
+pub const LANE_PATH_SPACING_M: f64 = 2.0;
+
 /// `[vehicle]` lane keeping, validated: the truth drives in a lane of its
 /// direction on the `drive_side` of the road, wandering about the lane's
 /// centre with 1σ `wander_m` (see `sim::lanes`).

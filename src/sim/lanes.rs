@@ -40,8 +40,10 @@ use crate::sensors::rng::{ids, stream, GaussMarkov};
 use crate::trajectory::{RoutePlan, SpeedProfile};
 use rand::Rng;
 
-/// Spacing of the lane path's polyline (m).
-pub const RESAMPLE_M: f64 = 2.0;
+/// Spacing of the lane path's polyline (m;
+/// [`crate::scenario::LANE_PATH_SPACING_M`], which the route's memory
+/// estimate reads).
+pub const RESAMPLE_M: f64 = crate::scenario::LANE_PATH_SPACING_M;
 /// Correlation length of the lateral wander (m): drivers' lane-keeping
 /// corrections have periods of several seconds, 50–100 m at town speeds.
 pub const WANDER_CORRELATION_M: f64 = 60.0;
@@ -280,4 +282,22 @@ pub fn lane_plan(
     let lanes = lane_route(net, route, centre, &profile);
     RoutePlan::new(net, &lanes, speed, stops, height_m, dt)
         .map_err(|e| Error::InvalidParameter(format!("the lane path: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_route_memory_allowance_covers_the_lateral_profile() {
+        // The route's memory estimate (`scenario::route_truth_bytes`)
+        // allows LANE_PROFILE_BYTES_PER_M for the wander's knots and the
+        // lane changes' steps (each in a vector grown by doubling, with
+        // its running sum), at four times their mean rate; the steps at
+        // changes of road it counts per span.
+        let knots = std::mem::size_of::<f64>() as f64 / WANDER_KNOT_M;
+        let step = (2 * std::mem::size_of::<Step>() + std::mem::size_of::<f64>()) as f64;
+        let changes = 4.0 * step / LANE_CHANGE_MEAN_M;
+        assert!(knots + changes <= crate::scenario::LANE_PROFILE_BYTES_PER_M);
+    }
 }

@@ -97,6 +97,7 @@ impl TruthSource {
                 };
                 let route = crate::route::plan_route(&network, waypoints).map_err(err)?;
                 check_route_length(scn, route.length_m, profile.speed_mps)?;
+                crate::scenario::check_route_memory(scn, &route)?;
                 let mut centre =
                     RoutePlan::new(&network, &route, profile, stops, *height_m, scn.dt)
                         .map_err(err)?;

@@ -9,7 +9,7 @@ pub(crate) mod route;
 
 pub use heights::{route_heights, route_heights_with, NetworkHeights};
 pub use motion::{Extent, Motion, MotionPlan, MotionTrajectory, Start};
-pub use route::{RoutePlan, RouteTrajectory, SpeedProfile, PATH_HALF_WINDOW_M};
+pub use route::{PlanBytes, RoutePlan, RouteTrajectory, SpeedProfile, PATH_HALF_WINDOW_M};
 
 use crate::attitude::V3;
 use crate::nav::strapdown::{ImuIncrement, InverseStrapdown, NavState};

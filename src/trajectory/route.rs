@@ -70,6 +70,10 @@ pub const MAX_ARC_RADIUS_M: f64 = 5000.0;
 pub const PATH_HALF_WINDOW_M: f64 = 10.0;
 /// Lowest speed limit anywhere except at stops (m/s).
 pub const MIN_SPEED_MPS: f64 = 0.5;
+/// Longest distance between two nodes of the speed profile (m).
+const NODE_SPACING_M: f64 = 1.0;
+/// Longest distance between two samples of the convergence correction (m).
+const CONVERGENCE_STEP_M: f64 = 50.0;
 
 /// One element of the smoothed path, in the map's ENU plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -167,7 +171,63 @@ fn convergence(frame: &EnuFrame, p: [f64; 2], psi: f64, height: f64) -> f64 {
     wrap_pi(de.atan2(dn) - psi)
 }
 
+/// Memory of a [`RoutePlan`] (bytes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PlanBytes {
+    /// Held at once while [`RoutePlan::new`] builds it.
+    pub peak: u64,
+    /// Kept by the plan once built.
+    pub kept: u64,
+}
+
 impl RoutePlan {
+    /// Upper bounds of the memory of [`RoutePlan::new`] on a route whose
+    /// polyline has `vertices` points and `spans` spans, with `stops` stops
+    /// and at most `turns` turns on the spot, and whose smoothed path is at
+    /// most `path_m` long: the buffers `new` allocates, each at its size,
+    /// and none depends on `dt` (the samples are made as they are read).
+    /// Per vertex: the polyline, its legs, tangents, turns, a line and an
+    /// arc (the elements) and an arc's speed limit; per metre of path a
+    /// speed-profile node, and one more per hard point (the start, the end,
+    /// a stop, a turn on the spot); every [`CONVERGENCE_STEP_M`] a
+    /// convergence correction. The plan keeps its elements, nodes and
+    /// corrections.
+    pub fn memory_bytes(
+        vertices: u64,
+        turns: u64,
+        spans: u64,
+        stops: u64,
+        path_m: f64,
+    ) -> PlanBytes {
+        use std::mem::size_of;
+        let size = |n: u64, bytes: usize| n.saturating_mul(bytes as u64);
+        let sum = |terms: &[u64]| terms.iter().fold(0u64, |a, &b| a.saturating_add(b));
+        let legs = vertices.saturating_sub(1);
+        let hard = sum(&[2, stops, turns]);
+        let nodes = sum(&[(path_m / NODE_SPACING_M).ceil() as u64, hard]);
+        let conv = sum(&[(path_m / CONVERGENCE_STEP_M).ceil() as u64, 2]);
+        let kept = sum(&[
+            size(legs, 2 * size_of::<Elem>()), // a line and an arc per leg
+            size(nodes, size_of::<Node>()),
+            size(conv, size_of::<f64>()),
+        ]);
+        let temporary = sum(&[
+            size(vertices, size_of::<([f64; 2], f64)>()), // points
+            size(legs, size_of::<(f64, f64)>()),          // legs
+            size(vertices, 2 * size_of::<f64>() + size_of::<bool>()), // tangents, turns
+            size(turns, size_of::<(f64, f64)>()),         // turns on the spot
+            size(hard, 2 * size_of::<(f64, f64, f64)>() + size_of::<usize>()), // hard points
+            size(
+                legs.saturating_add(spans),
+                size_of::<(std::ops::Range<usize>, f64)>(),
+            ), // speed limits
+        ]);
+        PlanBytes {
+            peak: kept.saturating_add(temporary),
+            kept,
+        }
+    }
+
     /// Makes a route drivable at sampling interval `dt` (s). `stops` are
     /// (chainage m, duration s); `height_m` is the constant height driven at.
     pub fn new(
@@ -232,7 +292,7 @@ impl RoutePlan {
         }
         let mut elems = Vec::with_capacity(2 * m);
         let mut s = 0.0;
-        let mut pivots: Vec<(f64, f64)> = Vec::new();
+        let mut pivots: Vec<(f64, f64)> = Vec::with_capacity(pivot.iter().filter(|&&p| p).count());
         for j in 0..m {
             let (len, psi) = legs[j];
             let (sn, cs) = psi.sin_cos();
@@ -285,7 +345,8 @@ impl RoutePlan {
             }
         };
         // Hard points: start, end, stops, pivots.
-        let mut hard: Vec<(f64, f64, f64)> = vec![(0.0, 0.0, 0.0), (total, 0.0, 0.0)];
+        let mut hard: Vec<(f64, f64, f64)> = Vec::with_capacity(2 + stops.len() + pivots.len());
+        hard.extend([(0.0, 0.0, 0.0), (total, 0.0, 0.0)]);
         for &(c, d) in stops {
             if c > route.length_m + 1e-6 {
                 return Err(Error::InvalidParameter(format!(
@@ -299,7 +360,7 @@ impl RoutePlan {
             hard.push((sp, d.abs() / PIVOT_RATE, d));
         }
         hard.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut merged: Vec<(f64, f64, f64)> = Vec::new();
+        let mut merged: Vec<(f64, f64, f64)> = Vec::with_capacity(hard.len());
         for h in hard {
             match merged.last_mut() {
                 Some(last) if h.0 - last.0 < 0.01 => {
@@ -309,9 +370,17 @@ impl RoutePlan {
                 _ => merged.push(h),
             }
         }
-        // Profile nodes ≤ 1 m apart with exact nodes at hard points.
-        let mut nodes: Vec<Node> = Vec::new();
-        let mut zero = Vec::new();
+        // Profile nodes ≤ 1 m apart with exact nodes at hard points (their
+        // number counted first: the buffers are allocated at their size,
+        // which `RoutePlan::memory_bytes` bounds).
+        let steps = |s0: f64, s1: f64| ((s1 - s0) / NODE_SPACING_M).ceil().max(1.0) as usize;
+        let count = merged.len()
+            + merged
+                .windows(2)
+                .map(|w| steps(w[0].0, w[1].0) - 1)
+                .sum::<usize>();
+        let mut nodes: Vec<Node> = Vec::with_capacity(count);
+        let mut zero = Vec::with_capacity(merged.len());
         for w in 0..merged.len() {
             let (s0, dwell, pv) = merged[w];
             zero.push(nodes.len());
@@ -324,7 +393,7 @@ impl RoutePlan {
             });
             if w + 1 < merged.len() {
                 let s1 = merged[w + 1].0;
-                let n = ((s1 - s0) / 1.0).ceil().max(1.0) as usize;
+                let n = steps(s0, s1);
                 for i in 1..n {
                     nodes.push(Node {
                         s: s0 + (s1 - s0) * i as f64 / n as f64,
@@ -348,7 +417,8 @@ impl RoutePlan {
             let i1 = nodes.partition_point(|n| n.s <= b);
             i0..i1.max(i0)
         };
-        let mut limits: Vec<(std::ops::Range<usize>, f64)> = Vec::new();
+        let mut limits: Vec<(std::ops::Range<usize>, f64)> =
+            Vec::with_capacity(elems.iter().filter(|e| e.kappa != 0.0).count() + route.spans.len());
         for e in &elems {
             if e.kappa != 0.0 {
                 let v = (profile.max_lateral_accel_mps2 / e.kappa.abs())
@@ -404,7 +474,7 @@ impl RoutePlan {
         let samples = (duration / dt - 1e-9).ceil().max(0.0) as u64 + 1;
         // Convergence correction along the path.
         let frame = net.model.frame;
-        let intervals = (total / 50.0).ceil().max(1.0);
+        let intervals = (total / CONVERGENCE_STEP_M).ceil().max(1.0);
         let conv_step = total / intervals;
         let conv = (0..=intervals as usize)
             .map(|i| {
