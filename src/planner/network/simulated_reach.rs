@@ -29,7 +29,7 @@
 //! are sorted. `q95` is the ⌈0.95 n⌉-th smallest; `upper` is the smallest
 //! order statistic that lies above the true 95th percentile with at least
 //! 95 % probability (the distribution-free binomial bound,
-//! [`upper_order_statistic`]; the largest of 59 runs, the 6th largest of
+//! [`upper_order_statistic`]; the largest of 59 runs, the 5th largest of
 //! 200 when the errors at a point are independent between runs, which
 //! they are: every run has its own seed). The reach is where the statistic
 //! first exceeds the requirement; a drive that ends first gives its length
@@ -301,6 +301,9 @@ mod tests {
             assert!(k <= n);
         }
         assert_eq!(upper_order_statistic(60, 0.95, 0.95), Some(60));
+        // 200 runs: the 196th smallest, the 5th largest (the module doc's
+        // figure; P(Bin(200, 0.95) ≤ 195) ≥ 0.95 > P(… ≤ 194)).
+        assert_eq!(upper_order_statistic(200, 0.95, 0.95), Some(196));
         assert_eq!(upper_order_statistic(10, 0.95, 0.95), None);
         assert_eq!(upper_order_statistic(0, 0.95, 0.95), None);
         assert_eq!(upper_order_statistic(10, 1.0, 0.95), None);
