@@ -54,9 +54,13 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
     assert_eq!(plan["map_matching"], true);
     assert_eq!(plan["route_ignored"], false);
     // At most 10 % of the 632 tags the any-walk model without map-matching
-    // credit placed on this map (issue 13's measurement).
+    // credit placed on this map (issue 13's measurement). None is right
+    // too: `plan --baseline` validates this map's traffic without any tag
+    // (BENCHMARKS "What the tags buy"), and since walks turn back at most
+    // once per stretch (a hairpin onto another road counts) the model
+    // agrees.
     let n = plan["tag_count"].as_u64().unwrap();
-    assert!((1..=63).contains(&n), "{n} tags");
+    assert!(n <= 63, "{n} tags");
     assert!(plan["lower_bound"].as_u64().unwrap() <= n);
     // The guarantee: at most two of the fresh certification chains fail
     // (the sample was sized for that), so the Clopper–Pearson upper bound
@@ -126,7 +130,7 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
         .iter()
         .all(|t| t["reason"].as_str().unwrap().contains("without a turn"));
     assert!(
-        over_without > 0 || (n > 0 && walk_reasons),
+        n == 0 || over_without > 0 || walk_reasons,
         "no road needs tags, yet tags were placed"
     );
     if bad == 0 {

@@ -325,9 +325,9 @@ fn network_plan_baseline_drives_the_same_chains_without_the_new_tags() {
     };
 
     // A fresh trips plan with map matching: the baseline has no tag at all.
-    // Helsinki's trips at 15 m: at 20 m its 4 tags cover one straight walk
-    // that no sampled chain drives over budget, so there would be no
-    // stretch to drive (and the Monaco map is not bundled with the repo).
+    // Helsinki's trips at 15 m: at 20 m the plan has no tag, so there would
+    // be no stretch to drive (and the Monaco map is not bundled with the
+    // repo).
     let trips = std::fs::read_to_string(repo("scenarios/helsinki-network-trips.toml"))
         .unwrap()
         .replace(

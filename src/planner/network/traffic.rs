@@ -17,8 +17,9 @@
 //!   most 180° − [`TURN_DEG`] — at a junction between two roads (the
 //!   chords over the last and first [`CHORD_M`] of each) or a bend inside a
 //!   road — observes the along-road error, which starts a new stretch. A
-//!   U-turn observes nothing. Without map matching only the chain's start
-//!   is a reset.
+//!   turn-back — a U-turn, or a hairpin sharper than 180° − [`TURN_DEG`]
+//!   onto another road ([`turns_back`]) — observes nothing. Without map
+//!   matching only the chain's start is a reset.
 //! * **Budget**: a metre of road of speed class c consumes `1/R_c` of the
 //!   error budget; the bound stays within the requirement on a stretch
 //!   while the budget consumed since the stretch's start or the last tag
@@ -100,6 +101,19 @@ pub fn turn_deg(h0: f64, h1: f64) -> f64 {
 /// A turn observes the along-road error.
 pub fn resets(turn: f64) -> bool {
     (TURN_DEG..=180.0 - TURN_DEG).contains(&turn)
+}
+
+/// The junction transition from directed edge `a` onto `b` turns back: a
+/// U-turn onto the same road, or a hairpin onto another sharper than
+/// 180° − [`TURN_DEG`] (chords at the junction). Neither observes the
+/// along-road error (the hairpin's new road leaves the reversed old one at
+/// less than [`TURN_DEG`], as a fork does), and a vehicle turns back at a
+/// trip end, once: a walk that turns back twice in one stretch circles a
+/// loop (a lens of two short roads between the same two junctions) or
+/// shuttles, which no route between destinations does.
+pub(crate) fn turns_back(model: &EdgeModel, a: usize, b: usize) -> bool {
+    model.dir[a].0 == model.dir[b].0
+        || turn_deg(model.end_heading[a], model.start_heading[b]) > 180.0 - TURN_DEG
 }
 
 /// Chord headings (rad) at the start and the end of a directed section.
@@ -469,7 +483,7 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
         if let Some(q) = prev {
             let qe = q.edge as usize;
             let joined = (q.a1 - model.length[qe]).abs() < 1e-6 && p.a0.abs() < 1e-6;
-            let u_turn = model.dir[qe].0 == model.dir[e].0;
+            let u_turn = turns_back(model, qe, e);
             if !joined || u_turn {
                 // Turning back on the spot observes nothing.
                 win.clear();
@@ -604,8 +618,9 @@ pub(crate) fn chain_use(cb: &ChainBudget, selected: &[bool], k: usize) -> f64 {
 /// never reaches it: checked at build).
 pub(crate) const UTURN_FLAG: u32 = 1 << 31;
 
-/// Most junction U-turns in one stretch: a trip end with the next
-/// destination behind makes one; two in a row on the same straight run
+/// Most junction turn-backs ([`turns_back`]: U-turns, and hairpins onto
+/// another road) in one stretch: a trip end with the next destination
+/// behind makes one; two in a row on the same straight run
 /// happen in long shifts but are left to the certification rounds (two per
 /// stretch cost Monaco 350 tags instead of 272 without changing its rounds).
 pub const MAX_UTURNS: u8 = 1;
@@ -680,8 +695,9 @@ fn straight_windows_within(
     for &(a, b) in straight {
         next[a as usize].push(b);
     }
-    // A U-turn at a junction a chain made counts as one everywhere.
-    let observed_uturn = |a: usize, b: u32| model.dir[a].0 == model.dir[b as usize].0;
+    // A U-turn (or hairpin) at a junction a chain made counts as one
+    // everywhere.
+    let observed_uturn = |a: usize, b: u32| turns_back(model, a, b as usize);
     for v in &mut next {
         v.sort_unstable();
     }
@@ -808,7 +824,8 @@ fn straight_windows_within(
 /// a road continuing within [`TURN_DEG`] of straight on (or sharper than
 /// 180° − [`TURN_DEG`]), or onto an edge whose speed class gets no reset
 /// from turns; a U-turn onto the same road only where it ends (a dead end,
-/// where trips turn back).
+/// where trips turn back). Walks count every turn-back ([`turns_back`],
+/// flagged or not) towards [`MAX_UTURNS`].
 pub(crate) fn geometric_straight(
     net: &Network,
     model: &EdgeModel,
@@ -846,6 +863,31 @@ mod tests {
     use crate::network::{model_from_polylines, Oneway, RoadAttributes};
     use std::collections::BTreeMap;
 
+    /// A two-way (or one-way) primary road `id`, 50 km/h.
+    fn primary(id: String, oneway: Oneway) -> RoadAttributes {
+        RoadAttributes {
+            id,
+            name: None,
+            highway: "primary".into(),
+            oneway,
+            lanes: None,
+            width_m: None,
+            maxspeed_kmh: Some(50.0),
+            tunnel: false,
+            bridge: false,
+            layer: 0,
+        }
+    }
+
+    /// Points `[north m, east m]` from (60.17° N, 24.94° E) as (lat, lon).
+    fn local(pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
+        let la = 60.17f64;
+        let m_lon = 111_320.0 * la.to_radians().cos();
+        pts.iter()
+            .map(|p| [la + p[0] / 111_320.0, 24.94 + p[1] / m_lon])
+            .collect()
+    }
+
     /// A triangle lattice of straight roads northward: junction `j` of row
     /// `i` (`j` = 0..=`i`) lies 100 m × `i` north and 20 m × (2`j` − `i`)
     /// east; from each junction of rows 0 to `rows` − 1 a road leads to
@@ -864,18 +906,7 @@ mod tests {
         for i in 0..rows {
             for j in 0..=i {
                 for (side, to) in [("w", j), ("e", j + 1)] {
-                    let attributes = RoadAttributes {
-                        id: format!("{i}/{j}{side}"),
-                        name: None,
-                        highway: "primary".into(),
-                        oneway,
-                        lanes: None,
-                        width_m: None,
-                        maxspeed_kmh: Some(50.0),
-                        tunnel: false,
-                        bridge: false,
-                        layer: 0,
-                    };
+                    let attributes = primary(format!("{i}/{j}{side}"), oneway);
                     roads.push((attributes, vec![vec![at(i, j), at(i + 1, to)]]));
                 }
             }
@@ -1023,5 +1054,91 @@ mod tests {
         let w = windows(&mut capped);
         assert!(w.len() > 100, "{} windows", w.len());
         assert_eq!(w, windows(&mut all));
+    }
+
+    #[test]
+    fn a_walk_turns_back_once_per_stretch_even_round_a_lens() {
+        // A 500 m road north ("in") to junction J1, a lens of two bowed
+        // 31 m roads ("A" east, "B" west) from J1 to J2 30 m north, and a
+        // 500 m road on north ("out"). Every continuation through the
+        // lens is straight on (15°), and each end of the lens turns back
+        // 150° onto its other side: a hairpin that neither resets nor
+        // turns on the same road. A walk may make one such turn-back per
+        // stretch (as a U-turn); circling the lens, A → B → A → …, until
+        // the 300 m reach is used is no vehicle's path.
+        let two = Oneway::Both;
+        let roads = vec![
+            (
+                primary("in".into(), two),
+                vec![local(&[[-500.0, 0.0], [0.0, 0.0]])],
+            ),
+            (
+                primary("A".into(), two),
+                vec![local(&[[0.0, 0.0], [15.0, 4.0], [30.0, 0.0]])],
+            ),
+            (
+                primary("B".into(), two),
+                vec![local(&[[0.0, 0.0], [15.0, -4.0], [30.0, 0.0]])],
+            ),
+            (
+                primary("out".into(), two),
+                vec![local(&[[30.0, 0.0], [530.0, 0.0]])],
+            ),
+        ];
+        let net = Network::from_model(model_from_polylines(roads).unwrap(), None).unwrap();
+        let model = edge_model(&net, 300.0, Some(25.0));
+        let road = |e: usize| -> &str {
+            let sec = &net.sections[model.dir[e].0 as usize];
+            &net.roads[sec.road as usize].attributes.id
+        };
+        let edge = |id: &str, fwd: bool| -> usize {
+            (0..model.dir.len())
+                .find(|&e| road(e) == id && model.dir[e].1 == fwd)
+                .unwrap()
+        };
+        // The hairpins at J2 (A onto B backwards) and J1 (B backwards onto
+        // A) turn back and are straight transitions; on through the lens
+        // is neither.
+        let straight = geometric_straight(&net, &model);
+        let (a, b_back) = (edge("A", true), edge("B", false));
+        for (x, y) in [(a, b_back), (b_back, a)] {
+            assert!(turns_back(&model, x, y), "{} → {}", road(x), road(y));
+            assert!(straight.contains(&(x as u32, y as u32)));
+        }
+        assert!(!turns_back(&model, edge("in", true), a));
+        assert!(!turns_back(&model, a, edge("out", true)));
+
+        let used = vec![true; model.dir.len()];
+        let mut map = WindowMap::new(usize::MAX);
+        straight_windows(&model, &straight, &used, &mut map);
+        let w = windows(&mut map);
+        let lens: std::collections::HashSet<u32> = (0..model.dir.len())
+            .filter(|&e| matches!(road(e), "A" | "B"))
+            .flat_map(|e| model.sites[e].iter().map(|s| s.1))
+            .collect();
+        let on = |id: &str| -> std::collections::HashSet<u32> {
+            let mut s = std::collections::HashSet::new();
+            for fwd in [true, false] {
+                s.extend(model.sites[edge(id, fwd)].iter().map(|x| x.1));
+            }
+            s
+        };
+        // No window holds only lens sites: every walk left the lens within
+        // one turn-back.
+        for ids in w.keys() {
+            assert!(
+                !ids.iter().all(|i| lens.contains(i)),
+                "a window of lens sites only, {ids:?}: a walk circled the lens"
+            );
+        }
+        // The single turn-back is still walked: from A round the hairpin
+        // onto B and back down "in".
+        let (sa, sb, sin) = (on("A"), on("B"), on("in"));
+        assert!(
+            w.keys().any(|ids| ids.iter().any(|i| sa.contains(i))
+                && ids.iter().any(|i| sb.contains(i))
+                && ids.iter().any(|i| sin.contains(i))),
+            "no window of a walk A → B → in"
+        );
     }
 }
