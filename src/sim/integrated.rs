@@ -266,23 +266,21 @@ pub fn run_integrated(
     }
 }
 
-/// The truth samples of a run that is advanced in stages
-/// ([`IntegratedRun::advance_to`]): generated through a vtable, since the
-/// staged runs are held between calls.
-pub(super) type BoxedSamples<'a> =
-    Box<dyn Iterator<Item = crate::trajectory::TruthSample> + Send + 'a>;
-
-/// An integrated run of [`run_integrated`] that can be advanced in stages
-/// ([`Self::advance_to`]) before it is finished, row for row the same run.
+/// An integrated run of [`run_integrated`] at its first truth sample
+/// `first`, with its recorder `rec` (both from `start_run`), to be stepped
+/// through the rest of the same samples by the caller
+/// ([`IntegratedRun::step_all`], [`IntegratedRun::end`]): row for row the
+/// same run. `prep` shares no truth samples (the caller does).
 pub(super) fn staged_run<'a>(
     scn: &'a Scenario,
-    truth: &'a TruthSource,
     prep: &'a Prepared,
     seed: u64,
     run: u64,
-) -> Option<IntegratedRun<'a, BoxedSamples<'a>>> {
-    let (generated, rec) = start_run(scn, truth, None);
-    IntegratedRun::start(scn, prep, seed, run, Box::new(generated), rec)
+    first: crate::trajectory::TruthSample,
+    rec: Recorder,
+) -> Option<IntegratedRun<'a, std::iter::Once<crate::trajectory::TruthSample>>> {
+    debug_assert!(prep.truth_samples.is_none());
+    IntegratedRun::start(scn, prep, seed, run, std::iter::once(first), rec)
 }
 
 /// The state of one integrated run between two truth samples: its
@@ -621,21 +619,10 @@ impl<'a, G: Iterator<Item = crate::trajectory::TruthSample>> IntegratedRun<'a, G
         }
     }
 
-    /// Steps the run until it has recorded a row at or beyond `distance_m`
-    /// along the truth, or its truth has ended (then its last sample's row
-    /// is recorded too, as [`Self::finish`] does).
-    pub(super) fn advance_to(&mut self, distance_m: f64) {
-        while !self.ended
-            && self
-                .rec
-                .rows
-                .last()
-                .is_none_or(|r| r.distance_m < distance_m)
-        {
-            match self.samples.next() {
-                Some(s) => self.step(&s),
-                None => self.end(),
-            }
+    /// Steps the run through `samples`, the truth's next ones.
+    pub(super) fn step_all(&mut self, samples: &[crate::trajectory::TruthSample]) {
+        for s in samples {
+            self.step(s);
         }
     }
 
@@ -646,7 +633,7 @@ impl<'a, G: Iterator<Item = crate::trajectory::TruthSample>> IntegratedRun<'a, G
 
     /// The truth has ended: the last sample's row, with the filter's
     /// covariance, and its calibration.
-    fn end(&mut self) {
+    pub(super) fn end(&mut self) {
         if self.ended {
             return;
         }

@@ -3,10 +3,11 @@
 //! stand-alone runner) and summarizes them.
 
 use super::dead_reckoning::run_once;
-use super::integrated::{run_integrated, staged_run, BoxedSamples, IntegratedRun, Prepared};
+use super::integrated::{run_integrated, staged_run, IntegratedRun, Prepared};
 use super::metrics::{summarize, Summary};
 use super::records::{ErrorRow, RunResult};
 use super::tags::Tag;
+use super::truth::start_run;
 use super::truth::TruthSource;
 use crate::error::Result;
 use crate::scenario::{NavMode, Scenario};
@@ -142,18 +143,39 @@ pub fn simulate_with(
 /// ([`Self::advance_to`]), for a caller that needs every run's error at a
 /// distance before it knows how far to go. Row for row, bit for bit, each
 /// run is the one of [`simulate_with`] (same scenario, truth, seed, no
-/// extra tags), cut where the caller stops.
+/// extra tags), cut where the caller stops. The truth's samples are made
+/// once for all runs, a batch at a time, whatever the drive's length.
 pub struct StagedRuns<'a> {
     runs: Vec<Staged<'a>>,
+    truth: Option<StageTruth<'a>>,
 }
+
+type Sample = crate::trajectory::TruthSample;
 
 enum Staged<'a> {
     /// An integrated run in progress.
-    Integrated(Box<IntegratedRun<'a, BoxedSamples<'a>>>),
+    Integrated(Box<IntegratedRun<'a, std::iter::Once<Sample>>>),
     /// A run made whole: a stand-alone navigator's, or a truth without
     /// samples.
     Done(RunResult),
 }
+
+/// The truth's samples as every integrated run reads them, made once and
+/// handed to the runs a batch at a time.
+struct StageTruth<'a> {
+    samples: Box<dyn Iterator<Item = Sample> + Send + 'a>,
+    /// A row every `every` samples (the runs' recorder's).
+    every: u64,
+    /// Samples read, the first included.
+    read: u64,
+    /// Distance of the last sample with a row (m).
+    row_m: f64,
+    ended: bool,
+    batch: Vec<Sample>,
+}
+
+/// Most truth samples handed to the runs at once (about 144 bytes each).
+const STAGE_BATCH: usize = 1 << 16;
 
 impl StagedRuns<'_> {
     /// Number of runs.
@@ -170,11 +192,38 @@ impl StagedRuns<'_> {
     /// beyond `distance_m` along the truth, or its truth has ended (then
     /// with its last sample's row, as [`simulate_with`]'s runs end).
     pub fn advance_to(&mut self, distance_m: f64) {
-        self.runs.par_iter_mut().for_each(|r| {
-            if let Staged::Integrated(r) = r {
-                r.advance_to(distance_m);
+        let Some(t) = self.truth.as_mut() else {
+            return;
+        };
+        // The runs record their rows at the same samples: the last row is
+        // at or beyond `distance_m` when the last sample with one is.
+        while !t.ended && t.row_m < distance_m {
+            t.batch.clear();
+            while t.batch.len() < STAGE_BATCH && t.row_m < distance_m {
+                match t.samples.next() {
+                    Some(s) => {
+                        if t.read % t.every == 0 {
+                            t.row_m = s.avp.distance_m;
+                        }
+                        t.read += 1;
+                        t.batch.push(s);
+                    }
+                    None => {
+                        t.ended = true;
+                        break;
+                    }
+                }
             }
-        });
+            let (batch, ended) = (&t.batch, t.ended);
+            self.runs.par_iter_mut().for_each(|r| {
+                if let Staged::Integrated(r) = r {
+                    r.step_all(batch);
+                    if ended {
+                        r.end();
+                    }
+                }
+            });
+        }
     }
 
     /// The rows recorded so far by run `i` (index order; empty beyond the
@@ -208,28 +257,50 @@ pub fn simulate_staged<T>(
     }
     super::limits::check_simulation_size(scn, truth, runs)?;
     let integrated = check_mode(scn, &[])?;
-    let mut prep = if integrated {
+    let prep = if integrated {
         Prepared::new(scn, truth, &[])?
     } else {
         Prepared::default()
     };
-    if integrated && runs > 1 {
-        prep.truth_samples = shared_truth(scn, truth);
-    }
-    let runs: Vec<Staged<'_>> = (0..runs)
-        .into_par_iter()
-        .map(|run| {
-            if integrated {
-                match staged_run(scn, truth, &prep, seed, run) {
-                    Some(r) => Staged::Integrated(Box::new(r)),
-                    None => Staged::Done(RunResult::empty(run)),
-                }
-            } else {
-                Staged::Done(run_once(scn, truth, seed, run))
+    let mut stage_truth = None;
+    let runs: Vec<Staged<'_>> = if integrated {
+        let (mut samples, rec) = start_run(scn, truth, None);
+        match samples.next() {
+            Some(first) => {
+                let every = rec.every;
+                stage_truth = Some(StageTruth {
+                    samples: Box::new(samples),
+                    every,
+                    read: 1,
+                    row_m: first.avp.distance_m,
+                    ended: false,
+                    batch: Vec::new(),
+                });
+                (0..runs)
+                    .into_par_iter()
+                    .map(|run| {
+                        let (_, rec) = start_run(scn, truth, None);
+                        match staged_run(scn, &prep, seed, run, first, rec) {
+                            Some(r) => Staged::Integrated(Box::new(r)),
+                            None => Staged::Done(RunResult::empty(run)),
+                        }
+                    })
+                    .collect()
             }
-        })
-        .collect();
-    let mut staged = StagedRuns { runs };
+            None => (0..runs)
+                .map(|run| Staged::Done(RunResult::empty(run)))
+                .collect(),
+        }
+    } else {
+        (0..runs)
+            .into_par_iter()
+            .map(|run| Staged::Done(run_once(scn, truth, seed, run)))
+            .collect()
+    };
+    let mut staged = StagedRuns {
+        runs,
+        truth: stage_truth,
+    };
     let out = f(&mut staged)?;
     let made: Vec<RunResult> = staged
         .runs
