@@ -157,7 +157,7 @@ enum Staged<'a> {
     Integrated(Box<IntegratedRun<'a, std::iter::Once<Sample>>>),
     /// A run made whole: a stand-alone navigator's, or a truth without
     /// samples.
-    Done(RunResult),
+    Done(Box<RunResult>),
 }
 
 /// The truth's samples as every integrated run reads them, made once and
@@ -282,19 +282,19 @@ pub fn simulate_staged<T>(
                         let (_, rec) = start_run(scn, truth, None);
                         match staged_run(scn, &prep, seed, run, first, rec) {
                             Some(r) => Staged::Integrated(Box::new(r)),
-                            None => Staged::Done(RunResult::empty(run)),
+                            None => Staged::Done(Box::new(RunResult::empty(run))),
                         }
                     })
                     .collect()
             }
             None => (0..runs)
-                .map(|run| Staged::Done(RunResult::empty(run)))
+                .map(|run| Staged::Done(Box::new(RunResult::empty(run))))
                 .collect(),
         }
     } else {
         (0..runs)
             .into_par_iter()
-            .map(|run| Staged::Done(run_once(scn, truth, seed, run)))
+            .map(|run| Staged::Done(Box::new(run_once(scn, truth, seed, run))))
             .collect()
     };
     let mut staged = StagedRuns {
@@ -307,7 +307,7 @@ pub fn simulate_staged<T>(
         .into_iter()
         .map(|r| match r {
             Staged::Integrated(r) => r.into_rows_so_far(),
-            Staged::Done(r) => r,
+            Staged::Done(r) => *r,
         })
         .collect();
     super::finite::check_runs_finite(scn, &made)?;
