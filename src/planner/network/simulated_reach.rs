@@ -39,11 +39,14 @@
 //!
 //! Each road is built whole (`after_m` past its reset), but its runs are
 //! simulated only as far as the statistics need: advanced together in
-//! stages ([`crate::sim::simulate_staged`]) to [`STAGE_M`] past the grid
+//! stages ([`crate::sim::simulate_staged`]) to `STAGE_M` (250 m) past the grid
 //! point being compared, and stopped once both statistics have crossed the
-//! requirement. A run's rows up to a distance do not depend on the road
-//! beyond it (the runs read the truth as they go), so the figures are
-//! those of the whole drives, bit for bit. One difference: a run that
+//! requirement. A staged run is the same computation on the same truth,
+//! stopped earlier, and a run's rows up to a sample do not depend on the
+//! samples after it: so the figures are those of the whole drives, bit for
+//! bit. A road cut short instead would not give them: the network's frame
+//! is centred on the road, and each run's map error is drawn in that frame
+//! (BENCHMARKS.md, "Cheaper simulated reach"). One difference: a run that
 //! diverges (a non-finite error) after the runs stop is no longer an error.
 
 use super::mm_reach::{
