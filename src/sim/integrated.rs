@@ -3,7 +3,7 @@
 //! fix measurements, queued with their time stamps and applied in time order.
 
 use super::passes::{draw_reads, find_passes, TagPass};
-use super::records::{CalibrationRow, PassRecord, RunResult, TagEvent};
+use super::records::{CalibrationRow, ErrorRow, PassRecord, Recorder, RunResult, TagEvent};
 use super::tags::Tag;
 use super::truth::{initial_estimate, run_mounting, run_odometer, start_run, TruthSource};
 use crate::attitude::QuatExt;
@@ -254,177 +254,306 @@ pub fn run_integrated(
     seed: u64,
     run: u64,
 ) -> RunResult {
-    let dt = scn.dt;
-    let (generated, mut rec) = start_run(scn, truth, None);
-    let mut samples = match prep.truth_samples.as_deref() {
-        Some(v) => RunSamples::Shared(v.iter()),
-        None => RunSamples::Generated(generated),
-    };
-    let Some(first) = samples.next() else {
-        return RunResult::empty(run);
-    };
-    let aid = scn.aiding();
-    let cfg = filter_config(scn);
-    let mount = run_mounting(scn, seed, run);
-    let mut est0 = initial_estimate(scn, &first.avp.state, &mount);
-    let mut init = stream(seed, run, ids::INIT);
-    {
-        // Random initial errors drawn per run (the prior the filter assumes).
-        let n = scn.navigator();
-        let [sl, sh] = n.initial_attitude_sigma;
-        let phi = [
-            sl * normal(&mut init),
-            sl * normal(&mut init),
-            sh * normal(&mut init),
-        ];
-        est0.q = (crate::attitude::Quat::from_rotvec(phi.into()) * est0.q).normalized();
-        let sv = n.initial_velocity_sigma_mps;
-        for k in 0..3 {
-            est0.v[k] += sv * normal(&mut init);
+    let (generated, rec) = start_run(scn, truth, None);
+    match IntegratedRun::start(scn, prep, seed, run, generated, rec) {
+        Some(mut r) => {
+            while let Some(s) = r.samples.next() {
+                r.step(&s);
+            }
+            r.finish()
         }
-        let [ph, pv] = n.initial_position_sigma_m;
-        let (rm, rn) = crate::geodesy::radii(est0.lat);
-        est0.lat += ph * normal(&mut init) / (rm + est0.h);
-        est0.lon += ph * normal(&mut init) / ((rn + est0.h) * est0.lat.cos());
-        est0.h += pv * normal(&mut init);
+        None => RunResult::empty(run),
     }
-    let mut filter = Filter::new(est0, first.avp.t, dt, cfg);
-    let p = filter.position_cov_enu();
-    rec.record_cov(0, &first.avp, est0.lat, est0.lon, est0.h, Some(p));
-    // Per-run turn-on biases.
-    let mut imu_model = scn.imu;
-    let gr = scn.gyro_bias_random();
-    let ar = scn.accel_bias_random();
-    for k in 0..3 {
-        imu_model.gyro_bias[k] += gr * normal(&mut init);
-        imu_model.accel_bias[k] += ar * normal(&mut init);
+}
+
+/// An integrated run of [`run_integrated`] at its first truth sample
+/// `first`, with its recorder `rec` (both from `start_run`), to be stepped
+/// through the rest of the same samples by the caller
+/// ([`IntegratedRun::step_all`], [`IntegratedRun::end`]): row for row the
+/// same run. `prep` shares no truth samples (the caller does).
+pub(super) fn staged_run<'a>(
+    scn: &'a Scenario,
+    prep: &'a Prepared,
+    seed: u64,
+    run: u64,
+    first: crate::trajectory::TruthSample,
+    rec: Recorder,
+) -> Option<IntegratedRun<'a, std::iter::Once<crate::trajectory::TruthSample>>> {
+    debug_assert!(prep.truth_samples.is_none());
+    IntegratedRun::start(scn, prep, seed, run, std::iter::once(first), rec)
+}
+
+/// The state of one integrated run between two truth samples: its
+/// navigator, sensors, random streams, measurement queue and records.
+pub(super) struct IntegratedRun<'a, G> {
+    scn: &'a Scenario,
+    prep: &'a Prepared,
+    run: u64,
+    samples: RunSamples<'a, G>,
+    rec: Recorder,
+    aid: crate::scenario::Aiding,
+    use_nhc: bool,
+    mount: crate::sensors::RunMounting,
+    filter: Filter,
+    imu: Imu,
+    baro: Barometer,
+    odo: crate::sensors::Odometer,
+    keep_calibration: bool,
+    calibration_rows: Vec<CalibrationRow>,
+    odo_every: u64,
+    odo_acc: f64,
+    last_distance: f64,
+    reads: Vec<super::passes::TagRead>,
+    next_read: usize,
+    tag_events: Vec<TagEvent>,
+    /// What the filter made of each read (accepted, NIS).
+    read_outcome: Vec<Option<(bool, f64)>>,
+    /// The distance driven at each pass (interpolated between samples).
+    pass_distance: Vec<f64>,
+    prev_t: f64,
+    prev_d: f64,
+    fix_rng: rand_chacha::ChaCha8Rng,
+    xf: Option<ExternalFix>,
+    next_fix: f64,
+    last_fix_t: f64,
+    fix_rw: [f64; 2],
+    queue: MeasurementQueue<Meas>,
+    map_feed: Option<super::map_feed::MapFeed<'a>>,
+    /// Samples stepped so far.
+    k: u64,
+    /// The truth has ended and the last sample's row is recorded.
+    ended: bool,
+}
+
+/// Gap to the next external fix (s).
+fn fix_gap(rng: &mut rand_chacha::ChaCha8Rng, x: &ExternalFix) -> f64 {
+    let [a, b] = x.interval_s;
+    a + (b - a) * rng.random::<f64>()
+}
+
+impl<'a, G: Iterator<Item = crate::trajectory::TruthSample>> IntegratedRun<'a, G> {
+    /// The run at its first truth sample (`None` without samples): the
+    /// navigator's initial estimate and filter, the run's sensors and its
+    /// first row.
+    fn start(
+        scn: &'a Scenario,
+        prep: &'a Prepared,
+        seed: u64,
+        run: u64,
+        generated: G,
+        mut rec: Recorder,
+    ) -> Option<Self> {
+        let dt = scn.dt;
+        let mut samples = match prep.truth_samples.as_deref() {
+            Some(v) => RunSamples::Shared(v.iter()),
+            None => RunSamples::Generated(generated),
+        };
+        let first = samples.next()?;
+        let aid = scn.aiding();
+        let cfg = filter_config(scn);
+        let use_nhc = cfg.use_nhc;
+        let mount = run_mounting(scn, seed, run);
+        let mut est0 = initial_estimate(scn, &first.avp.state, &mount);
+        let mut init = stream(seed, run, ids::INIT);
+        {
+            // Random initial errors drawn per run (the prior the filter assumes).
+            let n = scn.navigator();
+            let [sl, sh] = n.initial_attitude_sigma;
+            let phi = [
+                sl * normal(&mut init),
+                sl * normal(&mut init),
+                sh * normal(&mut init),
+            ];
+            est0.q = (crate::attitude::Quat::from_rotvec(phi.into()) * est0.q).normalized();
+            let sv = n.initial_velocity_sigma_mps;
+            for k in 0..3 {
+                est0.v[k] += sv * normal(&mut init);
+            }
+            let [ph, pv] = n.initial_position_sigma_m;
+            let (rm, rn) = crate::geodesy::radii(est0.lat);
+            est0.lat += ph * normal(&mut init) / (rm + est0.h);
+            est0.lon += ph * normal(&mut init) / ((rn + est0.h) * est0.lat.cos());
+            est0.h += pv * normal(&mut init);
+        }
+        let filter = Filter::new(est0, first.avp.t, dt, cfg);
+        let p = filter.position_cov_enu();
+        rec.record_cov(0, &first.avp, est0.lat, est0.lon, est0.h, Some(p));
+        // Per-run turn-on biases.
+        let mut imu_model = scn.imu;
+        let gr = scn.gyro_bias_random();
+        let ar = scn.accel_bias_random();
+        for k in 0..3 {
+            imu_model.gyro_bias[k] += gr * normal(&mut init);
+            imu_model.accel_bias[k] += ar * normal(&mut init);
+        }
+        let mut imu = Imu::new(&imu_model, dt, stream(seed, run, ids::IMU));
+        imu.mount(&mount);
+        let baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
+        let odo = run_odometer(scn, &mount, seed, run);
+        // Run 0 keeps its calibration at every error row (calibration.csv);
+        // the others only their end state, which keeps a run's memory small.
+        let keep_calibration = aid.odometer && run == 0;
+        let odo_every = ((scn.filter().odometer_interval_s / dt).round() as u64).max(1);
+        let mut rfid_rng = stream(seed, run, RFID_STREAM);
+        let reads = if aid.rfid {
+            // A map route's truth drives in its lane: the lateral place over a
+            // tag is its own (issue 12, point 1).
+            let rfid = crate::tags::RfidModel {
+                lateral_from_truth: prep.lane_truth,
+                ..scn.rfid
+            };
+            draw_reads(&prep.passes, &prep.tags, &rfid, &mut rfid_rng)
+        } else {
+            vec![]
+        };
+        // External fix source.
+        let mut fix_rng = stream(seed, run, FIX_STREAM);
+        let xf = scn.external_fix().copied().filter(|_| aid.external_fix);
+        let next_fix = xf
+            .as_ref()
+            .map_or(f64::INFINITY, |x| first.avp.t + fix_gap(&mut fix_rng, x));
+        let map_feed = prep
+            .network
+            .as_deref()
+            .filter(|_| aid.map_matching)
+            .map(|net| {
+                let me = scn.map_error;
+                let field =
+                    super::map_error::MapErrorField::draw(seed, run, me.sigma_m, me.correlation_m);
+                super::map_feed::MapFeed::on_map(
+                    net,
+                    first.avp.t,
+                    field,
+                    me.sigma_m,
+                    me.correlation_m,
+                )
+                .with_lanes(scn.lanes)
+            });
+        let mut r = IntegratedRun {
+            scn,
+            prep,
+            run,
+            samples,
+            rec,
+            aid,
+            use_nhc,
+            mount,
+            filter,
+            imu,
+            baro,
+            odo,
+            keep_calibration,
+            calibration_rows: Vec::new(),
+            odo_every,
+            odo_acc: 0.0,
+            last_distance: first.avp.distance_m,
+            read_outcome: vec![None; reads.len()],
+            tag_events: Vec::with_capacity(reads.len()),
+            reads,
+            next_read: 0,
+            pass_distance: Vec::with_capacity(prep.passes.len()),
+            prev_t: first.avp.t,
+            prev_d: first.avp.distance_m,
+            fix_rng,
+            xf,
+            next_fix,
+            last_fix_t: first.avp.t,
+            fix_rw: [0.0; 2],
+            queue: MeasurementQueue::default(),
+            map_feed,
+            k: 0,
+            ended: false,
+        };
+        if r.keep_calibration {
+            let states = r.calibration_now();
+            r.calibration_rows.push(CalibrationRow {
+                t_s: first.avp.t,
+                distance_m: first.avp.distance_m,
+                states,
+            });
+        }
+        Some(r)
     }
-    let mut imu = Imu::new(&imu_model, dt, stream(seed, run, ids::IMU));
-    imu.mount(&mount);
-    let mut baro = Barometer::new(&scn.baro, stream(seed, run, ids::BARO));
-    let mut odo = run_odometer(scn, &mount, seed, run);
-    // The odometer's calibration now: (truth, estimate, filter σ) of the
-    // scale factor, pitch and yaw misalignment.
-    let calibration_now = |filter: &Filter, odo: &crate::sensors::Odometer| {
-        let (k, pitch, yaw) = filter.odometer_calibration();
-        let p = filter.covariance();
+
+    /// The odometer's calibration now: (truth, estimate, filter σ) of the
+    /// scale factor, pitch and yaw misalignment.
+    fn calibration_now(&self) -> [[f64; 3]; 3] {
+        let (k, pitch, yaw) = self.filter.odometer_calibration();
+        let p = self.filter.covariance();
         let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
         [
-            [odo.scale_factor_error(), k, sd(KOD)],
-            [mount.misalignment[0], pitch, sd(ATHETA)],
-            [mount.misalignment[1], yaw, sd(APSI)],
+            [self.odo.scale_factor_error(), k, sd(KOD)],
+            [self.mount.misalignment[0], pitch, sd(ATHETA)],
+            [self.mount.misalignment[1], yaw, sd(APSI)],
         ]
-    };
-    // Run 0 keeps its calibration at every error row (calibration.csv);
-    // the others only their end state, which keeps a run's memory small.
-    let keep_calibration = aid.odometer && run == 0;
-    let mut calibration_rows = Vec::new();
-    if keep_calibration {
-        calibration_rows.push(CalibrationRow {
-            t_s: first.avp.t,
-            distance_m: first.avp.distance_m,
-            states: calibration_now(&filter, &odo),
-        });
     }
-    let odo_every = ((scn.filter().odometer_interval_s / dt).round() as u64).max(1);
-    let mut odo_acc = 0.0;
-    let mut last_distance = first.avp.distance_m;
-    let mut rfid_rng = stream(seed, run, RFID_STREAM);
-    let reads = if aid.rfid {
-        // A map route's truth drives in its lane: the lateral place over a
-        // tag is its own (issue 12, point 1).
-        let rfid = crate::tags::RfidModel {
-            lateral_from_truth: prep.lane_truth,
-            ..scn.rfid
-        };
-        draw_reads(&prep.passes, &prep.tags, &rfid, &mut rfid_rng)
-    } else {
-        vec![]
-    };
-    let mut next_read = 0usize;
-    let mut tag_events = Vec::with_capacity(reads.len());
-    // What the filter made of each read (accepted, NIS), and the distance
-    // driven at each pass (interpolated between samples).
-    let mut read_outcome: Vec<Option<(bool, f64)>> = vec![None; reads.len()];
-    let mut pass_distance: Vec<f64> = Vec::with_capacity(prep.passes.len());
-    let (mut prev_t, mut prev_d) = (first.avp.t, first.avp.distance_m);
-    // External fix source.
-    let mut fix_rng = stream(seed, run, FIX_STREAM);
-    let xf = scn.external_fix().copied().filter(|_| aid.external_fix);
-    let gap = |rng: &mut rand_chacha::ChaCha8Rng, x: &ExternalFix| {
-        let [a, b] = x.interval_s;
-        a + (b - a) * rng.random::<f64>()
-    };
-    let mut next_fix = xf
-        .as_ref()
-        .map_or(f64::INFINITY, |x| first.avp.t + gap(&mut fix_rng, x));
-    let mut last_fix_t = first.avp.t;
-    let mut fix_rw = [0.0f64; 2];
-    let mut queue: MeasurementQueue<Meas> = MeasurementQueue::default();
-    let mut map_feed = prep
-        .network
-        .as_deref()
-        .filter(|_| aid.map_matching)
-        .map(|net| {
-            let me = scn.map_error;
-            let field =
-                super::map_error::MapErrorField::draw(seed, run, me.sigma_m, me.correlation_m);
-            super::map_feed::MapFeed::on_map(net, first.avp.t, field, me.sigma_m, me.correlation_m)
-                .with_lanes(scn.lanes)
-        });
-    let mut k = 0u64;
-    for s in samples {
-        k += 1;
+
+    /// One truth sample: the IMU, the sensors due, their updates in time
+    /// order, the map feed and the row.
+    #[inline]
+    fn step(&mut self, s: &crate::trajectory::TruthSample) {
+        let scn = self.scn;
+        let prep = self.prep;
+        let dt = scn.dt;
+        self.k += 1;
+        let k = self.k;
         let t = s.avp.t;
-        while let Some(p) = prep.passes.get(pass_distance.len()) {
+        while let Some(p) = prep.passes.get(self.pass_distance.len()) {
             if p.t_abeam > t {
                 break;
             }
-            let w = if t > prev_t {
-                ((p.t_abeam - prev_t) / (t - prev_t)).clamp(0.0, 1.0)
+            let w = if t > self.prev_t {
+                ((p.t_abeam - self.prev_t) / (t - self.prev_t)).clamp(0.0, 1.0)
             } else {
                 1.0
             };
-            pass_distance.push(prev_d + w * (s.avp.distance_m - prev_d));
+            self.pass_distance
+                .push(self.prev_d + w * (s.avp.distance_m - self.prev_d));
         }
-        (prev_t, prev_d) = (t, s.avp.distance_m);
-        let m = imu.measure(&s.imu);
+        (self.prev_t, self.prev_d) = (t, s.avp.distance_m);
+        let m = self.imu.measure(&s.imu);
+        let filter = &mut self.filter;
         filter.step(&m);
         // Sensors due at this epoch.
-        let d_true = s.avp.distance_m - last_distance;
-        last_distance = s.avp.distance_m;
+        let d_true = s.avp.distance_m - self.last_distance;
+        self.last_distance = s.avp.distance_m;
         // A failed odometer reads nothing: zero distance.
-        odo_acc += odo.measure(t, s.avp.distance_m, d_true, dt).unwrap_or(0.0);
-        if k % odo_every == 0 {
-            if aid.odometer {
-                queue.push(t, Meas::Odometer(odo_acc));
-            } else if cfg.use_nhc {
+        self.odo_acc += self
+            .odo
+            .measure(t, s.avp.distance_m, d_true, dt)
+            .unwrap_or(0.0);
+        let queue = &mut self.queue;
+        if k % self.odo_every == 0 {
+            if self.aid.odometer {
+                queue.push(t, Meas::Odometer(self.odo_acc));
+            } else if self.use_nhc {
                 queue.push(t, Meas::Constraints);
             }
-            odo_acc = 0.0;
+            self.odo_acc = 0.0;
         }
-        if aid.baro {
-            if let Some(h) = baro.measure(t, s.avp.state.h) {
+        if self.aid.baro {
+            if let Some(h) = self.baro.measure(t, s.avp.state.h) {
                 queue.push(t, Meas::Height(h));
             }
         }
-        while next_read < reads.len() && reads[next_read].t <= t {
-            queue.push(reads[next_read].t, Meas::Tag(next_read));
-            next_read += 1;
+        let reads = &self.reads;
+        while self.next_read < reads.len() && reads[self.next_read].t <= t {
+            queue.push(reads[self.next_read].t, Meas::Tag(self.next_read));
+            self.next_read += 1;
         }
-        if let Some(x) = &xf {
-            if t >= next_fix {
-                let gap_s = t - last_fix_t;
-                last_fix_t = t;
-                next_fix = t + gap(&mut fix_rng, x);
+        if let Some(x) = &self.xf {
+            if t >= self.next_fix {
+                let gap_s = t - self.last_fix_t;
+                self.last_fix_t = t;
+                self.next_fix = t + fix_gap(&mut self.fix_rng, x);
                 let (rm, rn) = crate::geodesy::radii(s.avp.state.lat);
-                for r in fix_rw.iter_mut() {
-                    *r += x.random_walk_m_per_rts * gap_s.sqrt() * normal(&mut fix_rng);
+                for r in self.fix_rw.iter_mut() {
+                    *r += x.random_walk_m_per_rts * gap_s.sqrt() * normal(&mut self.fix_rng);
                 }
-                let we = x.white_m * normal(&mut fix_rng);
-                let wn = x.white_m * normal(&mut fix_rng);
-                let lat = s.avp.state.lat + (fix_rw[1] + wn) / rm;
-                let lon = s.avp.state.lon + (fix_rw[0] + we) / (rn * s.avp.state.lat.cos());
+                let we = x.white_m * normal(&mut self.fix_rng);
+                let wn = x.white_m * normal(&mut self.fix_rng);
+                let lat = s.avp.state.lat + (self.fix_rw[1] + wn) / rm;
+                let lon = s.avp.state.lon + (self.fix_rw[0] + we) / (rn * s.avp.state.lat.cos());
                 queue.push(t, Meas::Fix(lat, lon));
             }
         }
@@ -455,8 +584,8 @@ pub fn run_integrated(
                         cov,
                         scn.rfid.fix_height_var(),
                     );
-                    read_outcome[i] = Some((o.accepted, o.nis));
-                    tag_events.push(TagEvent {
+                    self.read_outcome[i] = Some((o.accepted, o.nis));
+                    self.tag_events.push(TagEvent {
                         tag_id: tag.id.clone(),
                         t_s: tm,
                         accepted: o.accepted,
@@ -464,72 +593,113 @@ pub fn run_integrated(
                     });
                 }
                 Meas::Fix(lat, lon) => {
-                    let x = xf.as_ref().expect("fix source");
+                    let x = self.xf.as_ref().expect("fix source");
                     let w = x.filter_white_m.max(1e-3);
                     filter.update_external_fix(tm, lat, lon, w * w);
                 }
             }
         }
-        if let Some(feed) = map_feed.as_mut() {
-            feed.step_with_truth(t, &mut filter, Some(&s.avp.state));
+        if let Some(feed) = self.map_feed.as_mut() {
+            feed.step_with_truth(t, filter, Some(&s.avp.state));
         }
         let st = filter.state();
-        if rec.due(k) {
+        if self.rec.due(k) {
             let cov = Some(filter.position_cov_enu());
-            rec.record_cov(k, &s.avp, st.lat, st.lon, st.h, cov);
-            if keep_calibration {
-                calibration_rows.push(CalibrationRow {
+            self.rec.record_cov(k, &s.avp, st.lat, st.lon, st.h, cov);
+            if self.keep_calibration {
+                let states = self.calibration_now();
+                self.calibration_rows.push(CalibrationRow {
                     t_s: s.avp.t,
                     distance_m: s.avp.distance_m,
-                    states: calibration_now(&filter, &odo),
+                    states,
                 });
             }
         } else {
-            rec.pending = Some((s.avp, st.lat, st.lon, st.h, None));
+            self.rec.pending = Some((s.avp, st.lat, st.lon, st.h, None));
         }
     }
-    if let Some(p) = rec.pending.as_mut() {
-        p.4 = Some(filter.position_cov_enu());
-        if keep_calibration {
-            calibration_rows.push(CalibrationRow {
-                t_s: p.0.t,
-                distance_m: p.0.distance_m,
-                states: calibration_now(&filter, &odo),
-            });
+
+    /// Steps the run through `samples`, the truth's next ones.
+    pub(super) fn step_all(&mut self, samples: &[crate::trajectory::TruthSample]) {
+        for s in samples {
+            self.step(s);
         }
     }
-    let mut read_of_pass: Vec<Option<usize>> = vec![None; prep.passes.len()];
-    for (i, r) in reads.iter().enumerate() {
-        read_of_pass[r.pass] = Some(i);
+
+    /// The rows recorded so far.
+    pub(super) fn rows(&self) -> &[ErrorRow] {
+        &self.rec.rows
     }
-    let tag_passes = prep
-        .passes
-        .iter()
-        .zip(&pass_distance)
-        .zip(&read_of_pass)
-        .map(|((p, &d), r)| {
-            let outcome = r.and_then(|i| read_outcome[i]);
-            PassRecord {
-                t_s: p.t_abeam,
-                distance_m: d,
-                tag_id: prep.tags[p.tag].id.clone(),
-                mounting: prep.tags[p.tag].mounting,
-                read: r.is_some(),
-                read_t_s: r.map(|i| reads[i].t),
-                accepted: outcome.map(|o| o.0),
-                nis: outcome.map(|o| o.1),
+
+    /// The truth has ended: the last sample's row, with the filter's
+    /// covariance, and its calibration.
+    pub(super) fn end(&mut self) {
+        if self.ended {
+            return;
+        }
+        self.ended = true;
+        if self.rec.pending.is_some() {
+            let cov = self.filter.position_cov_enu();
+            let states = self.keep_calibration.then(|| self.calibration_now());
+            if let Some(p) = self.rec.pending.as_mut() {
+                p.4 = Some(cov);
+                if let Some(states) = states {
+                    self.calibration_rows.push(CalibrationRow {
+                        t_s: p.0.t,
+                        distance_m: p.0.distance_m,
+                        states,
+                    });
+                }
             }
-        })
-        .collect();
-    let calibration = aid.odometer.then(|| calibration_now(&filter, &odo));
-    RunResult {
-        run,
-        rows: rec.finish(),
-        tag_events,
-        tag_passes,
-        counts: Some(filter.counts),
-        map_feed: map_feed.map(|f| f.counts),
-        calibration,
-        calibration_rows,
+        }
+        self.rec.flush();
+    }
+
+    /// The run's result, at the end of its truth.
+    fn finish(mut self) -> RunResult {
+        self.end();
+        let prep = self.prep;
+        let mut read_of_pass: Vec<Option<usize>> = vec![None; prep.passes.len()];
+        for (i, r) in self.reads.iter().enumerate() {
+            read_of_pass[r.pass] = Some(i);
+        }
+        let tag_passes = prep
+            .passes
+            .iter()
+            .zip(&self.pass_distance)
+            .zip(&read_of_pass)
+            .map(|((p, &d), r)| {
+                let outcome = r.and_then(|i| self.read_outcome[i]);
+                PassRecord {
+                    t_s: p.t_abeam,
+                    distance_m: d,
+                    tag_id: prep.tags[p.tag].id.clone(),
+                    mounting: prep.tags[p.tag].mounting,
+                    read: r.is_some(),
+                    read_t_s: r.map(|i| self.reads[i].t),
+                    accepted: outcome.map(|o| o.0),
+                    nis: outcome.map(|o| o.1),
+                }
+            })
+            .collect();
+        let calibration = self.aid.odometer.then(|| self.calibration_now());
+        RunResult {
+            run: self.run,
+            rows: std::mem::take(&mut self.rec.rows),
+            tag_events: std::mem::take(&mut self.tag_events),
+            tag_passes,
+            counts: Some(self.filter.counts),
+            map_feed: self.map_feed.take().map(|f| f.counts),
+            calibration,
+            calibration_rows: std::mem::take(&mut self.calibration_rows),
+        }
+    }
+
+    /// The rows so far as a run's result, without the rest.
+    pub(super) fn into_rows_so_far(self) -> RunResult {
+        RunResult {
+            rows: self.rec.rows,
+            ..RunResult::empty(self.run)
+        }
     }
 }

@@ -47,7 +47,7 @@ pub use metrics::{
     CalibrationState, CalibrationSummary, FaultInterval, MapMatchingSummary, NeesSummary,
     ProfilePoint, RunSummary, Summary, TagSummary,
 };
-pub use monte_carlo::{simulate, simulate_with, SimResult};
+pub use monte_carlo::{simulate, simulate_staged, simulate_with, SimResult, StagedRuns};
 pub use output::write as write_output;
 pub use passes::{draw_reads, find_passes, TagPass, TagRead};
 pub use records::{CalibrationRow, ErrorRow, PassRecord, RunResult, TagEvent};

@@ -3,10 +3,11 @@
 //! stand-alone runner) and summarizes them.
 
 use super::dead_reckoning::run_once;
-use super::integrated::{run_integrated, Prepared};
+use super::integrated::{run_integrated, staged_run, IntegratedRun, Prepared};
 use super::metrics::{summarize, Summary};
-use super::records::RunResult;
+use super::records::{ErrorRow, RunResult};
 use super::tags::Tag;
+use super::truth::start_run;
 use super::truth::TruthSource;
 use crate::error::Result;
 use crate::scenario::{NavMode, Scenario};
@@ -49,22 +50,10 @@ pub fn simulate(scn: &Scenario, truth: &TruthSource, runs: u64, seed: u64) -> Re
     simulate_with(scn, truth, &[], runs, seed, None)
 }
 
-/// Monte Carlo with extra tags (`--tags`) and a progress callback called
-/// after each run (from worker threads).
-pub fn simulate_with(
-    scn: &Scenario,
-    truth: &TruthSource,
-    extra_tags: &[Tag],
-    runs: u64,
-    seed: u64,
-    progress: Option<&(dyn Fn() + Sync)>,
-) -> Result<SimResult> {
-    if runs == 0 {
-        return Err(crate::error::Error::InvalidParameter(
-            "the number of runs must be at least 1".into(),
-        ));
-    }
-    super::limits::check_simulation_size(scn, truth, runs)?;
+/// Whether the scenario runs the integrated navigator, after checking its
+/// mode against its aiding and tags (`extra_tags`: tags added to the
+/// scenario's).
+fn check_mode(scn: &Scenario, extra_tags: &[Tag]) -> Result<bool> {
     let integrated = scn.navigator().mode == NavMode::Integrated;
     if integrated && scn.rotation.is_some() {
         return Err(crate::error::Error::scenario(
@@ -84,6 +73,26 @@ pub fn simulate_with(
             "tags are used only by navigator.mode = \"integrated\"",
         ));
     }
+    Ok(integrated)
+}
+
+/// Monte Carlo with extra tags (`--tags`) and a progress callback called
+/// after each run (from worker threads).
+pub fn simulate_with(
+    scn: &Scenario,
+    truth: &TruthSource,
+    extra_tags: &[Tag],
+    runs: u64,
+    seed: u64,
+    progress: Option<&(dyn Fn() + Sync)>,
+) -> Result<SimResult> {
+    if runs == 0 {
+        return Err(crate::error::Error::InvalidParameter(
+            "the number of runs must be at least 1".into(),
+        ));
+    }
+    super::limits::check_simulation_size(scn, truth, runs)?;
+    let integrated = check_mode(scn, extra_tags)?;
     let mut prep = if integrated {
         Prepared::new(scn, truth, extra_tags)?
     } else {
@@ -130,9 +139,222 @@ pub fn simulate_with(
     })
 }
 
+/// Monte Carlo runs advanced together, stage by stage
+/// ([`Self::advance_to`]), for a caller that needs every run's error at a
+/// distance before it knows how far to go. Row for row, bit for bit, each
+/// run is the one of [`simulate_with`] (same scenario, truth, seed, no
+/// extra tags), cut where the caller stops. The truth's samples are made
+/// once for all runs, a batch at a time, whatever the drive's length.
+pub struct StagedRuns<'a> {
+    runs: Vec<Staged<'a>>,
+    truth: Option<StageTruth<'a>>,
+}
+
+type Sample = crate::trajectory::TruthSample;
+
+enum Staged<'a> {
+    /// An integrated run in progress.
+    Integrated(Box<IntegratedRun<'a, std::iter::Once<Sample>>>),
+    /// A run made whole: a stand-alone navigator's, or a truth without
+    /// samples.
+    Done(Box<RunResult>),
+}
+
+/// The truth's samples as every integrated run reads them, made once and
+/// handed to the runs a batch at a time.
+struct StageTruth<'a> {
+    samples: Box<dyn Iterator<Item = Sample> + Send + 'a>,
+    /// A row every `every` samples (the runs' recorder's).
+    every: u64,
+    /// Samples read, the first included.
+    read: u64,
+    /// Distance of the last sample with a row (m).
+    row_m: f64,
+    ended: bool,
+    batch: Vec<Sample>,
+}
+
+/// Most truth samples handed to the runs at once (about 144 bytes each).
+const STAGE_BATCH: usize = 1 << 16;
+
+impl StagedRuns<'_> {
+    /// Number of runs.
+    pub fn len(&self) -> usize {
+        self.runs.len()
+    }
+
+    /// Whether there are no runs (never: at least one is made).
+    pub fn is_empty(&self) -> bool {
+        self.runs.is_empty()
+    }
+
+    /// Steps every run, in parallel, until it has recorded a row at or
+    /// beyond `distance_m` along the truth, or its truth has ended (then
+    /// with its last sample's row, as [`simulate_with`]'s runs end).
+    pub fn advance_to(&mut self, distance_m: f64) {
+        let Some(t) = self.truth.as_mut() else {
+            return;
+        };
+        // The runs record their rows at the same samples: the last row is
+        // at or beyond `distance_m` when the last sample with one is.
+        while !t.ended && t.row_m < distance_m {
+            t.batch.clear();
+            while t.batch.len() < STAGE_BATCH && t.row_m < distance_m {
+                match t.samples.next() {
+                    Some(s) => {
+                        if t.read % t.every == 0 {
+                            t.row_m = s.avp.distance_m;
+                        }
+                        t.read += 1;
+                        t.batch.push(s);
+                    }
+                    None => {
+                        t.ended = true;
+                        break;
+                    }
+                }
+            }
+            let (batch, ended) = (&t.batch, t.ended);
+            self.runs.par_iter_mut().for_each(|r| {
+                if let Staged::Integrated(r) = r {
+                    r.step_all(batch);
+                    if ended {
+                        r.end();
+                    }
+                }
+            });
+        }
+    }
+
+    /// The rows recorded so far by run `i` (index order; empty beyond the
+    /// runs): the first rows of its [`simulate_with`] run.
+    pub fn rows(&self, i: usize) -> &[ErrorRow] {
+        match self.runs.get(i) {
+            Some(Staged::Integrated(r)) => r.rows(),
+            Some(Staged::Done(r)) => &r.rows,
+            None => &[],
+        }
+    }
+}
+
+/// `runs` Monte Carlo runs of a scenario from base seed `seed`, handed to
+/// `f` to advance as far as it needs ([`StagedRuns`]); then `f`'s answer,
+/// or an error if a row made so far is not finite (as [`simulate_with`]
+/// refuses a diverged run; rows beyond where `f` stopped are not made, so
+/// not checked). The same checks as [`simulate_with`] come first. Integrated
+/// runs are advanced in stages; a stand-alone navigator's are made whole.
+pub fn simulate_staged<T>(
+    scn: &Scenario,
+    truth: &TruthSource,
+    runs: u64,
+    seed: u64,
+    f: impl FnOnce(&mut StagedRuns<'_>) -> Result<T>,
+) -> Result<T> {
+    if runs == 0 {
+        return Err(crate::error::Error::InvalidParameter(
+            "the number of runs must be at least 1".into(),
+        ));
+    }
+    super::limits::check_simulation_size(scn, truth, runs)?;
+    let integrated = check_mode(scn, &[])?;
+    let prep = if integrated {
+        Prepared::new(scn, truth, &[])?
+    } else {
+        Prepared::default()
+    };
+    let mut stage_truth = None;
+    let runs: Vec<Staged<'_>> = if integrated {
+        let (mut samples, rec) = start_run(scn, truth, None);
+        match samples.next() {
+            Some(first) => {
+                let every = rec.every;
+                stage_truth = Some(StageTruth {
+                    samples: Box::new(samples),
+                    every,
+                    read: 1,
+                    row_m: first.avp.distance_m,
+                    ended: false,
+                    batch: Vec::new(),
+                });
+                (0..runs)
+                    .into_par_iter()
+                    .map(|run| {
+                        let (_, rec) = start_run(scn, truth, None);
+                        match staged_run(scn, &prep, seed, run, first, rec) {
+                            Some(r) => Staged::Integrated(Box::new(r)),
+                            None => Staged::Done(Box::new(RunResult::empty(run))),
+                        }
+                    })
+                    .collect()
+            }
+            None => (0..runs)
+                .map(|run| Staged::Done(Box::new(RunResult::empty(run))))
+                .collect(),
+        }
+    } else {
+        (0..runs)
+            .into_par_iter()
+            .map(|run| Staged::Done(Box::new(run_once(scn, truth, seed, run))))
+            .collect()
+    };
+    let mut staged = StagedRuns {
+        runs,
+        truth: stage_truth,
+    };
+    let out = f(&mut staged)?;
+    let made: Vec<RunResult> = staged
+        .runs
+        .into_iter()
+        .map(|r| match r {
+            Staged::Integrated(r) => r.into_rows_so_far(),
+            Staged::Done(r) => *r,
+        })
+        .collect();
+    super::finite::check_runs_finite(scn, &made)?;
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Staged runs are [`simulate_with`]'s, row for row, bit for bit: cut
+    /// at each stage (every row before the stage's distance, and one at or
+    /// beyond it), and whole when advanced past the truth's end; on the
+    /// shared truth (several runs) and on the truth generated per run (one).
+    #[test]
+    fn staged_runs_are_the_whole_runs_cut() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/demo.toml");
+        let scn = Scenario::load(&path).expect("scenario");
+        let truth = TruthSource::new(&scn).expect("truth");
+        for runs in [3u64, 1] {
+            let whole = simulate_with(&scn, &truth, &[], runs, 5, None).expect("runs");
+            let end = whole.runs[0].rows.last().expect("rows").distance_m;
+            assert!(end > 1000.0, "{end} m");
+            simulate_staged(&scn, &truth, runs, 5, |st| {
+                assert_eq!(st.len(), runs as usize);
+                for stage in [0.0, 137.0, 500.0, 1500.0, end - 1.0, end, 1e9] {
+                    st.advance_to(stage);
+                    for (i, w) in whole.runs.iter().enumerate() {
+                        let r = st.rows(i);
+                        assert_eq!(r, &w.rows[..r.len()], "run {i} at {stage} m");
+                        let last = r.last().expect("a row").distance_m;
+                        if stage <= end {
+                            assert!(last >= stage, "run {i}: {last} m < {stage} m");
+                            assert!(
+                                r.len() < 2 || r[r.len() - 2].distance_m < stage,
+                                "run {i} at {stage} m: advanced further than needed"
+                            );
+                        } else {
+                            assert_eq!(r.len(), w.rows.len(), "run {i} whole");
+                        }
+                    }
+                }
+                Ok(())
+            })
+            .expect("staged");
+        }
+    }
 
     /// A run on the shared truth samples is the run that computes them as
     /// it goes, row for row, bit for bit.

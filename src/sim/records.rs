@@ -200,9 +200,14 @@ impl Recorder {
     }
 
     pub(super) fn finish(mut self) -> Vec<ErrorRow> {
-        if let Some((avp, lat, lon, h, cov)) = self.pending {
+        self.flush();
+        self.rows
+    }
+
+    /// Records the pending row (the last sample's, at the end of a run).
+    pub(super) fn flush(&mut self) {
+        if let Some((avp, lat, lon, h, cov)) = self.pending.take() {
             self.rows.push(Self::row(&avp, lat, lon, h, cov));
         }
-        self.rows
     }
 }

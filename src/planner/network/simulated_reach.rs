@@ -34,6 +34,20 @@
 //! they are: every run has its own seed). The reach is where the statistic
 //! first exceeds the requirement; a drive that ends first gives its length
 //! and `capped`.
+//!
+//! # The cost
+//!
+//! Each road is built whole (`after_m` past its reset), but its runs are
+//! simulated only as far as the statistics need: advanced together in
+//! stages ([`crate::sim::simulate_staged`]) to `STAGE_M` (250 m) past the grid
+//! point being compared, and stopped once both statistics have crossed the
+//! requirement. A staged run is the same computation on the same truth,
+//! stopped earlier, and a run's rows up to a sample do not depend on the
+//! samples after it: so the figures are those of the whole drives, bit for
+//! bit. A road cut short instead would not give them: the network's frame
+//! is centred on the road, and each run's map error is drawn in that frame
+//! (BENCHMARKS.md, "Cheaper simulated reach"). One difference: a run that
+//! diverges (a non-finite error) after the runs stop is no longer an error.
 
 use super::mm_reach::{
     run_bound, synthetic_drive, warm_up, CURVE_CORNERS, DRIVE_MAX_M, DRIVE_MAX_S,
@@ -41,7 +55,7 @@ use super::mm_reach::{
 use super::turns::{CURVE_M, TURN_DEG};
 use crate::error::{Error, Result};
 use crate::scenario::Scenario;
-use crate::sim::{simulate_with, TruthSource};
+use crate::sim::{simulate_staged, ErrorRow, TruthSource};
 use serde::Serialize;
 
 /// Spacing of the distances where the runs' errors are compared (m).
@@ -109,28 +123,67 @@ pub fn upper_order_statistic(n: usize, p: f64, conf: f64) -> Option<usize> {
     None
 }
 
-/// The first distance after `from_m`, on a grid of [`STEP_M`], where
-/// `stat` of the runs' sorted errors exceeds `req`; the road's remaining
-/// length and `true` if none does.
-fn crossing(
-    errors_at: &dyn Fn(f64) -> Option<Vec<f64>>,
-    stat: &dyn Fn(&[f64]) -> f64,
-    req: f64,
-    length_after: f64,
-) -> (f64, bool) {
-    let mut d = 0.0;
-    while d <= length_after {
-        match errors_at(d) {
-            Some(e) if stat(&e) > req => return (d, false),
-            Some(_) => {}
-            None => break,
-        }
-        d += STEP_M;
-    }
-    (length_after, true)
+/// How far the runs are advanced at a time past the grid point being
+/// compared (m): the overshoot beyond the crossing, against one parallel
+/// stage per `STAGE_M`.
+const STAGE_M: f64 = 250.0;
+
+/// One road's measurement: the drive and how far its runs were simulated
+/// (m from the road's start; the road's end when they ran to it).
+struct Measured {
+    drive: SimulatedDrive,
+    #[cfg_attr(not(test), allow(dead_code))]
+    simulated_m: f64,
 }
 
-/// One road: the engine's bound and `runs` simulated drives.
+/// The engine's bound on one road: its reach after `from_m`, `true` if the
+/// road ends first; and the road's length after `from_m`.
+fn bound_reach(
+    scn: &Scenario,
+    truth: &TruthSource,
+    from_m: f64,
+    req: f64,
+    p: f64,
+) -> Result<(f64, bool, f64)> {
+    let end = truth.samples().last().map_or(0.0, |s| s.distance_m);
+    let length_after = (end - from_m).max(0.0);
+    Ok(match run_bound(scn, truth, from_m, req, p)? {
+        Some(x) => ((x - from_m).max(0.0), false, length_after),
+        None => (length_after, true, length_after),
+    })
+}
+
+/// The runs' errors at `at` m along the road, sorted: each run's first row
+/// at or beyond `at`; `None` if a run has none.
+fn errors_at(rows: &mut dyn Iterator<Item = &[ErrorRow]>, at: f64) -> Option<Vec<f64>> {
+    let mut e = Vec::with_capacity(rows.size_hint().0);
+    for r in rows {
+        let i = r.partition_point(|x| x.distance_m < at);
+        e.push(r.get(i)?.horizontal_m);
+    }
+    e.sort_by(f64::total_cmp);
+    Some(e)
+}
+
+/// The two order statistics of `n` runs compared with the requirement:
+/// the 95th percentile's rank and its upper bound's (1-based; `None`
+/// below 59 runs).
+fn ranks(n: usize) -> (usize, Option<usize>) {
+    let k95 = ((0.95 * n as f64).ceil() as usize).clamp(1, n.max(1));
+    (k95, upper_order_statistic(n, 0.95, 0.95))
+}
+
+/// One road: the engine's bound and `runs` simulated drives, advanced
+/// together ([`simulate_staged`]) only as far as the comparison needs.
+///
+/// On the grid of [`STEP_M`] after `from_m`, each statistic's reach is its
+/// first point above `req`, the road's remaining length (and `capped`) if
+/// none is or a run ends first. Every run's error at a point is its first
+/// row at or beyond it, and a run's rows up to any distance are those of
+/// its whole drive (the truth is the whole road, built before the runs; a
+/// run never reads what lies ahead of it): so the runs are advanced
+/// [`STAGE_M`] past the point being compared, and stopped once both
+/// statistics have crossed. The figures are those of the whole drive.
 #[allow(clippy::too_many_arguments)]
 fn measure(
     scn: &Scenario,
@@ -141,37 +194,53 @@ fn measure(
     p: f64,
     runs: u64,
     seed: u64,
-) -> Result<SimulatedDrive> {
-    let end = truth.samples().last().map_or(0.0, |s| s.distance_m);
-    let length_after = (end - from_m).max(0.0);
-    let bound = run_bound(scn, truth, from_m, req, p)?;
-    let (bound_reach_m, bound_capped) = match bound {
-        Some(x) => ((x - from_m).max(0.0), false),
-        None => (length_after, true),
-    };
-    let res = simulate_with(scn, truth, &[], runs, seed, None)?;
-    let errors_at = |d: f64| -> Option<Vec<f64>> {
-        let at = from_m + d;
-        let mut e = Vec::with_capacity(res.runs.len());
-        for r in &res.runs {
-            let i = r.rows.partition_point(|x| x.distance_m < at);
-            e.push(r.rows.get(i)?.horizontal_m);
+) -> Result<Measured> {
+    let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, req, p)?;
+    let (q95, upper, simulated_m) = simulate_staged(scn, truth, runs, seed, |st| {
+        let (k95, ku) = ranks(st.len());
+        let (mut q95, mut upper) = (None, None);
+        let mut ahead = f64::NEG_INFINITY;
+        let mut d = 0.0;
+        while d <= length_after {
+            let at = from_m + d;
+            if at > ahead {
+                ahead = at + STAGE_M;
+                st.advance_to(ahead);
+            }
+            let mut rows = (0..st.len()).map(|i| st.rows(i));
+            let Some(e) = errors_at(&mut rows, at) else {
+                break;
+            };
+            if q95.is_none() && e[k95 - 1] > req {
+                q95 = Some(d);
+            }
+            if let Some(k) = ku {
+                if upper.is_none() && e[k - 1] > req {
+                    upper = Some(d);
+                }
+            }
+            if q95.is_some() && (ku.is_none() || upper.is_some()) {
+                break;
+            }
+            d += STEP_M;
         }
-        e.sort_by(f64::total_cmp);
-        Some(e)
-    };
-    let n = res.runs.len();
-    let k95 = ((0.95 * n as f64).ceil() as usize).clamp(1, n.max(1));
-    let (q95_reach_m, q_capped) = crossing(&errors_at, &|e| e[k95 - 1], req, length_after);
-    let upper = upper_order_statistic(n, 0.95, 0.95)
-        .map(|k| crossing(&errors_at, &|e| e[k - 1], req, length_after));
-    Ok(SimulatedDrive {
-        name: name.into(),
-        from_m,
-        bound_reach_m,
-        q95_reach_m,
-        upper_reach_m: upper.map(|u| u.0),
-        capped: bound_capped || q_capped || upper.is_some_and(|u| u.1),
+        let simulated_m = (0..st.len())
+            .filter_map(|i| st.rows(i).last().map(|r| r.distance_m))
+            .fold(0.0f64, f64::max);
+        Ok((q95, ku.map(|_| upper), simulated_m))
+    })?;
+    let q_capped = q95.is_none();
+    let upper_capped = upper.is_some_and(|u| u.is_none());
+    Ok(Measured {
+        drive: SimulatedDrive {
+            name: name.into(),
+            from_m,
+            bound_reach_m,
+            q95_reach_m: q95.unwrap_or(length_after),
+            upper_reach_m: upper.map(|u| u.unwrap_or(length_after)),
+            capped: bound_capped || q_capped || upper_capped,
+        },
+        simulated_m,
     })
 }
 
@@ -192,6 +261,40 @@ pub fn simulated_reach(
     seed: u64,
     after_m: f64,
 ) -> Result<SimulatedReach> {
+    let drives = roads(
+        scn,
+        [lat_deg, lon_deg, height_m],
+        speed_mps,
+        req,
+        p,
+        after_m,
+        &mut |scn, name, truth, from_m| {
+            Ok(measure(scn, name, truth, from_m, req, p, runs, seed)?.drive)
+        },
+    )?;
+    Ok(SimulatedReach {
+        speed_kmh: speed_mps * 3.6,
+        runs,
+        drives,
+    })
+}
+
+/// One road to measure: the located scenario, its name, its truth and
+/// where the reset's stretch starts (m).
+type Measure<'m> = dyn FnMut(&Scenario, &str, &TruthSource, f64) -> Result<SimulatedDrive> + 'm;
+
+/// The five roads of [`simulated_reach`] at `at` (degrees, degrees, m),
+/// built one at a time and handed to `measure`, in the module's order.
+fn roads(
+    scn: &Scenario,
+    at: [f64; 3],
+    speed_mps: f64,
+    req: f64,
+    p: f64,
+    after_m: f64,
+    measure: &mut Measure<'_>,
+) -> Result<Vec<SimulatedDrive>> {
+    let [lat_deg, lon_deg, height_m] = at;
     if !(speed_mps > 0.0 && speed_mps.is_finite()) {
         return Err(Error::InvalidParameter(format!(
             "speed {speed_mps} m/s: must be positive"
@@ -216,7 +319,8 @@ pub fn simulated_reach(
     let mut drives = Vec::with_capacity(5);
     // Start: the straight from the prior, to `after_m`.
     let (truth, _) = drive(&[(0.0, total.min(after_m))])?;
-    drives.push(measure(&scn, "start", &truth, 0.0, req, p, runs, seed)?);
+    drives.push(measure(&scn, "start", &truth, 0.0)?);
+    drop(truth);
     let curve = |lead: &[(f64, f64)]| -> Vec<(f64, f64)> {
         let last = lead.last().map_or(0.0, |l| l.0);
         let mut legs = lead.to_vec();
@@ -251,27 +355,133 @@ pub fn simulated_reach(
             .get(lead.len() - 1)
             .copied()
             .ok_or_else(|| Error::InvalidParameter("calibration road without its turn".into()))?;
-        drives.push(measure(
-            &scn,
-            name,
-            &truth,
-            at + CURVE_M,
-            req,
-            p,
-            runs,
-            seed,
-        )?);
+        drives.push(measure(&scn, name, &truth, at + CURVE_M)?);
     }
-    Ok(SimulatedReach {
-        speed_kmh: speed_mps * 3.6,
-        runs,
-        drives,
-    })
+    Ok(drives)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The measurement before the runs were staged, kept as the reference:
+    /// every run simulates the whole road ([`simulate_with`]), then each
+    /// statistic is searched on the grid separately.
+    #[allow(clippy::too_many_arguments)]
+    fn measure_whole(
+        scn: &Scenario,
+        name: &str,
+        truth: &TruthSource,
+        from_m: f64,
+        req: f64,
+        p: f64,
+        runs: u64,
+        seed: u64,
+    ) -> Result<SimulatedDrive> {
+        use crate::sim::simulate_with;
+        let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, req, p)?;
+        let res = simulate_with(scn, truth, &[], runs, seed, None)?;
+        let errors_at = |d: f64| -> Option<Vec<f64>> {
+            let at = from_m + d;
+            let mut e = Vec::with_capacity(res.runs.len());
+            for r in &res.runs {
+                let i = r.rows.partition_point(|x| x.distance_m < at);
+                e.push(r.rows.get(i)?.horizontal_m);
+            }
+            e.sort_by(f64::total_cmp);
+            Some(e)
+        };
+        let crossing = |k: usize| -> (f64, bool) {
+            let mut d = 0.0;
+            while d <= length_after {
+                match errors_at(d) {
+                    Some(e) if e[k - 1] > req => return (d, false),
+                    Some(_) => {}
+                    None => break,
+                }
+                d += STEP_M;
+            }
+            (length_after, true)
+        };
+        let (k95, ku) = ranks(res.runs.len());
+        let (q95_reach_m, q_capped) = crossing(k95);
+        let upper = ku.map(crossing);
+        Ok(SimulatedDrive {
+            name: name.into(),
+            from_m,
+            bound_reach_m,
+            q95_reach_m,
+            upper_reach_m: upper.map(|u| u.0),
+            capped: bound_capped || q_capped || upper.is_some_and(|u| u.1),
+        })
+    }
+
+    fn trips() -> Scenario {
+        Scenario::load(std::path::Path::new(
+            "scenarios/helsinki-network-trips.toml",
+        ))
+        .unwrap()
+    }
+
+    /// The staged runs give the figures of the whole drives, bit for bit,
+    /// and stop short of the road's end once both statistics have crossed.
+    /// 59 runs (the fewest with an upper bound) at 30 km/h on a road with a
+    /// sharp turn 400 m from its start, measured from `CURVE_M` past it:
+    /// requirements that both statistics cross early (3 and 5 m: the upper
+    /// bound at 25 and 450 m, the 95th percentile at 150 and 500 m), that
+    /// only the upper bound crosses (8 m) and that neither does (15 m): the
+    /// last two capped, their runs driven to the road's end.
+    #[test]
+    fn staged_runs_give_the_whole_drives_figures() {
+        let (lat, lon, h, v) = (60.17, 24.94, 10.0, 30.0 / 3.6);
+        let scn = trips().located_at([lat, lon]);
+        let (truth, corners) =
+            synthetic_drive(&scn, lat, lon, h, v, &[(0.0, 400.0), (TURN_DEG, 1_500.0)]).unwrap();
+        let from = corners[0] + CURVE_M;
+        let end = truth.samples().last().unwrap().distance_m;
+        for req in [3.0, 5.0, 8.0, 15.0] {
+            let staged = measure(&scn, "road", &truth, from, req, 0.95, 59, 3).unwrap();
+            let whole = measure_whole(&scn, "road", &truth, from, req, 0.95, 59, 3).unwrap();
+            assert_eq!(staged.drive, whole, "req {req} m");
+            let crossed = !whole.capped;
+            assert!(whole.upper_reach_m.is_some());
+            if crossed {
+                // Stopped within a stage and a row past the crossing.
+                let stop = from + whole.q95_reach_m + STAGE_M + 30.0;
+                assert!(
+                    staged.simulated_m <= stop && stop < end,
+                    "req {req} m: simulated to {} m, crossing at {} m, road {end} m",
+                    staged.simulated_m,
+                    from + whole.q95_reach_m
+                );
+            } else {
+                assert!(staged.simulated_m >= end - 1.0, "req {req} m");
+            }
+        }
+    }
+
+    /// The five roads of [`simulated_reach`] (3 runs at 50 km/h, 500 m past
+    /// each reset) give the figures of the whole drives.
+    #[test]
+    fn five_roads_give_the_whole_drives_figures() {
+        let scn = trips();
+        let (lat, lon, h, v) = (60.17, 24.94, 10.0, 50.0 / 3.6);
+        let (req, p, runs, seed) = (20.0, 0.95, 3, 1);
+        let r = simulated_reach(&scn, lat, lon, h, v, req, p, runs, seed, 500.0).unwrap();
+        let whole = roads(
+            &scn,
+            [lat, lon, h],
+            v,
+            req,
+            p,
+            500.0,
+            &mut |scn, name, truth, from_m| {
+                measure_whole(scn, name, truth, from_m, req, p, runs, seed)
+            },
+        )
+        .unwrap();
+        assert_eq!(r.drives, whole);
+    }
 
     /// The order statistic against the binomial CDF summed directly from
     /// its pmf (a different computation from the recurrence in logs): k − 1
