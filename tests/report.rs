@@ -225,6 +225,16 @@ fn check_rendered(dom: &str, tags_csv: &Path) {
         dom.contains("data-map-script=\"ready\""),
         "the map's script did not run"
     );
+    if tags == 0 {
+        // A plan without tags says so instead of listing none.
+        assert!(dom.contains("id=\"no-tags\""), "no word on the plan's tags");
+        assert!(
+            !dom.contains("class=\"tag\""),
+            "a tag drawn that the plan has not"
+        );
+        assert!(!dom.contains("NaN"), "NaN on the page");
+        return;
+    }
     let table = &dom[dom.find("id=\"tag-table\"").expect("tag table")..];
     let body = &table[table.find("<tbody>").unwrap()..table.find("</tbody>").unwrap()];
     assert_eq!(body.matches("<tr").count(), tags, "one table row per tag");

@@ -360,6 +360,14 @@ pub fn render_html(input: &ReportInput) -> Result<String> {
             "<section id=\"tags\"><h2>Tags</h2>{heights}{}</section>",
             sections::tag_table(&input.tags, &input.tags_source)
         );
+    } else if p["tag_count"].as_u64() == Some(0) {
+        // A plan that needs no tag says so where its tags would be listed:
+        // installers read this section.
+        html.push_str(
+            "<section id=\"tags\"><h2>Tags</h2><p id=\"no-tags\">The plan places no tag: \
+             every stretch its model checks stays within the requirement without one \
+             (see the verdict and the validation above).</p></section>",
+        );
     }
 
     if let Some(scn) = &input.scenario {
