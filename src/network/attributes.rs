@@ -59,6 +59,36 @@ pub struct RoadAttributes {
     pub layer: i32,
 }
 
+impl RoadAttributes {
+    /// A road `id` of class `highway` driven in `oneway`'s directions, with
+    /// no other tag: no name, lane count, width or speed limit, at ground
+    /// level (for roads built from polylines, `super::model_from_polylines`).
+    /// Set the other fields with struct update syntax.
+    ///
+    /// ```
+    /// use waymark::network::{Oneway, RoadAttributes};
+    /// let a = RoadAttributes {
+    ///     maxspeed_kmh: Some(50.0),
+    ///     ..RoadAttributes::new("7", "primary", Oneway::Both)
+    /// };
+    /// assert_eq!((a.id.as_str(), a.lanes, a.tunnel, a.layer), ("7", None, false, 0));
+    /// ```
+    pub fn new(id: impl Into<String>, highway: &str, oneway: Oneway) -> Self {
+        RoadAttributes {
+            id: id.into(),
+            name: None,
+            highway: highway.into(),
+            oneway,
+            lanes: None,
+            width_m: None,
+            maxspeed_kmh: None,
+            tunnel: false,
+            bridge: false,
+            layer: 0,
+        }
+    }
+}
+
 /// Which `highway` classes count as drivable.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct DrivableFilter {

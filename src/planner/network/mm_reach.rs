@@ -166,18 +166,7 @@ pub(super) fn synthetic_drive(
         corner_at.push(pts.len() - 1);
     }
     corner_at.pop();
-    let attrs = RoadAttributes {
-        id: "calibration".into(),
-        name: None,
-        highway: "primary".into(),
-        oneway: Oneway::Both,
-        lanes: None,
-        width_m: None,
-        maxspeed_kmh: None,
-        tunnel: false,
-        bridge: false,
-        layer: 0,
-    };
+    let attrs = RoadAttributes::new("calibration", "primary", Oneway::Both);
     let ends = [pts[0], pts[pts.len() - 1]];
     let net = Network::from_model(model_from_polylines(vec![(attrs, vec![pts])])?, None)?;
     let route = plan_route(&net, &ends)?;

@@ -124,16 +124,8 @@ mod tests {
 
     fn road(id: &str, oneway: Oneway) -> RoadAttributes {
         RoadAttributes {
-            id: id.into(),
-            name: None,
-            highway: "residential".into(),
-            oneway,
-            lanes: None,
-            width_m: None,
             maxspeed_kmh: Some(50.0),
-            tunnel: false,
-            bridge: false,
-            layer: 0,
+            ..RoadAttributes::new(id, "residential", oneway)
         }
     }
 

@@ -132,16 +132,9 @@ fn multicover_is_feasible_and_the_exact_solver_matches_brute_force() {
 
 fn road(id: &str, oneway: Oneway) -> RoadAttributes {
     RoadAttributes {
-        id: id.into(),
         name: Some(format!("Road {id}")),
-        highway: "primary".into(),
-        oneway,
-        lanes: None,
-        width_m: None,
         maxspeed_kmh: Some(50.0),
-        tunnel: false,
-        bridge: false,
-        layer: 0,
+        ..RoadAttributes::new(id, "primary", oneway)
     }
 }
 

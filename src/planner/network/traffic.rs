@@ -866,16 +866,8 @@ mod tests {
     /// A two-way (or one-way) primary road `id`, 50 km/h.
     fn primary(id: String, oneway: Oneway) -> RoadAttributes {
         RoadAttributes {
-            id,
-            name: None,
-            highway: "primary".into(),
-            oneway,
-            lanes: None,
-            width_m: None,
             maxspeed_kmh: Some(50.0),
-            tunnel: false,
-            bridge: false,
-            layer: 0,
+            ..RoadAttributes::new(id, "primary", oneway)
         }
     }
 
