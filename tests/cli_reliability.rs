@@ -25,6 +25,16 @@ fn scenario(name: &str) -> String {
     root().join("scenarios").join(name).display().to_string()
 }
 
+/// The routed length (km) an error names: "... the route through its N
+/// waypoints is X km ...".
+fn routed_km(err: &str) -> f64 {
+    err.split("waypoints is ")
+        .nth(1)
+        .and_then(|r| r.split(" km").next())
+        .and_then(|k| k.parse().ok())
+        .unwrap_or_else(|| panic!("the route's length in: {err}"))
+}
+
 /// A motion scenario with `extra` appended (sections after the route).
 fn motion_scenario(dir: &Path, name: &str, motion: &str, extra: &str) -> String {
     let text = format!(
@@ -911,12 +921,7 @@ fn a_route_too_long_to_drive_in_30_days_is_refused_before_it_is_built() {
             "use fewer or closer waypoints",
         ],
     );
-    let km: f64 = err
-        .split("waypoints is ")
-        .nth(1)
-        .and_then(|r| r.split(" km").next())
-        .and_then(|k| k.parse().ok())
-        .expect("the route's length");
+    let km = routed_km(&err);
     assert!((800.0..1000.0).contains(&km), "{err}");
     assert!(!d.join("o").exists());
     // The same at 2 km/h (about 19 days) is driven: duration_s = 60 stops it.
@@ -980,12 +985,7 @@ fn a_route_too_long_to_hold_in_memory_is_refused_before_it_is_built() {
             "use fewer or closer waypoints",
         ],
     );
-    let km: f64 = err
-        .split("waypoints is ")
-        .nth(1)
-        .and_then(|r| r.split(" km").next())
-        .and_then(|k| k.parse().ok())
-        .expect("the route's length");
+    let km = routed_km(&err);
     assert!((9000.0..11000.0).contains(&km), "{err}");
     assert!(!d.join("o").exists());
 }

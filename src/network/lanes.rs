@@ -101,11 +101,7 @@ pub fn lanes_per_direction(a: &RoadAttributes) -> u32 {
 ///
 /// ```
 /// use waymark::network::{lane_offset_m, DriveSide, Oneway, RoadAttributes};
-/// let mut a = RoadAttributes {
-///     id: "1".into(), name: None, highway: "residential".into(),
-///     oneway: Oneway::Both, lanes: None, width_m: None, maxspeed_kmh: None,
-///     tunnel: false, bridge: false, layer: 0,
-/// };
+/// let mut a = RoadAttributes::new("1", "residential", Oneway::Both);
 /// // A two-way residential street: one 3 m lane each way, 1.5 m off centre.
 /// assert_eq!(lane_offset_m(&a, DriveSide::Right, 0), 1.5);
 /// assert_eq!(lane_offset_m(&a, DriveSide::Left, 0), -1.5);
@@ -152,16 +148,9 @@ mod tests {
         oneway: Oneway,
     ) -> RoadAttributes {
         RoadAttributes {
-            id: "r".into(),
-            name: None,
-            highway: highway.into(),
-            oneway,
             lanes,
             width_m: width,
-            maxspeed_kmh: None,
-            tunnel: false,
-            bridge: false,
-            layer: 0,
+            ..RoadAttributes::new("r", highway, oneway)
         }
     }
 

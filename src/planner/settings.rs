@@ -249,16 +249,10 @@ mod tests {
         oneway: Oneway,
     ) -> RoadAttributes {
         RoadAttributes {
-            id: "1".into(),
-            name: None,
-            highway: highway.into(),
-            oneway,
             lanes,
             width_m: width,
             maxspeed_kmh: Some(50.0),
-            tunnel: false,
-            bridge: false,
-            layer: 0,
+            ..RoadAttributes::new("1", highway, oneway)
         }
     }
 

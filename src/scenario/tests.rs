@@ -286,18 +286,7 @@ fn map_elevation_is_one_file_or_a_list() {
 #[test]
 fn network_candidate_sites_are_counted_per_direction() {
     use crate::network::{model_from_polylines, Oneway, RoadAttributes};
-    let road = |id: &str, oneway| RoadAttributes {
-        id: id.into(),
-        name: None,
-        highway: "residential".into(),
-        oneway,
-        lanes: None,
-        width_m: None,
-        maxspeed_kmh: None,
-        tunnel: false,
-        bridge: false,
-        layer: 0,
-    };
+    let road = |id: &str, oneway| RoadAttributes::new(id, "residential", oneway);
     // 0.001° of latitude ≈ 111.4 m (two-way: 3 sites each way at 50 m),
     // 0.0001° ≈ 11.1 m (one-way: 1 site), far apart (no shared node).
     let net = model_from_polylines(vec![
