@@ -272,8 +272,8 @@ pub fn merge_plan_tags(rows: &mut Vec<TagRow>, plan: &serde_json::Value) {
 }
 
 /// Reads an area plan's `coverage.geojson`: directed road pieces
-/// (LineStrings) with `bound_m` (`null` where no sampled traffic drives:
-/// skipped), and `bound_without_tags_m` and `reason` when given.
+/// (LineStrings) with `bound_m` (`null` where neither a sampled chain nor
+/// a straight walk drives: skipped), and `bound_without_tags_m` and `reason` when given.
 pub fn read_coverage(path: &Path) -> Result<Vec<(CoveragePiece, Option<f64>, String)>> {
     let text = read_text(path, "coverage file")?;
     let gj: geojson::GeoJson = text
@@ -286,8 +286,8 @@ pub fn read_coverage(path: &Path) -> Result<Vec<(CoveragePiece, Option<f64>, Str
     for (i, f) in fc.features.iter().enumerate() {
         let props = f.properties.as_ref();
         let get = |k: &str| props.and_then(|p| p.get(k));
-        // `null`: no sampled traffic drives this road piece, so the plan
-        // predicts nothing there; it stays grey like the rest of the map.
+        // `null`: no sampled chain or straight walk drives this road piece,
+        // so the plan predicts nothing there; it stays grey like the rest of the map.
         if get("bound_m").is_some_and(|v| v.is_null()) {
             continue;
         }

@@ -1,14 +1,30 @@
 //! What a network plan predicts on each directed road piece: the largest
-//! error budget consumed there by the sampled chains, with the plan's tags
+//! error budget consumed there by the sampled chains and by the straight
+//! walks (`super::straight::walk_budgets`), with the plan's tags
 //! all read and without any tag, as a predicted bound (the map-matching
 //! reach's profile after a reset, or the straight drive's from the prior
 //! without map matching), and why tags are needed there. Written as
 //! `coverage.geojson` by the plan command. `any_walk` plans fill the same
 //! record from the walk DP (`super::walks`), with the budget of k tags
-//! missed beside it and no pass count.
+//! missed beside it and no pass count. `budget_from` names the source of
+//! the largest budget without tags.
 
 use super::traffic::ChainBudget;
 use serde::Serialize;
+
+/// Where a piece's largest budget without tags was observed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BudgetSource {
+    /// A sampled chain of trips (planning or final certification round).
+    SampledChain,
+    /// A straight walk of the network (`traffic = "trips"`: a walk through
+    /// junction transitions that do not reset, which no sampled chain need
+    /// have driven).
+    StraightWalk,
+    /// The walk DP of an `any_walk` plan (every walk).
+    AnyWalk,
+}
 
 /// One directed edge's prediction.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -27,6 +43,9 @@ pub struct EdgeCoverage {
     pub budget_with_tags: f64,
     /// Largest budget consumed since the last reset, without tags.
     pub budget_without_tags: f64,
+    /// Which source gave `budget_without_tags` (a tie goes to the sampled
+    /// chains); `None` where neither a chain nor a walk drives here.
+    pub budget_from: Option<BudgetSource>,
     /// `any_walk`: the largest budget with up to k of the plan's tags
     /// missed (the design case: ≤ 1 in a verified plan).
     pub budget_missed: Option<f64>,
@@ -67,6 +86,7 @@ pub(crate) fn edge_budgets(
             passes: Some(0),
             budget_with_tags: 0.0,
             budget_without_tags: 0.0,
+            budget_from: None,
             budget_missed: None,
             bound_missed_m: None,
             bound_with_tags_m: None,
@@ -104,9 +124,29 @@ pub(crate) fn edge_budgets(
             }
             o.budget_with_tags = o.budget_with_tags.max(w);
             o.budget_without_tags = o.budget_without_tags.max(wo);
+            o.budget_from = Some(BudgetSource::SampledChain);
         }
     }
     out
+}
+
+/// Adds the straight walks' budgets per edge, with the tags read (`with`)
+/// and without (`without`; `super::straight::walk_budgets`), to the
+/// chains' in `out`: the larger of each is kept, and a piece whose largest
+/// budget without tags is a walk's gets `budget_from` = straight walk.
+/// A walk's budget since a read is also one since its reset (the walk
+/// came from one; a walk without tags may have stopped at its cap before
+/// the edge): the budget without tags is at least the one with them.
+/// Edges no walk entered (budget 0 both ways) keep the chains' record.
+pub(crate) fn add_walk_budgets(out: &mut [EdgeCoverage], with: &[f64], without: &[f64]) {
+    for (o, (&w, &wo)) in out.iter_mut().zip(with.iter().zip(without)) {
+        let wo = wo.max(w);
+        if wo > o.budget_without_tags || (o.budget_from.is_none() && wo > 0.0) {
+            o.budget_from = Some(BudgetSource::StraightWalk);
+        }
+        o.budget_without_tags = o.budget_without_tags.max(wo);
+        o.budget_with_tags = o.budget_with_tags.max(w);
+    }
 }
 
 /// Rounds to `d` decimals for the file (GIS tools need no more).
@@ -152,6 +192,7 @@ pub fn coverage_geojson(cov: &[EdgeCoverage], net: &crate::network::Network) -> 
                 "passes": c.passes,
                 "budget_with_tags": round(c.budget_with_tags, 3),
                 "budget_without_tags": round(c.budget_without_tags, 3),
+                "budget_from": c.budget_from,
                 "bound_m": opt(c.bound_with_tags_m),
                 "bound_without_tags_m": opt(c.bound_without_tags_m),
                 "budget_missed": c.budget_missed.map(|b| round(b, 3)),

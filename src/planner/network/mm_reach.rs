@@ -536,6 +536,48 @@ pub fn profile_bound(p: &[(f64, f64)], d: f64) -> f64 {
     a.1 + t * (b.1 - a.1)
 }
 
+/// Where a bound profile first reaches `req` (m, interpolated; `None` if
+/// it never does).
+pub(crate) fn profile_crossing(prof: &[(f64, f64)], req: f64) -> Option<f64> {
+    let i = prof.iter().position(|x| x.1 >= req)?;
+    if i == 0 {
+        return Some(prof[0].0);
+    }
+    let (a, b) = (prof[i - 1], prof[i]);
+    let t = if b.1 > a.1 {
+        (req - a.1) / (b.1 - a.1)
+    } else {
+        0.0
+    };
+    Some(a.0 + t * (b.0 - a.0))
+}
+
+/// The predicted bound (m) of a road piece where `budget` of the error
+/// budget has been used since the last reset: the class's bound profile
+/// read at the same fraction of the profile's own crossing of the
+/// requirement `req` (`budget` × crossing), not at `budget` × the reach.
+///
+/// The budget is distance over the class's reach R, the smallest of the
+/// start, turn and tag drives' reaches ([`matched_reach`]), while the
+/// profile is one drive's (the turn drive's where turns reset): where
+/// another drive sets R, the profile crosses the requirement further than
+/// R, and read at `budget` × R a piece at budget 1 read well within the
+/// requirement (Gothenburg's trips plan: 10.5 m at budget 2.64 for a 20 m
+/// requirement). Read at the crossing's fraction, budget 1 is the
+/// requirement, below 1 within it and above 1 beyond it, as the planner
+/// counts; the profile gives the shape of the bound's growth. A profile
+/// that never reaches the requirement (a capped drive) is read at
+/// `budget` × `reach_m`. `None` without a profile.
+pub(crate) fn budget_bound(
+    prof: &[(f64, f64)],
+    budget: f64,
+    reach_m: f64,
+    req: f64,
+) -> Option<f64> {
+    let d_req = profile_crossing(prof, req).unwrap_or(reach_m);
+    Some(profile_bound(prof, budget * d_req)).filter(|x| x.is_finite())
+}
+
 /// The matched reaches of every speed class in `speeds` (keys in
 /// (km/h)/100) for `mountings`, run in parallel, and per class: the reach
 /// (smallest over the mountings), whether turns reset (for every mounting)
@@ -601,6 +643,33 @@ pub(crate) fn matched_classes(
 /// Measurement, not a check: the covariance engine's 95 % bound on the
 /// calibration drives beside the Monte Carlo error of the same drives
 /// (`cargo test --release --lib mm_reach_mc -- --ignored --nocapture`).
+#[cfg(test)]
+mod budget_bound_tests {
+    use super::*;
+
+    #[test]
+    fn a_budget_of_one_reads_as_the_requirement_whatever_drive_set_the_reach() {
+        // A turn drive's profile crossing a 20 m requirement at 2 km
+        // (10 m after the reset, 30 m at 4 km), for a class whose reach is
+        // 1 km (its start drive's): a piece at budget 1 has driven the
+        // reach and is at the requirement, at 1.5 past it. Read at budget ×
+        // reach (the old reading) it was 15 m and 17.5 m.
+        let prof: Vec<(f64, f64)> = (0..=40)
+            .map(|i| (100.0 * i as f64, 10.0 + 0.5 * i as f64))
+            .collect();
+        let (reach, req) = (1000.0, 20.0);
+        assert!(profile_bound(&prof, reach) < req);
+        let at = |b: f64| budget_bound(&prof, b, reach, req).unwrap();
+        assert!((at(1.0) - req).abs() < 1e-9, "{}", at(1.0));
+        assert!(at(1.5) > req && at(0.5) < req);
+        assert!((at(0.0) - 10.0).abs() < 1e-9);
+        // A profile that never reaches the requirement (a capped drive):
+        // read at budget × reach, held at its end beyond it.
+        assert!((budget_bound(&prof, 1.0, reach, 100.0).unwrap() - 15.0).abs() < 1e-9);
+        assert_eq!(budget_bound(&[], 1.0, reach, req), None);
+    }
+}
+
 #[cfg(test)]
 mod mm_reach_mc {
     use super::*;

@@ -97,6 +97,7 @@ pub(crate) mod plan_trips;
 pub(crate) mod reach;
 pub(crate) mod settings;
 pub(crate) mod simulated_reach;
+pub(crate) mod straight;
 pub(crate) mod tag_sites;
 pub(crate) mod traffic;
 pub(crate) mod trips;
@@ -107,7 +108,7 @@ pub(crate) mod walk_relax;
 pub(crate) mod walks;
 mod window_sets;
 
-pub use coverage::{coverage_geojson, EdgeCoverage};
+pub use coverage::{coverage_geojson, BudgetSource, EdgeCoverage};
 pub use mm_reach::{matched_reach, MatchedReach};
 pub use plan::{plan_network, plan_network_loaded, plan_network_on};
 pub use reach::{reach_class, ReachClass};

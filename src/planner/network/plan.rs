@@ -3,11 +3,11 @@
 //! the selected sites as tags.
 
 use super::cover::{self, Solved, Walk};
-use super::coverage::EdgeCoverage;
+use super::coverage::{BudgetSource, EdgeCoverage};
 use super::greedy;
 use super::ilp::{self, IlpLimits, IlpOutcome};
 use super::instance::{build, classes_in_use, describe_walk, speed_key};
-use super::mm_reach::{profile_bound, straight_profiles};
+use super::mm_reach::{budget_bound, straight_profiles};
 use super::reach::{reach_class, ReachClass};
 use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::NetworkPlan;
@@ -21,22 +21,6 @@ use crate::scenario::Scenario;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::time::Instant;
-
-/// Where a bound profile (distance m, bound m) first reaches `req`
-/// (interpolated), if it does.
-fn profile_crossing(prof: &[(f64, f64)], req: f64) -> Option<f64> {
-    let i = prof.iter().position(|x| x.1 >= req)?;
-    if i == 0 {
-        return Some(prof[0].0);
-    }
-    let (a, b) = (prof[i - 1], prof[i]);
-    let t = if b.1 > a.1 {
-        (req - a.1) / (b.1 - a.1)
-    } else {
-        0.0
-    };
-    Some(a.0 + t * (b.0 - a.0))
-}
 
 /// The method of a plan the greedy solved: its own when the relaxation
 /// found nothing cheaper.
@@ -396,13 +380,8 @@ pub fn plan_network_on(
         .map(|e| {
             let (v, r) = class_of(e);
             let prof = profiles.get(&key(v / 3.6)).map(Vec::as_slice).unwrap_or(&[]);
-            // The budget is a fraction of the class's reach; read the bound
-            // at the same fraction of the profile's own crossing of the
-            // requirement (the profile's calibration drive can cross a few
-            // per cent from the reach's), so that a budget of 1 reads as the
-            // requirement.
-            let d_req = profile_crossing(prof, req).unwrap_or(r);
-            let bound = |b: f64| Some(profile_bound(prof, b * d_req)).filter(|x| x.is_finite());
+            // A budget of 1 reads as the requirement (`budget_bound`).
+            let bound = |b: f64| budget_bound(prof, b, r, req);
             let (sec, fwd) = built.edge_dir[e];
             let without = wb.without[e];
             let reason = if without <= 1.0 {
@@ -426,6 +405,7 @@ pub fn plan_network_on(
                 passes: None,
                 budget_with_tags: wb.all_read[e],
                 budget_without_tags: without,
+                budget_from: Some(BudgetSource::AnyWalk),
                 budget_missed: Some(wb.missed[e]),
                 bound_with_tags_m: bound(wb.all_read[e]),
                 bound_without_tags_m: bound(without),

@@ -3,10 +3,11 @@
 //! rates and geometry, the sampled chains, the multicover and its
 //! guarantee, the tags with their reasons and the per-edge coverage.
 
-use super::coverage::edge_budgets;
+use super::coverage::{add_walk_budgets, edge_budgets, BudgetSource};
 use super::instance::{classes_in_use, speed_key, Built};
-use super::mm_reach::{matched_classes, profile_bound, straight_profiles, MatchedReach, TURN_DEG};
+use super::mm_reach::{budget_bound, matched_classes, straight_profiles, MatchedReach, TURN_DEG};
 use super::reach::{reach_class, ReachClass};
+use super::straight::{walk_budgets, WALK_BUDGET_CAP};
 use super::tag_sites::tags_of;
 use super::traffic::{Destinations, EdgeModel};
 use super::trips::plan_trips;
@@ -335,8 +336,15 @@ pub(super) fn plan_network_trips(
         }
     };
     let (tags, total_cost) = tags_of(scn, settings, net, &built, &sel, height_m, reason);
-    // Coverage per directed edge.
+    // Coverage per directed edge: the sampled chains', then the straight
+    // walks' (the windows the tags were chosen for), without the tags and
+    // with them read.
+    let t = Instant::now();
     let mut coverage = edge_budgets(&tp.chains, &sel, physical);
+    let walks_without = walk_budgets(&model, &tp.straight, &tp.used, None, WALK_BUDGET_CAP);
+    let walks_with = walk_budgets(&model, &tp.straight, &tp.used, Some(&sel), WALK_BUDGET_CAP);
+    add_walk_budgets(&mut coverage, &walks_with, &walks_without);
+    timings.insert("coverage".into(), t.elapsed().as_secs_f64() * 1e3);
     for c in &mut coverage {
         let e = c.edge as usize;
         let v = built.edge_speed[e];
@@ -346,11 +354,10 @@ pub(super) fn plan_network_trips(
             .map(Vec::as_slice)
             .unwrap_or(&[]);
         c.speed_kmh = v * 3.6;
-        if c.passes.unwrap_or(0) > 0 {
-            c.bound_with_tags_m =
-                Some(profile_bound(prof, c.budget_with_tags * r)).filter(|x| x.is_finite());
-            c.bound_without_tags_m =
-                Some(profile_bound(prof, c.budget_without_tags * r)).filter(|x| x.is_finite());
+        if c.budget_from.is_some() {
+            // A budget of 1 reads as the requirement (`budget_bound`).
+            c.bound_with_tags_m = budget_bound(prof, c.budget_with_tags, r, req);
+            c.bound_without_tags_m = budget_bound(prof, c.budget_without_tags, r, req);
         }
         let (sec, fwd) = built.edge_dir[e];
         c.section = sec;
@@ -362,8 +369,15 @@ pub(super) fn plan_network_trips(
         } else {
             par
         };
-        c.reason = if c.passes.unwrap_or(0) == 0 {
-            "no sampled chain drives here".into()
+        let walk = c.budget_from == Some(BudgetSource::StraightWalk);
+        // A walk stops once its budget passes the cap: more is possible.
+        let up_to = if walk && c.budget_without_tags >= WALK_BUDGET_CAP {
+            "over "
+        } else {
+            "up to "
+        };
+        c.reason = if c.budget_from.is_none() {
+            "no sampled chain or straight walk drives here".into()
         } else if c.budget_without_tags <= 1.0 {
             if mm {
                 "turns and map matching hold the requirement without tags".into()
@@ -372,15 +386,23 @@ pub(super) fn plan_network_trips(
             }
         } else if mm {
             format!(
-                "{tunnel}up to {:.0} m driven without {} (reach {r:.0} m at {:.0} km/h)",
+                "{tunnel}{}{:.0} m driven without {}{} (reach {r:.0} m at {:.0} km/h)",
+                up_to,
                 c.budget_without_tags * r,
                 turn_words(v * 3.6),
+                if walk {
+                    " on a straight walk of the network"
+                } else {
+                    ""
+                },
                 v * 3.6
             )
         } else {
             format!(
-                "{tunnel}up to {:.0} m driven without a read (reach {r:.0} m at {:.0} km/h, no map matching)",
+                "{tunnel}{}{:.0} m driven without a read{} (reach {r:.0} m at {:.0} km/h, no map matching)",
+                up_to,
                 c.budget_without_tags * r,
+                if walk { " on a straight walk of the traffic's transitions" } else { "" },
                 v * 3.6
             )
         };
@@ -478,7 +500,7 @@ pub(super) fn plan_network_trips(
                     "; the straight walks from {} start(s) stopped at {} edges entered (forks \
                      without end; the windows they missed are left to the certification rounds)",
                     tp.walks_cut,
-                    super::traffic::MAX_STEPS
+                    super::straight::MAX_STEPS
                 )
             } else {
                 String::new()

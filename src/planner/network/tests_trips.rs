@@ -260,6 +260,18 @@ fn a_trips_plan_on_a_small_network_is_the_brute_force_optimum_of_its_windows() {
         .iter()
         .all(|c| c.budget_with_tags <= 1.0 + 1e-9));
     assert!(p.edge_coverage.iter().any(|c| c.budget_without_tags > 1.0));
+    // A budget of 1 reads as the requirement: at or past it the predicted
+    // bound is at least the requirement (the profile's interpolation: 1
+    // cm), within it at most the requirement.
+    for c in &p.edge_coverage {
+        let b = c.bound_without_tags_m.unwrap();
+        if c.budget_without_tags >= 1.0 {
+            assert!(b >= 20.0 - 0.01, "{c:?}");
+        } else {
+            assert!(b <= 20.0 + 0.01, "{c:?}");
+        }
+        assert!(c.budget_from.is_some(), "{c:?}");
+    }
     // Same inputs, same plan.
     let p2 = plan_network_on(&scn, &s, &net).unwrap();
     assert_eq!(p2.selected, p.selected);

@@ -38,9 +38,8 @@ use super::dominance::essential_windows;
 use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
 use super::lp_bound::{lp_duals_within, LpBound, MAX_ITERATIONS as LP_MAX};
-use super::traffic::{
-    add_windows, chain_budget, chain_use, sample_chain, straight_windows, Chain, ChainBudget,
-};
+use super::straight::straight_windows;
+use super::traffic::{add_windows, chain_budget, chain_use, sample_chain, Chain, ChainBudget};
 use super::traffic::{Destinations, EdgeModel};
 use super::window_sets::{SiteWindows, WindowInfo, WindowMap, WindowSets};
 use crate::error::{Error, Result};
@@ -428,9 +427,14 @@ pub(crate) struct TripsPlan {
     /// validation's independence, only counts are kept).
     pub planning_km: f64,
     /// Straight-walk starts whose enumeration stopped at
-    /// [`super::traffic::MAX_STEPS`] edges (the windows they missed are
+    /// [`super::straight::MAX_STEPS`] edges (the windows they missed are
     /// left to the certification rounds).
     pub walks_cut: usize,
+    /// The junction transitions the straight walks followed and the edges
+    /// they started from (for the coverage map's walks,
+    /// [`super::straight::walk_budgets`]).
+    pub straight: HashSet<(u32, u32)>,
+    pub used: Vec<bool>,
 }
 
 /// Plans tags for trips (module doc).
@@ -480,7 +484,7 @@ pub(crate) fn plan_trips(
     // With map matching, every straight walk of the network (turns reset);
     // without, the transitions the sampled traffic used.
     let mut straight: HashSet<(u32, u32)> = if map_matching {
-        super::traffic::geometric_straight(net, model)
+        super::straight::geometric_straight(net, model)
     } else {
         HashSet::new()
     };
@@ -731,5 +735,7 @@ pub(crate) fn plan_trips(
         chains: budgets,
         planning_km,
         walks_cut,
+        straight,
+        used,
     })
 }
