@@ -9,7 +9,7 @@
 //! hardly depends on where). The requirement and its confidence are the
 //! scenario's.
 use std::path::Path;
-use waymark::planner::network::simulated_reach;
+use waymark::planner::network::{simulated_reach, CalibrationSite, ReachRequirement};
 use waymark::Scenario;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -31,6 +31,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .requirement_m()
         .ok_or("the scenario has no requirement_m")?;
     let conf = scn.planner().requirement_confidence;
+    let site = CalibrationSite {
+        lat_deg: 60.17,
+        lon_deg: 24.94,
+        height_m: 10.0,
+    };
+    let rq = ReachRequirement {
+        req_m: req,
+        p: conf,
+    };
     println!(
         "{}: requirement {req} m at {conf}; {runs} runs per road, seed {seed}; \
          reach in m after the reset (bound / MC 95th percentile / its 95 % upper bound)",
@@ -38,18 +47,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for kmh in speeds {
         let t = std::time::Instant::now();
-        let r = simulated_reach(
-            &scn,
-            60.17,
-            24.94,
-            10.0,
-            kmh / 3.6,
-            req,
-            conf,
-            runs,
-            seed,
-            after_m,
-        )?;
+        let r = simulated_reach(&scn, site, kmh / 3.6, rq, runs, seed, after_m)?;
         println!("{kmh} km/h ({:.0} s)", t.elapsed().as_secs_f64());
         for d in &r.drives {
             println!(

@@ -108,7 +108,7 @@ pub(crate) mod walks;
 mod window_sets;
 
 pub use coverage::{coverage_geojson, EdgeCoverage};
-pub use mm_reach::{matched_reach, MatchedReach};
+pub use mm_reach::{matched_reach, CalibrationSite, MatchedReach, ReachRequirement};
 pub use plan::{plan_network, plan_network_loaded, plan_network_on};
 pub use reach::{reach_class, ReachClass};
 pub use settings::{

@@ -50,7 +50,8 @@
 //! diverges (a non-finite error) after the runs stop is no longer an error.
 
 use super::mm_reach::{
-    run_bound, synthetic_drive, warm_up, CURVE_CORNERS, DRIVE_MAX_M, DRIVE_MAX_S,
+    run_bound, synthetic_drive, warm_up, CalibrationSite, ReachRequirement, CURVE_CORNERS,
+    DRIVE_MAX_M, DRIVE_MAX_S,
 };
 use super::turns::{CURVE_M, TURN_DEG};
 use crate::error::{Error, Result};
@@ -142,12 +143,11 @@ fn bound_reach(
     scn: &Scenario,
     truth: &TruthSource,
     from_m: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
 ) -> Result<(f64, bool, f64)> {
     let end = truth.samples().last().map_or(0.0, |s| s.distance_m);
     let length_after = (end - from_m).max(0.0);
-    Ok(match run_bound(scn, truth, from_m, req, p)? {
+    Ok(match run_bound(scn, truth, from_m, rq)? {
         Some(x) => ((x - from_m).max(0.0), false, length_after),
         None => (length_after, true, length_after),
     })
@@ -184,18 +184,17 @@ fn ranks(n: usize) -> (usize, Option<usize>) {
 /// run never reads what lies ahead of it): so the runs are advanced
 /// [`STAGE_M`] past the point being compared, and stopped once both
 /// statistics have crossed. The figures are those of the whole drive.
-#[allow(clippy::too_many_arguments)]
 fn measure(
     scn: &Scenario,
     name: &str,
     truth: &TruthSource,
     from_m: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
     runs: u64,
     seed: u64,
 ) -> Result<Measured> {
-    let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, req, p)?;
+    let req = rq.req_m;
+    let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, rq)?;
     let (q95, upper, simulated_m) = simulate_staged(scn, truth, runs, seed, |st| {
         let (k95, ku) = ranks(st.len());
         let (mut q95, mut upper) = (None, None);
@@ -244,33 +243,27 @@ fn measure(
     })
 }
 
-/// The five calibration roads of speed class `speed_mps` at (`lat_deg`,
-/// `lon_deg`, `height_m`), each driven `runs` times from `seed` and measured
-/// for `req` m at the engine's confidence `p`. Each road runs at most
-/// `after_m` past its reset (and within the calibration's 30 km / 90 min).
-#[allow(clippy::too_many_arguments)]
+/// The five calibration roads of speed class `speed_mps` at `site`, each
+/// driven `runs` times from `seed` and measured against `rq` (the engine's
+/// bound at its confidence, the runs' error at 95 %). Each road runs at
+/// most `after_m` past its reset (and within the calibration's 30 km /
+/// 90 min).
 pub fn simulated_reach(
     scn: &Scenario,
-    lat_deg: f64,
-    lon_deg: f64,
-    height_m: f64,
+    site: CalibrationSite,
     speed_mps: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
     runs: u64,
     seed: u64,
     after_m: f64,
 ) -> Result<SimulatedReach> {
     let drives = roads(
         scn,
-        [lat_deg, lon_deg, height_m],
+        site,
         speed_mps,
-        req,
-        p,
+        rq,
         after_m,
-        &mut |scn, name, truth, from_m| {
-            Ok(measure(scn, name, truth, from_m, req, p, runs, seed)?.drive)
-        },
+        &mut |scn, name, truth, from_m| Ok(measure(scn, name, truth, from_m, rq, runs, seed)?.drive),
     )?;
     Ok(SimulatedReach {
         speed_kmh: speed_mps * 3.6,
@@ -283,18 +276,16 @@ pub fn simulated_reach(
 /// where the reset's stretch starts (m).
 type Measure<'m> = dyn FnMut(&Scenario, &str, &TruthSource, f64) -> Result<SimulatedDrive> + 'm;
 
-/// The five roads of [`simulated_reach`] at `at` (degrees, degrees, m),
-/// built one at a time and handed to `measure`, in the module's order.
+/// The five roads of [`simulated_reach`] at `site`, built one at a time
+/// and handed to `measure`, in the module's order.
 fn roads(
     scn: &Scenario,
-    at: [f64; 3],
+    site: CalibrationSite,
     speed_mps: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
     after_m: f64,
     measure: &mut Measure<'_>,
 ) -> Result<Vec<SimulatedDrive>> {
-    let [lat_deg, lon_deg, height_m] = at;
     if !(speed_mps > 0.0 && speed_mps.is_finite()) {
         return Err(Error::InvalidParameter(format!(
             "speed {speed_mps} m/s: must be positive"
@@ -305,16 +296,13 @@ fn roads(
             "the roads must run at least 500 m past their reset, not {after_m} m"
         )));
     }
-    let scn = scn.located_at([lat_deg, lon_deg]);
+    let scn = scn.located_at([site.lat_deg, site.lon_deg]);
     let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
-    let drive =
-        |legs: &[(f64, f64)]| synthetic_drive(&scn, lat_deg, lon_deg, height_m, speed_mps, legs);
+    let drive = |legs: &[(f64, f64)]| synthetic_drive(&scn, site, speed_mps, legs);
     // The first turns' straight: the engine's start reach (as the planner
     // budgets it) on the calibration's full straight, at least 200 m.
     let (long, _) = drive(&[(0.0, total)])?;
-    let first = run_bound(&scn, &long, 0.0, req, p)?
-        .unwrap_or(total)
-        .max(200.0);
+    let first = run_bound(&scn, &long, 0.0, rq)?.unwrap_or(total).max(200.0);
     drop(long);
     let mut drives = Vec::with_capacity(5);
     // Start: the straight from the prior, to `after_m`.
@@ -367,19 +355,18 @@ mod tests {
     /// The measurement before the runs were staged, kept as the reference:
     /// every run simulates the whole road ([`simulate_with`]), then each
     /// statistic is searched on the grid separately.
-    #[allow(clippy::too_many_arguments)]
     fn measure_whole(
         scn: &Scenario,
         name: &str,
         truth: &TruthSource,
         from_m: f64,
-        req: f64,
-        p: f64,
+        rq: ReachRequirement,
         runs: u64,
         seed: u64,
     ) -> Result<SimulatedDrive> {
         use crate::sim::simulate_with;
-        let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, req, p)?;
+        let req = rq.req_m;
+        let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, rq)?;
         let res = simulate_with(scn, truth, &[], runs, seed, None)?;
         let errors_at = |d: f64| -> Option<Vec<f64>> {
             let at = from_m + d;
@@ -416,6 +403,18 @@ mod tests {
         })
     }
 
+    /// Where the tests lay out their roads (the example's site).
+    const HELSINKI: CalibrationSite = CalibrationSite {
+        lat_deg: 60.17,
+        lon_deg: 24.94,
+        height_m: 10.0,
+    };
+
+    /// The requirement of `req_m` m at 0.95.
+    fn rq(req_m: f64) -> ReachRequirement {
+        ReachRequirement { req_m, p: 0.95 }
+    }
+
     fn trips() -> Scenario {
         Scenario::load(std::path::Path::new(
             "scenarios/helsinki-network-trips.toml",
@@ -433,15 +432,15 @@ mod tests {
     /// last two capped, their runs driven to the road's end.
     #[test]
     fn staged_runs_give_the_whole_drives_figures() {
-        let (lat, lon, h, v) = (60.17, 24.94, 10.0, 30.0 / 3.6);
-        let scn = trips().located_at([lat, lon]);
+        let v = 30.0 / 3.6;
+        let scn = trips().located_at([HELSINKI.lat_deg, HELSINKI.lon_deg]);
         let (truth, corners) =
-            synthetic_drive(&scn, lat, lon, h, v, &[(0.0, 400.0), (TURN_DEG, 1_500.0)]).unwrap();
+            synthetic_drive(&scn, HELSINKI, v, &[(0.0, 400.0), (TURN_DEG, 1_500.0)]).unwrap();
         let from = corners[0] + CURVE_M;
         let end = truth.samples().last().unwrap().distance_m;
         for req in [3.0, 5.0, 8.0, 15.0] {
-            let staged = measure(&scn, "road", &truth, from, req, 0.95, 59, 3).unwrap();
-            let whole = measure_whole(&scn, "road", &truth, from, req, 0.95, 59, 3).unwrap();
+            let staged = measure(&scn, "road", &truth, from, rq(req), 59, 3).unwrap();
+            let whole = measure_whole(&scn, "road", &truth, from, rq(req), 59, 3).unwrap();
             assert_eq!(staged.drive, whole, "req {req} m");
             let crossed = !whole.capped;
             assert!(whole.upper_reach_m.is_some());
@@ -465,18 +464,17 @@ mod tests {
     #[test]
     fn five_roads_give_the_whole_drives_figures() {
         let scn = trips();
-        let (lat, lon, h, v) = (60.17, 24.94, 10.0, 50.0 / 3.6);
-        let (req, p, runs, seed) = (20.0, 0.95, 3, 1);
-        let r = simulated_reach(&scn, lat, lon, h, v, req, p, runs, seed, 500.0).unwrap();
+        let v = 50.0 / 3.6;
+        let (runs, seed) = (3, 1);
+        let r = simulated_reach(&scn, HELSINKI, v, rq(20.0), runs, seed, 500.0).unwrap();
         let whole = roads(
             &scn,
-            [lat, lon, h],
+            HELSINKI,
             v,
-            req,
-            p,
+            rq(20.0),
             500.0,
             &mut |scn, name, truth, from_m| {
-                measure_whole(scn, name, truth, from_m, req, p, runs, seed)
+                measure_whole(scn, name, truth, from_m, rq(20.0), runs, seed)
             },
         )
         .unwrap();
@@ -531,8 +529,8 @@ mod tests {
             "scenarios/helsinki-network-trips.toml",
         ))
         .unwrap();
-        let (lat, lon, h, v) = (60.17, 24.94, 10.0, 50.0 / 3.6);
-        let r = simulated_reach(&scn, lat, lon, h, v, 20.0, 0.95, 3, 1, 500.0).unwrap();
+        let v = 50.0 / 3.6;
+        let r = simulated_reach(&scn, HELSINKI, v, rq(20.0), 3, 1, 500.0).unwrap();
         let names: Vec<&str> = r.drives.iter().map(|d| d.name.as_str()).collect();
         assert_eq!(
             names,
@@ -545,14 +543,11 @@ mod tests {
             ]
         );
         let planner = super::super::mm_reach::matched_reach(
-            &scn.located_at([lat, lon]),
-            lat,
-            lon,
-            h,
+            &scn.located_at([HELSINKI.lat_deg, HELSINKI.lon_deg]),
+            HELSINKI,
             v,
             &[crate::sim::tags::Mounting::RoadSurface],
-            20.0,
-            0.95,
+            rq(20.0),
         )
         .unwrap();
         let start = planner[0].start_reach_m;
