@@ -214,7 +214,13 @@ pub(super) fn synthetic_drive(
 /// [`WARM_UP_LEG_M`] alternating north and east (right-angle turns), the
 /// first no longer than the start reach allows.
 pub(super) fn warm_up(first: f64) -> Vec<(f64, f64)> {
-    (0..WARM_UP_LEGS)
+    warm_up_legs(first, WARM_UP_LEGS)
+}
+
+/// [`warm_up`] with `legs` legs instead of [`WARM_UP_LEGS`] (`legs − 1`
+/// right-angle turns).
+pub(super) fn warm_up_legs(first: f64, legs: usize) -> Vec<(f64, f64)> {
+    (0..legs)
         .map(|i| {
             (
                 if i % 2 == 0 { 0.0 } else { 90.0 },
