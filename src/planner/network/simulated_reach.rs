@@ -420,11 +420,11 @@ fn first_straight(
 /// What a turn road drives before its turn of [`TURN_DEG`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TurnLead {
-    /// `k` warm-up legs of [`WARM_UP_LEG_M`](super::mm_reach::WARM_UP_LEG_M)
-    /// alternating north and east (`k − 1` right-angle turns), the first no
-    /// longer than the engine's start reach. `WarmUp(0)`: the first-turn
-    /// road (a straight as long as the engine's start reach);
-    /// `WarmUp(WARM_UP_LEGS)`: the calibrated-turn road.
+    /// `k` warm-up legs of `WARM_UP_LEG_M` (500 m) alternating north and
+    /// east (`k − 1` right-angle turns), the first no longer than the
+    /// engine's start reach. `WarmUp(0)`: the first-turn road (a straight
+    /// as long as the engine's start reach); `WarmUp(WARM_UP_LEGS)`: the
+    /// calibrated-turn road.
     WarmUp(usize),
     /// A straight of this length (m) from the prior: a first turn after it.
     Straight(f64),
@@ -489,7 +489,7 @@ fn turn_roads(
 }
 
 /// The turn of [`TURN_DEG`] after `lead` ([`TurnLead`]) in speed class
-/// `speed_mps` at `site`: sharp and spread over [`CURVE_M`], each road
+/// `speed_mps` at `site`: sharp and spread over `CURVE_M` (200 m), each road
 /// driven and measured as [`simulated_reach`]'s (its turn roads are
 /// `WarmUp(0)` and `WarmUp(WARM_UP_LEGS)`, the same figures).
 pub fn turn_reach(
