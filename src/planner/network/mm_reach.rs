@@ -70,6 +70,29 @@ const MIN_TURN_SHARE: f64 = 0.5;
 /// requirement (m/m).
 const PROFILE_TO: f64 = 4.0;
 
+/// Where the calibration roads are laid out: their start (degrees) and
+/// height (m). The reach hardly depends on where; the planner takes the
+/// network's origin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalibrationSite {
+    /// Latitude of the roads' start (degrees).
+    pub lat_deg: f64,
+    /// Longitude of the roads' start (degrees).
+    pub lon_deg: f64,
+    /// Height of the roads (m).
+    pub height_m: f64,
+}
+
+/// What a reach is measured against: the horizontal error `req_m` (m) at
+/// the confidence `p` of the engine's bound.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReachRequirement {
+    /// The requirement (m).
+    pub req_m: f64,
+    /// Its confidence (the bound's probability, e.g. 0.95).
+    pub p: f64,
+}
+
 /// The map-matching reach of one speed class and mounting.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MatchedReach {
@@ -138,12 +161,15 @@ const CORNER_VERTEX_M: f64 = 10.0;
 /// ([`CORNER_VERTEX_M`]: the truth turns where the road does).
 pub(super) fn synthetic_drive(
     scn: &Scenario,
-    lat_deg: f64,
-    lon_deg: f64,
-    height_m: f64,
+    site: CalibrationSite,
     speed_mps: f64,
     legs: &[(f64, f64)],
 ) -> Result<(TruthSource, Vec<f64>)> {
+    let CalibrationSite {
+        lat_deg,
+        lon_deg,
+        height_m,
+    } = site;
     let m_per_deg_lat = 111_320.0;
     let m_per_deg_lon = 111_320.0 * lat_deg.to_radians().cos();
     let mut pts = vec![[lat_deg, lon_deg]];
@@ -188,7 +214,13 @@ pub(super) fn synthetic_drive(
 /// [`WARM_UP_LEG_M`] alternating north and east (right-angle turns), the
 /// first no longer than the start reach allows.
 pub(super) fn warm_up(first: f64) -> Vec<(f64, f64)> {
-    (0..WARM_UP_LEGS)
+    warm_up_legs(first, WARM_UP_LEGS)
+}
+
+/// [`warm_up`] with `legs` legs instead of [`WARM_UP_LEGS`] (`legs − 1`
+/// right-angle turns).
+pub(super) fn warm_up_legs(first: f64, legs: usize) -> Vec<(f64, f64)> {
+    (0..legs)
         .map(|i| {
             (
                 if i % 2 == 0 { 0.0 } else { 90.0 },
@@ -205,16 +237,14 @@ pub(super) fn warm_up(first: f64) -> Vec<(f64, f64)> {
 /// The calibration's turn drives at curve distance `w`: sharp and spread
 /// over `w`, each run from where its reset zone ends; the weaker (shorter
 /// reach) with its start and truth.
-#[allow(clippy::too_many_arguments)]
 fn turn_drive(
     scn: &Scenario,
-    at: [f64; 3],
+    site: CalibrationSite,
     speed_mps: f64,
     first: f64,
     total: f64,
     w: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
 ) -> Result<(Drive, f64, TruthSource)> {
     let base = warm_up(first);
     let last = base.last().map_or(0.0, |l| l.0);
@@ -228,9 +258,9 @@ fn turn_drive(
     gradual.push((last + TURN_DEG, total));
     let mut best: Option<(Drive, f64, TruthSource)> = None;
     for legs in [sharp, gradual] {
-        let (truth, corners) = synthetic_drive(scn, at[0], at[1], at[2], speed_mps, &legs)?;
+        let (truth, corners) = synthetic_drive(scn, site, speed_mps, &legs)?;
         let from = corners.get(WARM_UP_LEGS - 1).copied().unwrap_or(0.0) + w;
-        let d = run(scn, &truth, from, req, p, None, true, true)?;
+        let d = run(scn, &truth, from, rq, None, true, true)?;
         let reach = d.first_exceed_m.unwrap_or(d.end_m) - from;
         if best
             .as_ref()
@@ -257,18 +287,17 @@ struct Drive {
 
 /// Runs the filter with its map feed along `truth`; after `from_m` it
 /// records the bound's profile, and with `fix` it applies a tag fix each
-/// time the bound exceeds `req`.
-#[allow(clippy::too_many_arguments)]
+/// time the bound exceeds the requirement.
 fn run(
     scn: &Scenario,
     truth: &TruthSource,
     from_m: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
     fix: Option<Mounting>,
     profile: bool,
     map: bool,
 ) -> Result<Drive> {
+    let ReachRequirement { req_m: req, p } = rq;
     let net = truth
         .network()
         .ok_or_else(|| Error::InvalidParameter("calibration drive without a network".into()))?;
@@ -370,31 +399,27 @@ pub(super) fn run_bound(
     scn: &Scenario,
     truth: &TruthSource,
     from_m: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
 ) -> Result<Option<f64>> {
-    Ok(run(scn, truth, from_m, req, p, None, false, true)?.first_exceed_m)
+    Ok(run(scn, truth, from_m, rq, None, false, true)?.first_exceed_m)
 }
 
 /// The map-matching reach of speed class `speed_mps` for each of
-/// `mountings` (module doc), at the network's latitude; `p` is the
-/// requirement's confidence. The start and turn drives do not depend on the
-/// mounting and run once.
-#[allow(clippy::too_many_arguments)]
+/// `mountings` (module doc), laid out at `site` (the planner: the network's
+/// origin). The start and turn drives do not depend on the mounting and
+/// run once.
 pub fn matched_reach(
     scn: &Scenario,
-    lat_deg: f64,
-    lon_deg: f64,
-    height_m: f64,
+    site: CalibrationSite,
     speed_mps: f64,
     mountings: &[Mounting],
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
 ) -> Result<Vec<MatchedReach>> {
+    let req = rq.req_m;
     let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
     // Start: straight from the prior.
-    let (truth, _) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &[(0.0, total)])?;
-    let start = run(scn, &truth, 0.0, req, p, None, true, true)?;
+    let (truth, _) = synthetic_drive(scn, site, speed_mps, &[(0.0, total)])?;
+    let start = run(scn, &truth, 0.0, rq, None, true, true)?;
     let start_capped = start.first_exceed_m.is_none();
     let start_reach = start.first_exceed_m.unwrap_or(start.end_m);
     // Turn: a warm-up, then a turn of TURN_DEG, sharp or spread over the
@@ -406,16 +431,7 @@ pub fn matched_reach(
     let first = start_reach.clamp(200.0, FIRST_LEG_MAX_M);
     let mut chosen: Option<(Drive, f64, TruthSource, f64)> = None;
     for w in [CURVE_M, SHARP_CURVE_M] {
-        let t = turn_drive(
-            scn,
-            [lat_deg, lon_deg, height_m],
-            speed_mps,
-            first,
-            total,
-            w,
-            req,
-            p,
-        )?;
+        let t = turn_drive(scn, site, speed_mps, first, total, w, rq)?;
         let reach = t.0.first_exceed_m.unwrap_or(t.0.end_m) - t.1;
         let ok = t.0.min_after_turn < req && reach >= MIN_TURN_SHARE * start_reach;
         let keep = ok || chosen.is_none();
@@ -437,7 +453,7 @@ pub fn matched_reach(
     let mut out = Vec::with_capacity(mountings.len());
     for &mounting in mountings {
         // Tag fixes on the matched straight after the turn.
-        let tag = run(scn, &truth, turn_at, req, p, Some(mounting), false, true)?;
+        let tag = run(scn, &truth, turn_at, rq, Some(mounting), false, true)?;
         let (tag_reach, tag_capped) = if tag.periods.is_empty() {
             (tag.end_m - turn_at, true)
         } else {
@@ -481,37 +497,27 @@ pub fn matched_reach(
 /// [`PROFILE_TO`] × the requirement or the drive's end.
 pub fn straight_profile(
     scn: &Scenario,
-    lat_deg: f64,
-    lon_deg: f64,
-    height_m: f64,
+    site: CalibrationSite,
     speed_mps: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
 ) -> Result<Vec<(f64, f64)>> {
     let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
-    let (truth, _) = synthetic_drive(scn, lat_deg, lon_deg, height_m, speed_mps, &[(0.0, total)])?;
-    Ok(run(scn, &truth, 0.0, req, p, None, true, false)?.profile)
+    let (truth, _) = synthetic_drive(scn, site, speed_mps, &[(0.0, total)])?;
+    Ok(run(scn, &truth, 0.0, rq, None, true, false)?.profile)
 }
 
 /// [`straight_profile`] of every speed class in `speeds` (keys in
 /// (km/h)/100), run in parallel.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn straight_profiles(
     scn: &Scenario,
-    lat_deg: f64,
-    lon_deg: f64,
-    height_m: f64,
+    site: CalibrationSite,
     speeds: &BTreeSet<u64>,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
 ) -> Result<BTreeMap<u64, Vec<(f64, f64)>>> {
     use rayon::prelude::*;
     speeds
         .par_iter()
-        .map(|&s| {
-            straight_profile(scn, lat_deg, lon_deg, height_m, s as f64 / 360.0, req, p)
-                .map(|prof| (s, prof))
-        })
+        .map(|&s| straight_profile(scn, site, s as f64 / 360.0, rq).map(|prof| (s, prof)))
         .collect()
 }
 
@@ -592,33 +598,18 @@ pub(crate) struct MatchedClasses {
     pub profiles: BTreeMap<u64, Vec<(f64, f64)>>,
 }
 
-/// [`MatchedClasses`] at the network's origin (degrees).
-#[allow(clippy::too_many_arguments)]
+/// [`MatchedClasses`] at `site` (the planner: the network's origin).
 pub(crate) fn matched_classes(
     scn: &Scenario,
-    lat_deg: f64,
-    lon_deg: f64,
-    height_m: f64,
+    site: CalibrationSite,
     speeds: &BTreeSet<u64>,
     mountings: &[Mounting],
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
 ) -> Result<MatchedClasses> {
     use rayon::prelude::*;
     let per: Vec<Vec<MatchedReach>> = speeds
         .par_iter()
-        .map(|&s| {
-            matched_reach(
-                scn,
-                lat_deg,
-                lon_deg,
-                height_m,
-                s as f64 / 360.0,
-                mountings,
-                req,
-                p,
-            )
-        })
+        .map(|&s| matched_reach(scn, site, s as f64 / 360.0, mountings, rq))
         .collect::<Result<Vec<_>>>()?;
     let mut out = MatchedClasses {
         all: per.into_iter().flatten().collect(),
@@ -690,10 +681,19 @@ mod mm_reach_mc {
     ) {
         let (lat, lon, h) = (60.17, 24.94, 10.0);
         let v = kmh() / 3.6;
-        let (truth, corners) = synthetic_drive(scn, lat, lon, h, v, legs).unwrap();
+        let site = CalibrationSite {
+            lat_deg: lat,
+            lon_deg: lon,
+            height_m: h,
+        };
+        let (truth, corners) = synthetic_drive(scn, site, v, legs).unwrap();
         let from = from_corner.map_or(0.0, |i| corners[i]);
         let located = scn.located_at([lat, lon]);
-        let cov = run(&located, &truth, from, 1e9, 0.95, None, true, true).unwrap();
+        let rq = ReachRequirement {
+            req_m: 1e9,
+            p: 0.95,
+        };
+        let cov = run(&located, &truth, from, rq, None, true, true).unwrap();
         let res = simulate_with(&located, &truth, &[], runs, 1, None).unwrap();
         println!("== {name}: from {from:.0} m, {runs} runs, {} km/h", kmh());
         // First passage: where each run's error first exceeds 20 m after
@@ -833,9 +833,18 @@ mod mm_reach_mc {
             let (lat, lon, h) = (60.17, 24.94, 10.0);
             let v = kmh() / 3.6;
             let total = DRIVE_MAX_M.min(v * DRIVE_MAX_S).max(2_000.0);
-            let (truth, _) = synthetic_drive(&scn, lat, lon, h, v, &[(0.0, total)]).unwrap();
+            let site = CalibrationSite {
+                lat_deg: lat,
+                lon_deg: lon,
+                height_m: h,
+            };
+            let (truth, _) = synthetic_drive(&scn, site, v, &[(0.0, total)]).unwrap();
             let located = scn.located_at([lat, lon]);
-            let start = run(&located, &truth, 0.0, 20.0, 0.95, None, true, true).unwrap();
+            let rq = ReachRequirement {
+                req_m: 20.0,
+                p: 0.95,
+            };
+            let start = run(&located, &truth, 0.0, rq, None, true, true).unwrap();
             let first = start.first_exceed_m.unwrap_or(start.end_m);
             let rest = (total - first).max(1_000.0);
             let sharp = [(0.0, first), (TURN_DEG, rest)];
@@ -868,11 +877,15 @@ mod calibration_roads {
             "scenarios/helsinki-network-trips.toml",
         ))
         .unwrap();
+        let site = CalibrationSite {
+            lat_deg: 60.17,
+            lon_deg: 24.94,
+            height_m: 10.0,
+        };
         let mut legs = warm_up(3_000.0);
         let last = legs.last().unwrap().0;
         legs.push((last + TURN_DEG, 2_000.0));
-        let (truth, corners) =
-            synthetic_drive(&scn, 60.17, 24.94, 10.0, 50.0 / 3.6, &legs).unwrap();
+        let (truth, corners) = synthetic_drive(&scn, site, 50.0 / 3.6, &legs).unwrap();
         assert_eq!(corners.len(), WARM_UP_LEGS);
         for (i, c) in corners.iter().enumerate() {
             // Corner i ends leg i (500 m legs), to the 0.2 % of the

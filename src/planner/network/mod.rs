@@ -109,13 +109,16 @@ pub(crate) mod walks;
 mod window_sets;
 
 pub use coverage::{coverage_geojson, BudgetSource, EdgeCoverage};
-pub use mm_reach::{matched_reach, MatchedReach};
+pub use mm_reach::{matched_reach, CalibrationSite, MatchedReach, ReachRequirement};
 pub use plan::{plan_network, plan_network_loaded, plan_network_on};
 pub use reach::{reach_class, ReachClass};
 pub use settings::{
     scenario_network, UTurns, DEFAULT_NETWORK_SPACING_M, EXISTING_SNAP_M, ILP_MAX_CANDIDATES,
 };
-pub use simulated_reach::{simulated_reach, upper_order_statistic, SimulatedDrive, SimulatedReach};
+pub use simulated_reach::{
+    simulated_reach, turn_reach, upper_order_statistic, RoadRuns, SimulatedDrive, SimulatedReach,
+    TurnLead,
+};
 pub use trips::{
     chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper, TripsGuarantee,
     ALLOWED_VIOLATIONS, MAX_TRIPS_WINDOW_IDS,

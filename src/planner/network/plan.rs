@@ -7,7 +7,7 @@ use super::coverage::{BudgetSource, EdgeCoverage};
 use super::greedy;
 use super::ilp::{self, IlpLimits, IlpOutcome};
 use super::instance::{build, classes_in_use, describe_walk, speed_key};
-use super::mm_reach::{budget_bound, straight_profiles};
+use super::mm_reach::{budget_bound, straight_profiles, CalibrationSite, ReachRequirement};
 use super::reach::{reach_class, ReachClass};
 use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::NetworkPlan;
@@ -133,6 +133,11 @@ pub fn plan_network_on(
     let t = Instant::now();
     let (speeds, mountings, classes) = classes_in_use(&built)?;
     let origin = net.frame.origin();
+    let site = CalibrationSite {
+        lat_deg: origin.lat.to_degrees(),
+        lon_deg: origin.lon.to_degrees(),
+        height_m,
+    };
     let key = speed_key;
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
     let mm =
@@ -146,13 +151,13 @@ pub fn plan_network_on(
         // speed class, and walks that end at every turn map matching observes.
         let mc = super::mm_reach::matched_classes(
             scn,
-            origin.lat.to_degrees(),
-            origin.lon.to_degrees(),
-            height_m,
+            site,
             &speeds,
             &mountings,
-            req,
-            scn.planner().requirement_confidence,
+            ReachRequirement {
+                req_m: req,
+                p: scn.planner().requirement_confidence,
+            },
         )?;
         matched = mc.all;
         class_reach = mc.reach;
@@ -202,9 +207,11 @@ pub fn plan_network_on(
             let r = class_reach.entry(key(v)).or_insert(f64::INFINITY);
             *r = r.min(c.steady_reach_m.min(c.start_reach_m));
         }
-        let conf = scn.planner().requirement_confidence;
-        let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
-        profiles = straight_profiles(scn, lat0, lon0, height_m, &speeds, req, conf)?;
+        let rq = ReachRequirement {
+            req_m: req,
+            p: scn.planner().requirement_confidence,
+        };
+        profiles = straight_profiles(scn, site, &speeds, rq)?;
     }
     timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
     let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);

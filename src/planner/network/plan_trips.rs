@@ -5,7 +5,10 @@
 
 use super::coverage::{add_walk_budgets, edge_budgets, BudgetSource};
 use super::instance::{classes_in_use, speed_key, Built};
-use super::mm_reach::{budget_bound, matched_classes, straight_profiles, MatchedReach, TURN_DEG};
+use super::mm_reach::{
+    budget_bound, matched_classes, straight_profiles, CalibrationSite, MatchedReach,
+    ReachRequirement, TURN_DEG,
+};
 use super::reach::{reach_class, ReachClass};
 use super::straight::{walk_budgets, WALK_BUDGET_CAP};
 use super::tag_sites::tags_of;
@@ -122,14 +125,22 @@ pub(super) fn plan_network_trips(
     let t = Instant::now();
     let (speeds, mountings, classes) = classes_in_use(&built)?;
     let origin = net.frame.origin();
-    let (lat0, lon0) = (origin.lat.to_degrees(), origin.lon.to_degrees());
+    let site = CalibrationSite {
+        lat_deg: origin.lat.to_degrees(),
+        lon_deg: origin.lon.to_degrees(),
+        height_m,
+    };
+    let rq = ReachRequirement {
+        req_m: req,
+        p: conf,
+    };
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
     let profiles: BTreeMap<u64, Vec<(f64, f64)>>;
     let mut matched: Vec<MatchedReach> = Vec::new();
     let mut class_curve: BTreeMap<u64, f64> = BTreeMap::new();
     let mut reach_classes: Vec<ReachClass> = Vec::new();
     if mm {
-        let mc = matched_classes(scn, lat0, lon0, height_m, &speeds, &mountings, req, conf)?;
+        let mc = matched_classes(scn, site, &speeds, &mountings, rq)?;
         matched = mc.all;
         class_reach = mc.reach;
         class_curve = mc.curve;
@@ -143,7 +154,7 @@ pub(super) fn plan_network_trips(
             let r = class_reach.entry(speed_key(v)).or_insert(f64::INFINITY);
             *r = r.min(c.steady_reach_m.min(c.start_reach_m));
         }
-        profiles = straight_profiles(scn, lat0, lon0, height_m, &speeds, req, conf)?;
+        profiles = straight_profiles(scn, site, &speeds, rq)?;
     }
     timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
     let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);

@@ -48,9 +48,22 @@
 //! is centred on the road, and each run's map error is drawn in that frame
 //! (BENCHMARKS.md, "Cheaper simulated reach"). One difference: a run that
 //! diverges (a non-finite error) after the runs stop is no longer an error.
+//!
+//! A cap ([`RoadRuns::max_after_m`]) stops the runs that far past the
+//! reset on the same road: the figures below it are the uncapped ones, bit
+//! for bit, the others the cap (`capped`). The roads that never cross,
+//! driven whole otherwise, are most of the fast classes' cost.
+//!
+//! # Other turn roads
+//!
+//! [`turn_reach`] measures the same turn after another lead
+//! ([`TurnLead`]): fewer warm-up legs than the calibrated turn's, or a
+//! first straight of any length (the early reach's fixed point, BENCHMARKS.md,
+//! "How many turns calibrate a vehicle, and the early reach").
 
 use super::mm_reach::{
-    run_bound, synthetic_drive, warm_up, CURVE_CORNERS, DRIVE_MAX_M, DRIVE_MAX_S,
+    run_bound, synthetic_drive, warm_up_legs, CalibrationSite, ReachRequirement, CURVE_CORNERS,
+    DRIVE_MAX_M, DRIVE_MAX_S, WARM_UP_LEGS,
 };
 use super::turns::{CURVE_M, TURN_DEG};
 use crate::error::{Error, Result};
@@ -91,6 +104,63 @@ pub struct SimulatedReach {
     pub runs: u64,
     /// The five roads, in the module's order.
     pub drives: Vec<SimulatedDrive>,
+}
+
+/// How each road is driven: `runs` simulated drives from `seed`, each road
+/// running `after_m` past its reset (and within the calibration's 30 km /
+/// 90 min).
+///
+/// `max_after_m` stops the runs that far past the reset instead of at the
+/// road's end. The road itself is the same (`after_m` long: a road cut
+/// short would change every run's map error, the module doc says why), so
+/// every figure below the cap is the uncapped one, bit for bit; a figure
+/// that would lie beyond it is the cap, with `capped` set. A planner would
+/// cap at the map's longest turn-free stretch: a reach beyond it buys
+/// nothing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoadRuns {
+    /// Monte Carlo runs per road.
+    pub runs: u64,
+    /// The first run's seed.
+    pub seed: u64,
+    /// Length of each road past its reset (m, at least 500).
+    pub after_m: f64,
+    /// Distance past the reset where the runs stop (m; `None`: the road's
+    /// end).
+    pub max_after_m: Option<f64>,
+}
+
+impl RoadRuns {
+    /// `runs` from `seed` on roads running `after_m` past their reset, to
+    /// the road's end.
+    pub fn new(runs: u64, seed: u64, after_m: f64) -> Self {
+        Self {
+            runs,
+            seed,
+            after_m,
+            max_after_m: None,
+        }
+    }
+
+    /// The same, the runs stopped `max_after_m` past the reset.
+    pub fn capped_at(self, max_after_m: f64) -> Self {
+        Self {
+            max_after_m: Some(max_after_m),
+            ..self
+        }
+    }
+
+    /// The cap, checked (the road's length is checked with its speed).
+    fn check(&self) -> Result<()> {
+        if let Some(c) = self.max_after_m {
+            if !(c > 0.0 && c.is_finite()) {
+                return Err(Error::InvalidParameter(format!(
+                    "the runs' cap past the reset must be positive, not {c} m"
+                )));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The smallest `k` (1-based) such that the `k`-th smallest of `n`
@@ -142,12 +212,11 @@ fn bound_reach(
     scn: &Scenario,
     truth: &TruthSource,
     from_m: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
 ) -> Result<(f64, bool, f64)> {
     let end = truth.samples().last().map_or(0.0, |s| s.distance_m);
     let length_after = (end - from_m).max(0.0);
-    Ok(match run_bound(scn, truth, from_m, req, p)? {
+    Ok(match run_bound(scn, truth, from_m, rq)? {
         Some(x) => ((x - from_m).max(0.0), false, length_after),
         None => (length_after, true, length_after),
     })
@@ -184,19 +253,31 @@ fn ranks(n: usize) -> (usize, Option<usize>) {
 /// run never reads what lies ahead of it): so the runs are advanced
 /// [`STAGE_M`] past the point being compared, and stopped once both
 /// statistics have crossed. The figures are those of the whole drive.
-#[allow(clippy::too_many_arguments)]
+///
+/// With a cap (`mc.max_after_m`) the grid ends at the cap instead of the
+/// road's end, and the runs are advanced no further: a figure beyond the
+/// cap is the cap, `capped`.
 fn measure(
     scn: &Scenario,
     name: &str,
     truth: &TruthSource,
     from_m: f64,
-    req: f64,
-    p: f64,
-    runs: u64,
-    seed: u64,
+    rq: ReachRequirement,
+    mc: &RoadRuns,
 ) -> Result<Measured> {
-    let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, req, p)?;
-    let (q95, upper, simulated_m) = simulate_staged(scn, truth, runs, seed, |st| {
+    let req = rq.req_m;
+    let (mut bound_reach_m, mut bound_capped, mut length_after) =
+        bound_reach(scn, truth, from_m, rq)?;
+    // The cap: the grid and the runs end there; the engine's bound (one
+    // cheap run) is clipped to it.
+    let cap = mc.max_after_m.filter(|&c| c < length_after);
+    if let Some(c) = cap {
+        length_after = c;
+        if bound_reach_m > c {
+            (bound_reach_m, bound_capped) = (c, true);
+        }
+    }
+    let (q95, upper, simulated_m) = simulate_staged(scn, truth, mc.runs, mc.seed, |st| {
         let (k95, ku) = ranks(st.len());
         let (mut q95, mut upper) = (None, None);
         let mut ahead = f64::NEG_INFINITY;
@@ -205,6 +286,10 @@ fn measure(
             let at = from_m + d;
             if at > ahead {
                 ahead = at + STAGE_M;
+                if cap.is_some() {
+                    // Still at or beyond `at`: the rows there are made.
+                    ahead = ahead.min(from_m + length_after);
+                }
                 st.advance_to(ahead);
             }
             let mut rows = (0..st.len()).map(|i| st.rows(i));
@@ -244,37 +329,30 @@ fn measure(
     })
 }
 
-/// The five calibration roads of speed class `speed_mps` at (`lat_deg`,
-/// `lon_deg`, `height_m`), each driven `runs` times from `seed` and measured
-/// for `req` m at the engine's confidence `p`. Each road runs at most
-/// `after_m` past its reset (and within the calibration's 30 km / 90 min).
-#[allow(clippy::too_many_arguments)]
+/// The five calibration roads of speed class `speed_mps` at `site`, each
+/// driven `runs` times from `seed` and measured against `rq` (the engine's
+/// bound at its confidence, the runs' error at 95 %). Each road runs at
+/// most `after_m` past its reset (and within the calibration's 30 km /
+/// 90 min).
 pub fn simulated_reach(
     scn: &Scenario,
-    lat_deg: f64,
-    lon_deg: f64,
-    height_m: f64,
+    site: CalibrationSite,
     speed_mps: f64,
-    req: f64,
-    p: f64,
-    runs: u64,
-    seed: u64,
-    after_m: f64,
+    rq: ReachRequirement,
+    mc: &RoadRuns,
 ) -> Result<SimulatedReach> {
+    mc.check()?;
     let drives = roads(
         scn,
-        [lat_deg, lon_deg, height_m],
+        site,
         speed_mps,
-        req,
-        p,
-        after_m,
-        &mut |scn, name, truth, from_m| {
-            Ok(measure(scn, name, truth, from_m, req, p, runs, seed)?.drive)
-        },
+        rq,
+        mc.after_m,
+        &mut |scn, name, truth, from_m| Ok(measure(scn, name, truth, from_m, rq, mc)?.drive),
     )?;
     Ok(SimulatedReach {
         speed_kmh: speed_mps * 3.6,
-        runs,
+        runs: mc.runs,
         drives,
     })
 }
@@ -283,18 +361,35 @@ pub fn simulated_reach(
 /// where the reset's stretch starts (m).
 type Measure<'m> = dyn FnMut(&Scenario, &str, &TruthSource, f64) -> Result<SimulatedDrive> + 'm;
 
-/// The five roads of [`simulated_reach`] at `at` (degrees, degrees, m),
-/// built one at a time and handed to `measure`, in the module's order.
+/// The five roads of [`simulated_reach`] at `site`, built one at a time
+/// and handed to `measure`, in the module's order.
 fn roads(
     scn: &Scenario,
-    at: [f64; 3],
+    site: CalibrationSite,
     speed_mps: f64,
-    req: f64,
-    p: f64,
+    rq: ReachRequirement,
     after_m: f64,
     measure: &mut Measure<'_>,
 ) -> Result<Vec<SimulatedDrive>> {
-    let [lat_deg, lon_deg, height_m] = at;
+    check_road(speed_mps, after_m)?;
+    let scn = scn.located_at([site.lat_deg, site.lon_deg]);
+    let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
+    let first = first_straight(&scn, site, speed_mps, rq)?;
+    let mut drives = Vec::with_capacity(5);
+    // Start: the straight from the prior, to `after_m`.
+    let (truth, _) = synthetic_drive(&scn, site, speed_mps, &[(0.0, total.min(after_m))])?;
+    drives.push(measure(&scn, "start", &truth, 0.0)?);
+    drop(truth);
+    for lead in [TurnLead::WarmUp(0), TurnLead::WarmUp(WARM_UP_LEGS)] {
+        let [s, c] = turn_roads(&scn, site, speed_mps, first, lead, after_m, measure)?;
+        drives.push(s);
+        drives.push(c);
+    }
+    Ok(drives)
+}
+
+/// The speed and the road's length past its reset, checked.
+fn check_road(speed_mps: f64, after_m: f64) -> Result<()> {
     if !(speed_mps > 0.0 && speed_mps.is_finite()) {
         return Err(Error::InvalidParameter(format!(
             "speed {speed_mps} m/s: must be positive"
@@ -305,59 +400,129 @@ fn roads(
             "the roads must run at least 500 m past their reset, not {after_m} m"
         )));
     }
-    let scn = scn.located_at([lat_deg, lon_deg]);
+    Ok(())
+}
+
+/// The first turn's straight: the engine's start reach (as the planner
+/// budgets it) on the calibration's full straight, at least 200 m.
+/// `scn` is located at `site`.
+fn first_straight(
+    scn: &Scenario,
+    site: CalibrationSite,
+    speed_mps: f64,
+    rq: ReachRequirement,
+) -> Result<f64> {
     let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
-    let drive =
-        |legs: &[(f64, f64)]| synthetic_drive(&scn, lat_deg, lon_deg, height_m, speed_mps, legs);
-    // The first turns' straight: the engine's start reach (as the planner
-    // budgets it) on the calibration's full straight, at least 200 m.
-    let (long, _) = drive(&[(0.0, total)])?;
-    let first = run_bound(&scn, &long, 0.0, req, p)?
-        .unwrap_or(total)
-        .max(200.0);
-    drop(long);
-    let mut drives = Vec::with_capacity(5);
-    // Start: the straight from the prior, to `after_m`.
-    let (truth, _) = drive(&[(0.0, total.min(after_m))])?;
-    drives.push(measure(&scn, "start", &truth, 0.0)?);
-    drop(truth);
-    let curve = |lead: &[(f64, f64)]| -> Vec<(f64, f64)> {
-        let last = lead.last().map_or(0.0, |l| l.0);
-        let mut legs = lead.to_vec();
-        let step = CURVE_M / CURVE_CORNERS as f64;
-        for i in 1..CURVE_CORNERS {
-            legs.push((last + TURN_DEG * i as f64 / CURVE_CORNERS as f64, step));
+    let (long, _) = synthetic_drive(scn, site, speed_mps, &[(0.0, total)])?;
+    Ok(run_bound(scn, &long, 0.0, rq)?.unwrap_or(total).max(200.0))
+}
+
+/// What a turn road drives before its turn of [`TURN_DEG`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TurnLead {
+    /// `k` warm-up legs of `WARM_UP_LEG_M` (500 m) alternating north and
+    /// east (`k − 1` right-angle turns), the first no longer than the
+    /// engine's start reach. `WarmUp(0)`: the first-turn road (a straight
+    /// as long as the engine's start reach); `WarmUp(WARM_UP_LEGS)`: the
+    /// calibrated-turn road.
+    WarmUp(usize),
+    /// A straight of this length (m) from the prior: a first turn after it.
+    Straight(f64),
+}
+
+impl TurnLead {
+    /// The lead's legs (heading degrees, length m); `first` is the engine's
+    /// start reach.
+    fn legs(self, first: f64) -> Vec<(f64, f64)> {
+        match self {
+            TurnLead::WarmUp(0) => vec![(0.0, first)],
+            TurnLead::WarmUp(k) => warm_up_legs(first, k),
+            TurnLead::Straight(l) => vec![(0.0, l)],
         }
-        legs.push((last + TURN_DEG, after_m));
-        legs
-    };
-    let sharp = |lead: &[(f64, f64)]| -> Vec<(f64, f64)> {
-        let last = lead.last().map_or(0.0, |l| l.0);
-        let mut legs = lead.to_vec();
-        legs.push((last + TURN_DEG, after_m));
-        legs
-    };
-    let warm = warm_up(first);
-    for (name, lead, corner) in [
-        ("first turn, sharp", vec![(0.0, first)], 0usize),
-        ("first turn, curve", vec![(0.0, first)], 1),
-        ("calibrated turn, sharp", warm.clone(), 0),
-        ("calibrated turn, curve", warm.clone(), 1),
-    ] {
-        let legs = if corner == 0 {
-            sharp(&lead)
-        } else {
-            curve(&lead)
-        };
-        let (truth, corners) = drive(&legs)?;
+    }
+
+    /// The road's name, with `kind` ("sharp" or "curve").
+    fn name(self, kind: &str) -> String {
+        match self {
+            TurnLead::WarmUp(0) => format!("first turn, {kind}"),
+            TurnLead::WarmUp(WARM_UP_LEGS) => format!("calibrated turn, {kind}"),
+            TurnLead::WarmUp(k) => format!("after {k} legs, {kind}"),
+            TurnLead::Straight(l) => format!("after {l:.0} m, {kind}"),
+        }
+    }
+}
+
+/// The turn of [`TURN_DEG`] after `lead`, sharp and spread over
+/// [`CURVE_M`], each road running `after_m` past its turn; each handed to
+/// `measure` from [`CURVE_M`] past the turn's first corner, where the
+/// planner's stretch starts. `scn` is located at `site`; `first` is the
+/// engine's start reach ([`first_straight`]).
+fn turn_roads(
+    scn: &Scenario,
+    site: CalibrationSite,
+    speed_mps: f64,
+    first: f64,
+    lead: TurnLead,
+    after_m: f64,
+    measure: &mut Measure<'_>,
+) -> Result<[SimulatedDrive; 2]> {
+    let lead_legs = lead.legs(first);
+    let last = lead_legs.last().map_or(0.0, |l| l.0);
+    let mut sharp = lead_legs.clone();
+    sharp.push((last + TURN_DEG, after_m));
+    let mut curve = lead_legs.clone();
+    let step = CURVE_M / CURVE_CORNERS as f64;
+    for i in 1..CURVE_CORNERS {
+        curve.push((last + TURN_DEG * i as f64 / CURVE_CORNERS as f64, step));
+    }
+    curve.push((last + TURN_DEG, after_m));
+    let mut one = |legs: &[(f64, f64)], kind: &str| -> Result<SimulatedDrive> {
+        let (truth, corners) = synthetic_drive(scn, site, speed_mps, legs)?;
         // The turn's first corner ends the lead's last leg.
         let at = corners
-            .get(lead.len() - 1)
+            .get(lead_legs.len() - 1)
             .copied()
             .ok_or_else(|| Error::InvalidParameter("calibration road without its turn".into()))?;
-        drives.push(measure(&scn, name, &truth, at + CURVE_M)?);
+        measure(scn, &lead.name(kind), &truth, at + CURVE_M)
+    };
+    Ok([one(&sharp, "sharp")?, one(&curve, "curve")?])
+}
+
+/// The turn of [`TURN_DEG`] after `lead` ([`TurnLead`]) in speed class
+/// `speed_mps` at `site`: sharp and spread over `CURVE_M` (200 m), each road
+/// driven and measured as [`simulated_reach`]'s (its turn roads are
+/// `WarmUp(0)` and `WarmUp(WARM_UP_LEGS)`, the same figures).
+pub fn turn_reach(
+    scn: &Scenario,
+    site: CalibrationSite,
+    speed_mps: f64,
+    rq: ReachRequirement,
+    mc: &RoadRuns,
+    lead: TurnLead,
+) -> Result<[SimulatedDrive; 2]> {
+    mc.check()?;
+    check_road(speed_mps, mc.after_m)?;
+    if let TurnLead::Straight(l) = lead {
+        if !(l >= 50.0 && l.is_finite()) {
+            return Err(Error::InvalidParameter(format!(
+                "the straight before the turn must be at least 50 m, not {l} m"
+            )));
+        }
     }
-    Ok(drives)
+    let scn = scn.located_at([site.lat_deg, site.lon_deg]);
+    let first = match lead {
+        TurnLead::WarmUp(_) => first_straight(&scn, site, speed_mps, rq)?,
+        TurnLead::Straight(l) => l,
+    };
+    turn_roads(
+        &scn,
+        site,
+        speed_mps,
+        first,
+        lead,
+        mc.after_m,
+        &mut |scn, name, truth, from_m| Ok(measure(scn, name, truth, from_m, rq, mc)?.drive),
+    )
 }
 
 #[cfg(test)]
@@ -367,19 +532,18 @@ mod tests {
     /// The measurement before the runs were staged, kept as the reference:
     /// every run simulates the whole road ([`simulate_with`]), then each
     /// statistic is searched on the grid separately.
-    #[allow(clippy::too_many_arguments)]
     fn measure_whole(
         scn: &Scenario,
         name: &str,
         truth: &TruthSource,
         from_m: f64,
-        req: f64,
-        p: f64,
+        rq: ReachRequirement,
         runs: u64,
         seed: u64,
     ) -> Result<SimulatedDrive> {
         use crate::sim::simulate_with;
-        let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, req, p)?;
+        let req = rq.req_m;
+        let (bound_reach_m, bound_capped, length_after) = bound_reach(scn, truth, from_m, rq)?;
         let res = simulate_with(scn, truth, &[], runs, seed, None)?;
         let errors_at = |d: f64| -> Option<Vec<f64>> {
             let at = from_m + d;
@@ -416,6 +580,18 @@ mod tests {
         })
     }
 
+    /// Where the tests lay out their roads (the example's site).
+    const HELSINKI: CalibrationSite = CalibrationSite {
+        lat_deg: 60.17,
+        lon_deg: 24.94,
+        height_m: 10.0,
+    };
+
+    /// The requirement of `req_m` m at 0.95.
+    fn rq(req_m: f64) -> ReachRequirement {
+        ReachRequirement { req_m, p: 0.95 }
+    }
+
     fn trips() -> Scenario {
         Scenario::load(std::path::Path::new(
             "scenarios/helsinki-network-trips.toml",
@@ -433,15 +609,23 @@ mod tests {
     /// last two capped, their runs driven to the road's end.
     #[test]
     fn staged_runs_give_the_whole_drives_figures() {
-        let (lat, lon, h, v) = (60.17, 24.94, 10.0, 30.0 / 3.6);
-        let scn = trips().located_at([lat, lon]);
+        let v = 30.0 / 3.6;
+        let scn = trips().located_at([HELSINKI.lat_deg, HELSINKI.lon_deg]);
         let (truth, corners) =
-            synthetic_drive(&scn, lat, lon, h, v, &[(0.0, 400.0), (TURN_DEG, 1_500.0)]).unwrap();
+            synthetic_drive(&scn, HELSINKI, v, &[(0.0, 400.0), (TURN_DEG, 1_500.0)]).unwrap();
         let from = corners[0] + CURVE_M;
         let end = truth.samples().last().unwrap().distance_m;
         for req in [3.0, 5.0, 8.0, 15.0] {
-            let staged = measure(&scn, "road", &truth, from, req, 0.95, 59, 3).unwrap();
-            let whole = measure_whole(&scn, "road", &truth, from, req, 0.95, 59, 3).unwrap();
+            let staged = measure(
+                &scn,
+                "road",
+                &truth,
+                from,
+                rq(req),
+                &RoadRuns::new(59, 3, 1_500.0),
+            )
+            .unwrap();
+            let whole = measure_whole(&scn, "road", &truth, from, rq(req), 59, 3).unwrap();
             assert_eq!(staged.drive, whole, "req {req} m");
             let crossed = !whole.capped;
             assert!(whole.upper_reach_m.is_some());
@@ -465,22 +649,104 @@ mod tests {
     #[test]
     fn five_roads_give_the_whole_drives_figures() {
         let scn = trips();
-        let (lat, lon, h, v) = (60.17, 24.94, 10.0, 50.0 / 3.6);
-        let (req, p, runs, seed) = (20.0, 0.95, 3, 1);
-        let r = simulated_reach(&scn, lat, lon, h, v, req, p, runs, seed, 500.0).unwrap();
+        let v = 50.0 / 3.6;
+        let (runs, seed) = (3, 1);
+        let mc = RoadRuns::new(runs, seed, 500.0);
+        let r = simulated_reach(&scn, HELSINKI, v, rq(20.0), &mc).unwrap();
         let whole = roads(
             &scn,
-            [lat, lon, h],
+            HELSINKI,
             v,
-            req,
-            p,
+            rq(20.0),
             500.0,
             &mut |scn, name, truth, from_m| {
-                measure_whole(scn, name, truth, from_m, req, p, runs, seed)
+                measure_whole(scn, name, truth, from_m, rq(20.0), runs, seed)
             },
         )
         .unwrap();
         assert_eq!(r.drives, whole);
+    }
+
+    /// A cap stops the runs `max_after_m` past the reset: a figure that
+    /// crosses before it is the uncapped one, bit for bit; one beyond it is
+    /// the cap, `capped`. The road of
+    /// `staged_runs_give_the_whole_drives_figures` (59 runs, 30 km/h, 1.3 km
+    /// past the reset), capped at 300 m: at 3 m both statistics cross
+    /// before the cap (25 and 150 m), at 5 m neither does (450 and 500 m),
+    /// at 15 m nothing crosses on the whole road.
+    #[test]
+    fn a_cap_keeps_the_figures_below_it() {
+        let v = 30.0 / 3.6;
+        let scn = trips().located_at([HELSINKI.lat_deg, HELSINKI.lon_deg]);
+        let (truth, corners) =
+            synthetic_drive(&scn, HELSINKI, v, &[(0.0, 400.0), (TURN_DEG, 1_500.0)]).unwrap();
+        let from = corners[0] + CURVE_M;
+        let cap = 300.0;
+        let mc = RoadRuns::new(59, 3, 1_500.0);
+        let (mut below, mut beyond) = (0, 0);
+        for req in [3.0, 5.0, 15.0] {
+            let whole = measure(&scn, "road", &truth, from, rq(req), &mc).unwrap();
+            let capped = measure(&scn, "road", &truth, from, rq(req), &mc.capped_at(cap)).unwrap();
+            let (w, c) = (&whole.drive, &capped.drive);
+            let want = |x: f64| if x <= cap { x } else { cap };
+            let wu = w.upper_reach_m.unwrap();
+            assert_eq!(c.bound_reach_m, want(w.bound_reach_m), "req {req} m");
+            assert_eq!(c.q95_reach_m, want(w.q95_reach_m), "req {req} m");
+            assert_eq!(c.upper_reach_m, Some(want(wu)), "req {req} m");
+            let over = [w.bound_reach_m, w.q95_reach_m, wu]
+                .iter()
+                .filter(|&&x| x > cap)
+                .count();
+            assert_eq!(c.capped, over > 0, "req {req} m");
+            below += 3 - over;
+            beyond += over;
+            // The runs stopped at the cap (within a row) or sooner.
+            assert!(
+                capped.simulated_m <= from + cap + 30.0,
+                "req {req} m: simulated to {} m",
+                capped.simulated_m
+            );
+        }
+        assert!(below >= 2 && beyond >= 5, "{below} below, {beyond} beyond");
+        for bad in [0.0, -1.0, f64::NAN] {
+            let mc = mc.capped_at(bad);
+            assert!(simulated_reach(&scn, HELSINKI, v, rq(3.0), &mc).is_err());
+        }
+    }
+
+    /// [`turn_reach`]: `WarmUp(0)` and `WarmUp(WARM_UP_LEGS)` are
+    /// [`simulated_reach`]'s turn roads, figure for figure (3 runs at
+    /// 50 km/h, 500 m); the stretch after two legs starts `CURVE_M` past
+    /// the second 500 m leg, after a straight `CURVE_M` past it.
+    #[test]
+    fn turn_reach_after_its_lead() {
+        let scn = trips();
+        let v = 50.0 / 3.6;
+        let mc = RoadRuns::new(3, 1, 500.0);
+        let r = simulated_reach(&scn, HELSINKI, v, rq(20.0), &mc).unwrap();
+        let reach = |lead| turn_reach(&scn, HELSINKI, v, rq(20.0), &mc, lead);
+        assert_eq!(reach(TurnLead::WarmUp(0)).unwrap()[..], r.drives[1..3]);
+        assert_eq!(
+            reach(TurnLead::WarmUp(WARM_UP_LEGS)).unwrap()[..],
+            r.drives[3..5]
+        );
+        for (lead, at, name) in [
+            (TurnLead::WarmUp(2), 1_000.0, "after 2 legs"),
+            (TurnLead::Straight(800.0), 800.0, "after 800 m"),
+        ] {
+            let [s, c] = reach(lead).unwrap();
+            assert_eq!(s.name, format!("{name}, sharp"));
+            assert_eq!(c.name, format!("{name}, curve"));
+            for d in [&s, &c] {
+                assert!(
+                    (d.from_m - CURVE_M - at).abs() < 0.003 * at,
+                    "{}: turn at {} m",
+                    d.name,
+                    d.from_m - CURVE_M
+                );
+            }
+        }
+        assert!(reach(TurnLead::Straight(10.0)).is_err());
     }
 
     /// The order statistic against the binomial CDF summed directly from
@@ -531,8 +797,9 @@ mod tests {
             "scenarios/helsinki-network-trips.toml",
         ))
         .unwrap();
-        let (lat, lon, h, v) = (60.17, 24.94, 10.0, 50.0 / 3.6);
-        let r = simulated_reach(&scn, lat, lon, h, v, 20.0, 0.95, 3, 1, 500.0).unwrap();
+        let v = 50.0 / 3.6;
+        let mc = RoadRuns::new(3, 1, 500.0);
+        let r = simulated_reach(&scn, HELSINKI, v, rq(20.0), &mc).unwrap();
         let names: Vec<&str> = r.drives.iter().map(|d| d.name.as_str()).collect();
         assert_eq!(
             names,
@@ -545,14 +812,11 @@ mod tests {
             ]
         );
         let planner = super::super::mm_reach::matched_reach(
-            &scn.located_at([lat, lon]),
-            lat,
-            lon,
-            h,
+            &scn.located_at([HELSINKI.lat_deg, HELSINKI.lon_deg]),
+            HELSINKI,
             v,
             &[crate::sim::tags::Mounting::RoadSurface],
-            20.0,
-            0.95,
+            rq(20.0),
         )
         .unwrap();
         let start = planner[0].start_reach_m;
