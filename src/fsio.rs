@@ -137,7 +137,7 @@ fn temporary_name(name: &str) -> String {
 }
 
 /// An output file written atomically: the bytes go to a hidden temporary
-/// file beside `path` (`.NAME.tmpPID-N`, [`temporary_name`]), which [`AtomicFile::commit`] syncs
+/// file beside `path` (`.NAME.tmpPID-N`, `temporary_name`), which [`AtomicFile::commit`] syncs
 /// and renames into place. Dropped without a commit (an error, a panic), the
 /// temporary file is removed and `path` is left as it was; the binary also
 /// removes it on SIGINT and SIGTERM ([`remove_temporaries`]).

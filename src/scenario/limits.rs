@@ -263,7 +263,7 @@ impl RouteCounts {
 /// - the lane path: its lateral profile, its polyline every
 ///   [`LANE_PATH_SPACING_M`] along the centre path (at most the route's
 ///   length) with the route's spans and waypoints, and its plan being built
-///   on a path [`LANE_PATH_LENGTH_FACTOR`] times the route's length, with
+///   on a path `LANE_PATH_LENGTH_FACTOR` times the route's length, with
 ///   at most one turn on the spot per route vertex.
 ///
 /// At least 208 bytes a metre (232 on the Helsinki routes of BENCHMARKS.md,

@@ -189,7 +189,7 @@ impl RoutePlan {
     /// Per vertex: the polyline, its legs, tangents, turns, a line and an
     /// arc (the elements) and an arc's speed limit; per metre of path a
     /// speed-profile node, and one more per hard point (the start, the end,
-    /// a stop, a turn on the spot); every [`CONVERGENCE_STEP_M`] a
+    /// a stop, a turn on the spot); every `CONVERGENCE_STEP_M` a
     /// convergence correction. The plan keeps its elements, nodes and
     /// corrections.
     pub fn memory_bytes(
