@@ -32,6 +32,53 @@ const MAX_PATHS: usize = 256;
 /// left to the certification rounds, as for [`MAX_PATHS`].
 pub(crate) const MAX_STEPS: usize = 1 << 16;
 
+/// The first reset on directed edge `ei` at or after `x` (m), for a walk
+/// with heading history `win` that has driven `c` m since its start: the
+/// end of the first resetting zone ([`walk_edge`]), or `None`.
+fn first_reset(model: &EdgeModel, ei: usize, x: f64, c: f64, win: &mut TurnWindow) -> Option<f64> {
+    let mut bend = None;
+    walk_edge(
+        &model.headings[ei],
+        &model.intrinsic[ei],
+        x,
+        model.length[ei] + 1.0,
+        c,
+        win,
+        model.curve[ei],
+        |r| {
+            bend = Some(r);
+            true
+        },
+    );
+    bend
+}
+
+/// The walk's continuations from the end of edge `ei` through the
+/// non-resetting transitions `next` (flagged U-turns included): (edge,
+/// whether it turns back, the heading history to carry). A turn-back
+/// ([`turns_back`]) clears the history and is skipped once `turned` has
+/// reached [`MAX_UTURNS`].
+fn continuations<'a>(
+    model: &'a EdgeModel,
+    next: &'a [u32],
+    ei: usize,
+    turned: u8,
+    win: &'a TurnWindow,
+) -> impl Iterator<Item = (u32, bool, TurnWindow)> + 'a {
+    next.iter().filter_map(move |&nx| {
+        let to = nx & !UTURN_FLAG;
+        let is_u = nx & UTURN_FLAG != 0 || turns_back(model, ei, to as usize);
+        if is_u && turned >= MAX_UTURNS {
+            return None;
+        }
+        let mut w = win.clone();
+        if is_u {
+            w.clear();
+        }
+        Some((to, is_u, w))
+    })
+}
+
 /// What [`straight_windows`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(crate) struct WalkStats {
@@ -92,8 +139,7 @@ fn straight_windows_within(
         next[a as usize].push(b);
     }
     // A U-turn (or hairpin) at a junction a chain made counts as one
-    // everywhere.
-    let observed_uturn = |a: usize, b: u32| turns_back(model, a, b as usize);
+    // everywhere (`continuations`).
     for v in &mut next {
         v.sort_unstable();
     }
@@ -143,20 +189,7 @@ fn straight_windows_within(
                 let rate = model.rate[ei];
                 let len = model.length[ei];
                 // The first reset on this edge from x, with the walk's history.
-                let mut bend = None;
-                walk_edge(
-                    &model.headings[ei],
-                    &model.intrinsic[ei],
-                    x,
-                    len + 1.0,
-                    c,
-                    &mut win,
-                    model.curve[ei],
-                    |r| {
-                        bend = Some(r);
-                        true
-                    },
-                );
+                let bend = first_reset(model, ei, x, c, &mut win);
                 let stop = bend.unwrap_or(len);
                 // Where the budget reaches 1 on this edge, if it does.
                 let reach_at = if rate > 0.0 {
@@ -187,20 +220,12 @@ fn straight_windows_within(
                 if bend.is_some() {
                     continue; // a bend resets: no window from this start here
                 }
-                for &nx in &next[ei] {
+                for (to, is_u, w) in continuations(model, &next[ei], ei, turned, &win) {
                     if paths + stack.len() >= MAX_PATHS {
                         break;
                     }
-                    let is_u = nx & UTURN_FLAG != 0 || observed_uturn(ei, nx & !UTURN_FLAG);
-                    if is_u && turned >= MAX_UTURNS {
-                        continue;
-                    }
-                    let mut w = win.clone();
-                    if is_u {
-                        w.clear();
-                    }
                     stack.push(Step {
-                        edge: nx & !UTURN_FLAG,
+                        edge: to,
                         x: 0.0,
                         u: u + (len - x) * rate,
                         ids: ids.clone(),
@@ -388,20 +413,7 @@ fn walk_from(
         let ei = ed as usize;
         let rate = model.rate[ei];
         let len = model.length[ei];
-        let mut bend = None;
-        walk_edge(
-            &model.headings[ei],
-            &model.intrinsic[ei],
-            x,
-            len + 1.0,
-            c,
-            &mut win,
-            model.curve[ei],
-            |r| {
-                bend = Some(r);
-                true
-            },
-        );
+        let bend = first_reset(model, ei, x, c, &mut win);
         // The walk ends at a bend or at the next site read, whichever
         // comes first (a read at the start itself opened it).
         let first = ei == e && x == x0;
@@ -420,20 +432,12 @@ fn walk_from(
         if stop < len {
             continue;
         }
-        for &nx in &next[ei] {
+        for (to, is_u, w) in continuations(model, &next[ei], ei, turned, &win) {
             if paths + stack.len() >= MAX_PATHS {
                 break;
             }
-            let is_u = nx & UTURN_FLAG != 0 || turns_back(model, ei, (nx & !UTURN_FLAG) as usize);
-            if is_u && turned >= MAX_UTURNS {
-                continue;
-            }
-            let mut w = win.clone();
-            if is_u {
-                w.clear();
-            }
             stack.push(Reach {
-                edge: nx & !UTURN_FLAG,
+                edge: to,
                 x: 0.0,
                 u: u_end,
                 turned: turned + u8::from(is_u),
