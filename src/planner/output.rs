@@ -241,6 +241,7 @@ impl NetworkPlan {
             "budget_reference_m".into(),
             format!("{:.1}", self.budget_reference_m),
         );
+        p.insert("reach_levels".into(), self.reach_levels.to_string());
         p.insert("u_turns".into(), self.u_turns.clone());
         p.insert(
             "candidate_spacing_m".into(),

@@ -531,8 +531,27 @@ pub fn network_table(
         &mut rows,
         "reach between fixes",
         (|| {
+            // Two levels: the calibrated reaches of plan.json's
+            // matched_reach, slowest and fastest class.
+            let calibrated = p["matched_reach"].as_array().and_then(|a| {
+                let v: Vec<f64> = a
+                    .iter()
+                    .filter_map(|c| num(&c["calibrated_reach_m"]))
+                    .collect();
+                let lo = v.iter().copied().reduce(f64::min)?;
+                Some((lo, v.iter().copied().fold(lo, f64::max)))
+            });
+            let levels = match (p["reach_levels"].as_u64(), calibrated) {
+                (Some(2), Some((lo, hi))) => format!(
+                    "; two levels: each chain at this reach until calibrated ({} right-angle turns \
+                     and {:.0} km driven), then at {lo:.0}–{hi:.0} m",
+                    crate::planner::network::CALIBRATION_TURNS,
+                    crate::planner::network::CALIBRATION_M / 1000.0
+                ),
+                _ => String::new(),
+            };
             Some(format!(
-                "{:.0} m (slowest speed class; fastest {:.0} m); steady state {:.0} m, from the start {:.0} m",
+                "{:.0} m (slowest speed class; fastest {:.0} m); steady state {:.0} m, from the start {:.0} m{levels}",
                 num(&p["reach_m"])?,
                 num(&p["budget_reference_m"])?,
                 num(&p["steady_reach_m"])?,

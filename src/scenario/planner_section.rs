@@ -96,6 +96,18 @@ pub(super) fn planner(
     if traffic != Traffic::Trips && p.destinations.is_some() {
         return Err(c.err("planner.destinations applies to traffic = \"trips\" only"));
     }
+    let reach_levels = p.reach_levels.unwrap_or(2);
+    if !(1..=2).contains(&reach_levels) {
+        return Err(c.err(format!(
+            "planner.reach_levels = {reach_levels} must be 1 (the single reach) or 2 (early, then \
+             calibrated)"
+        )));
+    }
+    if (coverage != Coverage::Network || traffic != Traffic::Trips) && p.reach_levels.is_some() {
+        return Err(c.err(
+            "planner.reach_levels applies to coverage = \"network\" with traffic = \"trips\" only",
+        ));
+    }
     let names = p.mountings.unwrap_or_else(|| Mounting::ALL.to_vec());
     if names.is_empty() {
         return Err(c.err("planner.mountings is empty"));
@@ -163,6 +175,7 @@ pub(super) fn planner(
         existing_tags: p.existing_tags.map(|f| base.join(f)),
         u_turns: p.u_turns.unwrap_or_default(),
         traffic,
+        reach_levels,
         destinations: p.destinations.map(|f| base.join(f)),
         shift_s: shift_hours * 3600.0,
         violation_probability,

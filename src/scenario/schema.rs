@@ -614,6 +614,11 @@ pub struct PlannerSection {
     /// default) or "any_walk".
     #[serde(default)]
     pub traffic: Option<Traffic>,
+    /// `traffic = "trips"` with map matching: 2 (the default) budgets a
+    /// chain at the early reach until it is calibrated and at the
+    /// calibrated reach after; 1 at the single reach throughout.
+    #[serde(default)]
+    pub reach_levels: Option<u8>,
     /// `traffic = "trips"`: destinations CSV (`lat,lon[,weight]`, relative
     /// to the scenario's folder); default: points on the network weighted
     /// by road length.

@@ -224,6 +224,9 @@ pub struct PlannerOptions {
     pub u_turns: UTurns,
     /// The traffic a network plan serves (default trips).
     pub traffic: Traffic,
+    /// Reach levels of a `trips` plan with map matching: 2 (default, early
+    /// then calibrated) or 1 (the single reach).
+    pub reach_levels: u8,
     /// Destinations CSV of `trips` traffic, resolved against the
     /// scenario's folder (default: points weighted by road length).
     pub destinations: Option<PathBuf>,

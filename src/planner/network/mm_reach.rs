@@ -57,6 +57,18 @@ const FIRST_LEG_MAX_M: f64 = 3_000.0;
 pub const WARM_UP_LEGS: usize = 6;
 /// Length of each warm-up leg (m).
 pub const WARM_UP_LEG_M: f64 = 500.0;
+/// A vehicle counts as **calibrated** once it has made this many junction
+/// turns of [`CALIBRATION_TURN_DEG`] (the warm-up's right-angle turns:
+/// `WARM_UP_LEGS − 1`) and driven [`CALIBRATION_M`] since its start: then
+/// its stretches are budgeted at the calibrated reach, before at the early
+/// reach (`MatchedReach`).
+pub const CALIBRATION_TURNS: usize = WARM_UP_LEGS - 1;
+/// A calibrating turn's angle: within this of a right angle (degrees; the
+/// along-road error is seen with sensitivity sin θ ≥ 0.87).
+pub const CALIBRATION_TURN_DEG: f64 = 30.0;
+/// The distance a vehicle drives before it counts as calibrated (m): the
+/// warm-up's whole length at most.
+pub const CALIBRATION_M: f64 = WARM_UP_LEGS as f64 * WARM_UP_LEG_M;
 /// Corners of the calibration's slow curve.
 pub(super) const CURVE_CORNERS: usize = 8;
 /// The curve distance where only quick turns reset (m): a junction's
@@ -110,6 +122,21 @@ pub struct MatchedReach {
     pub tag_reach_m: f64,
     /// The class's reach: the smallest of the three (m).
     pub reach_m: f64,
+    /// Before a vehicle is calibrated ([`CALIBRATION_TURNS`]): `reach_m`
+    /// (at most `calibrated_reach_m`), m.
+    pub early_reach_m: f64,
+    /// After calibration: the smallest of the turn reach, the same weak
+    /// turn after one more warm-up leg (the other heading: the warm-up's
+    /// legs alternate north and east), and the tag reach (m). Equal to
+    /// `reach_m` where turns do not reset.
+    pub calibrated_reach_m: f64,
+    /// Information, not planned with: the longest stretch from the prior
+    /// that a first turn of [`TURN_DEG`] leaves as long again (the fixed
+    /// point, `early_reach`; m). Where it is below `early_reach_m`, the
+    /// engine does not show the early level for a vehicle whose first
+    /// reset is a weak turn (docs/DESIGN.md, "Two reach levels"). `None`
+    /// where turns do not reset.
+    pub first_turn_fixed_point_m: Option<f64>,
     /// Smallest bound within 300 m after the turn (m): the level a turn
     /// resets the error to.
     pub bound_after_turn_m: f64,
@@ -246,11 +273,28 @@ fn turn_drive(
     w: f64,
     rq: ReachRequirement,
 ) -> Result<(Drive, f64, TruthSource)> {
-    let base = warm_up(first);
-    let last = base.last().map_or(0.0, |l| l.0);
-    let mut sharp = base.clone();
+    turn_after(scn, site, speed_mps, &warm_up(first), total, w, rq, true)
+}
+
+/// The turn of [`TURN_DEG`] after the legs `lead` (heading degrees, length
+/// m), sharp and spread over `w`, then straight for `total` m; each run
+/// (with the bound's profile when `profile`) from where its reset zone
+/// ends; the weaker (shorter reach) with its start and truth.
+#[allow(clippy::too_many_arguments)]
+fn turn_after(
+    scn: &Scenario,
+    site: CalibrationSite,
+    speed_mps: f64,
+    lead: &[(f64, f64)],
+    total: f64,
+    w: f64,
+    rq: ReachRequirement,
+    profile: bool,
+) -> Result<(Drive, f64, TruthSource)> {
+    let last = lead.last().map_or(0.0, |l| l.0);
+    let mut sharp = lead.to_vec();
     sharp.push((last + TURN_DEG, total));
-    let mut gradual = base;
+    let mut gradual = lead.to_vec();
     let step = w / CURVE_CORNERS as f64;
     for i in 1..CURVE_CORNERS {
         gradual.push((last + TURN_DEG * i as f64 / CURVE_CORNERS as f64, step));
@@ -259,8 +303,8 @@ fn turn_drive(
     let mut best: Option<(Drive, f64, TruthSource)> = None;
     for legs in [sharp, gradual] {
         let (truth, corners) = synthetic_drive(scn, site, speed_mps, &legs)?;
-        let from = corners.get(WARM_UP_LEGS - 1).copied().unwrap_or(0.0) + w;
-        let d = run(scn, &truth, from, rq, None, true, true)?;
+        let from = corners.get(lead.len() - 1).copied().unwrap_or(0.0) + w;
+        let d = run(scn, &truth, from, rq, None, profile, true)?;
         let reach = d.first_exceed_m.unwrap_or(d.end_m) - from;
         if best
             .as_ref()
@@ -270,6 +314,69 @@ fn turn_drive(
         }
     }
     best.ok_or_else(|| Error::InvalidParameter("no calibration turn drive".into()))
+}
+
+/// The reach after [`turn_after`]'s weaker turn (m), measured only as far
+/// as `need` m past the reset (the road ends there: a figure of `need` or
+/// more means "at least `need`").
+fn reach_after(
+    scn: &Scenario,
+    site: CalibrationSite,
+    speed_mps: f64,
+    lead: &[(f64, f64)],
+    need: f64,
+    w: f64,
+    rq: ReachRequirement,
+) -> Result<f64> {
+    let total = w + need + 100.0;
+    let (d, from, _) = turn_after(scn, site, speed_mps, lead, total, w, rq, false)?;
+    Ok((d.first_exceed_m.unwrap_or(d.end_m) - from).max(0.0))
+}
+
+/// Shortest straight the early reach is searched down to (m).
+const EARLY_MIN_M: f64 = 50.0;
+/// Bisection steps of the early reach's fixed point: the bracket
+/// `[EARLY_MIN_M, start reach]` shrinks 2⁷ = 128-fold (≤ 25 m at the slow
+/// classes' start reaches of 1–3 km).
+const EARLY_STEPS: usize = 7;
+
+/// The **early reach** of a vehicle not yet calibrated (m): the longest
+/// stretch `E` ≤ `start` (the start reach) such that a vehicle that drives
+/// `E` straight from the scenario's prior and then turns by [`TURN_DEG`]
+/// (sharp or over the curve distance `w`, the weaker) keeps the bound
+/// within the requirement for at least `E` again: the fixed point of
+/// `E = min(start, reach after a first turn at E)`, found by bisection
+/// (the reach after the turn falls as the straight before it grows). A
+/// vehicle whose stretches before its calibration are at most `E` then
+/// holds the requirement through each of them. `EARLY_MIN_M` when even a
+/// turn after `EARLY_MIN_M` leaves less.
+fn early_reach(
+    scn: &Scenario,
+    site: CalibrationSite,
+    speed_mps: f64,
+    start: f64,
+    w: f64,
+    rq: ReachRequirement,
+) -> Result<f64> {
+    let holds = |l: f64| -> Result<bool> {
+        Ok(reach_after(scn, site, speed_mps, &[(0.0, l)], l, w, rq)? >= l)
+    };
+    if start <= EARLY_MIN_M || holds(start)? {
+        return Ok(start);
+    }
+    let (mut lo, mut hi) = (EARLY_MIN_M, start);
+    if !holds(lo)? {
+        return Ok(lo);
+    }
+    for _ in 0..EARLY_STEPS {
+        let mid = 0.5 * (lo + hi);
+        if holds(mid)? {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(lo)
 }
 
 /// What one drive measured.
@@ -450,6 +557,25 @@ pub fn matched_reach(
         Some(x) => ((x - turn_at).max(0.0), false),
         None => (turn.end_m - turn_at, true),
     };
+    // The two levels (module doc): the early reach's fixed point, and the
+    // weak turn after one more warm-up leg than the turn drive's (its
+    // last leg on the other heading), each measured at most as far as the
+    // turn drive's reach.
+    let levels = if turns_reset {
+        let early = early_reach(scn, site, speed_mps, start_reach, curve_m, rq)?;
+        let other = reach_after(
+            scn,
+            site,
+            speed_mps,
+            &warm_up_legs(first, WARM_UP_LEGS + 1),
+            turn_reach,
+            curve_m,
+            rq,
+        )?;
+        Some((early, other))
+    } else {
+        None
+    };
     let mut out = Vec::with_capacity(mountings.len());
     for &mounting in mountings {
         // Tag fixes on the matched straight after the turn.
@@ -467,6 +593,13 @@ pub fn matched_reach(
         } else {
             start_reach.min(tag_reach)
         };
+        let (early_reach, calibrated_reach, fixed_point) = match levels {
+            Some((fixed, other)) => {
+                let calibrated = turn_reach.min(other).min(tag_reach);
+                (reach.min(calibrated), calibrated, Some(fixed))
+            }
+            None => (reach, reach, None),
+        };
         out.push(MatchedReach {
             speed_kmh: speed_mps * 3.6,
             mounting: mounting.as_str().into(),
@@ -474,6 +607,9 @@ pub fn matched_reach(
             turn_reach_m: turn_reach,
             tag_reach_m: tag_reach,
             reach_m: reach,
+            early_reach_m: early_reach,
+            calibrated_reach_m: calibrated_reach,
+            first_turn_fixed_point_m: fixed_point,
             bound_after_turn_m: turn.min_after_turn,
             bound_after_fix_m: tag.bound_after_fix,
             turns_reset,
@@ -596,6 +732,10 @@ pub(crate) struct MatchedClasses {
     /// over the mountings.
     pub curve: BTreeMap<u64, f64>,
     pub profiles: BTreeMap<u64, Vec<(f64, f64)>>,
+    /// The early and calibrated reaches per class (m), the smallest over
+    /// the mountings.
+    pub early: BTreeMap<u64, f64>,
+    pub calibrated: BTreeMap<u64, f64>,
 }
 
 /// [`MatchedClasses`] at `site` (the planner: the network's origin).
@@ -617,6 +757,8 @@ pub(crate) fn matched_classes(
         turns: BTreeMap::new(),
         curve: BTreeMap::new(),
         profiles: BTreeMap::new(),
+        early: BTreeMap::new(),
+        calibrated: BTreeMap::new(),
     };
     for c in &out.all {
         let k = (c.speed_kmh * 100.0).round() as u64;
@@ -627,6 +769,10 @@ pub(crate) fn matched_classes(
         let w = out.curve.entry(k).or_insert(f64::INFINITY);
         *w = w.min(c.curve_m);
         out.profiles.entry(k).or_insert_with(|| c.profile.clone());
+        let e = out.early.entry(k).or_insert(f64::INFINITY);
+        *e = e.min(c.early_reach_m);
+        let l = out.calibrated.entry(k).or_insert(f64::INFINITY);
+        *l = l.min(c.calibrated_reach_m);
     }
     Ok(out)
 }

@@ -109,7 +109,10 @@ pub(crate) mod walks;
 mod window_sets;
 
 pub use coverage::{coverage_geojson, BudgetSource, EdgeCoverage};
-pub use mm_reach::{matched_reach, CalibrationSite, MatchedReach, ReachRequirement};
+pub use mm_reach::{
+    matched_reach, CalibrationSite, MatchedReach, ReachRequirement, CALIBRATION_M,
+    CALIBRATION_TURNS, CALIBRATION_TURN_DEG,
+};
 pub use plan::{plan_network, plan_network_loaded, plan_network_on};
 pub use reach::{reach_class, ReachClass};
 pub use settings::{

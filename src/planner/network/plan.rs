@@ -474,6 +474,7 @@ pub fn plan_network_on(
         verified: res.feasible(),
         longest_walk_budget: res.longest_m / r_ref,
         budget_reference_m: r_ref,
+        reach_levels: 1,
         timings_ms: timings,
         validation: None,
         traffic: "any_walk".into(),

@@ -7,7 +7,7 @@ use super::coverage::{add_walk_budgets, edge_budgets, BudgetSource};
 use super::instance::{classes_in_use, speed_key, Built};
 use super::mm_reach::{
     budget_bound, matched_classes, straight_profiles, CalibrationSite, MatchedReach,
-    ReachRequirement, TURN_DEG,
+    ReachRequirement, CALIBRATION_M, TURN_DEG,
 };
 use super::reach::{reach_class, ReachClass};
 use super::straight::{walk_budgets, WALK_BUDGET_CAP};
@@ -134,7 +134,12 @@ pub(super) fn plan_network_trips(
         req_m: req,
         p: conf,
     };
+    // The reach per class that the straight walks and calibrated chains
+    // budget at, and (two levels) the early reach chains budget at before
+    // they are calibrated (`super::traffic::calibration_point`).
     let mut class_reach: BTreeMap<u64, f64> = BTreeMap::new();
+    let mut class_early: BTreeMap<u64, f64> = BTreeMap::new();
+    let two_levels = mm && p.reach_levels == 2;
     let profiles: BTreeMap<u64, Vec<(f64, f64)>>;
     let mut matched: Vec<MatchedReach> = Vec::new();
     let mut class_curve: BTreeMap<u64, f64> = BTreeMap::new();
@@ -142,7 +147,12 @@ pub(super) fn plan_network_trips(
     if mm {
         let mc = matched_classes(scn, site, &speeds, &mountings, rq)?;
         matched = mc.all;
-        class_reach = mc.reach;
+        if two_levels {
+            class_reach = mc.calibrated;
+            class_early = mc.early;
+        } else {
+            class_reach = mc.reach;
+        }
         class_curve = mc.curve;
         profiles = mc.profiles;
     } else {
@@ -157,7 +167,11 @@ pub(super) fn plan_network_trips(
         profiles = straight_profiles(scn, site, &speeds, rq)?;
     }
     timings.insert("reach".into(), t.elapsed().as_secs_f64() * 1e3);
-    let reach_m = class_reach.values().copied().fold(f64::INFINITY, f64::min);
+    let reach_m = class_reach
+        .values()
+        .chain(class_early.values())
+        .copied()
+        .fold(f64::INFINITY, f64::min);
     let r_ref = class_reach.values().copied().fold(0.0, f64::max);
     if !(reach_m > 0.0 && r_ref.is_finite()) {
         return Err(Error::Infeasible(format!(
@@ -190,7 +204,7 @@ pub(super) fn plan_network_trips(
             }
         })
         .collect();
-    let model = EdgeModel::new(
+    let mut model = EdgeModel::new(
         net,
         built.edge_dir[..physical].to_vec(),
         built.edge_speed[..physical].to_vec(),
@@ -206,6 +220,13 @@ pub(super) fn plan_network_trips(
             (0.0, 0.0)
         },
     );
+    if two_levels {
+        let early: Vec<f64> = built.edge_speed[..physical]
+            .iter()
+            .map(|&v| 1.0 / class_early.get(&speed_key(v)).copied().unwrap_or(reach_m))
+            .collect();
+        model = model.with_levels(early, CALIBRATION_M);
+    }
     let main = super::traffic::main_component(net, &model);
     let dest = match &p.destinations {
         Some(path) => {
@@ -327,10 +348,16 @@ pub(super) fn plan_network_trips(
         match &tp.site_reason[i] {
             _ if site.existing => "installed already".to_string(),
             Some(w) if mm && w.at_start => format!(
-                "{tunnel}{:.1} km from a chain's start without {} (reach with map matching {:.0} m at {v:.0} km/h)",
+                "{tunnel}{:.1} km from a chain's start without {} (reach with map matching {:.0} m at \
+                 {v:.0} km/h{})",
                 w.stretch_m / 1000.0,
                 turn_words(v),
-                class_reach.get(&speed_key(v / 3.6)).copied().unwrap_or(reach_m)
+                class_early
+                    .get(&speed_key(v / 3.6))
+                    .or(class_reach.get(&speed_key(v / 3.6)))
+                    .copied()
+                    .unwrap_or(reach_m),
+                if two_levels { " before calibration" } else { "" }
             ),
             Some(w) if mm => format!(
                 "{tunnel}{:.1} km without {} (reach with map matching {:.0} m at {v:.0} km/h)",
@@ -397,7 +424,7 @@ pub(super) fn plan_network_trips(
             }
         } else if mm {
             format!(
-                "{tunnel}{}{:.0} m driven without {}{} (reach {r:.0} m at {:.0} km/h)",
+                "{tunnel}{}{:.0} m driven without {}{} (reach {r:.0} m at {:.0} km/h{})",
                 up_to,
                 c.budget_without_tags * r,
                 turn_words(v * 3.6),
@@ -406,7 +433,11 @@ pub(super) fn plan_network_trips(
                 } else {
                     ""
                 },
-                v * 3.6
+                v * 3.6,
+                match class_early.get(&speed_key(v)) {
+                    Some(e) if two_levels => format!(" once calibrated, {e:.0} m before"),
+                    _ => String::new(),
+                }
             )
         } else {
             format!(
@@ -536,6 +567,7 @@ pub(super) fn plan_network_trips(
         verified: g.holds,
         longest_walk_budget: g.worst_chain_budget,
         budget_reference_m: r_ref,
+        reach_levels: if two_levels { 2 } else { 1 },
         timings_ms: timings,
         validation: None,
         traffic: "trips".into(),

@@ -377,3 +377,152 @@ fn a_chains_windows_by_bisection_equal_the_scan_of_each_stretch() {
         assert_eq!(got, windows_by_scan(&cb), "case {case}");
     }
 }
+
+use super::traffic::{Chain, EdgeModel};
+
+/// A one-way staircase of `legs` roads of `leg_m` m, alternating north and
+/// a turn of `turn_deg` to the right of north (90: east), each its own
+/// road; its directed edges in driving order and the chain driving all of
+/// them.
+fn staircase(legs: usize, leg_m: f64, turn_deg: f64) -> (Network, Vec<u32>) {
+    let (la, lo) = (60.17f64, 24.94f64);
+    let m_lat = 111_320.0;
+    let m_lon = 111_320.0 * la.to_radians().cos();
+    let mut p = [0.0f64, 0.0];
+    let mut roads = Vec::new();
+    for i in 0..legs {
+        let h = if i % 2 == 0 {
+            0.0
+        } else {
+            turn_deg.to_radians()
+        };
+        let q = [p[0] + leg_m * h.cos(), p[1] + leg_m * h.sin()];
+        let ll = |x: [f64; 2]| [la + x[0] / m_lat, lo + x[1] / m_lon];
+        roads.push((
+            RoadAttributes::new(format!("leg{i}"), "primary", Oneway::Forward),
+            vec![vec![ll(p), ll(q)]],
+        ));
+        p = q;
+    }
+    let net = Network::from_model(model_from_polylines(roads).unwrap(), None).unwrap();
+    let order = (0..legs)
+        .map(|i| {
+            net.sections
+                .iter()
+                .position(|s| net.roads[s.road as usize].attributes.id == format!("leg{i}"))
+                .unwrap() as u32
+        })
+        .collect();
+    (net, order)
+}
+
+/// The staircase's model (reach `reach_m`, turns reset over `CURVE_M`) and
+/// the chain driving it from its first road's start to its last road's end.
+fn staircase_chain(net: &Network, order: &[u32], reach_m: f64) -> (EdgeModel, Chain) {
+    use super::traffic::Piece;
+    use crate::network::SectionId;
+    let dir: Vec<(SectionId, bool)> = order.iter().map(|&s| (s, true)).collect();
+    let n = dir.len();
+    let model = EdgeModel::new(
+        net,
+        dir,
+        vec![13.9; n],
+        vec![1.0 / reach_m; n],
+        vec![Vec::new(); n],
+        vec![super::turns::CURVE_M; n],
+        (0.0, 0.0),
+    );
+    let pieces: Vec<Piece> = (0..n)
+        .map(|e| Piece {
+            edge: e as u32,
+            a0: 0.0,
+            a1: model.length[e],
+        })
+        .collect();
+    let length_m = pieces.iter().map(|p| p.a1).sum();
+    let chain = Chain {
+        points: Vec::new(),
+        pieces,
+        length_m,
+        duration_s: length_m / 13.9,
+    };
+    (model, chain)
+}
+
+#[test]
+fn a_chain_is_budgeted_at_the_early_reach_until_its_calibrating_turns() {
+    use super::mm_reach::{CALIBRATION_M, CALIBRATION_TURNS};
+    use super::traffic::{calibration_point, chain_budget};
+    let (early, late) = (400.0, 4000.0);
+    // Budget at the end of each piece for a calibration point `s` (m):
+    // the early rate before it, the calibrated after.
+    let expected = |model: &EdgeModel, s: f64| -> Vec<f64> {
+        let mut c = 0.0;
+        model
+            .length
+            .iter()
+            .map(|&l| {
+                c += l;
+                c.min(s) / early + (c - s).max(0.0) / late
+            })
+            .collect()
+    };
+    // Legs of 700 m: the 5th right-angle turn comes at 3.5 km, after the
+    // 3 km: calibrated there, at a piece boundary.
+    let (net, order) = staircase(9, 700.0, 90.0);
+    let (one, chain) = staircase_chain(&net, &order, late);
+    let two = one
+        .clone()
+        .with_levels(vec![1.0 / early; order.len()], CALIBRATION_M);
+    let at_turn: f64 = one.length[..CALIBRATION_TURNS].iter().sum();
+    assert!(at_turn > CALIBRATION_M);
+    assert_eq!(calibration_point(&two, &chain), at_turn);
+    // One level: no calibration point, and the budget the old formula's,
+    // bit for bit (b += length × rate).
+    assert_eq!(calibration_point(&one, &chain), f64::INFINITY);
+    let cb = chain_budget(&one, &chain, true);
+    let mut b = 0.0;
+    for (i, &(_, b0, b1)) in cb.pieces.iter().enumerate() {
+        assert_eq!(b0, b);
+        b += one.length[i] * one.rate[i];
+        assert_eq!(b1, b);
+    }
+    // Two levels: (lengths are ~700 m on the ellipsoid; the sums agree to
+    // rounding, 1e-9 of a budget).
+    let cb = chain_budget(&two, &chain, true);
+    for (got, want) in cb.pieces.iter().zip(expected(&two, at_turn)) {
+        assert!((got.2 - want).abs() < 1e-9, "{} vs {want}", got.2);
+    }
+    // Every turn resets: the stretches before calibration are 700 m, over
+    // the early reach (budget 1.75), the ones after 0.175.
+    let gaps: Vec<f64> = cb.resets.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    assert!(gaps.len() >= 9, "{gaps:?}");
+    assert!(gaps[0] > 1.5 && gaps[gaps.len() - 1] < 0.2, "{gaps:?}");
+    // Without map matching nothing calibrates.
+    let cb = chain_budget(&two, &chain, false);
+    let end = cb.pieces.last().unwrap().2;
+    assert!((end - chain.length_m / early).abs() < 1e-9);
+
+    // Legs of 400 m: the 5th turn at 2 km, before the 3 km: calibrated at
+    // 3 km, inside the 8th road, which the budget splits there.
+    let (net, order) = staircase(9, 400.0, 90.0);
+    let (one, chain) = staircase_chain(&net, &order, late);
+    let two = one.with_levels(vec![1.0 / early; order.len()], CALIBRATION_M);
+    assert_eq!(calibration_point(&two, &chain), CALIBRATION_M);
+    let cb = chain_budget(&two, &chain, true);
+    for (got, want) in cb.pieces.iter().zip(expected(&two, CALIBRATION_M)) {
+        assert!((got.2 - want).abs() < 1e-9, "{} vs {want}", got.2);
+    }
+
+    // Turns of 45° are not calibrating (more than 30° from a right angle):
+    // the whole chain stays at the early reach.
+    let (net, order) = staircase(9, 700.0, 45.0);
+    let (one, chain) = staircase_chain(&net, &order, late);
+    let two = one.with_levels(vec![1.0 / early; order.len()], CALIBRATION_M);
+    assert_eq!(calibration_point(&two, &chain), f64::INFINITY);
+    // … and 60° ones are (exactly 30° off).
+    let (net, order) = staircase(9, 700.0, 60.0);
+    let (one, chain) = staircase_chain(&net, &order, late);
+    let two = one.with_levels(vec![1.0 / early; order.len()], CALIBRATION_M);
+    assert!(calibration_point(&two, &chain).is_finite());
+}

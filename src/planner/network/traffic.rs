@@ -27,6 +27,7 @@
 //!   budget 1 that starts at the stretch's start or at a tag must hold
 //!   `k + 1` tags before the stretch ends.
 
+use super::mm_reach::{CALIBRATION_TURNS, CALIBRATION_TURN_DEG};
 pub use super::turns::CHORD_M;
 use super::turns::{heading_samples, intrinsic_resets, point_at, walk_edge, TurnWindow, TURN_DEG};
 use super::window_sets::{WindowInfo, WindowMap};
@@ -50,8 +51,16 @@ pub(crate) struct EdgeModel {
     pub dir: Vec<(SectionId, bool)>,
     /// Planning speed (m/s).
     pub speed: Vec<f64>,
-    /// Budget consumed per metre (1/R of the edge's class).
+    /// Budget consumed per metre (1/R of the edge's class): by a
+    /// calibrated vehicle where the chains have two levels
+    /// ([`EdgeModel::with_levels`]), and by the straight walks.
     pub rate: Vec<f64>,
+    /// Budget consumed per metre before a chain is calibrated (1/early
+    /// reach); `rate` where the model has one level.
+    pub early_rate: Vec<f64>,
+    /// The least distance a chain drives before it is calibrated (m;
+    /// `mm_reach::CALIBRATION_M`); infinite where the model has one level.
+    pub calibration_m: f64,
     /// Candidate sites: (position along the directed edge m, site id),
     /// sorted.
     pub sites: Vec<Vec<(f64, u32)>>,
@@ -202,7 +211,9 @@ impl EdgeModel {
             index,
             dir,
             speed,
+            early_rate: rate.clone(),
             rate,
+            calibration_m: f64::INFINITY,
             sites,
             start_heading: sh,
             end_heading: eh,
@@ -214,6 +225,17 @@ impl EdgeModel {
             curve,
             parallel,
         }
+    }
+}
+
+impl EdgeModel {
+    /// Two levels: a chain consumes `early_rate` per metre until it is
+    /// calibrated ([`calibration_point`]) and `rate` after.
+    pub fn with_levels(mut self, early_rate: Vec<f64>, calibration_m: f64) -> Self {
+        debug_assert_eq!(early_rate.len(), self.rate.len());
+        self.early_rate = early_rate;
+        self.calibration_m = calibration_m;
+        self
     }
 }
 
@@ -469,17 +491,67 @@ pub(crate) struct ChainBudget {
     pub straight: Vec<(u32, u32)>,
 }
 
+/// Where a chain counts as calibrated (chainage m; infinite if it never
+/// does, or the model has one level): at its
+/// [`CALIBRATION_TURNS`]-th junction turn within [`CALIBRATION_TURN_DEG`]
+/// of a right angle onto an edge whose turns reset, and not before
+/// `model.calibration_m`. Bends along a road are not counted (their angle
+/// is not kept), which can only delay the point.
+pub(crate) fn calibration_point(model: &EdgeModel, chain: &Chain) -> f64 {
+    if !model.calibration_m.is_finite() {
+        return f64::INFINITY;
+    }
+    let (mut turns, mut c) = (0usize, 0.0f64);
+    let mut prev: Option<&Piece> = None;
+    for p in &chain.pieces {
+        let e = p.edge as usize;
+        if let Some(q) = prev {
+            let qe = q.edge as usize;
+            let joined = (q.a1 - model.length[qe]).abs() < 1e-6 && p.a0.abs() < 1e-6;
+            let turn = turn_deg(model.end_heading[qe], model.start_heading[e]);
+            if joined && model.turn_resets[e] && (turn - 90.0).abs() <= CALIBRATION_TURN_DEG {
+                turns += 1;
+                if turns >= CALIBRATION_TURNS {
+                    return c.max(model.calibration_m);
+                }
+            }
+        }
+        c += p.a1 - p.a0;
+        prev = Some(p);
+    }
+    f64::INFINITY
+}
+
 /// The budget view of a chain (resets at turns when `map_matching`,
-/// [`super::turns`]).
+/// [`super::turns`]). With two levels ([`EdgeModel::with_levels`]) the
+/// budget grows at `early_rate` until [`calibration_point`], at `rate`
+/// after.
 pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool) -> ChainBudget {
     let mut out = ChainBudget::default();
     let (mut b, mut c) = (0.0, 0.0);
     out.resets.push((0.0, 0.0));
     let mut prev: Option<Piece> = None;
     let mut win = TurnWindow::default();
+    let calibrated_at = if map_matching {
+        calibration_point(model, chain)
+    } else {
+        f64::INFINITY
+    };
     for p in &chain.pieces {
         let e = p.edge as usize;
-        let rate = model.rate[e];
+        // The budget position of `x` along this piece: the early rate for
+        // the `split` metres driven before calibration, the rate after (the
+        // one-level model: `split` infinite, `b + d · early_rate`).
+        let (r0, r1, b0) = (model.early_rate[e], model.rate[e], b);
+        let split = (calibrated_at - c).max(0.0);
+        let at = |x: f64| -> f64 {
+            let d = x - p.a0;
+            if d <= split {
+                b0 + d * r0
+            } else {
+                b0 + split * r0 + (d - split) * r1
+            }
+        };
         if let Some(q) = prev {
             let qe = q.edge as usize;
             let joined = (q.a1 - model.length[qe]).abs() < 1e-6 && p.a0.abs() < 1e-6;
@@ -499,9 +571,9 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
                 }
             }
         }
-        for &(at, site) in &model.sites[e] {
-            if at >= p.a0 && at < p.a1 {
-                out.sites.push((b + (at - p.a0) * rate, site));
+        for &(x, site) in &model.sites[e] {
+            if x >= p.a0 && x < p.a1 {
+                out.sites.push((at(x), site));
             }
         }
         if map_matching {
@@ -515,13 +587,14 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
                 &mut win,
                 model.curve[e],
                 |x| {
-                    resets.push((b + (x - p.a0) * rate, c + x - p.a0));
+                    resets.push((at(x), c + x - p.a0));
                     false
                 },
             );
         }
-        out.pieces.push((p.edge, b, b + (p.a1 - p.a0) * rate));
-        b += (p.a1 - p.a0) * rate;
+        let end = at(p.a1);
+        out.pieces.push((p.edge, b, end));
+        b = end;
         c += p.a1 - p.a0;
         prev = Some(*p);
     }

@@ -272,6 +272,10 @@ pub struct NetworkPlan {
     /// Reach of the fastest class (m): the budget's reference; a metre of
     /// a road of class c consumes `1/R_c` of the budget.
     pub budget_reference_m: f64,
+    /// Reach levels the chains were budgeted with: 2 (the early reach until
+    /// a chain is calibrated, the calibrated reach after: `trips` with map
+    /// matching and `planner.reach_levels = 2`), else 1.
+    pub reach_levels: u8,
     /// Steady-state reach between fixes (m).
     pub steady_reach_m: f64,
     /// Reach from the prior at a start (m).
