@@ -184,6 +184,35 @@ fn defaults_are_applied_once() {
     assert_eq!(s.planner().coverage, Coverage::Network);
     assert_eq!(s.planner().u_turns, UTurns::DeadEnds);
     assert_eq!(s.planner().candidate_spacing_m, DEFAULT_NETWORK_SPACING_M);
+    // Two reach levels unless asked for one.
+    assert_eq!(s.planner().reach_levels, 2);
+}
+
+#[test]
+fn reach_levels_are_one_or_two_and_for_trips_only() {
+    let net = "[planner]\ncoverage = \"network\"\n";
+    let ok = |extra: &str| {
+        Scenario::parse(Path::new("a.toml"), &format!("{ROUTE}{net}{extra}"))
+            .unwrap()
+            .planner()
+            .reach_levels
+    };
+    assert_eq!(ok("reach_levels = 1\n"), 1);
+    assert_eq!(ok("reach_levels = 2\n"), 2);
+    for bad in ["reach_levels = 0\n", "reach_levels = 3\n"] {
+        let e = parse_err(&format!("{net}{bad}"));
+        assert!(
+            e.starts_with("bad.toml: planner.reach_levels = ") && e.contains("must be 1"),
+            "{e}"
+        );
+    }
+    let e = parse_err(&format!("{net}traffic = \"any_walk\"\nreach_levels = 2\n"));
+    assert!(e.contains("reach_levels applies to"), "{e}");
+    let e = parse_err("[planner]\nreach_levels = 1\n");
+    assert!(e.contains("reach_levels applies to"), "{e}");
+    // Not a number: serde names the field.
+    let e = parse_err(&format!("{net}reach_levels = \"two\"\n"));
+    assert!(e.contains("reach_levels"), "{e}");
 }
 
 #[test]

@@ -526,3 +526,37 @@ fn a_chain_is_budgeted_at_the_early_reach_until_its_calibrating_turns() {
     let two = one.with_levels(vec![1.0 / early; order.len()], CALIBRATION_M);
     assert!(calibration_point(&two, &chain).is_finite());
 }
+
+#[test]
+fn two_reach_levels_budget_calibrated_chains_at_the_longer_reach() {
+    let net = comb(8000.0);
+    let plan = |levels: u8| {
+        let scn = comb_scenario(&format!(
+            "candidate_spacing_m = 2000\nreach_levels = {levels}"
+        ));
+        let s = PlannerSettings::from_scenario(&scn).unwrap();
+        plan_network_on(&scn, &s, &net).unwrap()
+    };
+    let (one, two) = (plan(1), plan(2));
+    let (g1, g2) = (
+        one.guarantee.as_ref().unwrap(),
+        two.guarantee.as_ref().unwrap(),
+    );
+    eprintln!(
+        "one level: {} tags, worst chain budget {}; two: {} tags, {}",
+        one.tag_count(),
+        g1.worst_chain_budget,
+        two.tag_count(),
+        g2.worst_chain_budget
+    );
+    // The early level is the single reach, the calibrated one longer
+    // (the comb's 3 % odometer error: about 3.9 and 9.2 km at 50 km/h).
+    for (a, b) in one.matched_reach.iter().zip(&two.matched_reach) {
+        assert_eq!(b.early_reach_m, a.reach_m);
+        assert!(b.calibrated_reach_m > 2.0 * b.early_reach_m, "{b:?}");
+    }
+    // The plan budgets at least as long a reach everywhere: no more tags.
+    assert!(two.tag_count() <= one.tag_count());
+    assert_eq!((one.reach_levels, two.reach_levels), (1, 2));
+    assert!(g1.holds && g2.holds, "{} / {}", g1.statement, g2.statement);
+}
