@@ -28,10 +28,16 @@
 //!   bound reaches the requirement, until the distances between fixes
 //!   settle (`tag_reach_m`, their minimum).
 //!
-//! The class's reach is the smallest of the three: a vehicle whose history
-//! is a single weak turn after its start is the least-informed the model
-//! allows; real chains turn more often and fare better. Checked by the
-//! Monte Carlo validation on sampled chains.
+//! The class's reach is the smallest of the three. With two levels
+//! (`planner.reach_levels = 2`) it budgets a chain until the chain is
+//! calibrated ([`CALIBRATION_TURNS`] right-angle turns and
+//! [`CALIBRATION_M`]); after that the **calibrated reach** does: the
+//! smallest of the turn drive's reach, the same weak turn after one more
+//! warm-up leg, and the tag reach. The engine's fixed point of a first weak
+//! turn (`early_reach`) is reported beside them: where it is below the
+//! class's reach, a vehicle whose first reset is a weak turn is not shown
+//! to hold the early level (docs/DESIGN.md §3.4). Checked by the Monte
+//! Carlo validation on sampled chains.
 
 use super::turns::CURVE_M;
 pub use super::turns::TURN_DEG;
