@@ -82,6 +82,7 @@
 
 pub(crate) mod add_drop;
 pub(crate) mod best_site;
+pub(crate) mod calibrated_stretches;
 pub mod cover;
 pub(crate) mod coverage;
 pub(crate) mod dominance;

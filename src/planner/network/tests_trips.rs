@@ -502,6 +502,19 @@ fn a_chain_is_budgeted_at_the_early_reach_until_its_calibrating_turns() {
     let cb = chain_budget(&two, &chain, false);
     let end = cb.pieces.last().unwrap().2;
     assert!((end - chain.length_m / early).abs() < 1e-9);
+    // The one-level view (the credited stretches' test) budgets every metre
+    // at the early rate, with the same resets.
+    let single = two.one_level();
+    assert_eq!(calibration_point(&single, &chain), f64::INFINITY);
+    let (a, b) = (
+        chain_budget(&single, &chain, true),
+        chain_budget(&two, &chain, true),
+    );
+    let end = a.pieces.last().unwrap().2;
+    assert!((end - chain.length_m / early).abs() < 1e-9);
+    let chainages =
+        |cb: &super::traffic::ChainBudget| -> Vec<f64> { cb.resets.iter().map(|r| r.1).collect() };
+    assert_eq!(chainages(&a), chainages(&b));
 
     // Legs of 400 m: the 5th turn at 2 km, before the 3 km: calibrated at
     // 3 km, inside the 8th road, which the budget splits there.

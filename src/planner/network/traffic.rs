@@ -237,6 +237,15 @@ impl EdgeModel {
         self.calibration_m = calibration_m;
         self
     }
+
+    /// The one-level view of a two-level model: every metre at
+    /// `early_rate` (the single reach).
+    pub fn one_level(&self) -> Self {
+        let mut m = self.clone();
+        m.rate = self.early_rate.clone();
+        m.calibration_m = f64::INFINITY;
+        m
+    }
 }
 
 /// Where trips go.

@@ -134,6 +134,14 @@ pub struct NetworkValidation {
     /// tags passes 1, driven with and without the new tags. `None` without
     /// `--baseline` or when no searched chain passes 1.
     pub over_budget_stretches: Option<StretchValidation>,
+    /// `plan --baseline` with two reach levels: the stretches the
+    /// calibrated level credits (over budget at the single reach, within
+    /// it at the two levels), each driven from its chain's start, with and
+    /// without the new tags (`super::calibrated_stretches`; its
+    /// `peak_budget_*` are budgets at the single reach, `lead_in_m` the
+    /// longest drive before a stretch). `None` otherwise, or when no
+    /// searched chain has one.
+    pub credited_stretches: Option<StretchValidation>,
 }
 
 /// The stretches of fresh chains of the plan's traffic where the

@@ -83,7 +83,7 @@ pub fn share_rule(within: usize, n: usize, req: f64, conf: f64) -> (f64, bool, S
     (lower, passed, rule)
 }
 /// The scenario's elevation model, if it has one.
-fn open_dem(scn: &Scenario) -> Result<Option<Dem>> {
+pub(super) fn open_dem(scn: &Scenario) -> Result<Option<Dem>> {
     if scn.elevation.is_empty() {
         Ok(None)
     } else {
@@ -95,7 +95,7 @@ fn open_dem(scn: &Scenario) -> Result<Option<Dem>> {
 /// elevation`, as a route plan's simulation drives it; level at the map's
 /// height without one) and the directed sections it drives (whose tags
 /// take part).
-fn drive(
+pub(super) fn drive(
     net: &Network,
     route: &crate::route::Route,
     profile: &SpeedProfile,
@@ -147,7 +147,7 @@ struct ChainOutcome {
 /// The planner's budget along one chain without tags: consumed since the
 /// last reset (a turn map matching observes, the chain's start), as a
 /// function of the chainage.
-struct BudgetProfile {
+pub(super) struct BudgetProfile {
     /// Chainage (m) and budget at each piece end, the start first.
     c: Vec<f64>,
     b: Vec<f64>,
@@ -160,7 +160,11 @@ impl BudgetProfile {
     /// The profile along a validation drive's route: its spans as the
     /// planner's pieces (as `traffic::sample_chain` makes them), then the
     /// planner's own budget view of that chain.
-    fn new(model: &super::traffic::EdgeModel, route: &crate::route::Route, mm: bool) -> Self {
+    pub(super) fn new(
+        model: &super::traffic::EdgeModel,
+        route: &crate::route::Route,
+        mm: bool,
+    ) -> Self {
         let mut chain = super::traffic::Chain {
             points: Vec::new(),
             pieces: Vec::new(),
@@ -227,7 +231,7 @@ impl BudgetProfile {
     /// The stretches between two resets whose budget passes 1: (reset,
     /// where the budget reaches 1, the next reset) in chainage (m), and the
     /// budget used at that next reset.
-    fn over_budget(&self) -> Vec<([f64; 3], f64)> {
+    pub(super) fn over_budget(&self) -> Vec<([f64; 3], f64)> {
         (1..self.reset_b.len())
             .filter(|&j| self.reset_b[j] - self.reset_b[j - 1] > 1.0)
             .map(|j| {
@@ -241,7 +245,7 @@ impl BudgetProfile {
     }
 
     /// Budget consumed since the last reset at chainage `x` (m).
-    fn since_reset(&self, x: f64) -> f64 {
+    pub(super) fn since_reset(&self, x: f64) -> f64 {
         let i = self.c.partition_point(|&v| v <= x);
         let b = if i == 0 {
             0.0
@@ -479,6 +483,11 @@ pub fn validate_network_plan(
     } else {
         None
     };
+    let credited_stretches = if baseline {
+        super::calibrated_stretches::validate_credited_stretches(scn, net, plan, runs, seed)?
+    } else {
+        None
+    };
     let without_new_tags = if baseline {
         let b = drive_chains(scn, net, plan, &chains, per_chain, seed, true)?;
 
@@ -548,6 +557,7 @@ pub fn validate_network_plan(
         design_walks: validate_design_walks(scn, net, plan, runs, seed)?,
         without_new_tags,
         over_budget_stretches,
+        credited_stretches,
     })
 }
 
@@ -555,7 +565,10 @@ pub fn validate_network_plan(
 /// row (where a walk's or stretch's budget peaks). Returns the samples, of
 /// them those within `req`, and the largest error over every row; `Err`
 /// with the time (s) of the first row whose error is not finite.
-fn thin_rows(rows: &[&ErrorRow], req: f64) -> std::result::Result<(usize, usize, f64), f64> {
+pub(super) fn thin_rows(
+    rows: &[&ErrorRow],
+    req: f64,
+) -> std::result::Result<(usize, usize, f64), f64> {
     let (mut n, mut within, mut m) = (0usize, 0usize, 0.0f64);
     let mut next = f64::NEG_INFINITY;
     for (i, row) in rows.iter().enumerate() {
@@ -594,7 +607,7 @@ pub const STRETCH_MAX_OVER_M: f64 = 5000.0;
 
 /// The pieces of `route` between chainages `c0` and `c1` (m), as
 /// [`route_from_pieces`] takes them.
-fn sub_route_pieces(
+pub(super) fn sub_route_pieces(
     route: &crate::route::Route,
     c0: f64,
     c1: f64,
@@ -777,7 +790,7 @@ fn validate_stretches(
 }
 
 /// Fewest runs per design walk.
-const MIN_RUNS_PER_WALK: u64 = 20;
+pub(super) const MIN_RUNS_PER_WALK: u64 = 20;
 
 /// `any_walk` plans: each of the walk DP's worst walks driven from its
 /// lead-in, the (at most k) tags on it missed on purpose and every other
