@@ -158,8 +158,13 @@ fn round(x: f64, d: i32) -> f64 {
 /// `coverage.geojson`: a LineString per directed road piece, in driving
 /// order, with its predicted bound with and without the plan's tags, its
 /// speed class, the sampled passes and why tags are (or are not) needed.
+/// Written a feature at a time: the whole collection as one JSON value
+/// held ~0.2 GB at the end of a Gothenburg plan, its peak memory
+/// (BENCHMARKS.md). The text is what `serde_json::to_string` makes of the
+/// collection (keys in order: "features", then "type").
 pub fn coverage_geojson(cov: &[EdgeCoverage], net: &crate::network::Network) -> String {
-    let mut features = Vec::with_capacity(cov.len());
+    let mut out: Vec<u8> = b"{\"features\":[".to_vec();
+    let mut first = true;
     for c in cov {
         let Some(sec) = net.sections.get(c.section as usize) else {
             continue;
@@ -178,7 +183,7 @@ pub fn coverage_geojson(cov: &[EdgeCoverage], net: &crate::network::Network) -> 
             })
             .collect();
         let opt = |x: Option<f64>| x.map(|v| round(v, 2));
-        features.push(serde_json::json!({
+        let feature = serde_json::json!({
             "type": "Feature",
             "geometry": { "type": "LineString", "coordinates": coords },
             "properties": {
@@ -199,8 +204,15 @@ pub fn coverage_geojson(cov: &[EdgeCoverage], net: &crate::network::Network) -> 
                 "bound_missed_m": opt(c.bound_missed_m),
                 "reason": c.reason,
             }
-        }));
+        });
+        if !first {
+            out.push(b',');
+        }
+        first = false;
+        if serde_json::to_writer(&mut out, &feature).is_err() {
+            return String::new();
+        }
     }
-    let fc = serde_json::json!({ "type": "FeatureCollection", "features": features });
-    serde_json::to_string(&fc).unwrap_or_default()
+    out.extend_from_slice(b"],\"type\":\"FeatureCollection\"}");
+    String::from_utf8(out).unwrap_or_default()
 }

@@ -379,8 +379,8 @@ pub(super) fn plan_network_trips(
     // with them read.
     let t = Instant::now();
     let mut coverage = edge_budgets(&tp.chains, &sel, physical);
-    let walks_without = walk_budgets(&model, &tp.straight, &tp.used, None, WALK_BUDGET_CAP);
-    let walks_with = walk_budgets(&model, &tp.straight, &tp.used, Some(&sel), WALK_BUDGET_CAP);
+    let (walks_without, walks_with) =
+        walk_budgets(&model, &tp.straight, &tp.used, &sel, WALK_BUDGET_CAP);
     add_walk_budgets(&mut coverage, &walks_with, &walks_without);
     timings.insert("coverage".into(), t.elapsed().as_secs_f64() * 1e3);
     for c in &mut coverage {

@@ -79,6 +79,21 @@ fn continuations<'a>(
     })
 }
 
+/// The transitions `straight` from each of the `n` directed edges, in
+/// order (flagged U-turns last): walks take them in this order whatever
+/// the set's, and a U-turn (or hairpin) at a junction a chain made counts
+/// as one everywhere (`continuations`).
+fn successors(n: usize, straight: &std::collections::HashSet<(u32, u32)>) -> Vec<Vec<u32>> {
+    let mut next: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for &(a, b) in straight {
+        next[a as usize].push(b);
+    }
+    for v in &mut next {
+        v.sort_unstable();
+    }
+    next
+}
+
 /// What [`straight_windows`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(crate) struct WalkStats {
@@ -134,15 +149,7 @@ fn straight_windows_within(
 ) -> WalkStats {
     let mut stats = WalkStats::default();
     let n = model.dir.len();
-    let mut next: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for &(a, b) in straight {
-        next[a as usize].push(b);
-    }
-    // A U-turn (or hairpin) at a junction a chain made counts as one
-    // everywhere (`continuations`).
-    for v in &mut next {
-        v.sort_unstable();
-    }
+    let next = successors(n, straight);
     for (e, _) in used.iter().enumerate().filter(|x| *x.1) {
         if out.full() {
             return stats;
@@ -282,7 +289,8 @@ pub(crate) fn geometric_straight(
 /// follows stay bounded.
 pub const WALK_BUDGET_CAP: f64 = 1.5;
 
-/// A coverage walk's state at an edge.
+/// A coverage walk's state at an edge, shared by the walks from its start
+/// that reached it ([`walk_from`]).
 struct Reach {
     edge: u32,
     /// Position along the edge (m).
@@ -295,87 +303,83 @@ struct Reach {
     win: TurnWindow,
     /// The walk's chainage at `x` (m).
     c: f64,
+    /// The walks at this state: bit 0 the walk without the tags, bit 1
+    /// the walk with them.
+    walks: u8,
 }
 
 /// Per directed edge, the largest budget the straight walks consume there
-/// (for the coverage map): the walks of [`straight_windows`], from each
-/// start of the edges `used` (an edge's start and its resetting bends)
-/// and, with `read`, from every site read (`read[site]`, on any edge: the
-/// tags lie on the walks of the windows they cover) along the transitions
-/// `straight`, each stopping at a bend that resets, at a site read (with
-/// `read`: the budget since the last read is the one with the tags), or on
-/// the edge where its budget reaches `cap` (its value at that edge's end
-/// is kept, so budgets above `cap` are walks' true budgets but not always
-/// their largest). Walks follow the same limits as the windows' (at most
+/// (for the coverage map), without the tags and with the sites `read`
+/// (`read[site]`): the walks of [`straight_windows`], from each start of
+/// the edges `used` (an edge's start and its resetting bends) and, with
+/// the tags, from every site read (on any edge: the tags lie on the walks
+/// of the windows they cover) along the transitions `straight`, each
+/// stopping at a bend that resets, at a site read (with the tags: the
+/// budget since the last read is the one with the tags), or on the edge
+/// where its budget reaches `cap` (its value at that edge's end is kept,
+/// so budgets above `cap` are walks' true budgets but not always their
+/// largest). Walks follow the same limits as the windows' (at most
 /// [`MAX_UTURNS`] turn-backs per stretch, [`MAX_PATHS`] walks and
-/// [`MAX_STEPS`] edges entered per start). Starts run in parallel, in
-/// blocks; the result does not depend on their order. Edges no walk
-/// enters get 0.
+/// [`MAX_STEPS`] edges entered per start, counted for each of the two
+/// walks). Starts run in parallel; the result does not depend on their
+/// order. Edges no walk enters get 0. Returns (without, with).
 pub(crate) fn walk_budgets(
     model: &EdgeModel,
     straight: &std::collections::HashSet<(u32, u32)>,
     used: &[bool],
-    read: Option<&[bool]>,
+    read: &[bool],
     cap: f64,
-) -> Vec<f64> {
+) -> (Vec<f64>, Vec<f64>) {
     use rayon::prelude::*;
+    use std::sync::atomic::AtomicU64;
     let n = model.dir.len();
-    let mut next: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for &(a, b) in straight {
-        next[a as usize].push(b);
-    }
-    for v in &mut next {
-        v.sort_unstable();
-    }
-    let is_read = |site: u32| read.is_some_and(|r| r[site as usize]);
+    let next = successors(n, straight);
+    let is_read = |site: u32| read[site as usize];
     let used = |e: usize| used.get(e) == Some(&true);
     let edges: Vec<usize> = (0..n)
         .filter(|&e| used(e) || model.sites[e].iter().any(|s| is_read(s.1)))
         .collect();
-    let merge = |mut a: Vec<f64>, b: Vec<f64>| {
-        for (x, y) in a.iter_mut().zip(b) {
-            *x = x.max(y);
-        }
-        a
-    };
-    // A few blocks of starts per thread, each with one array of the
-    // edges (one per rayon split held ~0.3 GB more on Gothenburg).
-    let block = edges
-        .len()
-        .div_ceil(8 * rayon::current_num_threads())
-        .max(1);
-    edges
-        .par_chunks(block)
-        .map(|chunk| {
-            let mut out = vec![0.0; n];
-            for &e in chunk {
-                // (position, the start is a site read there).
-                let mut starts: Vec<(f64, bool)> = Vec::new();
-                if used(e) {
-                    starts.push((0.0, false));
-                    starts.extend(
-                        model.bends[e]
-                            .iter()
-                            .filter(|_| model.turn_resets[e])
-                            .map(|&x| (x, false)),
-                    );
-                }
-                starts.extend(
-                    model.sites[e]
-                        .iter()
-                        .filter(|s| is_read(s.1))
-                        .map(|s| (s.0, true)),
-                );
-                for (x0, at_read) in starts {
-                    walk_from(model, &next, e, x0, at_read, &is_read, cap, &mut out);
+    // One array per walk for all threads, the budgets' bits (`keep_max`):
+    // an array per thread or block of starts left the allocator holding
+    // freed arrays (peak memory, BENCHMARKS.md).
+    let out: [Vec<AtomicU64>; 2] =
+        std::array::from_fn(|_| (0..n).map(|_| AtomicU64::new(0)).collect());
+    edges.par_iter().for_each(|&e| {
+        if used(e) {
+            walk_from(model, &next, e, 0.0, false, &is_read, cap, &out);
+            if model.turn_resets[e] {
+                for &x in &model.bends[e] {
+                    walk_from(model, &next, e, x, false, &is_read, cap, &out);
                 }
             }
-            out
-        })
-        .reduce(|| vec![0.0; n], merge)
+        }
+        for s in model.sites[e].iter().filter(|s| is_read(s.1)) {
+            walk_from(model, &next, e, s.0, true, &is_read, cap, &out);
+        }
+    });
+    let [without, with] = out.map(|v| {
+        v.into_iter()
+            .map(|a| f64::from_bits(a.into_inner()))
+            .collect()
+    });
+    (without, with)
 }
 
-/// The coverage walks from one start ([`walk_budgets`]).
+/// Raises `slot` to budget `u`: the bits of non-negative floats order as
+/// their values, so the largest stays whatever the order of the updates
+/// (what `f64::max` from 0 keeps; NaN and budgets ≤ 0 change nothing).
+fn keep_max(slot: &std::sync::atomic::AtomicU64, u: f64) {
+    if u > 0.0 {
+        slot.fetch_max(u.to_bits(), std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// The coverage walks from one start ([`walk_budgets`]): the walk without
+/// the tags (not from a site read, `at_read`) and the one with them,
+/// followed together while they share their states. Up to its first read
+/// the walk with the tags is the walk without them; each keeps its own
+/// counts for the limits, and a state is followed for the walks that
+/// reached it (the order of the states is each walk's alone).
 #[allow(clippy::too_many_arguments)]
 fn walk_from(
     model: &EdgeModel,
@@ -385,10 +389,11 @@ fn walk_from(
     at_read: bool,
     is_read: &impl Fn(u32) -> bool,
     cap: f64,
-    out: &mut [f64],
+    out: &[Vec<std::sync::atomic::AtomicU64>; 2],
 ) {
-    let mut paths = 0usize;
-    let mut steps = 0usize;
+    let mut live: u8 = if at_read { 2 } else { 3 };
+    // Per walk: windows closed, edges entered, states on the stack.
+    let (mut paths, mut steps, mut queued) = ([0usize; 2], [0usize; 2], [1usize; 2]);
     let mut stack: Vec<Reach> = vec![Reach {
         edge: e as u32,
         x: x0,
@@ -396,12 +401,10 @@ fn walk_from(
         turned: 0,
         win: TurnWindow::default(),
         c: 0.0,
+        walks: live,
     }];
+    let bits = |w: u8| (0..2).filter(move |k| w >> k & 1 == 1);
     while let Some(st) = stack.pop() {
-        if steps == MAX_STEPS {
-            break;
-        }
-        steps += 1;
         let Reach {
             edge: ed,
             x,
@@ -409,40 +412,79 @@ fn walk_from(
             turned,
             mut win,
             c,
+            walks,
         } = st;
+        for k in bits(walks) {
+            queued[k] -= 1;
+        }
+        let mut walks = walks & live;
+        for k in bits(walks) {
+            if steps[k] == MAX_STEPS {
+                live &= !(1 << k);
+                walks &= !(1 << k);
+            } else {
+                steps[k] += 1;
+            }
+        }
+        if walks == 0 {
+            continue;
+        }
         let ei = ed as usize;
         let rate = model.rate[ei];
         let len = model.length[ei];
         let bend = first_reset(model, ei, x, c, &mut win);
-        // The walk ends at a bend or at the next site read, whichever
-        // comes first (a read at the start itself opened it).
-        let first = ei == e && x == x0;
-        let read_at = model.sites[ei]
-            .iter()
-            .filter(|s| if first && at_read { s.0 > x } else { s.0 >= x })
-            .find(|s| is_read(s.1))
-            .map(|s| s.0);
-        let stop = bend.into_iter().chain(read_at).fold(len, f64::min);
-        let u_end = u + (stop - x).max(0.0) * rate;
-        out[ei] = out[ei].max(u_end);
-        if u_end >= cap {
-            paths += 1;
-            continue;
-        }
-        if stop < len {
-            continue;
+        // A walk ends at a bend or, with the tags, at the next site read,
+        // whichever comes first (a read at the start itself opened it).
+        let stop_without = bend.into_iter().fold(len, f64::min);
+        let stop_with = if walks & 2 != 0 {
+            let first = ei == e && x == x0;
+            let read_at = model.sites[ei]
+                .iter()
+                .filter(|s| if first && at_read { s.0 > x } else { s.0 >= x })
+                .find(|s| is_read(s.1))
+                .map(|s| s.0);
+            read_at.into_iter().fold(stop_without, f64::min)
+        } else {
+            stop_without
+        };
+        // The walks going on, and their budget (the same for both: they go
+        // on only from an edge neither stopped on).
+        let (mut going, mut u_next) = (0u8, 0.0);
+        for k in bits(walks) {
+            let stop = if k == 0 { stop_without } else { stop_with };
+            let u_end = u + (stop - x).max(0.0) * rate;
+            keep_max(&out[k][ei], u_end);
+            if u_end >= cap {
+                paths[k] += 1;
+                continue;
+            }
+            if stop < len {
+                continue;
+            }
+            debug_assert!(going == 0 || u_next == u_end);
+            going |= 1 << k;
+            u_next = u_end;
         }
         for (to, is_u, w) in continuations(model, &next[ei], ei, turned, &win) {
-            if paths + stack.len() >= MAX_PATHS {
+            for k in bits(going) {
+                if paths[k] + queued[k] >= MAX_PATHS {
+                    going &= !(1 << k);
+                }
+            }
+            if going == 0 {
                 break;
+            }
+            for k in bits(going) {
+                queued[k] += 1;
             }
             stack.push(Reach {
                 edge: to,
                 x: 0.0,
-                u: u_end,
+                u: u_next,
                 turned: turned + u8::from(is_u),
                 win: w,
                 c: c + len - x,
+                walks: going,
             });
         }
     }
@@ -726,6 +768,272 @@ mod tests {
         );
     }
 
+    /// A coverage walk's state at an edge ([`separate_walk_budgets`]).
+    struct OneReach {
+        edge: u32,
+        /// Position along the edge (m).
+        x: f64,
+        /// Budget used so far.
+        u: f64,
+        /// Junction turn-backs made.
+        turned: u8,
+        /// The walk's headings of the last `CURVE_M`.
+        win: TurnWindow,
+        /// The walk's chainage at `x` (m).
+        c: f64,
+    }
+
+    /// The coverage budgets of one walk per start as [`walk_budgets`] had
+    /// them before it followed both in one pass (the reference): without
+    /// the tags (`read` = `None`) or with them.
+    fn separate_walk_budgets(
+        model: &EdgeModel,
+        straight: &std::collections::HashSet<(u32, u32)>,
+        used: &[bool],
+        read: Option<&[bool]>,
+        cap: f64,
+    ) -> Vec<f64> {
+        use rayon::prelude::*;
+        let n = model.dir.len();
+        let mut next: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for &(a, b) in straight {
+            next[a as usize].push(b);
+        }
+        for v in &mut next {
+            v.sort_unstable();
+        }
+        let is_read = |site: u32| read.is_some_and(|r| r[site as usize]);
+        let used = |e: usize| used.get(e) == Some(&true);
+        let edges: Vec<usize> = (0..n)
+            .filter(|&e| used(e) || model.sites[e].iter().any(|s| is_read(s.1)))
+            .collect();
+        let merge = |mut a: Vec<f64>, b: Vec<f64>| {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x = x.max(y);
+            }
+            a
+        };
+        // A few blocks of starts per thread, each with one array of the
+        // edges (one per rayon split held ~0.3 GB more on Gothenburg).
+        let block = edges
+            .len()
+            .div_ceil(8 * rayon::current_num_threads())
+            .max(1);
+        edges
+            .par_chunks(block)
+            .map(|chunk| {
+                let mut out = vec![0.0; n];
+                for &e in chunk {
+                    // (position, the start is a site read there).
+                    let mut starts: Vec<(f64, bool)> = Vec::new();
+                    if used(e) {
+                        starts.push((0.0, false));
+                        starts.extend(
+                            model.bends[e]
+                                .iter()
+                                .filter(|_| model.turn_resets[e])
+                                .map(|&x| (x, false)),
+                        );
+                    }
+                    starts.extend(
+                        model.sites[e]
+                            .iter()
+                            .filter(|s| is_read(s.1))
+                            .map(|s| (s.0, true)),
+                    );
+                    for (x0, at_read) in starts {
+                        separate_walk_from(model, &next, e, x0, at_read, &is_read, cap, &mut out);
+                    }
+                }
+                out
+            })
+            .reduce(|| vec![0.0; n], merge)
+    }
+
+    /// The coverage walks from one start ([`separate_walk_budgets`]).
+    #[allow(clippy::too_many_arguments)]
+    fn separate_walk_from(
+        model: &EdgeModel,
+        next: &[Vec<u32>],
+        e: usize,
+        x0: f64,
+        at_read: bool,
+        is_read: &impl Fn(u32) -> bool,
+        cap: f64,
+        out: &mut [f64],
+    ) {
+        let mut paths = 0usize;
+        let mut steps = 0usize;
+        let mut stack: Vec<OneReach> = vec![OneReach {
+            edge: e as u32,
+            x: x0,
+            u: 0.0,
+            turned: 0,
+            win: TurnWindow::default(),
+            c: 0.0,
+        }];
+        while let Some(st) = stack.pop() {
+            if steps == MAX_STEPS {
+                break;
+            }
+            steps += 1;
+            let OneReach {
+                edge: ed,
+                x,
+                u,
+                turned,
+                mut win,
+                c,
+            } = st;
+            let ei = ed as usize;
+            let rate = model.rate[ei];
+            let len = model.length[ei];
+            let bend = first_reset(model, ei, x, c, &mut win);
+            // The walk ends at a bend or at the next site read, whichever
+            // comes first (a read at the start itself opened it).
+            let first = ei == e && x == x0;
+            let read_at = model.sites[ei]
+                .iter()
+                .filter(|s| if first && at_read { s.0 > x } else { s.0 >= x })
+                .find(|s| is_read(s.1))
+                .map(|s| s.0);
+            let stop = bend.into_iter().chain(read_at).fold(len, f64::min);
+            let u_end = u + (stop - x).max(0.0) * rate;
+            out[ei] = out[ei].max(u_end);
+            if u_end >= cap {
+                paths += 1;
+                continue;
+            }
+            if stop < len {
+                continue;
+            }
+            for (to, is_u, w) in continuations(model, &next[ei], ei, turned, &win) {
+                if paths + stack.len() >= MAX_PATHS {
+                    break;
+                }
+                stack.push(OneReach {
+                    edge: to,
+                    x: 0.0,
+                    u: u_end,
+                    turned: turned + u8::from(is_u),
+                    win: w,
+                    c: c + len - x,
+                });
+            }
+        }
+    }
+
+    /// Asserts that [`walk_budgets`] gives, bit for bit, the budgets of the
+    /// two separate walks per start ([`separate_walk_budgets`]: without the
+    /// tags, then with `read`); returns how many edges the walks without
+    /// and with the tags reached, and the wall times (s) of the one pass
+    /// and of the two separate walks.
+    fn same_as_separate_walks(
+        model: &EdgeModel,
+        straight: &std::collections::HashSet<(u32, u32)>,
+        used: &[bool],
+        read: &[bool],
+        cap: f64,
+    ) -> (usize, usize, f64, f64) {
+        let t = std::time::Instant::now();
+        let (without, with) = walk_budgets(model, straight, used, read, cap);
+        let one = t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        let want_without = separate_walk_budgets(model, straight, used, None, cap);
+        let want_with = separate_walk_budgets(model, straight, used, Some(read), cap);
+        let two = t.elapsed().as_secs_f64();
+        for (name, got, want) in [
+            ("without", &without, &want_without),
+            ("with", &with, &want_with),
+        ] {
+            assert_eq!(got.len(), want.len());
+            if let Some(e) = (0..got.len()).find(|&e| got[e].to_bits() != want[e].to_bits()) {
+                panic!(
+                    "budget {name} the tags on edge {e}: {} in one pass, {} walked separately \
+                     (cap {cap})",
+                    got[e], want[e]
+                );
+            }
+        }
+        let reached = |v: &[f64]| v.iter().filter(|&&u| u > 0.0).count();
+        (reached(&without), reached(&with), one, two)
+    }
+
+    /// Every `m`-th element (from a hash of the index, offset `k`) of `n`.
+    fn every(n: usize, m: usize, k: usize) -> Vec<bool> {
+        (0..n)
+            .map(|i| {
+                ((i as u64 + k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) % m as u64 == 0
+            })
+            .collect()
+    }
+
+    #[test]
+    fn walk_budgets_in_one_pass_equal_the_two_walks_on_small_networks() {
+        // Forks past MAX_STEPS (one-way lattice, a 5 km reach, 17 rows):
+        // the walk without the tags is cut, the walk with them stops at
+        // reads (each counts its own edges entered).
+        let net = lattice(17, Oneway::Forward);
+        let model = edge_model(&net, 5000.0, Some(100.0));
+        let straight = geometric_straight(&net, &model);
+        let sites = model.sites.iter().map(Vec::len).sum::<usize>();
+        let used: Vec<bool> = (0..model.dir.len()).map(|e| e < 6).collect();
+        for (m, k) in [(1, 0), (2, 0), (5, 1), (40, 3), (usize::MAX, 0)] {
+            let read = every(sites, m, k);
+            same_as_separate_walks(&model, &straight, &used, &read, WALK_BUDGET_CAP);
+        }
+        // Two-way lattices (U-turns, turn-backs), a short reach (windows
+        // close) and a long one (forks up to MAX_PATHS), several caps.
+        for (rows, reach, spacing) in [(4, 300.0, 25.0), (6, 2000.0, 50.0), (8, 600.0, 30.0)] {
+            let net = lattice(rows, Oneway::Both);
+            let model = edge_model(&net, reach, Some(spacing));
+            let straight = geometric_straight(&net, &model);
+            let sites = model.sites.iter().map(Vec::len).sum::<usize>();
+            let n = model.dir.len();
+            for (used, m) in [(vec![true; n], 7), (every(n, 3, 1), 2), (every(n, 2, 0), 1)] {
+                for cap in [0.5, 1.0, WALK_BUDGET_CAP, 4.0] {
+                    for read in [every(sites, m, 0), vec![false; sites]] {
+                        let (a, b, ..) =
+                            same_as_separate_walks(&model, &straight, &used, &read, cap);
+                        assert!(a > 0 && b > 0, "{rows} rows: no walk");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn walk_budgets_in_one_pass_equal_the_two_walks_on_real_maps() {
+        // Helsinki and Gothenburg, every direction of every road, a site
+        // every 40 m; walks from two thirds of the edges, reads at 1 % and
+        // 10 % of the sites, the plans' cap and a reach of 500 m and 2 km.
+        use crate::network::LoadOptions;
+        for map in ["maps/helsinki.osm.pbf", "maps/gothenburg-roads.geojson"] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(map);
+            let net = Network::load(&path, &LoadOptions::default()).unwrap();
+            for reach in [500.0, 2000.0] {
+                let model = edge_model(&net, reach, Some(40.0));
+                let straight = geometric_straight(&net, &model);
+                let sites = model.sites.iter().map(Vec::len).sum::<usize>();
+                let used = every(model.dir.len(), 3, 2)
+                    .iter()
+                    .map(|&x| !x)
+                    .collect::<Vec<_>>();
+                for m in [100, 10] {
+                    let read = every(sites, m, 5);
+                    let (a, b, one, two) =
+                        same_as_separate_walks(&model, &straight, &used, &read, WALK_BUDGET_CAP);
+                    eprintln!(
+                        "{map}, reach {reach} m, a read per {m} sites: {} edges, {a} reached \
+                         without the tags, {b} with; one pass {one:.2} s, two walks {two:.2} s",
+                        model.dir.len()
+                    );
+                    assert!(a > model.dir.len() / 2 && b > model.dir.len() / 2);
+                }
+            }
+        }
+    }
+
     #[test]
     fn walk_budgets_follow_straight_walks_past_the_reach_and_stop_at_reads() {
         // Two one-way 200 m roads straight north, "in" then "out", a 300 m
@@ -761,12 +1069,13 @@ mod tests {
         // 400 m, a budget of 4/3 at the end (over the reach, under the cap).
         let mut used = vec![false; 2];
         used[a] = true;
-        let without = walk_budgets(&model, &straight, &used, None, WALK_BUDGET_CAP);
+        let (without, with) = walk_budgets(&model, &straight, &used, &[false; 4], WALK_BUDGET_CAP);
+        assert_eq!(with, without, "no site read: the same walks");
         assert!(close(without[a], 2.0 / 3.0), "{without:?}");
         assert!(close(without[b], 4.0 / 3.0), "{without:?}");
         // With a cap of 1 the walk stops at the end of "out", where it
         // passed 1 (the value at that edge's end is kept).
-        let capped = walk_budgets(&model, &straight, &used, None, 1.0);
+        let capped = walk_budgets(&model, &straight, &used, &[false; 4], 1.0).0;
         assert!(close(capped[b], 4.0 / 3.0), "{capped:?}");
         // The site at 150 m of "out" read: the walk from the start of "in"
         // ends there (350 m); the walk from the read (on a road not driven,
@@ -775,18 +1084,26 @@ mod tests {
         assert!((out_site.0 - 150.0).abs() < 0.5, "{out_site:?}");
         let mut read = vec![false; 4];
         read[out_site.1 as usize] = true;
-        let with = walk_budgets(&model, &straight, &used, Some(&read), WALK_BUDGET_CAP);
+        let (w2, with) = walk_budgets(&model, &straight, &used, &read, WALK_BUDGET_CAP);
+        assert_eq!(w2, without, "the walks without the tags ignore reads");
         assert!(close(with[a], 2.0 / 3.0), "{with:?}");
         assert!(close(with[b], 3.5 / 3.0), "{with:?}");
         // The site read on "in" (at 150 m): 150 m before it, then 250 m
         // after it (50 m of "in" and all of "out").
         let mut read = vec![false; 4];
         read[model.sites[a][1].1 as usize] = true;
-        let with = walk_budgets(&model, &straight, &used, Some(&read), WALK_BUDGET_CAP);
+        let with = walk_budgets(&model, &straight, &used, &read, WALK_BUDGET_CAP).1;
         assert!(close(with[a], 0.5), "{with:?}");
         assert!(close(with[b], 2.5 / 3.0), "{with:?}");
         // Nothing driven, nothing walked.
-        let none = walk_budgets(&model, &straight, &[false; 2], None, WALK_BUDGET_CAP);
-        assert_eq!(none, vec![0.0; 2]);
+        let none = walk_budgets(&model, &straight, &[false; 2], &[false; 4], WALK_BUDGET_CAP);
+        assert_eq!(none, (vec![0.0; 2], vec![0.0; 2]));
+        // Each case as the two separate walks had it.
+        for r in 0..16u32 {
+            let read: Vec<bool> = (0..4).map(|i| r >> i & 1 == 1).collect();
+            for cap in [1.0, WALK_BUDGET_CAP] {
+                same_as_separate_walks(&model, &straight, &used, &read, cap);
+            }
+        }
     }
 }
