@@ -242,6 +242,18 @@ fn baseline_is_shown_beside_the_plan(out: &Path, plan: &serde_json::Value) {
     let v = &mut p["validation"];
     v["without_new_tags"] = serde_json::to_value(&without).unwrap();
     v["over_budget_stretches"] = serde_json::to_value(&stretches).unwrap();
+    // The stretches the calibrated reach credits (two reach levels).
+    let credited = StretchValidation {
+        searched_chains: 64,
+        stretches: 3,
+        runs_per_stretch: 20,
+        lead_in_m: 12_400.0,
+        peak_budget_min: 1.26,
+        peak_budget_max: 1.65,
+        with_tags: side(240, 8.73, 0),
+        without_new_tags: side(236, 21.59, 2),
+    };
+    v["credited_stretches"] = serde_json::to_value(&credited).unwrap();
     v["over_budget_samples"] = 3.into();
     v["over_budget_within"] = 3.into();
     v["over_budget_max_error_m"] = 0.23.into();
@@ -343,5 +355,20 @@ fn baseline_is_shown_beside_the_plan(out: &Path, plan: &serde_json::Value) {
         "runs exceeding the requirement",
         "0 of 80".into(),
         "3 of 80",
+    );
+    // The credited stretches, after the over-budget ones: their own
+    // heading, figures and run count (3 × 20).
+    let section = &section[section
+        .find("<h3 id=\"credited-stretches\">Stretches credited by calibration</h3>")
+        .expect("the credited stretches' section")..];
+    assert!(section.contains(
+        "The 3 stretch(es) that the calibrated reach credits: over budget at the single reach (1.26–1.65)"
+    ));
+    assert!(section.contains("from its chain&apos;s start (up to 12.4 km before it)"));
+    row("max horizontal error", "8.73 m".into(), "21.59 m");
+    row(
+        "runs exceeding the requirement",
+        "0 of 60".into(),
+        "2 of 60",
     );
 }

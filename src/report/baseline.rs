@@ -134,43 +134,98 @@ pub(super) fn baseline(p: &serde_json::Value) -> Option<String> {
         }
     }
     if st.is_object() {
-        let (w, wo) = (&st["with_tags"], &st["without_new_tags"]);
-        let runs = st["stretches"]
-            .as_u64()
-            .zip(st["runs_per_stretch"].as_u64())
-            .map(|(a, b)| a * b);
-        let exceeding =
-            |x: &serde_json::Value| Some(format!("{} of {}", x["runs_exceeding"].as_u64()?, runs?));
-        let _ = write!(
-            html,
-            "<h3 id=\"over-budget-stretches\">Over-budget stretches</h3><p class=\"figures\">{}</p>",
-            esc((|| {
-                Some(format!(
-                    "The {} stretch(es) where the plan's budget without tags peaks highest ({:.2}–{:.2}) on {} fresh chain(s), each driven {} time(s) from {:.0} m before its resetting turn with the same seeds both ways; samples over budget only.",
-                    st["stretches"].as_u64()?,
-                    num(&st["peak_budget_min"])?,
-                    num(&st["peak_budget_max"])?,
-                    st["searched_chains"].as_u64()?,
-                    st["runs_per_stretch"].as_u64()?,
-                    num(&st["lead_in_m"])?,
-                ))
-            })()
-            .unwrap_or_else(|| "The stretches where the plan's budget without tags passes 1, driven with and without the new tags; samples over budget only.".into()))
+        let intro = (|| {
+            Some(format!(
+                "The {} stretch(es) where the plan's budget without tags peaks highest ({:.2}–{:.2}) on {} fresh chain(s), each driven {} time(s) from {:.0} m before its resetting turn with the same seeds both ways; samples over budget only.",
+                st["stretches"].as_u64()?,
+                num(&st["peak_budget_min"])?,
+                num(&st["peak_budget_max"])?,
+                st["searched_chains"].as_u64()?,
+                st["runs_per_stretch"].as_u64()?,
+                num(&st["lead_in_m"])?,
+            ))
+        })()
+        .unwrap_or_else(|| "The stretches where the plan's budget without tags passes 1, driven with and without the new tags; samples over budget only.".into());
+        stretch_table(
+            &mut html,
+            st,
+            req,
+            conf,
+            ("over-budget-stretches", "Over-budget stretches"),
+            &intro,
         );
-        html.push_str(&compare_table(&[
-            (format!("samples within {req} m"), samples(w), samples(wo)),
-            ("rule".into(), rule_badge(w, conf), rule_badge(wo, conf)),
-            (
-                "max horizontal error".into(),
-                metres(&w["max_horizontal_error_m"]),
-                metres(&wo["max_horizontal_error_m"]),
-            ),
-            (
-                "runs exceeding the requirement".into(),
-                exceeding(w),
-                exceeding(wo),
-            ),
-        ]));
+    }
+    let cr = &v["credited_stretches"];
+    if cr.is_object() {
+        let intro = (|| {
+            Some(format!(
+                "The {} stretch(es) that the calibrated reach credits: over budget at the single reach ({:.2}–{:.2}), within it at the plan's two levels, on {} fresh chain(s); each driven {} time(s) from its chain's start (up to {:.1} km before it), with the same seeds both ways; samples from where the single reach's budget passes 1.",
+                cr["stretches"].as_u64()?,
+                num(&cr["peak_budget_min"])?,
+                num(&cr["peak_budget_max"])?,
+                cr["searched_chains"].as_u64()?,
+                cr["runs_per_stretch"].as_u64()?,
+                num(&cr["lead_in_m"])? / 1000.0,
+            ))
+        })()
+        .unwrap_or_else(|| "The stretches that the calibrated reach credits, driven from their chains' starts with and without the new tags.".into());
+        stretch_table(
+            &mut html,
+            cr,
+            req,
+            conf,
+            ("credited-stretches", "Stretches credited by calibration"),
+            &intro,
+        );
     }
     Some(html)
+}
+
+/// One stretch test of `plan --baseline` (`validation.over_budget_stretches`
+/// or `credited_stretches`): a heading `(id, title)`, its `intro` and the
+/// figures with and without the new tags.
+fn stretch_table(
+    html: &mut String,
+    st: &serde_json::Value,
+    req: f64,
+    conf: Option<f64>,
+    (id, title): (&str, &str),
+    intro: &str,
+) {
+    let esc = |s: &str| escape(s).into_owned();
+    let samples = |v: &serde_json::Value| {
+        Some(esc(&format!(
+            "{} of {} (lower 95 % bound {:.4})",
+            v["thinned_within"].as_u64()?,
+            v["thinned_samples"].as_u64()?,
+            num(&v["share_lower_95"])?
+        )))
+    };
+    let metres = |x: &serde_json::Value| num(x).map(|m| format!("{m:.2} m"));
+    let (w, wo) = (&st["with_tags"], &st["without_new_tags"]);
+    let runs = st["stretches"]
+        .as_u64()
+        .zip(st["runs_per_stretch"].as_u64())
+        .map(|(a, b)| a * b);
+    let exceeding =
+        |x: &serde_json::Value| Some(format!("{} of {}", x["runs_exceeding"].as_u64()?, runs?));
+    let _ = write!(
+        html,
+        "<h3 id=\"{id}\">{title}</h3><p class=\"figures\">{}</p>",
+        esc(intro)
+    );
+    html.push_str(&compare_table(&[
+        (format!("samples within {req} m"), samples(w), samples(wo)),
+        ("rule".into(), rule_badge(w, conf), rule_badge(wo, conf)),
+        (
+            "max horizontal error".into(),
+            metres(&w["max_horizontal_error_m"]),
+            metres(&wo["max_horizontal_error_m"]),
+        ),
+        (
+            "runs exceeding the requirement".into(),
+            exceeding(w),
+            exceeding(wo),
+        ),
+    ]));
 }
