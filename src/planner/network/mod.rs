@@ -104,6 +104,7 @@ pub(crate) mod traffic;
 pub(crate) mod trips;
 pub(crate) mod turns;
 pub(crate) mod types;
+pub(crate) mod validate;
 pub(crate) mod validation;
 pub(crate) mod walk_relax;
 pub(crate) mod walks;
@@ -132,7 +133,8 @@ pub use types::{
     DesignWalkValidation, NetworkPlan, NetworkTag, NetworkValidation, NoTagsValidation,
     StretchFigures, StretchValidation,
 };
-pub use validation::{share_rule, validate_network_plan, THINNING_S};
+pub use validate::validate_network_plan;
+pub use validation::{share_rule, THINNING_S};
 pub use walks::DesignWalk;
 pub use window_sets::WindowSets;
 

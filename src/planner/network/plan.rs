@@ -11,7 +11,7 @@ use super::mm_reach::{budget_bound, straight_profiles, CalibrationSite, ReachReq
 use super::reach::{reach_class, ReachClass};
 use super::settings::{check_settings, map_route, ILP_MAX_CANDIDATES};
 use super::types::NetworkPlan;
-use super::validation::validate_network_plan;
+use super::validate::validate_network_plan;
 use super::walk_relax::{self, WalkRelaxation};
 use super::walks::{through_budgets, walk_budgets, worst_walks, DESIGN_WALKS};
 use crate::error::{Error, Result};

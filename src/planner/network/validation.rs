@@ -442,12 +442,10 @@ fn drive_chains(
     Ok(o)
 }
 
-/// Monte Carlo validation over `runs` runs on fresh chains of trips (module
-/// doc). With `baseline`, the same chains, runs and seeds are driven again
-/// with only the installed tags (none in a fresh plan), so the report can
-/// show what the planned tags buy over map matching alone
-/// ([`NetworkValidation::without_new_tags`]).
-pub fn validate_network_plan(
+/// [`validate_network_plan`](super::validate_network_plan) but for the
+/// stretches the calibrated level credits (`super::calibrated_stretches`,
+/// which the caller adds).
+pub(super) fn validate_chains(
     scn: &Scenario,
     net: &std::sync::Arc<Network>,
     plan: &NetworkPlan,
@@ -483,11 +481,7 @@ pub fn validate_network_plan(
     } else {
         None
     };
-    let credited_stretches = if baseline {
-        super::calibrated_stretches::validate_credited_stretches(scn, net, plan, runs, seed)?
-    } else {
-        None
-    };
+
     let without_new_tags = if baseline {
         let b = drive_chains(scn, net, plan, &chains, per_chain, seed, true)?;
 
@@ -557,7 +551,7 @@ pub fn validate_network_plan(
         design_walks: validate_design_walks(scn, net, plan, runs, seed)?,
         without_new_tags,
         over_budget_stretches,
-        credited_stretches,
+        credited_stretches: None,
     })
 }
 
