@@ -2,7 +2,7 @@
 //! simulated error (`waymark::planner::network::simulated_reach`), per speed
 //! class:
 //!
-//! `cargo run --release --example mc_reach -- SCENARIO.toml [RUNS] [KMH,KMH,...] [AFTER_M] [SEED] [--cap M] [--legs K,K,...] [--straight L,L,...]`
+//! `cargo run --release --example mc_reach -- SCENARIO.toml [RUNS] [KMH,KMH,...] [AFTER_M] [SEED] [--cap M] [--legs K,K,...] [--straight L,L,...] [--grid LEGS:LEG_M,...]`
 //!
 //! Defaults: 60 runs, 5,10,20,30,40,50 km/h, roads running 12 km past
 //! their reset, seed 1, at Helsinki (60.17° N, 24.94° E, 10 m: the reach
@@ -16,8 +16,11 @@
 //!   turn), sharp and curve.
 //! * `--straight L,…`: the weak turn after a straight of L m from the
 //!   prior (`TurnLead::Straight`), sharp and curve.
+//! * `--grid LEGS:LEG_M,…`: the weak turn after LEGS legs of LEG_M m
+//!   alternating north and east, the last run on to 3 km in all if they
+//!   are shorter (`TurnLead::Legs`), sharp and curve.
 //!
-//! With `--legs` or `--straight` each lead prints its two roads and the
+//! With `--legs`, `--straight` or `--grid` each lead prints its two roads and the
 //! weaker (the shorter reach by the upper bound, else the 95th percentile).
 use std::path::Path;
 use waymark::planner::network::{
@@ -27,7 +30,7 @@ use waymark::planner::network::{
 use waymark::Scenario;
 
 const USAGE: &str = "usage: mc_reach SCENARIO.toml [RUNS] [KMH,KMH,...] [AFTER_M] [SEED] \
-                     [--cap M] [--legs K,K,...] [--straight L,L,...]";
+                     [--cap M] [--legs K,K,...] [--straight L,L,...] [--grid LEGS:LEG_M,...]";
 
 fn list<T: std::str::FromStr>(s: &str) -> Result<Vec<T>, T::Err> {
     s.split(',').map(str::parse).collect()
@@ -58,6 +61,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--cap" => cap = Some(val()?.parse()?),
             "--legs" => leads.extend(list::<usize>(&val()?)?.into_iter().map(TurnLead::WarmUp)),
             "--straight" => leads.extend(list::<f64>(&val()?)?.into_iter().map(TurnLead::Straight)),
+            "--grid" => {
+                for g in val()?.split(',') {
+                    let (legs, leg_m) = g.split_once(':').ok_or(USAGE)?;
+                    leads.push(TurnLead::Legs {
+                        legs: legs.parse()?,
+                        leg_m: leg_m.parse()?,
+                    });
+                }
+            }
             _ => args.push(a),
         }
     }

@@ -57,13 +57,15 @@
 //! # Other turn roads
 //!
 //! [`turn_reach`] measures the same turn after another lead
-//! ([`TurnLead`]): fewer warm-up legs than the calibrated turn's, or a
+//! ([`TurnLead`]): fewer warm-up legs than the calibrated turn's, a
 //! first straight of any length (the early reach's fixed point, BENCHMARKS.md,
-//! "How many turns calibrate a vehicle, and the early reach").
+//! "How many turns calibrate a vehicle, and the early reach"), or legs
+//! shorter than the warm-up's (BENCHMARKS.md, "Calibration by turns closer
+//! together than 500 m").
 
 use super::mm_reach::{
-    run_bound, synthetic_drive, warm_up_legs, CalibrationSite, ReachRequirement, CURVE_CORNERS,
-    DRIVE_MAX_M, DRIVE_MAX_S, WARM_UP_LEGS,
+    run_bound, synthetic_drive, warm_up_legs, CalibrationSite, ReachRequirement, CALIBRATION_M,
+    CURVE_CORNERS, DRIVE_MAX_M, DRIVE_MAX_S, WARM_UP_LEGS,
 };
 use super::turns::{CURVE_M, TURN_DEG};
 use crate::error::{Error, Result};
@@ -428,6 +430,17 @@ pub enum TurnLead {
     WarmUp(usize),
     /// A straight of this length (m) from the prior: a first turn after it.
     Straight(f64),
+    /// `legs` legs of `leg_m` alternating north and east (`legs − 1`
+    /// right-angle turns), the first not cut to the start reach; if they
+    /// total less than [`CALIBRATION_M`], the last runs on to make that
+    /// total (a straight on its heading). Turns closer together than the
+    /// warm-up's 500 m, against the planner's calibration rule.
+    Legs {
+        /// How many legs (at least 1).
+        legs: usize,
+        /// Each leg's length (m, at least 50).
+        leg_m: f64,
+    },
 }
 
 impl TurnLead {
@@ -438,6 +451,39 @@ impl TurnLead {
             TurnLead::WarmUp(0) => vec![(0.0, first)],
             TurnLead::WarmUp(k) => warm_up_legs(first, k),
             TurnLead::Straight(l) => vec![(0.0, l)],
+            TurnLead::Legs { legs, leg_m } => {
+                let mut v: Vec<(f64, f64)> = (0..legs)
+                    .map(|i| (if i % 2 == 0 { 0.0 } else { 90.0 }, leg_m))
+                    .collect();
+                let short = CALIBRATION_M - legs as f64 * leg_m;
+                if let Some(last) = v.last_mut().filter(|_| short > 0.0) {
+                    last.1 += short;
+                }
+                v
+            }
+        }
+    }
+
+    /// The lead's parameters, checked.
+    fn check(self) -> Result<()> {
+        match self {
+            TurnLead::WarmUp(_) => Ok(()),
+            TurnLead::Straight(l) if l >= 50.0 && l.is_finite() => Ok(()),
+            TurnLead::Straight(l) => Err(Error::InvalidParameter(format!(
+                "the straight before the turn must be at least 50 m, not {l} m"
+            ))),
+            TurnLead::Legs { legs, leg_m }
+                if legs >= 1
+                    && leg_m >= 50.0
+                    && leg_m.is_finite()
+                    && legs as f64 * leg_m <= DRIVE_MAX_M =>
+            {
+                Ok(())
+            }
+            TurnLead::Legs { legs, leg_m } => Err(Error::InvalidParameter(format!(
+                "the lead's legs: at least 1 leg of at least 50 m, at most {DRIVE_MAX_M} m \
+                 in all; not {legs} of {leg_m} m"
+            ))),
         }
     }
 
@@ -448,6 +494,7 @@ impl TurnLead {
             TurnLead::WarmUp(WARM_UP_LEGS) => format!("calibrated turn, {kind}"),
             TurnLead::WarmUp(k) => format!("after {k} legs, {kind}"),
             TurnLead::Straight(l) => format!("after {l:.0} m, {kind}"),
+            TurnLead::Legs { legs, leg_m } => format!("after {legs} x {leg_m:.0} m, {kind}"),
         }
     }
 }
@@ -502,17 +549,13 @@ pub fn turn_reach(
 ) -> Result<[SimulatedDrive; 2]> {
     mc.check()?;
     check_road(speed_mps, mc.after_m)?;
-    if let TurnLead::Straight(l) = lead {
-        if !(l >= 50.0 && l.is_finite()) {
-            return Err(Error::InvalidParameter(format!(
-                "the straight before the turn must be at least 50 m, not {l} m"
-            )));
-        }
-    }
+    lead.check()?;
     let scn = scn.located_at([site.lat_deg, site.lon_deg]);
+    // The engine's start reach, which only the warm-up legs use.
     let first = match lead {
         TurnLead::WarmUp(_) => first_straight(&scn, site, speed_mps, rq)?,
         TurnLead::Straight(l) => l,
+        TurnLead::Legs { leg_m, .. } => leg_m,
     };
     turn_roads(
         &scn,
@@ -747,6 +790,114 @@ mod tests {
             }
         }
         assert!(reach(TurnLead::Straight(10.0)).is_err());
+    }
+
+    /// `TurnLead::Legs`: its legs alternate north and east, `leg_m` each,
+    /// the last run on to `CALIBRATION_M` in all when they are shorter;
+    /// its roads put the turn where the legs end, the stretch `CURVE_M`
+    /// past it (the roads built and located, no run simulated); bad
+    /// parameters are refused before any run.
+    #[test]
+    fn legs_lead_geometry() {
+        let lead = |legs, leg_m| TurnLead::Legs { legs, leg_m };
+        for (legs, leg_m, total) in [
+            (6, 100.0, CALIBRATION_M),
+            (31, 100.0, 3_100.0),
+            (6, 200.0, CALIBRATION_M),
+            (1, 50.0, CALIBRATION_M),
+        ] {
+            let l = lead(legs, leg_m).legs(1e9);
+            assert_eq!(l.len(), legs, "{legs} x {leg_m} m");
+            for (i, &(h, len)) in l.iter().enumerate() {
+                assert_eq!(h, if i % 2 == 0 { 0.0 } else { 90.0 }, "leg {i}");
+                if i + 1 < legs {
+                    assert_eq!(len, leg_m, "leg {i}");
+                }
+            }
+            let sum: f64 = l.iter().map(|x| x.1).sum();
+            assert!((sum - total).abs() < 1e-9, "{legs} x {leg_m} m: {sum} m");
+        }
+        // Six legs of 500 m are the warm-up's (its first leg not cut).
+        assert_eq!(
+            lead(WARM_UP_LEGS, 500.0).legs(0.0),
+            TurnLead::WarmUp(WARM_UP_LEGS).legs(1e9)
+        );
+        let scn = trips().located_at([HELSINKI.lat_deg, HELSINKI.lon_deg]);
+        let v = 10.0 / 3.6;
+        for (legs, leg_m, turn_at) in [(6, 100.0, CALIBRATION_M), (31, 100.0, 3_100.0)] {
+            // The corners: every leg's end, the last the turn's.
+            let l = lead(legs, leg_m).legs(0.0);
+            let mut road = l.clone();
+            road.push((l[legs - 1].0 + TURN_DEG, 1_000.0));
+            let (_, corners) = synthetic_drive(&scn, HELSINKI, v, &road).unwrap();
+            assert_eq!(corners.len(), legs, "{legs} x {leg_m} m");
+            let mut at = 0.0;
+            for (c, &(_, len)) in corners.iter().zip(&l) {
+                at += len;
+                assert!((c - at).abs() < 0.003 * at, "corner at {c} m, want {at} m");
+            }
+            let mut seen = Vec::new();
+            let after = 1_000.0;
+            turn_roads(
+                &scn,
+                HELSINKI,
+                v,
+                0.0,
+                lead(legs, leg_m),
+                after,
+                &mut |_, name, truth, from_m| {
+                    let end = truth.samples().last().unwrap().distance_m;
+                    seen.push((name.to_string(), from_m, end));
+                    Ok(SimulatedDrive {
+                        name: name.into(),
+                        from_m,
+                        bound_reach_m: 0.0,
+                        q95_reach_m: 0.0,
+                        upper_reach_m: None,
+                        capped: false,
+                    })
+                },
+            )
+            .unwrap();
+            assert_eq!(seen.len(), 2);
+            for (i, (name, from_m, end)) in seen.iter().enumerate() {
+                let kind = ["sharp", "curve"][i];
+                assert_eq!(name, &format!("after {legs} x {leg_m:.0} m, {kind}"));
+                let turn = from_m - CURVE_M;
+                assert!(
+                    (turn - turn_at).abs() < 0.003 * turn_at,
+                    "{name}: turn at {turn} m"
+                );
+                // The road runs `after` past its turn (sharp) or past the
+                // curve's last corner, to the 0.3 % of the layout's
+                // degree-length approximation; less the corners' arcs: the
+                // truth's distance falls behind the road's chainage by
+                // about 2.1 m at each right-angle corner (an arc of radius
+                // 5 m, `CORNER_VERTEX_M`), so the stretch is measured from
+                // that much further along (64 m after 31 legs).
+                let past = end - turn;
+                let tol = 0.003 * end;
+                let arcs = 2.5 * legs as f64;
+                assert!(
+                    past > after - arcs - tol && past < after + CURVE_M + tol,
+                    "{name}: {past} m"
+                );
+            }
+        }
+        let mc = RoadRuns::new(3, 1, 500.0);
+        for bad in [
+            lead(0, 100.0),
+            lead(6, 40.0),
+            lead(6, f64::NAN),
+            lead(6, f64::INFINITY),
+            lead(1_000, 100.0),
+        ] {
+            let e = turn_reach(&trips(), HELSINKI, v, rq(20.0), &mc, bad);
+            assert!(
+                matches!(e, Err(Error::InvalidParameter(_))),
+                "{bad:?}: {e:?}"
+            );
+        }
     }
 
     /// The order statistic against the binomial CDF summed directly from
