@@ -75,6 +75,12 @@ pub const CALIBRATION_TURN_DEG: f64 = 30.0;
 /// The distance a vehicle drives before it counts as calibrated (m): the
 /// warm-up's whole length at most.
 pub const CALIBRATION_M: f64 = WARM_UP_LEGS as f64 * WARM_UP_LEG_M;
+/// The slowest class with two levels (km/h): below it the calibrated reach
+/// is the class's reach. Measured on the simulated error (BENCHMARKS.md,
+/// "Calibration by turns closer together than 500 m"): at 10 and 20 km/h a
+/// weak turn after five right-angle turns 100 or 200 m apart, then a
+/// straight to 3 km, leaves at least 1.2 C; at 5 km/h only 0.15–0.2 C.
+pub const TWO_LEVEL_MIN_KMH: f64 = 10.0;
 /// Corners of the calibration's slow curve.
 pub(super) const CURVE_CORNERS: usize = 8;
 /// The curve distance where only quick turns reset (m): a junction's
@@ -134,14 +140,14 @@ pub struct MatchedReach {
     /// After calibration: the smallest of the turn reach, the same weak
     /// turn after one more warm-up leg (the other heading: the warm-up's
     /// legs alternate north and east), and the tag reach (m). Equal to
-    /// `reach_m` where turns do not reset.
+    /// `reach_m` where turns do not reset and below [`TWO_LEVEL_MIN_KMH`].
     pub calibrated_reach_m: f64,
     /// Information, not planned with: the longest stretch from the prior
     /// that a first turn of [`TURN_DEG`] leaves as long again (the fixed
     /// point, `early_reach`; m). Where it is below `early_reach_m`, the
     /// engine does not show the early level for a vehicle whose first
     /// reset is a weak turn (docs/DESIGN.md, "Two reach levels"). `None`
-    /// where turns do not reset.
+    /// where turns do not reset and below [`TWO_LEVEL_MIN_KMH`].
     pub first_turn_fixed_point_m: Option<f64>,
     /// Smallest bound within 300 m after the turn (m): the level a turn
     /// resets the error to.
@@ -567,7 +573,7 @@ pub fn matched_reach(
     // weak turn after one more warm-up leg than the turn drive's (its
     // last leg on the other heading), each measured at most as far as the
     // turn drive's reach.
-    let levels = if turns_reset {
+    let levels = if turns_reset && speed_mps * 3.6 >= TWO_LEVEL_MIN_KMH - 1e-9 {
         let early = early_reach(scn, site, speed_mps, start_reach, curve_m, rq)?;
         let other = reach_after(
             scn,
