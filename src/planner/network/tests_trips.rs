@@ -573,3 +573,35 @@ fn two_reach_levels_budget_calibrated_chains_at_the_longer_reach() {
     assert_eq!((one.reach_levels, two.reach_levels), (1, 2));
     assert!(g1.holds && g2.holds, "{} / {}", g1.statement, g2.statement);
 }
+
+#[test]
+fn below_ten_km_h_the_calibrated_reach_is_the_single_reach() {
+    use super::mm_reach::{matched_reach, CalibrationSite, ReachRequirement, TWO_LEVEL_MIN_KMH};
+    use crate::sim::tags::Mounting;
+    // The short-leg Monte Carlo refuted the calibrated level at 5 km/h
+    // (BENCHMARKS.md, "Calibration by turns closer together than 500 m").
+    // Located as the planner locates it (the comb scenario has no route).
+    let scn = comb_scenario("").located_at([60.17, 24.94]);
+    let site = CalibrationSite {
+        lat_deg: 60.17,
+        lon_deg: 24.94,
+        height_m: 10.0,
+    };
+    let rq = ReachRequirement {
+        req_m: 20.0,
+        p: 0.95,
+    };
+    let at = |kmh: f64| {
+        matched_reach(&scn, site, kmh / 3.6, &[Mounting::RoadSurface], rq)
+            .unwrap()
+            .remove(0)
+    };
+    let slow = at(TWO_LEVEL_MIN_KMH / 2.0);
+    assert!(slow.turns_reset, "{slow:?}");
+    assert_eq!(slow.calibrated_reach_m, slow.reach_m);
+    assert_eq!(slow.early_reach_m, slow.reach_m);
+    assert_eq!(slow.first_turn_fixed_point_m, None);
+    let from = at(TWO_LEVEL_MIN_KMH);
+    assert!(from.calibrated_reach_m > from.reach_m, "{from:?}");
+    assert!(from.first_turn_fixed_point_m.is_some());
+}
