@@ -534,6 +534,10 @@ pub fn matched_reach(
     mountings: &[Mounting],
     rq: ReachRequirement,
 ) -> Result<Vec<MatchedReach>> {
+    // A map scenario without a route has no place of its own: the
+    // calibration roads' (the filter's frame was indexed from an empty
+    // waypoint list and panicked).
+    let scn = &scn.located_at([site.lat_deg, site.lon_deg]);
     let req = rq.req_m;
     let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
     // Start: straight from the prior.
@@ -649,6 +653,8 @@ pub fn straight_profile(
     speed_mps: f64,
     rq: ReachRequirement,
 ) -> Result<Vec<(f64, f64)>> {
+    // As `matched_reach`: located at the calibration roads when unrouted.
+    let scn = &scn.located_at([site.lat_deg, site.lon_deg]);
     let total = DRIVE_MAX_M.min(speed_mps * DRIVE_MAX_S).max(2_000.0);
     let (truth, _) = synthetic_drive(scn, site, speed_mps, &[(0.0, total)])?;
     Ok(run(scn, &truth, 0.0, rq, None, true, false)?.profile)

@@ -580,8 +580,9 @@ fn below_ten_km_h_the_calibrated_reach_is_the_single_reach() {
     use crate::sim::tags::Mounting;
     // The short-leg Monte Carlo refuted the calibrated level at 5 km/h
     // (BENCHMARKS.md, "Calibration by turns closer together than 500 m").
-    // Located as the planner locates it (the comb scenario has no route).
-    let scn = comb_scenario("").located_at([60.17, 24.94]);
+    // The comb scenario has no route: the library call locates it at the
+    // calibration site (it panicked here before).
+    let scn = comb_scenario("");
     let site = CalibrationSite {
         lat_deg: 60.17,
         lon_deg: 24.94,
@@ -604,4 +605,7 @@ fn below_ten_km_h_the_calibrated_reach_is_the_single_reach() {
     let from = at(TWO_LEVEL_MIN_KMH);
     assert!(from.calibrated_reach_m > from.reach_m, "{from:?}");
     assert!(from.first_turn_fixed_point_m.is_some());
+    // The profile without map matching, likewise unrouted.
+    let prof = super::mm_reach::straight_profile(&scn, site, 10.0 / 3.6, rq).unwrap();
+    assert!(prof.len() > 10 && prof.iter().all(|p| p.1.is_finite()));
 }
