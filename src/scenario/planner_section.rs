@@ -12,6 +12,11 @@ use std::path::Path;
 /// the most tags a plan may place stays far from overflow.
 pub const MAX_MOUNTING_COST: f64 = 1e9;
 
+/// Most `planner.cold_starts`: each is at most half an hour of routed
+/// trips, a sixteenth of an 8 h planning chain (the default at the most
+/// demanding ε and β accepted is about 4 × 25,000).
+pub const MAX_COLD_STARTS: usize = 200_000;
+
 /// `[planner]` (or its absence), checked, with every default applied.
 pub(super) fn planner(
     c: &Check,
@@ -64,6 +69,12 @@ pub(super) fn planner(
             "planner.planning_chains = {planning_chains} must be between 1 and 5000"
         )));
     }
+    let cold_starts = p.cold_starts.map(|n| n as usize);
+    if let Some(n) = cold_starts.filter(|&n| n > MAX_COLD_STARTS) {
+        return Err(c.err(format!(
+            "planner.cold_starts = {n} must be at most {MAX_COLD_STARTS}"
+        )));
+    }
     // The certification's last round needs ln(β/2⁶) / ln(1 − ε) chains
     // without failures, and at most twice that when it allows two (the
     // planner's `chains_allowing`: 1.5–1.8× at ε = 0.01).
@@ -106,6 +117,14 @@ pub(super) fn planner(
     if (coverage != Coverage::Network || traffic != Traffic::Trips) && p.reach_levels.is_some() {
         return Err(c.err(
             "planner.reach_levels applies to coverage = \"network\" with traffic = \"trips\" only",
+        ));
+    }
+    if (coverage != Coverage::Network || traffic != Traffic::Trips || reach_levels != 2)
+        && p.cold_starts.is_some()
+    {
+        return Err(c.err(
+            "planner.cold_starts applies to coverage = \"network\" with traffic = \"trips\" and \
+             reach_levels = 2 only",
         ));
     }
     let names = p.mountings.unwrap_or_else(|| Mounting::ALL.to_vec());
@@ -182,6 +201,7 @@ pub(super) fn planner(
         confidence,
         requirement_confidence,
         planning_chains,
+        cold_starts,
         validation_chains,
         vehicle_speed_mps: vehicle_speed_kmh / 3.6,
     })

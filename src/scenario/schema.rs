@@ -642,6 +642,12 @@ pub struct PlannerSection {
     /// `traffic = "trips"`: chains in the planning sample (default 64).
     #[serde(default)]
     pub planning_chains: Option<u32>,
+    /// `traffic = "trips"` with two reach levels: chain beginnings (the
+    /// first half hour of a chain) added to the planning sample for their
+    /// stretches before calibration (default: four times the first
+    /// certification round's chains; 0 for none).
+    #[serde(default)]
+    pub cold_starts: Option<u32>,
     /// Chains the network validation drives (default 20).
     #[serde(default)]
     pub validation_chains: Option<u32>,

@@ -241,6 +241,10 @@ pub struct PlannerOptions {
     pub requirement_confidence: f64,
     /// Chains in the planning sample of `trips` (default 64).
     pub planning_chains: usize,
+    /// Chain beginnings added to the planning sample of a two-level
+    /// `trips` plan for their early stretches (default: four times the
+    /// first certification round's chains).
+    pub cold_starts: Option<usize>,
     /// Chains the network validation drives (default 20).
     pub validation_chains: usize,
     /// The vehicles' cruise speed on a network plan (`[vehicle] speed_kmh`,

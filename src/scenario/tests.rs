@@ -216,6 +216,41 @@ fn reach_levels_are_one_or_two_and_for_trips_only() {
 }
 
 #[test]
+fn cold_starts_are_bounded_and_for_two_level_trips_only() {
+    use super::planner_section::MAX_COLD_STARTS;
+    let net = "[planner]\ncoverage = \"network\"\n";
+    let ok = |extra: &str| {
+        Scenario::parse(Path::new("a.toml"), &format!("{ROUTE}{net}{extra}"))
+            .unwrap()
+            .planner()
+            .cold_starts
+    };
+    // Default: none given, the planner derives it from ε and β.
+    assert_eq!(ok(""), None);
+    assert_eq!(ok("cold_starts = 0\n"), Some(0));
+    assert_eq!(
+        ok(&format!("cold_starts = {MAX_COLD_STARTS}\n")),
+        Some(MAX_COLD_STARTS)
+    );
+    let e = parse_err(&format!("{net}cold_starts = {}\n", MAX_COLD_STARTS + 1));
+    assert!(
+        e.starts_with("bad.toml: planner.cold_starts = ") && e.contains("at most"),
+        "{e}"
+    );
+    for other in [
+        "traffic = \"any_walk\"\ncold_starts = 10\n",
+        "reach_levels = 1\ncold_starts = 10\n",
+    ] {
+        let e = parse_err(&format!("{net}{other}"));
+        assert!(e.contains("cold_starts applies to"), "{e}");
+    }
+    let e = parse_err("[planner]\ncold_starts = 10\n");
+    assert!(e.contains("cold_starts applies to"), "{e}");
+    let e = parse_err(&format!("{net}cold_starts = -1\n"));
+    assert!(e.contains("cold_starts"), "{e}");
+}
+
+#[test]
 fn unknown_fields_name_their_table() {
     let e = parse_err("[imu]\nsurprise = 1\n");
     assert!(

@@ -294,6 +294,7 @@ pub(super) fn plan_network_trips(
         mm,
         p.shift_s,
         p.planning_chains,
+        p.cold_starts,
         p.violation_probability,
         1.0 - p.confidence,
         scn.seed(),
@@ -491,8 +492,8 @@ pub(super) fn plan_network_trips(
         requirement_m: req,
         tolerate_missed_reads: k,
         method: format!(
-            "{} over the budget windows of every straight walk{} and of {} sampled chains ({} windows); \
-             certified on fresh chains ({} round(s)){}{}",
+            "{} over the budget windows of every straight walk{} and of {} sampled chains{} ({} \
+             windows); certified on fresh chains ({} round(s)){}{}",
             if tp.exact {
                 "exact set multicover (integer programme, microlp)".to_string()
             } else {
@@ -526,6 +527,14 @@ pub(super) fn plan_network_trips(
             },
             if mm { " (a heading change of ≥ 45° within the class's curve distance resets)" } else { " the traffic used" },
             p.planning_chains + g.added_chains,
+            if g.cold_starts > 0 {
+                format!(
+                    " and the stretches before calibration of {} chain beginnings ({} over budget)",
+                    g.cold_starts, g.cold_starts_over_budget
+                )
+            } else {
+                String::new()
+            },
             tp.window_sets.len(),
             g.rounds,
             if tp.lp.iterations > 0 {

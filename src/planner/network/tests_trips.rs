@@ -378,6 +378,44 @@ fn a_chains_windows_by_bisection_equal_the_scan_of_each_stretch() {
     }
 }
 
+#[test]
+fn a_chain_beginnings_windows_are_those_of_its_stretches_before_calibration() {
+    use super::window_sets::WindowMap;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(29);
+    for case in 0..200 {
+        let mut cb = super::traffic::ChainBudget::default();
+        let mut b = 0.0f64;
+        cb.resets.push((0.0, 0.0));
+        for _ in 0..rng.random_range(1..7) {
+            b += [0.5, 1.5, 3.0][rng.random_range(0..3)] * rng.random_range(0.5..1.5);
+            cb.resets.push((b, 1000.0 * b));
+        }
+        let mut x = 0.0f64;
+        while x < b {
+            cb.sites.push((x, rng.random_range(0..60u32)));
+            x += rng.random_range(0.05..0.4);
+        }
+        // A calibration point anywhere along the chain, at a reset or not.
+        let c_max = 1000.0 * b * rng.random_range(-0.1..1.1);
+        let mut m = WindowMap::new(usize::MAX);
+        super::traffic::add_windows_before(&cb, c_max, &mut m);
+        let (sets, infos) = m.sorted();
+        let got: std::collections::BTreeMap<Vec<u32>, f64> = sets
+            .iter()
+            .zip(infos)
+            .map(|(s, i)| (s.to_vec(), i.stretch_m))
+            .collect();
+        // The reference: the scan over the stretches that start before it.
+        let mut early = cb.clone();
+        let kept = cb.resets.iter().filter(|r| r.1 < c_max).count();
+        early.resets.truncate((kept + 1).min(cb.resets.len()));
+        if kept == 0 {
+            early.resets.clear();
+        }
+        assert_eq!(got, windows_by_scan(&early), "case {case}");
+    }
+}
+
 use super::traffic::{Chain, EdgeModel};
 
 /// A one-way staircase of `legs` roads of `leg_m` m, alternating north and
@@ -572,6 +610,17 @@ fn two_reach_levels_budget_calibrated_chains_at_the_longer_reach() {
     assert!(two.tag_count() <= one.tag_count());
     assert_eq!((one.reach_levels, two.reach_levels), (1, 2));
     assert!(g1.holds && g2.holds, "{} / {}", g1.statement, g2.statement);
+    // Chain beginnings join the planning sample with two levels only: by
+    // default four per fresh chain of the first certification round.
+    use super::trips::{chains_allowing, ALLOWED_VIOLATIONS};
+    assert_eq!(g1.cold_starts, 0);
+    assert_eq!(
+        g2.cold_starts,
+        super::cold_starts::COLD_STARTS_PER_CHAIN
+            * chains_allowing(g2.epsilon, g2.beta / 2.0, ALLOWED_VIOLATIONS)
+    );
+    assert!(g2.cold_starts_over_budget <= g2.cold_starts);
+    assert!(two.method.contains("chain beginnings"), "{}", two.method);
 }
 
 #[test]

@@ -34,7 +34,9 @@ use super::window_sets::{WindowInfo, WindowMap};
 use crate::error::{Error, Result};
 use crate::network::{Network, SectionId};
 use crate::route::{next_leg_with, section_points, Landmarks, SectionPoint, DEFAULT_LANDMARKS};
-use rand::Rng;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -485,6 +487,41 @@ pub(crate) fn sample_chain<R: Rng>(
     Ok(chain)
 }
 
+/// Samples `n` chains with streams `stream`, in parallel, deterministic.
+pub(crate) fn sample_chains(
+    net: &Network,
+    model: &EdgeModel,
+    dest: &Destinations,
+    shift_s: f64,
+    seed: u64,
+    stream: u64,
+    n: usize,
+) -> Result<Vec<Chain>> {
+    sample_chains_in(net, model, dest, shift_s, seed, stream, 0..n)
+}
+
+/// The chains `range` of [`sample_chains`]' sequence (chain `i` is the same
+/// whichever range holds it).
+pub(crate) fn sample_chains_in(
+    net: &Network,
+    model: &EdgeModel,
+    dest: &Destinations,
+    shift_s: f64,
+    seed: u64,
+    stream: u64,
+    range: std::ops::Range<usize>,
+) -> Result<Vec<Chain>> {
+    range
+        .into_par_iter()
+        .map(|i| {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(stream);
+            rng.set_word_pos(i as u128 * (1u128 << 40));
+            sample_chain(net, model, dest, shift_s, &mut rng)
+        })
+        .collect()
+}
+
 /// A chain as the budget sees it.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ChainBudget {
@@ -616,12 +653,20 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
 /// Adds the windows of a chain to `out` (keyed by their sorted site ids;
 /// the longest stretch kept).
 pub(crate) fn add_windows(cb: &ChainBudget, out: &mut WindowMap) {
+    add_windows_before(cb, f64::INFINITY, out);
+}
+
+/// [`add_windows`] for the stretches that start before chainage `c_max`.
+pub(crate) fn add_windows_before(cb: &ChainBudget, c_max: f64, out: &mut WindowMap) {
     let mut j = 0usize;
     for (ri, w) in cb.resets.windows(2).enumerate() {
         if out.full() {
             return;
         }
         let ((b0, c0), (b1, c1)) = (w[0], w[1]);
+        if c0 >= c_max {
+            return;
+        }
         while j < cb.sites.len() && cb.sites[j].0 < b0 {
             j += 1;
         }

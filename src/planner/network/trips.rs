@@ -34,18 +34,18 @@
 
 use super::add_drop::{add_drop, AddDrop};
 use super::best_site::BestSite;
+use super::cold_starts::{add_cold_start_windows, ColdStarts, COLD_STARTS_PER_CHAIN};
 use super::dominance::essential_windows;
 use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
 use super::lp_bound::{lp_duals_within, LpBound, MAX_ITERATIONS as LP_MAX};
 use super::straight::straight_windows;
-use super::traffic::{add_windows, chain_budget, chain_use, sample_chain, Chain, ChainBudget};
+pub(crate) use super::traffic::sample_chains;
+use super::traffic::{add_windows, chain_budget, chain_use, ChainBudget};
 use super::traffic::{Destinations, EdgeModel};
 use super::window_sets::{SiteWindows, WindowInfo, WindowMap, WindowSets};
 use crate::error::{Error, Result};
 use crate::network::Network;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::{BinaryHeap, HashSet};
@@ -76,6 +76,11 @@ pub struct TripsGuarantee {
     pub beta: f64,
     /// Chains in the planning sample (the first round's).
     pub planning_chains: usize,
+    /// Chain beginnings whose stretches before calibration joined the
+    /// planning sample (`planner.cold_starts`; 0 with one reach level).
+    pub cold_starts: usize,
+    /// Of which with such a stretch over the budget without tags.
+    pub cold_starts_over_budget: usize,
     /// Chains added to the planning set from failed certification rounds.
     pub added_chains: usize,
     /// Fresh chains checked in the final round (`N`).
@@ -184,27 +189,6 @@ pub fn clopper_pearson_lower(successes: usize, n: usize, alpha: f64) -> f64 {
         return 0.0;
     }
     1.0 - clopper_pearson_upper(n - successes, n, alpha)
-}
-
-/// Samples `n` chains with streams `stream`, in parallel, deterministic.
-pub(crate) fn sample_chains(
-    net: &Network,
-    model: &EdgeModel,
-    dest: &Destinations,
-    shift_s: f64,
-    seed: u64,
-    stream: u64,
-    n: usize,
-) -> Result<Vec<Chain>> {
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            rng.set_stream(stream);
-            rng.set_word_pos(i as u128 * (1u128 << 40));
-            sample_chain(net, model, dest, shift_s, &mut rng)
-        })
-        .collect()
 }
 
 /// Greedy set multicover: every window holds `demand` selected sites at the
@@ -450,6 +434,7 @@ pub(crate) fn plan_trips(
     map_matching: bool,
     shift_s: f64,
     planning_chains: usize,
+    cold_starts: Option<usize>,
     epsilon: f64,
     beta: f64,
     seed: u64,
@@ -496,6 +481,17 @@ pub(crate) fn plan_trips(
             used[p.0 as usize] = true;
         }
     }
+    // Chain beginnings: their stretches before calibration (two levels
+    // only; with one level a beginning is like any other stretch).
+    let cold = if map_matching && model.calibration_m.is_finite() {
+        let n = cold_starts.unwrap_or(
+            COLD_STARTS_PER_CHAIN * chains_allowing(epsilon, beta / 2.0, ALLOWED_VIOLATIONS),
+        );
+        add_cold_start_windows(net, model, dest, shift_s, seed, n, &mut wmap)?
+    } else {
+        ColdStarts::default()
+    };
+    full(&wmap)?;
     // Walk starts cut at the step limit: without map matching each round
     // walks again from every edge used, so its count replaces the last;
     // with it, each round walks from fresh edges only, so counts add up.
@@ -719,6 +715,8 @@ pub(crate) fn plan_trips(
             epsilon,
             beta,
             planning_chains,
+            cold_starts: cold.drawn,
+            cold_starts_over_budget: cold.over_budget,
             added_chains: added,
             certification_chains: m,
             violations: nbad,
