@@ -16,7 +16,9 @@
 //!
 //! # The guarantee
 //!
-//! After planning on `planning_chains` sampled chains, `M` fresh chains are
+//! After planning on `planning_chains` sampled chains (with two reach
+//! levels, also on the stretches before calibration of chain beginnings,
+//! `super::cold_starts`), `M` fresh chains are
 //! drawn independently and checked under the same model. If at most `v`
 //! fail, where `M` was chosen beforehand so that the one-sided
 //! Clopper–Pearson upper bound after `v` = [`ALLOWED_VIOLATIONS`] failures
