@@ -15,20 +15,14 @@
 //! [`THINNING_S`](super::validation::THINNING_S) and each run's last row)
 //! and judged by the validation's rule (`share_rule`).
 
-use super::settings::map_route;
+use super::stretches::{drive_stretches, pick_stretches, StretchDrive, STRETCH_SEARCH_CHAINS};
 use super::trips::sample_chains;
-use super::types::{NetworkPlan, StretchFigures, StretchValidation};
-use super::validation::{
-    drive, open_dem, share_rule, sub_route_pieces, thin_rows, BudgetProfile, MAX_STRETCHES,
-    MIN_RUNS_PER_WALK, STRETCH_SEARCH_CHAINS, VALIDATION_CHAIN_S,
-};
-use crate::error::{Error, Result};
+use super::types::{NetworkPlan, StretchValidation};
+use super::validation::{BudgetProfile, MIN_RUNS_PER_WALK, VALIDATION_CHAIN_S};
+use crate::error::Result;
 use crate::network::Network;
-use crate::route::{plan_route_points, route_from_pieces};
+use crate::route::plan_route_points;
 use crate::scenario::Scenario;
-use crate::sim::{simulate_with, TruthSource};
-use crate::trajectory::SpeedProfile;
-use std::collections::HashSet;
 use std::sync::Arc;
 
 /// Most chainage from a chain's start to a credited stretch's end (m): the
@@ -85,98 +79,32 @@ pub(super) fn validate_credited_stretches(
     if found.is_empty() {
         return Ok(None);
     }
-    found.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let mut seen = HashSet::new();
-    found.retain(|&(_, ci, [_, over, _])| {
-        let d = routes[ci].span_at(over).section;
-        seen.insert((d.section, d.forward))
-    });
-    found.truncate(MAX_STRETCHES);
-    let (_, _, height_m) = map_route(scn)?;
-    let dem = open_dem(scn)?;
-    let profile = SpeedProfile {
-        speed_mps: scn.planner().vehicle_speed_mps,
-        ..Default::default()
-    };
-    let req = plan.requirement_m;
-    let conf = scn.planner().requirement_confidence;
+    pick_stretches(&mut found, &routes);
     let n = found.len();
     let per = runs.div_ceil(n as u64).max(MIN_RUNS_PER_WALK);
-    let existing: HashSet<&str> = plan
-        .tags
+    let peaks = found
         .iter()
-        .filter(|t| t.existing)
-        .map(|t| t.tag_id.as_str())
+        .fold((f64::INFINITY, 0.0f64), |p, s| (p.0.min(s.0), p.1.max(s.0)));
+    let lead_in = found.iter().fold(0.0f64, |l, s| l.max(s.2[0]));
+    let drives: Vec<_> = found
+        .iter()
+        .map(|&(_, ci, [_, over, end])| StretchDrive {
+            route: &routes[ci],
+            from: 0.0,
+            to: end,
+            over,
+        })
         .collect();
-    let mut figures = [StretchFigures::default(), StretchFigures::default()];
-    let mut counts = [(0usize, 0usize); 2];
-    let (mut peaks, mut lead_in) = ((f64::INFINITY, 0.0f64), 0.0f64);
-    for (si, &(peak, ci, [reset, over, end])) in found.iter().enumerate() {
-        peaks = (peaks.0.min(peak), peaks.1.max(peak));
-        lead_in = lead_in.max(reset);
-        let pieces = sub_route_pieces(&routes[ci], 0.0, end);
-        let route = route_from_pieces(net, &pieces)?;
-        let start = route.vertices.first().map_or([0.0, 0.0], |v| v.lat_lon);
-        let located = scn.located_at(start);
-        let (rp, dirs) = drive(net, &route, &profile, height_m, scn.dt, dem.as_ref())?;
-        let all = plan.sim_tags(Some(&dirs));
-        let truth = TruthSource::from_route(Arc::clone(net), route, rp);
-        let to_chainage = truth.route().map_or(1.0, |r| r.length_m)
-            / truth
-                .samples()
-                .last()
-                .map_or(1.0, |x| x.distance_m.max(1.0));
-        for (k, f) in figures.iter_mut().enumerate() {
-            let tags: Vec<_> = if k == 0 {
-                all.clone()
-            } else {
-                all.iter()
-                    .filter(|t| existing.contains(t.id.as_str()))
-                    .cloned()
-                    .collect()
-            };
-            let res = simulate_with(
-                &located,
-                &truth,
-                &tags,
-                per,
-                seed.wrapping_add(0x6361_6c69 + 1000 * si as u64),
-                None,
-            )?;
-            for r in &res.runs {
-                let rows: Vec<_> = r
-                    .rows
-                    .iter()
-                    .filter(|row| row.distance_m * to_chainage >= over)
-                    .collect();
-                let (n_thin, n_within, m) = thin_rows(&rows, req).map_err(|t| {
-                    Error::scenario(
-                        &scn.path,
-                        format!(
-                            "credited stretch {si}, run {}: the navigation error is not finite \
-                             at t = {t:.0} s",
-                            r.run
-                        ),
-                    )
-                })?;
-                counts[k].0 += n_thin;
-                counts[k].1 += n_within;
-                if m > req {
-                    f.runs_exceeding += 1;
-                }
-                f.max_horizontal_error_m = f.max_horizontal_error_m.max(m);
-            }
-        }
-    }
-    for (f, &(n_thin, n_within)) in figures.iter_mut().zip(&counts) {
-        let (lower, passed, rule) = share_rule(n_within, n_thin, req, conf);
-        f.thinned_samples = n_thin;
-        f.thinned_within = n_within;
-        f.share_lower_95 = lower;
-        f.passed = passed;
-        f.rule = rule;
-    }
-    let [with_tags, without_new_tags] = figures;
+    let [with_tags, without_new_tags] = drive_stretches(
+        scn,
+        net,
+        plan,
+        &drives,
+        per,
+        seed,
+        0x6361_6c69,
+        "credited stretch",
+    )?;
     Ok(Some(StretchValidation {
         searched_chains: chains.len(),
         stretches: n,

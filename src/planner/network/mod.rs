@@ -74,7 +74,9 @@
 //! [`cover`] (the walk DP check and the greedy; public, so that a plan can be
 //! verified from outside the crate), `ilp` (the exact
 //! integer programme), `plan` (the planning entry points), `validation`
-//! (Monte Carlo over sampled paths), `types` (the plan's types),
+//! (Monte Carlo over sampled paths), `stretches` (`--baseline`'s
+//! over-budget stretches and the drive it shares with
+//! `calibrated_stretches`), `types` (the plan's types),
 //! `settings` (the network-specific settings), `walk_relax` (the
 //! Lagrangian relaxation of `any_walk` plans), `walks` (the walk DP's
 //! per-road budgets and worst walks of `any_walk` plans), `window_sets`
@@ -100,6 +102,7 @@ pub(crate) mod reach;
 pub(crate) mod settings;
 pub(crate) mod simulated_reach;
 pub(crate) mod straight;
+pub(crate) mod stretches;
 pub(crate) mod tag_sites;
 pub(crate) mod traffic;
 pub(crate) mod trips;

@@ -1,9 +1,10 @@
 //! The Monte Carlo validation of a network plan: the fresh chains' drives
-//! (`super::validation`) and, with `--baseline` on a two-level trips plan,
-//! the stretches the calibrated level credits
-//! (`super::calibrated_stretches`).
+//! (`super::validation`) and, with `--baseline`, the over-budget
+//! stretches (`super::stretches`) and, on a two-level trips plan, the
+//! stretches the calibrated level credits (`super::calibrated_stretches`).
 
 use super::calibrated_stretches::validate_credited_stretches;
+use super::stretches::validate_stretches;
 use super::types::{NetworkPlan, NetworkValidation};
 use super::validation::validate_chains;
 use crate::error::Result;
@@ -28,6 +29,7 @@ pub fn validate_network_plan(
 ) -> Result<NetworkValidation> {
     let mut v = validate_chains(scn, net, plan, runs, seed, baseline)?;
     if baseline {
+        v.over_budget_stretches = validate_stretches(scn, net, plan, runs, seed)?;
         v.credited_stretches = validate_credited_stretches(scn, net, plan, runs, seed)?;
     }
     Ok(v)
