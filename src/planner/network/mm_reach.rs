@@ -288,6 +288,25 @@ fn turn_drive(
     turn_after(scn, site, speed_mps, &warm_up(first), total, w, rq, true)
 }
 
+/// The two roads of a weak turn after `lead` (legs of (heading °, length
+/// m)): [sharp, gradual]. The sharp road turns by [`TURN_DEG`] at once and
+/// runs `total` m; the gradual one spreads the turn over `w` m in
+/// `CURVE_CORNERS` equal steps, then runs `total` m. The engine's reach
+/// ([`turn_after`]) and the Monte Carlo's (`simulated_reach`) drive the
+/// same roads.
+pub(super) fn turn_legs(lead: &[(f64, f64)], w: f64, total: f64) -> [Vec<(f64, f64)>; 2] {
+    let last = lead.last().map_or(0.0, |l| l.0);
+    let mut sharp = lead.to_vec();
+    sharp.push((last + TURN_DEG, total));
+    let mut gradual = lead.to_vec();
+    let step = w / CURVE_CORNERS as f64;
+    for i in 1..CURVE_CORNERS {
+        gradual.push((last + TURN_DEG * i as f64 / CURVE_CORNERS as f64, step));
+    }
+    gradual.push((last + TURN_DEG, total));
+    [sharp, gradual]
+}
+
 /// The turn of [`TURN_DEG`] after the legs `lead` (heading degrees, length
 /// m), sharp and spread over `w`, then straight for `total` m; each run
 /// (with the bound's profile when `profile`) from where its reset zone
@@ -303,17 +322,8 @@ fn turn_after(
     rq: ReachRequirement,
     profile: bool,
 ) -> Result<(Drive, f64, TruthSource)> {
-    let last = lead.last().map_or(0.0, |l| l.0);
-    let mut sharp = lead.to_vec();
-    sharp.push((last + TURN_DEG, total));
-    let mut gradual = lead.to_vec();
-    let step = w / CURVE_CORNERS as f64;
-    for i in 1..CURVE_CORNERS {
-        gradual.push((last + TURN_DEG * i as f64 / CURVE_CORNERS as f64, step));
-    }
-    gradual.push((last + TURN_DEG, total));
     let mut best: Option<(Drive, f64, TruthSource)> = None;
-    for legs in [sharp, gradual] {
+    for legs in turn_legs(lead, w, total) {
         let (truth, corners) = synthetic_drive(scn, site, speed_mps, &legs)?;
         let from = corners.get(lead.len() - 1).copied().unwrap_or(0.0) + w;
         let d = run(scn, &truth, from, rq, None, profile, true)?;

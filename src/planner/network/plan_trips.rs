@@ -529,7 +529,8 @@ pub(super) fn plan_network_trips(
             p.planning_chains + g.added_chains,
             if g.cold_starts > 0 {
                 format!(
-                    " and the stretches before calibration of {} chain beginnings ({} over budget)",
+                    ", and of the stretches before calibration of {} chain beginnings, {} of them \
+                     over budget without tags",
                     g.cold_starts, g.cold_starts_over_budget
                 )
             } else {

@@ -15,7 +15,7 @@
 //!
 //! * **start**: straight from the navigator's prior;
 //! * **first turn, sharp / curve**: a straight as long as the engine's start
-//!   reach, then a turn of [`TURN_DEG`] at a corner or spread over
+//!   reach, then a turn of [`TURN_DEG`](super::turns::TURN_DEG) at a corner or spread over
 //!   [`CURVE_M`] (the least-informed first reset);
 //! * **calibrated turn, sharp / curve**: the warm-up of right-angle legs
 //!   ([`super::mm_reach::WARM_UP_LEGS`]), then the same turn.
@@ -64,10 +64,10 @@
 //! together than 500 m").
 
 use super::mm_reach::{
-    run_bound, synthetic_drive, warm_up_legs, CalibrationSite, ReachRequirement, CALIBRATION_M,
-    CURVE_CORNERS, DRIVE_MAX_M, DRIVE_MAX_S, WARM_UP_LEGS,
+    run_bound, synthetic_drive, turn_legs, warm_up_legs, CalibrationSite, ReachRequirement,
+    CALIBRATION_M, DRIVE_MAX_M, DRIVE_MAX_S, WARM_UP_LEGS,
 };
-use super::turns::{CURVE_M, TURN_DEG};
+use super::turns::CURVE_M;
 use crate::error::{Error, Result};
 use crate::scenario::Scenario;
 use crate::sim::{simulate_staged, ErrorRow, TruthSource};
@@ -419,7 +419,7 @@ fn first_straight(
     Ok(run_bound(scn, &long, 0.0, rq)?.unwrap_or(total).max(200.0))
 }
 
-/// What a turn road drives before its turn of [`TURN_DEG`].
+/// What a turn road drives before its turn of [`TURN_DEG`](super::turns::TURN_DEG).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TurnLead {
     /// `k` warm-up legs of `WARM_UP_LEG_M` (500 m) alternating north and
@@ -499,7 +499,7 @@ impl TurnLead {
     }
 }
 
-/// The turn of [`TURN_DEG`] after `lead`, sharp and spread over
+/// The turn of [`TURN_DEG`](super::turns::TURN_DEG) after `lead`, sharp and spread over
 /// [`CURVE_M`], each road running `after_m` past its turn; each handed to
 /// `measure` from [`CURVE_M`] past the turn's first corner, where the
 /// planner's stretch starts. `scn` is located at `site`; `first` is the
@@ -514,15 +514,7 @@ fn turn_roads(
     measure: &mut Measure<'_>,
 ) -> Result<[SimulatedDrive; 2]> {
     let lead_legs = lead.legs(first);
-    let last = lead_legs.last().map_or(0.0, |l| l.0);
-    let mut sharp = lead_legs.clone();
-    sharp.push((last + TURN_DEG, after_m));
-    let mut curve = lead_legs.clone();
-    let step = CURVE_M / CURVE_CORNERS as f64;
-    for i in 1..CURVE_CORNERS {
-        curve.push((last + TURN_DEG * i as f64 / CURVE_CORNERS as f64, step));
-    }
-    curve.push((last + TURN_DEG, after_m));
+    let [sharp, curve] = turn_legs(&lead_legs, CURVE_M, after_m);
     let mut one = |legs: &[(f64, f64)], kind: &str| -> Result<SimulatedDrive> {
         let (truth, corners) = synthetic_drive(scn, site, speed_mps, legs)?;
         // The turn's first corner ends the lead's last leg.
@@ -535,7 +527,7 @@ fn turn_roads(
     Ok([one(&sharp, "sharp")?, one(&curve, "curve")?])
 }
 
-/// The turn of [`TURN_DEG`] after `lead` ([`TurnLead`]) in speed class
+/// The turn of [`TURN_DEG`](super::turns::TURN_DEG) after `lead` ([`TurnLead`]) in speed class
 /// `speed_mps` at `site`: sharp and spread over `CURVE_M` (200 m), each road
 /// driven and measured as [`simulated_reach`]'s (its turn roads are
 /// `WarmUp(0)` and `WarmUp(WARM_UP_LEGS)`, the same figures).
@@ -571,6 +563,7 @@ pub fn turn_reach(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::planner::network::turns::TURN_DEG;
 
     /// The measurement before the runs were staged, kept as the reference:
     /// every run simulates the whole road ([`simulate_with`]), then each
