@@ -30,8 +30,9 @@ use crate::network::Network;
 use rayon::prelude::*;
 
 /// Driving time of a chain beginning (s): half an hour, 25 km at 50 km/h.
-/// On Gothenburg's trips plan the certification's violations that planning
-/// missed started 0.3–8.6 km into their chains and ended by 12.2 km.
+/// On Gothenburg's trips plan (seed 2, 1,024 beginnings) the 28
+/// certification violations of six rounds started 0–10.4 km into their
+/// chains and ended by 14.6 km.
 pub const COLD_START_S: f64 = 1800.0;
 
 /// Chain beginnings per fresh chain of the first certification round, the
