@@ -2,8 +2,9 @@
 //! (`planner.cold_starts`).
 //!
 //! With two reach levels ([`super::traffic::EdgeModel::with_levels`]) a
-//! chain is budgeted at the early reach until [`calibration_point`] and at
-//! the longer calibrated reach after. Every chain begins uncalibrated, so
+//! chain is budgeted at the early reach until its calibration point
+//! ([`super::traffic::calibration_point`]) and at the longer calibrated
+//! reach after. Every chain begins uncalibrated, so
 //! its first kilometres ask more of the tags than the same roads driven
 //! later; and they lie anywhere traffic can start. The planning chains are
 //! whole shifts, so they bring only `planning_chains` beginnings (64 by
@@ -22,7 +23,7 @@
 //! made on fresh chains the plan never saw, whatever chose the tags.
 //! Measured in BENCHMARKS.md ("Chain beginnings in the planning sample").
 
-use super::traffic::{add_windows_before, calibration_point, chain_budget, sample_chains_in};
+use super::traffic::{add_windows_before, chain_budget, sample_chains_in};
 use super::traffic::{Destinations, EdgeModel};
 use super::window_sets::WindowMap;
 use crate::error::Result;
@@ -93,20 +94,19 @@ pub(crate) fn add_cold_start_windows(
             .par_iter()
             .map(|c| {
                 let cb = chain_budget(model, c, true);
-                let cal = calibration_point(model, c);
                 let over = cb
                     .resets
                     .windows(2)
-                    .any(|w| w[0].1 < cal && w[1].0 - w[0].0 > 1.0);
-                (cb, cal, over)
+                    .any(|w| w[0].1 < cb.calibrated_at && w[1].0 - w[0].0 > 1.0);
+                (cb, over)
             })
             .collect();
-        for (cb, cal, over) in &early {
+        for (cb, over) in &early {
             if out.full() {
                 return Ok(stats);
             }
             stats.over_budget += usize::from(*over);
-            add_windows_before(cb, *cal, out);
+            add_windows_before(cb, cb.calibrated_at, out);
         }
     }
     Ok(stats)

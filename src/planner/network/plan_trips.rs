@@ -335,45 +335,57 @@ pub(super) fn plan_network_trips(
             .map(|d| format!("parallel road {d:.0} m away (map matching may take it); "))
             .unwrap_or_default()
     };
-    let reason = |i: usize| -> String {
-        let site = &prob.sites[i];
-        let (sec, _) = built.edge_dir[site.edge as usize];
-        let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
-        let par = parallel_words(site.edge as usize);
-        let tunnel = if a.tunnel {
-            format!("tunnel; {par}")
-        } else {
-            par
-        };
-        let v = built.edge_speed[site.edge as usize] * 3.6;
-        match &tp.site_reason[i] {
-            _ if site.existing => "installed already".to_string(),
-            Some(w) if mm && w.at_start => format!(
-                "{tunnel}{:.1} km from a chain's start without {} (reach with map matching {:.0} m at \
+    let reason =
+        |i: usize| -> String {
+            let site = &prob.sites[i];
+            let (sec, _) = built.edge_dir[site.edge as usize];
+            let a = &net.roads[net.sections[sec as usize].road as usize].attributes;
+            let par = parallel_words(site.edge as usize);
+            let tunnel = if a.tunnel {
+                format!("tunnel; {par}")
+            } else {
+                par
+            };
+            let v = built.edge_speed[site.edge as usize] * 3.6;
+            match &tp.site_reason[i] {
+                _ if site.existing => "installed already".to_string(),
+                Some(w) if mm && (w.at_start || (two_levels && w.early)) => format!(
+                    "{tunnel}{:.1} km {} without {} (reach with map matching {:.0} m at \
                  {v:.0} km/h{})",
-                w.stretch_m / 1000.0,
-                turn_words(v),
-                class_early
-                    .get(&speed_key(v / 3.6))
-                    .or(class_reach.get(&speed_key(v / 3.6)))
-                    .copied()
-                    .unwrap_or(reach_m),
-                if two_levels { " before calibration" } else { "" }
-            ),
-            Some(w) if mm => format!(
+                    w.stretch_m / 1000.0,
+                    if w.at_start {
+                        "from a chain's start"
+                    } else {
+                        "of a chain not yet calibrated"
+                    },
+                    turn_words(v),
+                    class_early
+                        .get(&speed_key(v / 3.6))
+                        .or(class_reach.get(&speed_key(v / 3.6)))
+                        .copied()
+                        .unwrap_or(reach_m),
+                    if two_levels {
+                        " before calibration"
+                    } else {
+                        ""
+                    }
+                ),
+                Some(w) if mm => {
+                    format!(
                 "{tunnel}{:.1} km without {} (reach with map matching {:.0} m at {v:.0} km/h)",
                 w.stretch_m / 1000.0,
                 turn_words(v),
                 class_reach.get(&speed_key(v / 3.6)).copied().unwrap_or(reach_m)
-            ),
-            Some(_) => format!(
+            )
+                }
+                Some(_) => format!(
                 "{tunnel}no map matching: every {:.0} m of driving at {v:.0} km/h needs {} read(s)",
                 class_reach.get(&speed_key(v / 3.6)).copied().unwrap_or(reach_m),
                 k + 1
             ),
-            None => "kept by the multicover".to_string(),
-        }
-    };
+                None => "kept by the multicover".to_string(),
+            }
+        };
     let (tags, total_cost) = tags_of(scn, settings, net, &built, &sel, height_m, reason);
     // Coverage per directed edge: the sampled chains', then the straight
     // walks' (the windows the tags were chosen for), without the tags and

@@ -621,6 +621,19 @@ fn two_reach_levels_budget_calibrated_chains_at_the_longer_reach() {
     );
     assert!(g2.cold_starts_over_budget <= g2.cold_starts);
     assert!(two.method.contains("chain beginnings"), "{}", two.method);
+    // The comb's chains rarely calibrate (few right-angle turns), so with
+    // two levels every tag serves a stretch budgeted at the early reach and
+    // says so; with one level no reason speaks of calibration.
+    assert!(!two.tags.is_empty());
+    for t in &two.tags {
+        assert!(
+            t.reason.contains("from a chain's start") || t.reason.contains("not yet calibrated"),
+            "{}",
+            t.reason
+        );
+        assert!(t.reason.contains("before calibration"), "{}", t.reason);
+    }
+    assert!(one.tags.iter().all(|t| !t.reason.contains("calibrat")));
 }
 
 #[test]

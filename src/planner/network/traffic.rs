@@ -535,6 +535,9 @@ pub(crate) struct ChainBudget {
     /// Junction transitions without a reset, node to node: (from edge, to
     /// edge).
     pub straight: Vec<(u32, u32)>,
+    /// Chainage of the chain's calibration point ([`calibration_point`];
+    /// infinite without map matching or with one level).
+    pub calibrated_at: f64,
 }
 
 /// Where a chain counts as calibrated (chainage m; infinite if it never
@@ -583,6 +586,7 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
     } else {
         f64::INFINITY
     };
+    out.calibrated_at = calibrated_at;
     for p in &chain.pieces {
         let e = p.edge as usize;
         // The budget position of `x` along this piece: the early rate for
@@ -681,6 +685,7 @@ pub(crate) fn add_windows_before(cb: &ChainBudget, c_max: f64, out: &mut WindowM
         let info = WindowInfo {
             stretch_m: c1 - c0,
             at_start: ri == 0,
+            early: c0 < cb.calibrated_at,
         };
         // Left edges: the stretch's start, then every site up to b1 − 1.
         let mut lefts: Vec<(f64, bool)> = vec![(b0, true)];

@@ -181,6 +181,9 @@ pub(crate) struct WindowInfo {
     pub stretch_m: f64,
     /// The stretch starts at a chain's start (the prior).
     pub at_start: bool,
+    /// The stretch starts before its chain's calibration point (budgeted at
+    /// the early reach when the plan has two levels).
+    pub early: bool,
 }
 
 /// The distinct windows of a plan, each with the longest stretch it lies
