@@ -15,13 +15,11 @@
 //! [`THINNING_S`](super::validation::THINNING_S) and each run's last row)
 //! and judged by the validation's rule (`share_rule`).
 
-use super::stretches::{drive_stretches, pick_stretches, StretchDrive, STRETCH_SEARCH_CHAINS};
-use super::trips::sample_chains;
+use super::stretches::{search_stretches, Found, StretchTest};
 use super::types::{NetworkPlan, StretchValidation};
-use super::validation::{BudgetProfile, MIN_RUNS_PER_WALK, VALIDATION_CHAIN_S};
+use super::validation::BudgetProfile;
 use crate::error::Result;
 use crate::network::Network;
-use crate::route::plan_route_points;
 use crate::scenario::Scenario;
 use std::sync::Arc;
 
@@ -49,70 +47,25 @@ pub(super) fn validate_credited_stretches(
         return Ok(None);
     }
     let one = cm.model.one_level();
-    let shift = scn.planner().shift_s.min(VALIDATION_CHAIN_S);
-    let chains = sample_chains(
-        net,
-        &cm.model,
-        &cm.dest,
-        shift,
-        seed,
-        0x6361_6c69_6272,
-        STRETCH_SEARCH_CHAINS,
-    )?;
-    // (budget at the single reach, chain, [reset, over, next reset]).
-    let mut found: Vec<(f64, usize, [f64; 3])> = Vec::new();
-    let mut routes = Vec::with_capacity(chains.len());
-    for (ci, chain) in chains.iter().enumerate() {
-        let route = plan_route_points(net, &chain.points)?;
-        let single = BudgetProfile::new(&one, &route, true);
-        let two = BudgetProfile::new(&cm.model, &route, true);
-        for (c, u) in single.over_budget() {
-            // The resets do not depend on the rates: the same stretch in
-            // both views, ending (just before its next reset) within 1.
-            let end = (c[2] - 0.5).max(c[0]);
-            if c[2] <= CREDITED_MAX_DRIVE_M && two.since_reset(end) <= 1.0 {
-                found.push((u, ci, c));
-            }
-        }
-        routes.push(route);
-    }
-    if found.is_empty() {
-        return Ok(None);
-    }
-    pick_stretches(&mut found, &routes);
-    let n = found.len();
-    let per = runs.div_ceil(n as u64).max(MIN_RUNS_PER_WALK);
-    let peaks = found
-        .iter()
-        .fold((f64::INFINITY, 0.0f64), |p, s| (p.0.min(s.0), p.1.max(s.0)));
-    let lead_in = found.iter().fold(0.0f64, |l, s| l.max(s.2[0]));
-    let drives: Vec<_> = found
-        .iter()
-        .map(|&(_, ci, [_, over, end])| StretchDrive {
-            route: &routes[ci],
-            from: 0.0,
-            to: end,
-            over,
-        })
-        .collect();
-    let [with_tags, without_new_tags] = drive_stretches(
-        scn,
-        net,
-        plan,
-        &drives,
-        per,
-        seed,
-        0x6361_6c69,
-        "credited stretch",
-    )?;
-    Ok(Some(StretchValidation {
-        searched_chains: chains.len(),
-        stretches: n,
-        runs_per_stretch: per,
-        lead_in_m: lead_in,
-        peak_budget_min: peaks.0,
-        peak_budget_max: peaks.1,
-        with_tags,
-        without_new_tags,
-    }))
+    let (found, routes) = search_stretches(scn, net, plan, seed, 0x6361_6c69_6272, |route| {
+        let single = BudgetProfile::new(&one, route, true);
+        let two = BudgetProfile::new(&cm.model, route, true);
+        // The resets do not depend on the rates: the same stretch in both
+        // views, ending (just before its next reset) within 1.
+        single
+            .over_budget()
+            .into_iter()
+            .filter(|(c, _)| {
+                let end = (c[2] - 0.5).max(c[0]);
+                c[2] <= CREDITED_MAX_DRIVE_M && two.since_reset(end) <= 1.0
+            })
+            .collect()
+    })?;
+    let test = StretchTest {
+        stream: 0x6361_6c69,
+        what: "credited stretch",
+        lead_in_m: |f: &[Found]| f.iter().fold(0.0f64, |l, s| l.max(s.2[0])),
+        span: |c: &[f64; 3]| (0.0, c[2]),
+    };
+    test.run(scn, net, plan, found, &routes, runs, seed)
 }

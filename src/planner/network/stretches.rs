@@ -91,6 +91,43 @@ pub(super) fn validate_stretches(
     if !plan.map_matching {
         return Ok(None);
     }
+    let (found, routes) = search_stretches(scn, net, plan, seed, 0x7374_7265_7463, |route| {
+        BudgetProfile::new(&cm.model, route, plan.map_matching).over_budget()
+    })?;
+    let test = StretchTest {
+        stream: 0x7374_7265,
+        what: "over-budget stretch",
+        lead_in_m: |_: &[Found]| STRETCH_LEAD_IN_M,
+        span: |&[reset, over, end]: &[f64; 3]| {
+            (
+                (reset - STRETCH_LEAD_IN_M).max(0.0),
+                end.min(over + STRETCH_MAX_OVER_M),
+            )
+        },
+    };
+    test.run(scn, net, plan, found, &routes, runs, seed)
+}
+
+/// A stretch found on a searched chain: (peak budget, chain, [reset,
+/// over, next reset]), the chainages (m) of its resetting turn, of where
+/// its budget passes 1 and of the next reset.
+pub(super) type Found = (f64, usize, [f64; 3]);
+
+/// Samples [`STRETCH_SEARCH_CHAINS`] chains of the plan's traffic of at most
+/// [`VALIDATION_CHAIN_S`] (random stream `stream`), routes each and keeps
+/// the stretches `find` gives on its route, as ([reset, over, next reset],
+/// peak budget). Returns them with the routes (indexed by chain).
+pub(super) fn search_stretches(
+    scn: &Scenario,
+    net: &std::sync::Arc<Network>,
+    plan: &NetworkPlan,
+    seed: u64,
+    stream: u64,
+    mut find: impl FnMut(&Route) -> Vec<([f64; 3], f64)>,
+) -> Result<(Vec<Found>, Vec<Route>)> {
+    let Some(cm) = plan.chain_model.as_ref() else {
+        return Ok((Vec::new(), Vec::new()));
+    };
     let shift = scn.planner().shift_s.min(VALIDATION_CHAIN_S);
     let chains = sample_chains(
         net,
@@ -98,63 +135,86 @@ pub(super) fn validate_stretches(
         &cm.dest,
         shift,
         seed,
-        0x7374_7265_7463,
+        stream,
         STRETCH_SEARCH_CHAINS,
     )?;
-    // (peak budget, chain, [reset, over, next reset]) over every chain.
-    let mut found: Vec<(f64, usize, [f64; 3])> = Vec::new();
+    let mut found: Vec<Found> = Vec::new();
     let mut routes = Vec::with_capacity(chains.len());
     for (ci, chain) in chains.iter().enumerate() {
         let route = plan_route_points(net, &chain.points)?;
-        let pb = BudgetProfile::new(&cm.model, &route, plan.map_matching);
-        found.extend(pb.over_budget().into_iter().map(|(c, u)| (u, ci, c)));
+        found.extend(find(&route).into_iter().map(|(c, u)| (u, ci, c)));
         routes.push(route);
     }
-    if found.is_empty() {
-        return Ok(None);
+    Ok((found, routes))
+}
+
+/// How a stretch test drives the stretches it found: the drive's random
+/// stream, the name of a stretch in errors, the `lead_in_m` it reports and
+/// each stretch's drive (from, to) in chainage (m) from its [reset, over,
+/// next reset].
+pub(super) struct StretchTest<L, S> {
+    pub stream: u64,
+    pub what: &'static str,
+    pub lead_in_m: L,
+    pub span: S,
+}
+
+impl<L: Fn(&[Found]) -> f64, S: Fn(&[f64; 3]) -> (f64, f64)> StretchTest<L, S> {
+    /// Picks the stretches ([`pick_stretches`]), drives each
+    /// `runs / stretches` times (at least [`MIN_RUNS_PER_WALK`]) with
+    /// [`drive_stretches`] and reports them; `None` when none was found.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn run(
+        &self,
+        scn: &Scenario,
+        net: &std::sync::Arc<Network>,
+        plan: &NetworkPlan,
+        mut found: Vec<Found>,
+        routes: &[Route],
+        runs: u64,
+        seed: u64,
+    ) -> Result<Option<StretchValidation>> {
+        if found.is_empty() {
+            return Ok(None);
+        }
+        pick_stretches(&mut found, routes);
+        let n = found.len();
+        let per = runs.div_ceil(n as u64).max(MIN_RUNS_PER_WALK);
+        let peaks = found
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |p, s| (p.0.min(s.0), p.1.max(s.0)));
+        let drives: Vec<_> = found
+            .iter()
+            .map(|(_, ci, c)| {
+                let (from, to) = (self.span)(c);
+                StretchDrive {
+                    route: &routes[*ci],
+                    from,
+                    to,
+                    over: c[1],
+                }
+            })
+            .collect();
+        let [with_tags, without_new_tags] =
+            drive_stretches(scn, net, plan, &drives, per, seed, self.stream, self.what)?;
+        Ok(Some(StretchValidation {
+            searched_chains: routes.len(),
+            stretches: n,
+            runs_per_stretch: per,
+            lead_in_m: (self.lead_in_m)(&found),
+            peak_budget_min: peaks.0,
+            peak_budget_max: peaks.1,
+            with_tags,
+            without_new_tags,
+        }))
     }
-    pick_stretches(&mut found, &routes);
-    let n = found.len();
-    let per = runs.div_ceil(n as u64).max(MIN_RUNS_PER_WALK);
-    let peaks = found
-        .iter()
-        .fold((f64::INFINITY, 0.0f64), |p, s| (p.0.min(s.0), p.1.max(s.0)));
-    let drives: Vec<_> = found
-        .iter()
-        .map(|&(_, ci, [reset, over, end])| StretchDrive {
-            route: &routes[ci],
-            from: (reset - STRETCH_LEAD_IN_M).max(0.0),
-            to: end.min(over + STRETCH_MAX_OVER_M),
-            over,
-        })
-        .collect();
-    let [with_tags, without_new_tags] = drive_stretches(
-        scn,
-        net,
-        plan,
-        &drives,
-        per,
-        seed,
-        0x7374_7265,
-        "over-budget stretch",
-    )?;
-    Ok(Some(StretchValidation {
-        searched_chains: chains.len(),
-        stretches: n,
-        runs_per_stretch: per,
-        lead_in_m: STRETCH_LEAD_IN_M,
-        peak_budget_min: peaks.0,
-        peak_budget_max: peaks.1,
-        with_tags,
-        without_new_tags,
-    }))
 }
 
 /// Orders stretches found as (peak budget, chain, [reset, over, next
 /// reset]) by their peak, the largest first, keeps one per directed
 /// section where the budget passes 1 (chains that drove the same straight
 /// give the same test) and at most [`MAX_STRETCHES`].
-pub(super) fn pick_stretches(found: &mut Vec<(f64, usize, [f64; 3])>, routes: &[Route]) {
+pub(super) fn pick_stretches(found: &mut Vec<Found>, routes: &[Route]) {
     found.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     let mut seen = HashSet::new();
     found.retain(|&(_, ci, [_, over, _])| {
