@@ -69,6 +69,7 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
     let g = &plan["guarantee"];
     assert_eq!(g["holds"], true, "{g}");
     let bad = g["violations"].as_u64().unwrap();
+    assert_eq!(g["allowed_violations"].as_u64(), Some(2), "{g}");
     assert!(bad <= 2, "{g}");
     assert!(
         g["violation_upper_bound"].as_f64().unwrap() <= 0.01 + 1e-12,

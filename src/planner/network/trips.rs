@@ -87,6 +87,10 @@ pub struct TripsGuarantee {
     pub added_chains: usize,
     /// Fresh chains checked in the final round (`N`).
     pub certification_chains: usize,
+    /// Violations a round may find and still certify
+    /// ([`ALLOWED_VIOLATIONS`]; `N` was sized for them before the round
+    /// was drawn).
+    pub allowed_violations: usize,
     /// Of which violating the budget.
     pub violations: usize,
     /// Certification rounds run.
@@ -721,6 +725,7 @@ pub(crate) fn plan_trips(
             cold_starts_over_budget: cold.over_budget,
             added_chains: added,
             certification_chains: m,
+            allowed_violations: ALLOWED_VIOLATIONS,
             violations: nbad,
             rounds,
             holds,
