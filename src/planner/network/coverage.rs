@@ -83,7 +83,7 @@ fn since(events: &[f64], x: f64) -> f64 {
 }
 
 /// The largest budget since the last of `events` (sorted) inside the
-/// piece [`b0`, `b1`]: at `b1` or just before an event inside the piece.
+/// piece from `b0` to `b1`: at `b1` or just before an event inside the piece.
 fn worst_in(events: &[f64], b0: f64, b1: f64) -> f64 {
     let lo = events.partition_point(|&x| x <= b0);
     let hi = events.partition_point(|&x| x <= b1);
