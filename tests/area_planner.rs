@@ -107,10 +107,13 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
     for x in f {
         let p = &x["properties"];
         assert!(p["reason"].as_str().is_some());
-        // The source of the budget without tags: a sampled chain, a
+        // The source of the budget without tags: a sampled chain, a chain
+        // beginning before calibration (two reach levels, the default), a
         // straight walk, or none (and then no bound).
         match p["budget_from"].as_str() {
-            Some("sampled_chain" | "straight_walk") => assert!(p["bound_m"].is_number(), "{p}"),
+            Some("sampled_chain" | "chain_beginning" | "straight_walk") => {
+                assert!(p["bound_m"].is_number(), "{p}")
+            }
             None => assert!(p["budget_from"].is_null() && p["bound_m"].is_null(), "{p}"),
             Some(o) => panic!("budget_from {o}: {p}"),
         }
@@ -135,9 +138,9 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
         }
     }
     // Tags are there for a reason the coverage map shows: a road over
-    // budget without them, driven so by a sampled chain or a straight walk
-    // of the network (the windows the tags were chosen for; `budget_from`
-    // says which).
+    // budget without them, driven so by a sampled chain, a chain beginning
+    // or a straight walk of the network (the windows the tags were chosen
+    // for; `budget_from` says which).
     assert!(
         n == 0 || over_without > 0,
         "no road needs tags, yet tags were placed"
@@ -151,9 +154,9 @@ fn helsinki_trips_plan_from_the_map_alone_is_small_certified_and_validated() {
         stdout.contains("rule:") && stdout.contains("Clopper"),
         "{stdout}"
     );
-    // The report draws the area plan from its folder (roads neither a
-    // sampled chain nor a straight walk drives have a null bound and stay
-    // grey).
+    // The report draws the area plan from its folder (roads no sampled
+    // chain, chain beginning or straight walk drives have a null bound and
+    // stay grey).
     let rep = run(&["report", "out"], dir.path());
     assert!(
         rep.status.success(),

@@ -286,7 +286,7 @@ pub fn read_coverage(path: &Path) -> Result<Vec<(CoveragePiece, Option<f64>, Str
     for (i, f) in fc.features.iter().enumerate() {
         let props = f.properties.as_ref();
         let get = |k: &str| props.and_then(|p| p.get(k));
-        // `null`: no sampled chain or straight walk drives this road piece,
+        // `null`: no sampled chain, chain beginning or straight walk drives this road piece,
         // so the plan predicts nothing there; it stays grey like the rest of the map.
         if get("bound_m").is_some_and(|v| v.is_null()) {
             continue;

@@ -21,8 +21,11 @@
 //! stretches that start before its calibration point. They are samples of
 //! the same traffic, so the certification's statement is unchanged: it is
 //! made on fresh chains the plan never saw, whatever chose the tags.
+//! The coverage map shows what the beginnings' early stretches consume
+//! ([`EarlyBudgets`]).
 //! Measured in BENCHMARKS.md ("Chain beginnings in the planning sample").
 
+use super::coverage::EarlyBudgets;
 use super::traffic::{add_windows_before, chain_budget, sample_chains_in};
 use super::traffic::{Destinations, EdgeModel};
 use super::window_sets::WindowMap;
@@ -63,8 +66,10 @@ pub(crate) struct ColdStarts {
 
 /// Draws `n` chain beginnings (chains of at most [`COLD_START_S`], or the
 /// shift `shift_s` if shorter) and adds to `out` the windows of each one's
-/// stretches that start before its calibration point. Deterministic in
-/// `seed`; the windows are added in the beginnings' order.
+/// stretches that start before its calibration point, and their budgets to
+/// `budgets` (for the coverage map). Deterministic in `seed`; the windows are
+/// added in the beginnings' order.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn add_cold_start_windows(
     net: &Network,
     model: &EdgeModel,
@@ -73,6 +78,7 @@ pub(crate) fn add_cold_start_windows(
     seed: u64,
     n: usize,
     out: &mut WindowMap,
+    budgets: &mut EarlyBudgets,
 ) -> Result<ColdStarts> {
     let mut stats = ColdStarts {
         drawn: n,
@@ -107,6 +113,7 @@ pub(crate) fn add_cold_start_windows(
             }
             stats.over_budget += usize::from(*over);
             add_windows_before(cb, cb.calibrated_at, out);
+            budgets.add(cb, *over);
         }
     }
     Ok(stats)

@@ -410,6 +410,7 @@ pub fn plan_network_on(
                 section: sec,
                 forward: fwd,
                 passes: None,
+                beginning_passes: None,
                 budget_with_tags: wb.all_read[e],
                 budget_without_tags: without,
                 budget_from: Some(BudgetSource::AnyWalk),

@@ -3,7 +3,7 @@
 //! rates and geometry, the sampled chains, the multicover and its
 //! guarantee, the tags with their reasons and the per-edge coverage.
 
-use super::coverage::{add_walk_budgets, edge_budgets, BudgetSource};
+use super::coverage::{add_early_budgets, add_walk_budgets, edge_budgets, BudgetSource};
 use super::instance::{classes_in_use, speed_key, Built};
 use super::mm_reach::{
     budget_bound, matched_classes, straight_profiles, CalibrationSite, MatchedReach,
@@ -387,11 +387,12 @@ pub(super) fn plan_network_trips(
             }
         };
     let (tags, total_cost) = tags_of(scn, settings, net, &built, &sel, height_m, reason);
-    // Coverage per directed edge: the sampled chains', then the straight
-    // walks' (the windows the tags were chosen for), without the tags and
-    // with them read.
+    // Coverage per directed edge: the sampled chains', the chain
+    // beginnings' before calibration, then the straight walks' (the windows
+    // the tags were chosen for), without the tags and with them read.
     let t = Instant::now();
     let mut coverage = edge_budgets(&tp.chains, &sel, physical);
+    add_early_budgets(&mut coverage, &tp.early, &sel);
     let (walks_without, walks_with) =
         walk_budgets(&model, &tp.straight, &tp.used, &sel, WALK_BUDGET_CAP);
     add_walk_budgets(&mut coverage, &walks_with, &walks_without);
@@ -427,14 +428,31 @@ pub(super) fn plan_network_trips(
         } else {
             "up to "
         };
+        let early = class_early
+            .get(&speed_key(v))
+            .copied()
+            .filter(|_| two_levels);
         c.reason = if c.budget_from.is_none() {
-            "no sampled chain or straight walk drives here".into()
+            "no sampled chain, chain beginning or straight walk drives here".into()
         } else if c.budget_without_tags <= 1.0 {
             if mm {
                 "turns and map matching hold the requirement without tags".into()
             } else {
                 "short enough from any start without tags".into()
             }
+        } else if mm && c.budget_from == Some(BudgetSource::ChainBeginning) {
+            // Budgeted at the early reach until the calibration point: the
+            // budget in metres at that reach (a stretch that runs on past
+            // the point drove more, at the calibrated reach).
+            let e = early.unwrap_or(r);
+            format!(
+                "{tunnel}up to {:.0} m driven without {} on the early stretch of a chain \
+                 not yet calibrated (counted at the reach before calibration, {e:.0} m at \
+                 {:.0} km/h; {r:.0} m once calibrated)",
+                c.budget_without_tags * e,
+                turn_words(v * 3.6),
+                v * 3.6
+            )
         } else if mm {
             format!(
                 "{tunnel}{}{:.0} m driven without {}{} (reach {r:.0} m at {:.0} km/h{})",
@@ -447,8 +465,8 @@ pub(super) fn plan_network_trips(
                     ""
                 },
                 v * 3.6,
-                match class_early.get(&speed_key(v)) {
-                    Some(e) if two_levels => format!(" once calibrated, {e:.0} m before"),
+                match early {
+                    Some(e) => format!(" once calibrated, {e:.0} m before"),
                     _ => String::new(),
                 }
             )

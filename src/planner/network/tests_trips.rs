@@ -196,10 +196,13 @@ map_matching = true
 coverage = "network"
 tolerate_missed_reads = 1
 mountings = ["road_surface"]
-shift_hours = 1
-planning_chains = 16
-{extra}
-"#
+{defaults}{extra}
+"#,
+        defaults = ["shift_hours = 1\n", "planning_chains = 16\n"]
+            .iter()
+            .filter(|d| !extra.contains(d.split(' ').next().unwrap_or("")))
+            .copied()
+            .collect::<String>()
     );
     Scenario::parse(std::path::Path::new("comb.toml"), &text).unwrap()
 }
@@ -634,6 +637,70 @@ fn two_reach_levels_budget_calibrated_chains_at_the_longer_reach() {
         assert!(t.reason.contains("before calibration"), "{}", t.reason);
     }
     assert!(one.tags.iter().all(|t| !t.reason.contains("calibrat")));
+}
+
+#[test]
+fn the_coverage_map_shows_the_chain_beginnings_early_stretches() {
+    let net = comb(8000.0);
+    // Half-hour shifts, as long as a beginning: on the comb the chains
+    // rarely calibrate, and many more beginnings than shifts (two planning
+    // chains, a small certification round at ε = 0.1) drive longer
+    // uncalibrated stretches than any shift.
+    let plan = |extra: &str| {
+        let scn = comb_scenario(&format!(
+            "candidate_spacing_m = 2000\nreach_levels = 2\nplanning_chains = 2\nshift_hours = 0.5\n\
+             violation_probability = 0.1\nconfidence = 0.9\n{extra}"
+        ));
+        let s = PlannerSettings::from_scenario(&scn).unwrap();
+        plan_network_on(&scn, &s, &net).unwrap()
+    };
+    let (with, without) = (plan("cold_starts = 2000"), plan("cold_starts = 0"));
+    fn from_beginning(p: &NetworkPlan) -> Vec<&EdgeCoverage> {
+        p.edge_coverage
+            .iter()
+            .filter(|c| c.budget_from == Some(BudgetSource::ChainBeginning))
+            .collect()
+    }
+    let g = with.guarantee.as_ref().unwrap();
+    let early = from_beginning(&with);
+    eprintln!(
+        "{} tags, {} of {} beginnings over budget; pieces from a beginning: {} of {}, {} over \
+         budget without tags; {} violations",
+        with.tag_count(),
+        g.cold_starts_over_budget,
+        g.cold_starts,
+        early.len(),
+        with.edge_coverage.len(),
+        early.iter().filter(|c| c.budget_without_tags > 1.0).count(),
+        g.violations
+    );
+    // Pieces whose largest budget without tags is a beginning's, over the
+    // budget, and say so; every piece a beginning drove counts its passes.
+    assert!(g.cold_starts_over_budget > 0);
+    assert!(early.iter().any(|c| c.budget_without_tags > 1.0));
+    for c in &early {
+        assert!(c.beginning_passes.unwrap_or(0) > 0, "{c:?}");
+        if c.budget_without_tags > 1.0 {
+            assert!(
+                c.reason.contains("of a chain not yet calibrated"),
+                "{}",
+                c.reason
+            );
+        }
+    }
+    // The tags hold the beginnings (and here every fresh chain of the final
+    // round): within the budget everywhere with them read.
+    assert_eq!(g.violations, 0, "{}", g.statement);
+    for c in &with.edge_coverage {
+        assert!(c.budget_with_tags <= 1.0 + 1e-9, "{c:?}");
+    }
+    // Without beginnings none, and no beginning passes.
+    assert_eq!(without.guarantee.as_ref().unwrap().cold_starts, 0);
+    assert!(from_beginning(&without).is_empty());
+    assert!(without
+        .edge_coverage
+        .iter()
+        .all(|c| c.beginning_passes.is_none()));
 }
 
 #[test]

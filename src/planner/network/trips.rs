@@ -37,6 +37,7 @@
 use super::add_drop::{add_drop, AddDrop};
 use super::best_site::BestSite;
 use super::cold_starts::{add_cold_start_windows, ColdStarts, COLD_STARTS_PER_CHAIN};
+use super::coverage::EarlyBudgets;
 use super::dominance::essential_windows;
 use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
@@ -413,6 +414,9 @@ pub(crate) struct TripsPlan {
     /// The chains of the planning set and of the final certification round
     /// (for the coverage map).
     pub chains: Vec<ChainBudget>,
+    /// The chain beginnings' stretches before calibration (for the
+    /// coverage map; empty without beginnings).
+    pub early: EarlyBudgets,
     /// Trips' ends and lengths of the first planning chains (for the
     /// validation's independence, only counts are kept).
     pub planning_km: f64,
@@ -489,11 +493,13 @@ pub(crate) fn plan_trips(
     }
     // Chain beginnings: their stretches before calibration (two levels
     // only; with one level a beginning is like any other stretch).
+    let mut early = EarlyBudgets::default();
     let cold = if map_matching && model.calibration_m.is_finite() {
         let n = cold_starts.unwrap_or(
             COLD_STARTS_PER_CHAIN * chains_allowing(epsilon, beta / 2.0, ALLOWED_VIOLATIONS),
         );
-        add_cold_start_windows(net, model, dest, shift_s, seed, n, &mut wmap)?
+        early = EarlyBudgets::new(model.dir.len());
+        add_cold_start_windows(net, model, dest, shift_s, seed, n, &mut wmap, &mut early)?
     } else {
         ColdStarts::default()
     };
@@ -738,6 +744,7 @@ pub(crate) fn plan_trips(
         site_reason,
         window_sets: windows,
         chains: budgets,
+        early,
         planning_km,
         walks_cut,
         straight,
