@@ -523,7 +523,7 @@ pub(super) fn plan_network_trips(
         tolerate_missed_reads: k,
         method: format!(
             "{} over the budget windows of every straight walk{} and of {} sampled chains{} ({} \
-             windows); certified on fresh chains ({} round(s)){}{}",
+             windows); certified on fresh chains ({} round(s)){}{}{}",
             if tp.exact {
                 "exact set multicover (integer programme, microlp)".to_string()
             } else {
@@ -583,6 +583,16 @@ pub(super) fn plan_network_trips(
                      without end; the windows they missed are left to the certification rounds)",
                     tp.walks_cut,
                     super::straight::MAX_STEPS
+                )
+            } else {
+                String::new()
+            },
+            if tp.walks_forked > 0 {
+                format!(
+                    "; the straight walks from {} start(s) stopped forking at {} paths (the \
+                     windows of the paths not followed are left to the certification rounds)",
+                    tp.walks_forked,
+                    super::straight::MAX_PATHS
                 )
             } else {
                 String::new()

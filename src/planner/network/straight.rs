@@ -22,7 +22,7 @@ pub(crate) const UTURN_FLAG: u32 = 1 << 31;
 pub const MAX_UTURNS: u8 = 1;
 
 /// Most paths followed from one window start (a guard against forks).
-const MAX_PATHS: usize = 256;
+pub(crate) const MAX_PATHS: usize = 256;
 
 /// Most steps (an edge entered) from one window start. Walks that end at a
 /// bend close no window and so do not count towards [`MAX_PATHS`]; where
@@ -101,6 +101,9 @@ pub(crate) struct WalkStats {
     pub starts: usize,
     /// Starts whose walks were cut at [`MAX_STEPS`] edges entered.
     pub cut: usize,
+    /// Starts whose walks stopped forking at [`MAX_PATHS`] paths (the
+    /// windows of the paths not followed are missing).
+    pub forked: usize,
     /// Most edges entered from one start.
     pub most_steps: usize,
 }
@@ -129,7 +132,8 @@ struct Step {
 /// the sites it passes within it. A stretch that traffic enters at any of
 /// its junctions (or starts on) is then covered even where no sampled chain
 /// drove exactly that combination. At most [`MAX_STEPS`] edges are entered
-/// from one start; the starts cut there are counted.
+/// and [`MAX_PATHS`] paths followed from one start; the starts cut at
+/// either limit are counted.
 pub(crate) fn straight_windows(
     model: &EdgeModel,
     straight: &std::collections::HashSet<(u32, u32)>,
@@ -165,6 +169,7 @@ fn straight_windows_within(
         for (x0, inclusive) in starts {
             let mut paths = 0usize;
             let mut steps = 0usize;
+            let mut forked = false;
             // Stack of (edge, position along it, budget so far, sites so far,
             // a U-turn made, the headings of the last CURVE_M, chainage).
             let mut stack: Vec<Step> = vec![Step {
@@ -229,6 +234,7 @@ fn straight_windows_within(
                 }
                 for (to, is_u, w) in continuations(model, &next[ei], ei, turned, &win) {
                     if paths + stack.len() >= MAX_PATHS {
+                        forked = true;
                         break;
                     }
                     stack.push(Step {
@@ -243,6 +249,7 @@ fn straight_windows_within(
                 }
             }
             stats.most_steps = stats.most_steps.max(steps);
+            stats.forked += usize::from(forked);
         }
     }
     stats
@@ -637,6 +644,7 @@ mod tests {
             WalkStats {
                 starts: 6,
                 cut: 0,
+                forked: 0,
                 most_steps: (1 << 17) - 1
             }
         );
@@ -651,10 +659,43 @@ mod tests {
             WalkStats {
                 starts: 6,
                 cut: want_cut,
+                forked: 0,
                 most_steps: MAX_STEPS
             }
         );
         assert_eq!(capped.len(), 0);
+    }
+
+    #[test]
+    fn walks_forking_past_max_paths_before_their_window_closes_are_counted() {
+        // The one-way lattice of 17 rows 100 m apart with a 1 km reach: a
+        // walk from a road leaving row i ≤ 6 forks at every junction and
+        // reaches its budget 10 rows on, after 2^9 = 512 > MAX_PATHS
+        // paths; from rows 8 and up every path runs off the lattice
+        // first, closing no window. A site every 50 m: a path's window is
+        // the sites it passes.
+        let rows = 17;
+        let net = lattice(rows, Oneway::Forward);
+        let model = edge_model(&net, 1000.0, Some(50.0));
+        let straight = geometric_straight(&net, &model);
+        let row_of = |e: usize| -> usize {
+            let sec = &net.sections[model.dir[e].0 as usize];
+            let id = &net.roads[sec.road as usize].attributes.id;
+            id.split('/').next().unwrap().parse().unwrap()
+        };
+        let only =
+            |r: usize| -> Vec<bool> { (0..model.dir.len()).map(|e| row_of(e) == r).collect() };
+        let mut w = WindowMap::new(usize::MAX);
+        let low = straight_windows(&model, &straight, &only(0), &mut w);
+        assert_eq!(low.cut, 0);
+        assert!(low.starts > 0);
+        assert_eq!(low.forked, low.starts, "{low:?}");
+        assert!(w.len() >= MAX_PATHS, "{} windows", w.len());
+        let mut w = WindowMap::new(usize::MAX);
+        let high = straight_windows(&model, &straight, &only(rows - 2), &mut w);
+        assert!(high.starts > 0);
+        assert_eq!(high.forked, 0, "{high:?}");
+        assert_eq!(w.len(), 0);
     }
 
     #[test]
@@ -674,6 +715,7 @@ mod tests {
         let free = straight_windows_within(&model, &straight, &used, &mut all, usize::MAX);
         assert_eq!(stats, free);
         assert_eq!(stats.cut, 0);
+        assert_eq!(stats.forked, 0);
         // 20 roads × 2 directions × (1 + 5 sites) starts.
         assert_eq!(stats.starts, 240);
         assert!(stats.most_steps < MAX_STEPS, "{stats:?}");

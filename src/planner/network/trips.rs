@@ -424,6 +424,9 @@ pub(crate) struct TripsPlan {
     /// [`super::straight::MAX_STEPS`] edges (the windows they missed are
     /// left to the certification rounds).
     pub walks_cut: usize,
+    /// Starts of straight walks that stopped forking at the paths' limit
+    /// (`super::straight::WalkStats::forked`), summed like `walks_cut`.
+    pub walks_forked: usize,
     /// The junction transitions the straight walks followed and the edges
     /// they started from (for the coverage map's walks,
     /// [`super::straight::walk_budgets`]).
@@ -507,7 +510,8 @@ pub(crate) fn plan_trips(
     // Walk starts cut at the step limit: without map matching each round
     // walks again from every edge used, so its count replaces the last;
     // with it, each round walks from fresh edges only, so counts add up.
-    let mut walks_cut = straight_windows(model, &straight, &used, &mut wmap).cut;
+    let first_walks = straight_windows(model, &straight, &used, &mut wmap);
+    let (mut walks_cut, mut walks_forked) = (first_walks.cut, first_walks.forked);
     full(&wmap)?;
     // The cover of the windows in the order of their ids (deterministic):
     // the greedy, then the Lagrangian relaxation from it (a cheaper
@@ -627,14 +631,17 @@ pub(crate) fn plan_trips(
                 used[p.0 as usize] = true;
             }
         }
-        let cut = straight_windows(
+        let ws = straight_windows(
             model,
             &straight,
             if map_matching { &fresh_used } else { &used },
             &mut wmap,
-        )
-        .cut;
-        walks_cut = if map_matching { walks_cut + cut } else { cut };
+        );
+        (walks_cut, walks_forked) = if map_matching {
+            (walks_cut + ws.cut, walks_forked + ws.forked)
+        } else {
+            (ws.cut, ws.forked)
+        };
         full(&wmap)?;
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
@@ -747,6 +754,7 @@ pub(crate) fn plan_trips(
         early,
         planning_km,
         walks_cut,
+        walks_forked,
         straight,
         used,
     })
