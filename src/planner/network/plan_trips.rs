@@ -523,7 +523,7 @@ pub(super) fn plan_network_trips(
         tolerate_missed_reads: k,
         method: format!(
             "{} over the budget windows of every straight walk{} and of {} sampled chains{} ({} \
-             windows); certified on fresh chains ({} round(s)){}{}{}",
+             windows); certified on fresh chains ({} round(s){}){}{}{}",
             if tp.exact {
                 "exact set multicover (integer programme, microlp)".to_string()
             } else {
@@ -568,6 +568,14 @@ pub(super) fn plan_network_trips(
             },
             tp.window_sets.len(),
             g.rounds,
+            match tp.optimum_round {
+                Some(true) => ", the last the exact optimum's own",
+                Some(false) => {
+                    "; the exact optimum of the windows, with fewer tags, failed a round of its \
+                     own, so the certified selection stands"
+                }
+                None => "",
+            },
             if tp.lp.iterations > 0 {
                 format!(
                     "; lower bound also from the windows' linear programme ({} primal–dual iterations: \

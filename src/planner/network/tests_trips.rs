@@ -5,7 +5,7 @@
 use super::cover;
 use super::trips::{
     chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper, exact_multicover,
-    multicover, packing_bound,
+    multicover, optimum_outcome, packing_bound, Optimum, Round, MAX_ROUNDS,
 };
 use super::window_sets::SiteWindows;
 use super::*;
@@ -59,6 +59,69 @@ fn guarantee_statistics_match_their_closed_forms() {
 }
 
 /// The cheapest selection by trying every subset (n ≤ 20).
+/// The exact optimum is a second selection: it is never judged on the
+/// chains that certified the first. It gets round `r + 1` of its own only
+/// when it needs fewer tags (installed sites are free), and the levels of
+/// every round a plan may draw, that one included, sum to less than β.
+#[test]
+fn the_exact_optimum_is_certified_in_a_round_of_its_own() {
+    let round = |holds| Round {
+        last: (924, 0, 0.005, 0, 0.5, 10.0),
+        holds,
+        cbs: Vec::new(),
+        bad: Vec::new(),
+    };
+    let never =
+        |_: usize, _: &[bool]| -> crate::error::Result<Round> { panic!("no round may be drawn") };
+    let pre = [true, false, false, false, false];
+    let greedy = [true, true, true, false, false];
+    // The same selection: nothing to test.
+    assert!(matches!(
+        optimum_outcome(&greedy, &greedy, &pre, 1, never).unwrap(),
+        Optimum::Same
+    ));
+    // As many fresh tags (the installed site is free either way), or more:
+    // not tried.
+    for opt in [
+        [false, false, true, true, false],
+        [true, true, false, true, true],
+    ] {
+        assert!(matches!(
+            optimum_outcome(&greedy, &opt, &pre, 1, never).unwrap(),
+            Optimum::Costlier
+        ));
+    }
+    // Fewer tags: tested on the next round's chains, whichever round
+    // certified, and its outcome is passed on.
+    let opt = [true, false, false, false, true];
+    for rounds in 1..=MAX_ROUNDS {
+        for holds in [true, false] {
+            let mut asked = Vec::new();
+            let out = optimum_outcome(&greedy, &opt, &pre, rounds, |r, s: &[bool]| {
+                asked.push((r, s.to_vec()));
+                Ok(round(holds))
+            })
+            .unwrap();
+            assert_eq!(asked, vec![(rounds + 1, opt.to_vec())]);
+            match out {
+                Optimum::Tested(r, o) => assert!(r == rounds + 1 && o.holds == holds),
+                _ => panic!("round {rounds}: the optimum was not tested"),
+            }
+        }
+    }
+    let levels: f64 = (1..=MAX_ROUNDS + 1)
+        .map(|r| 0.01 / 2f64.powi(r as i32))
+        .sum();
+    assert!(levels < 0.01, "{levels}");
+    // Its failure is an error like any round's.
+    let failing = |_: usize, _: &[bool]| -> crate::error::Result<Round> {
+        Err(crate::error::Error::InvalidParameter(
+            "sampling failed".into(),
+        ))
+    };
+    assert!(optimum_outcome(&greedy, &opt, &pre, 2, failing).is_err());
+}
+
 fn brute_force(n: usize, windows: &WindowSets, demand: usize, cost: &[f64]) -> Option<f64> {
     let mut best: Option<f64> = None;
     for mask in 0u32..(1 << n) {

@@ -11,8 +11,9 @@
 //! (`super::lp_bound`), whose multipliers price the greedy again (with its
 //! own add-drop moves; the cheapest selection wins) and whose bound joins
 //! the packing and relaxation bounds; the exact integer programme replaces them all
-//! when at most [`EXACT_MAX_SITES`] sites appear and its optimum also holds
-//! the final round's fresh chains.
+//! when at most [`EXACT_MAX_SITES`] sites appear and its optimum, when it
+//! needs fewer tags, passes a certification round of its own
+//! ([`optimum_outcome`]).
 //!
 //! # The guarantee
 //!
@@ -32,7 +33,10 @@
 //! *new* fresh sample is drawn; round `r` uses `β_r = β / 2^r`, so the
 //! stopping rule keeps the total error probability within `Σ β_r ≤ β`.
 //! After [`MAX_ROUNDS`] rounds the plan reports the failures and the
-//! Clopper–Pearson upper bound on the violation probability instead.
+//! Clopper–Pearson upper bound on the violation probability instead. The
+//! exact optimum of small instances is a second selection: it is reported
+//! only after passing the next round, `r + 1` at `β_{r+1}`, on chains of
+//! its own, a round the stopping rule never draws otherwise.
 
 use super::add_drop::{add_drop, AddDrop};
 use super::best_site::BestSite;
@@ -381,6 +385,15 @@ pub(crate) fn packing_bound(
 const LP_PRICE_SCALES: [f64; 3] = [1.0, 0.99, 1.01];
 
 /// One solve of the planning windows.
+/// One certification round's outcome.
+pub(crate) struct Round {
+    /// Chains, violations, β_r, the worst chain, its use and length (km).
+    pub(crate) last: (usize, usize, f64, usize, f64, f64),
+    pub(crate) holds: bool,
+    pub(crate) cbs: Vec<ChainBudget>,
+    pub(crate) bad: Vec<usize>,
+}
+
 struct Solve {
     sel: Vec<bool>,
     relaxation: Relaxation,
@@ -393,6 +406,10 @@ struct Solve {
 pub(crate) struct TripsPlan {
     /// The selection is the exact optimum of the planning windows.
     pub exact: bool,
+    /// Whether the exact optimum, when it needed fewer tags than the
+    /// certified selection, passed a round of its own (`None`: no such
+    /// round was drawn).
+    pub optimum_round: Option<bool>,
     /// The final solve's Lagrangian relaxation (its selection improved on
     /// the greedy's, its bound, its iterations).
     pub relaxation: Relaxation,
@@ -432,6 +449,48 @@ pub(crate) struct TripsPlan {
     /// [`super::straight::walk_budgets`]).
     pub straight: HashSet<(u32, u32)>,
     pub used: Vec<bool>,
+}
+
+/// What became of the exact optimum of the planning windows.
+pub(crate) enum Optimum {
+    /// It is the certified selection.
+    Same,
+    /// It needs no fewer tags: not tried.
+    Costlier,
+    /// It needs fewer tags and was checked in round `.0`.
+    Tested(usize, Round),
+}
+
+/// Checks the exact optimum `s_opt` against the selection `sel` that
+/// certification ended with after `rounds` rounds. A different selection
+/// with fewer tags gets a test of its own: fresh chains as round
+/// `rounds + 1`, at β/2^(rounds + 1). Checking it on the final round's
+/// chains would test two selections on one sample, beyond what that round's
+/// β_r covers (the union over both at the defaults: ≈ 0.010005 > β). The
+/// round after the last is otherwise never drawn (the last one certified,
+/// or the rounds ran out), so every selection the plan may report is
+/// tested at its own level and the levels sum to Σ β/2^r < β; when the
+/// optimum fails, the certified selection and its statement stand.
+pub(crate) fn optimum_outcome(
+    sel: &[bool],
+    s_opt: &[bool],
+    preselected: &[bool],
+    rounds: usize,
+    certify: impl FnOnce(usize, &[bool]) -> Result<Round>,
+) -> Result<Optimum> {
+    let fresh = |s: &[bool]| {
+        s.iter()
+            .zip(preselected)
+            .filter(|(a, b)| **a && !**b)
+            .count()
+    };
+    if s_opt == sel {
+        Ok(Optimum::Same)
+    } else if fresh(s_opt) < fresh(sel) {
+        Ok(Optimum::Tested(rounds + 1, certify(rounds + 1, s_opt)?))
+    } else {
+        Ok(Optimum::Costlier)
+    }
 }
 
 /// Plans tags for trips (module doc).
@@ -583,8 +642,9 @@ pub(crate) fn plan_trips(
     let mut rounds = 0;
     let mut holds = false;
     let mut final_budgets: Vec<ChainBudget> = Vec::new();
-    for r in 1..=MAX_ROUNDS {
-        rounds = r;
+    // Round `r`: `M` fresh chains (its own stream) checked against `s` at
+    // confidence 1 − β/2^r.
+    let certify = |r: usize, s: &[bool]| -> Result<Round> {
         let beta_r = beta / 2f64.powi(r as i32);
         let m = chains_allowing(epsilon, beta_r, ALLOWED_VIOLATIONS);
         let fresh = sample_chains(
@@ -600,15 +660,30 @@ pub(crate) fn plan_trips(
             .par_iter()
             .map(|c| chain_budget(model, c, map_matching))
             .collect();
-        let uses: Vec<f64> = cbs.par_iter().map(|cb| chain_use(cb, &sel, k)).collect();
+        let uses: Vec<f64> = cbs.par_iter().map(|cb| chain_use(cb, s, k)).collect();
         let bad: Vec<usize> = (0..m).filter(|&i| uses[i] > 1.0 + 1e-9).collect();
         let (wi, wu) =
             uses.iter().enumerate().fold(
                 (0usize, 0.0f64),
                 |a, (i, &u)| if u > a.1 { (i, u) } else { a },
             );
-        last = (m, bad.len(), beta_r, wi, wu, fresh[wi].length_m / 1000.0);
-        if clopper_pearson_upper(bad.len(), m, beta_r) <= epsilon {
+        Ok(Round {
+            last: (m, bad.len(), beta_r, wi, wu, fresh[wi].length_m / 1000.0),
+            holds: clopper_pearson_upper(bad.len(), m, beta_r) <= epsilon,
+            cbs,
+            bad,
+        })
+    };
+    for r in 1..=MAX_ROUNDS {
+        rounds = r;
+        let Round {
+            last: l,
+            holds: h,
+            cbs,
+            bad,
+        } = certify(r, &sel)?;
+        last = l;
+        if h {
             holds = true;
             final_budgets = cbs;
             break;
@@ -654,25 +729,6 @@ pub(crate) fn plan_trips(
         } = solve(&mut wmap, &mut infeasible, Some(lp.weight))?;
     }
     let (windows, infos) = wmap.into_sorted();
-    let (m, nbad, beta_r, wi, wu, wkm) = last;
-    let upper = clopper_pearson_upper(nbad, m, beta_r);
-    let statement = if holds {
-        format!(
-            "with confidence {:.4} (1 − β), a fresh chain of {:.1} h of trips violates the requirement \
-             with probability at most ε = {epsilon} under the planning model: {} of {m} fresh chains of \
-             certification round {rounds} hold it, {nbad} violate (at most {ALLOWED_VIOLATIONS} allowed; \
-             Clopper–Pearson upper bound {upper:.4} ≤ ε at confidence 1 − β/2^{rounds})",
-            1.0 - beta,
-            shift_s / 3600.0,
-            m - nbad
-        )
-    } else {
-        format!(
-            "NOT established: {nbad} of {m} fresh chains of round {rounds} violate the model's \
-             budget; with confidence 1 − β/2^{rounds} the violation probability is at most {upper:.4} \
-             (Clopper–Pearson), above ε = {epsilon}"
-        )
-    };
     // The windows have not changed since the last solve: its relaxation's
     // bound holds for them.
     // So does its linear programme's.
@@ -681,6 +737,7 @@ pub(crate) fn plan_trips(
         .max(lp.tag_bound);
     // Small instances: the exact optimum (its tag count is then the bound).
     let mut exact = false;
+    let mut optimum_round = None;
     if let Some((s_opt, _)) = exact_multicover(
         n_sites,
         &windows,
@@ -697,17 +754,48 @@ pub(crate) fn plan_trips(
                 .count()
         };
         // The optimum of the planning windows bounds every selection that
-        // satisfies them; it replaces the greedy's when it also holds the
-        // final round's fresh chains (independent of both).
+        // satisfies them.
         lower_bound = lower_bound.max(fresh(&s_opt));
-        let holds_final = final_budgets
-            .iter()
-            .all(|cb| chain_use(cb, &s_opt, k) <= 1.0 + 1e-9);
-        if holds_final && fresh(&s_opt) <= fresh(&sel) {
-            sel = s_opt;
-            exact = true;
+        match optimum_outcome(&sel, &s_opt, preselected, rounds, certify)? {
+            Optimum::Same => exact = true,
+            Optimum::Costlier => {}
+            Optimum::Tested(r, opt) => {
+                optimum_round = Some(opt.holds);
+                if opt.holds {
+                    sel = s_opt;
+                    exact = true;
+                    holds = true;
+                    rounds = r;
+                    last = opt.last;
+                    final_budgets = opt.cbs;
+                }
+            }
         }
     }
+    let (m, nbad, beta_r, wi, wu, wkm) = last;
+    let upper = clopper_pearson_upper(nbad, m, beta_r);
+    let statement = if holds {
+        format!(
+            "with confidence {:.4} (1 − β), a fresh chain of {:.1} h of trips violates the requirement \
+             with probability at most ε = {epsilon} under the planning model: {} of {m} fresh chains of \
+             certification round {rounds}{} hold it, {nbad} violate (at most {ALLOWED_VIOLATIONS} allowed; \
+             Clopper–Pearson upper bound {upper:.4} ≤ ε at confidence 1 − β/2^{rounds})",
+            1.0 - beta,
+            shift_s / 3600.0,
+            if optimum_round == Some(true) {
+                " (the exact optimum's own round)"
+            } else {
+                ""
+            },
+            m - nbad
+        )
+    } else {
+        format!(
+            "NOT established: {nbad} of {m} fresh chains of round {rounds} violate the model's \
+             budget; with confidence 1 − β/2^{rounds} the violation probability is at most {upper:.4} \
+             (Clopper–Pearson), above ε = {epsilon}"
+        )
+    };
     // Reasons: the longest stretch of a window each selected site serves.
     let mut site_reason: Vec<Option<WindowInfo>> = vec![None; n_sites];
     for (w, ids) in windows.iter().enumerate() {
@@ -723,6 +811,7 @@ pub(crate) fn plan_trips(
     budgets.extend(final_budgets);
     Ok(TripsPlan {
         exact,
+        optimum_round,
         relaxation,
         lp,
         lp_priced,
