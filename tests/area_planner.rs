@@ -231,6 +231,18 @@ fn trips_bad_input_gives_one_clear_error() {
         |t| t.replace("speed_kmh = 50", "speed_kmh = 0"),
         &["s.toml", "vehicle.speed_kmh"],
     );
+    expect_error(
+        planner("cold_starts = 100\ndiscarded_beginnings = 500"),
+        &[
+            "s.toml",
+            "planner.discarded_beginnings = 500",
+            "cold_starts = 100",
+        ],
+    );
+    expect_error(
+        planner("discarded_beginnings = -2"),
+        &["s.toml", "discarded_beginnings"],
+    );
     // Destinations: off the map, malformed, too few.
     let dir = tempfile::tempdir().unwrap();
     let off = dir.path().join("off.csv");
@@ -316,4 +328,112 @@ fn a_network_scenario_with_a_route_still_plans_and_says_the_route_is_ignored() {
         err.contains("no [[route]]") && err.contains("helsinki-network-trips.toml"),
         "{err}"
     );
+}
+
+/// Sampling and discarding on Gothenburg, as a user runs it (a quick
+/// configuration: 2 h shifts, ε = 0.05, 800 beginnings): by default round 1
+/// judges a cover leaving a few sampled beginnings over budget beside the
+/// full cover, each at β/4; with `discarded_beginnings = 0` the plan is
+/// the full cover judged at β/2. The figures are this configuration's
+/// (seed 7): the full cover certifies in round 1, and so does the smaller
+/// cover, with the tags it removed fewer.
+#[test]
+fn a_trips_plan_may_leave_a_few_sampled_beginnings_over_budget_when_round_one_certifies_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = |name: &str, extra: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(repo("scenarios/gothenburg-network-trips.toml"))
+            .unwrap()
+            .replace(
+                "../maps/gothenburg-roads.geojson",
+                repo("maps/gothenburg-roads.geojson").to_str().unwrap(),
+            )
+            .replace(
+                "[planner]\n",
+                &format!(
+                    "[planner]\nshift_hours = 2\nviolation_probability = 0.05\ncold_starts = 800\n\
+                     planning_chains = 16\n{extra}"
+                ),
+            );
+        let p = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&p, text).unwrap();
+        let out = run(
+            &[
+                "plan",
+                p.to_str().unwrap(),
+                "--out",
+                name,
+                "--runs",
+                "0",
+                "-q",
+            ],
+            dir.path(),
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join(name).join("plan.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    let full = plan("full", "discarded_beginnings = 0\n");
+    let some = plan("some", "");
+    let (gf, gs) = (&full["guarantee"], &some["guarantee"]);
+    let int = |v: &serde_json::Value| v.as_u64().unwrap();
+    let method = some["method"].as_str().unwrap();
+    // The full cover: no discarding, round 1 at β/2 (182 chains at
+    // ε = 0.05, β/2 = 0.005, two violations allowed).
+    assert!(!full["method"]
+        .as_str()
+        .unwrap()
+        .contains("sampled beginning"));
+    assert_eq!(int(&gf["beginnings_left_over_budget"]), 0);
+    assert_eq!(int(&gf["rounds"]), 1, "{}", gf["statement"]);
+    assert_eq!(int(&gf["certification_chains"]), 182);
+    // The default: floor(v · N / M₁) = floor(2 · 800 / 182) = 8 beginnings
+    // may be left; the smaller cover certified in round 1 on a sample
+    // sized for β/4 (199 chains), and says so.
+    assert_eq!(int(&gs["rounds"]), 1, "{}", gs["statement"]);
+    assert_eq!(int(&gs["certification_chains"]), 199);
+    assert!(
+        gs["statement"].as_str().unwrap().contains("β/4"),
+        "{}",
+        gs["statement"]
+    );
+    assert!(
+        method.contains("round 1 certified a cover leaving"),
+        "{method}"
+    );
+    let left = int(&gs["beginnings_left_over_budget"]);
+    assert!((1..=8).contains(&left), "{left}");
+    assert!(int(&gs["violations"]) <= 2);
+    // Fewer tags, by the count the method gives, and a bound of the windows
+    // it holds (not the full windows', which it does not hold).
+    let removed: u64 = method
+        .split(" sampled beginning(s) over budget, ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{method}"));
+    assert!(removed > 0);
+    assert_eq!(int(&some["tag_count"]) + removed, int(&full["tag_count"]));
+    assert!(int(&some["lower_bound"]) <= int(&some["tag_count"]));
+    // The coverage map shows the beginnings it left: over budget with the
+    // tags, from a chain beginning.
+    let cov: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("some/coverage.geojson")).unwrap(),
+    )
+    .unwrap();
+    let over_from_beginnings = cov["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| {
+            let p = &f["properties"];
+            p["budget_from"] == "chain_beginning" && p["budget_with_tags"].as_f64().unwrap() > 1.0
+        })
+        .count();
+    assert!(over_from_beginnings > 0);
 }

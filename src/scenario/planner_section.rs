@@ -119,13 +119,26 @@ pub(super) fn planner(
             "planner.reach_levels applies to coverage = \"network\" with traffic = \"trips\" only",
         ));
     }
-    if (coverage != Coverage::Network || traffic != Traffic::Trips || reach_levels != 2)
-        && p.cold_starts.is_some()
-    {
-        return Err(c.err(
-            "planner.cold_starts applies to coverage = \"network\" with traffic = \"trips\" and \
-             reach_levels = 2 only",
-        ));
+    for (name, given) in [
+        ("cold_starts", p.cold_starts.is_some()),
+        ("discarded_beginnings", p.discarded_beginnings.is_some()),
+    ] {
+        if (coverage != Coverage::Network || traffic != Traffic::Trips || reach_levels != 2)
+            && given
+        {
+            return Err(c.err(format!(
+                "planner.{name} applies to coverage = \"network\" with traffic = \"trips\" and \
+                 reach_levels = 2 only"
+            )));
+        }
+    }
+    let discarded_beginnings = p.discarded_beginnings.map(|n| n as usize);
+    if let Some(n) = discarded_beginnings.filter(|&n| n > cold_starts.unwrap_or(MAX_COLD_STARTS)) {
+        return Err(c.err(format!(
+            "planner.discarded_beginnings = {n} must be at most the chain beginnings drawn \
+             (planner.cold_starts = {})",
+            cold_starts.unwrap_or(MAX_COLD_STARTS)
+        )));
     }
     let names = p.mountings.unwrap_or_else(|| Mounting::ALL.to_vec());
     if names.is_empty() {
@@ -202,6 +215,7 @@ pub(super) fn planner(
         requirement_confidence,
         planning_chains,
         cold_starts,
+        discarded_beginnings,
         validation_chains,
         vehicle_speed_mps: vehicle_speed_kmh / 3.6,
     })

@@ -648,6 +648,12 @@ pub struct PlannerSection {
     /// certification round's chains; 0 for none).
     #[serde(default)]
     pub cold_starts: Option<u32>,
+    /// `traffic = "trips"` with two reach levels: sampled chain beginnings
+    /// round 1 may test a cover leaving over budget (sampling and
+    /// discarding; default: the beginnings drawn times the share of
+    /// violations the first round allows, 8 at the defaults; 0 for none).
+    #[serde(default)]
+    pub discarded_beginnings: Option<u32>,
     /// Chains the network validation drives (default 20).
     #[serde(default)]
     pub validation_chains: Option<u32>,

@@ -245,6 +245,9 @@ pub struct PlannerOptions {
     /// `trips` plan for their early stretches (default: four times the
     /// first certification round's chains).
     pub cold_starts: Option<usize>,
+    /// Sampled beginnings a first-round cover may leave over budget
+    /// (sampling and discarding; default from the certification's size).
+    pub discarded_beginnings: Option<usize>,
     /// Chains the network validation drives (default 20).
     pub validation_chains: usize,
     /// The vehicles' cruise speed on a network plan (`[vehicle] speed_kmh`,

@@ -251,6 +251,44 @@ fn cold_starts_are_bounded_and_for_two_level_trips_only() {
 }
 
 #[test]
+fn discarded_beginnings_are_at_most_the_beginnings_and_for_two_level_trips_only() {
+    let net = "[planner]\ncoverage = \"network\"\n";
+    let ok = |extra: &str| {
+        Scenario::parse(Path::new("a.toml"), &format!("{ROUTE}{net}{extra}"))
+            .unwrap()
+            .planner()
+            .discarded_beginnings
+    };
+    // Default: none given, the planner derives it from the certification.
+    assert_eq!(ok(""), None);
+    assert_eq!(ok("discarded_beginnings = 0\n"), Some(0));
+    assert_eq!(
+        ok("cold_starts = 100\ndiscarded_beginnings = 100\n"),
+        Some(100)
+    );
+    let e = parse_err(&format!(
+        "{net}cold_starts = 100\ndiscarded_beginnings = 101\n"
+    ));
+    assert!(
+        e.starts_with("bad.toml: planner.discarded_beginnings = 101 must be at most")
+            && e.contains("cold_starts = 100")
+            && !e.contains('\n'),
+        "{e}"
+    );
+    for other in [
+        "traffic = \"any_walk\"\ndiscarded_beginnings = 10\n",
+        "reach_levels = 1\ndiscarded_beginnings = 10\n",
+    ] {
+        let e = parse_err(&format!("{net}{other}"));
+        assert!(e.contains("discarded_beginnings applies to"), "{e}");
+    }
+    let e = parse_err("[planner]\ndiscarded_beginnings = 10\n");
+    assert!(e.contains("discarded_beginnings applies to"), "{e}");
+    let e = parse_err(&format!("{net}discarded_beginnings = -1\n"));
+    assert!(e.contains("discarded_beginnings"), "{e}");
+}
+
+#[test]
 fn unknown_fields_name_their_table() {
     let e = parse_err("[imu]\nsurprise = 1\n");
     assert!(

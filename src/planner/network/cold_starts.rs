@@ -112,7 +112,7 @@ pub(crate) fn add_cold_start_windows(
                 return Ok(stats);
             }
             stats.over_budget += usize::from(*over);
-            add_windows_before(cb, cb.calibrated_at, out);
+            add_windows_before(cb, cb.calibrated_at, false, out);
             budgets.add(cb, *over);
         }
     }

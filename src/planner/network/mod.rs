@@ -88,6 +88,7 @@ pub(crate) mod calibrated_stretches;
 pub(crate) mod cold_starts;
 pub mod cover;
 pub(crate) mod coverage;
+pub(crate) mod discard;
 pub(crate) mod dominance;
 pub mod greedy;
 pub(crate) mod ilp;

@@ -295,6 +295,7 @@ pub(super) fn plan_network_trips(
         p.shift_s,
         p.planning_chains,
         p.cold_starts,
+        p.discarded_beginnings,
         p.violation_probability,
         1.0 - p.confidence,
         scn.seed(),
@@ -523,7 +524,7 @@ pub(super) fn plan_network_trips(
         tolerate_missed_reads: k,
         method: format!(
             "{} over the budget windows of every straight walk{} and of {} sampled chains{} ({} \
-             windows); certified on fresh chains ({} round(s){}){}{}{}",
+             windows); certified on fresh chains ({} round(s){}{}){}{}{}",
             if tp.exact {
                 "exact set multicover (integer programme, microlp)".to_string()
             } else {
@@ -568,6 +569,19 @@ pub(super) fn plan_network_trips(
             },
             tp.window_sets.len(),
             g.rounds,
+            match tp.discard {
+                Some(d) if d.certified => format!(
+                    "; round 1 certified a cover leaving {} sampled beginning(s) over budget, {} \
+                     tag(s) fewer than the full cover (sampling and discarding)",
+                    d.left, d.removed
+                ),
+                Some(d) => format!(
+                    "; a cover leaving {} sampled beginning(s) over budget ({} tag(s) fewer) failed \
+                     round 1, so the full cover was judged on the same chains",
+                    d.left, d.removed
+                ),
+                None => String::new(),
+            },
             match tp.optimum_round {
                 Some(true) => ", the last the exact optimum's own",
                 Some(false) => {

@@ -225,6 +225,7 @@ fn straight_windows_within(
                         if w.stretch_m < m {
                             w.stretch_m = m;
                         }
+                        w.hard = true;
                     }
                     paths += 1;
                     continue;

@@ -69,6 +69,7 @@ fn the_exact_optimum_is_certified_in_a_round_of_its_own() {
         last: (924, 0, 0.005, 0, 0.5, 10.0),
         holds,
         cbs: Vec::new(),
+        km: Vec::new(),
         bad: Vec::new(),
     };
     let never =
@@ -464,7 +465,7 @@ fn a_chain_beginnings_windows_are_those_of_its_stretches_before_calibration() {
         // A calibration point anywhere along the chain, at a reset or not.
         let c_max = 1000.0 * b * rng.random_range(-0.1..1.1);
         let mut m = WindowMap::new(usize::MAX);
-        super::traffic::add_windows_before(&cb, c_max, &mut m);
+        super::traffic::add_windows_before(&cb, c_max, false, &mut m);
         let (sets, infos) = m.sorted();
         let got: std::collections::BTreeMap<Vec<u32>, f64> = sets
             .iter()
@@ -800,4 +801,38 @@ fn below_ten_km_h_the_calibrated_reach_is_the_single_reach() {
     // The profile without map matching, likewise unrouted.
     let prof = super::mm_reach::straight_profile(&scn, site, 10.0 / 3.6, rq).unwrap();
     assert!(prof.len() > 10 && prof.iter().all(|p| p.1.is_finite()));
+}
+
+/// Sampling and discarding on the comb: every tag there serves a window
+/// of a planning chain or a straight walk (hard windows), so even with
+/// every sampled beginning allowed over budget no tag can go; nothing is
+/// then judged beside the full cover, and the plan is the plan without
+/// discarding, its round 1 at β/2. (Gothenburg, where tags do go:
+/// `tests/area_planner.rs`.)
+#[test]
+fn with_no_tag_removable_discarding_leaves_the_plan_unchanged() {
+    use super::trips::{chains_allowing, ALLOWED_VIOLATIONS};
+    let net = comb(8000.0);
+    let plan = |d: usize| {
+        let scn = comb_scenario(&format!(
+            "candidate_spacing_m = 2000\ncold_starts = 50\ndiscarded_beginnings = {d}"
+        ));
+        let s = PlannerSettings::from_scenario(&scn).unwrap();
+        plan_network_on(&scn, &s, &net).unwrap()
+    };
+    let (full, all) = (plan(0), plan(50));
+    let (gf, ga) = (
+        full.guarantee.as_ref().unwrap(),
+        all.guarantee.as_ref().unwrap(),
+    );
+    assert_eq!(gf.cold_starts_over_budget, 50, "every beginning needs tags");
+    assert_eq!(all.selected, full.selected);
+    assert_eq!(all.lower_bound, full.lower_bound);
+    assert_eq!(ga.statement, gf.statement);
+    assert_eq!(ga.beginnings_left_over_budget, 0);
+    assert_eq!(
+        ga.certification_chains,
+        chains_allowing(ga.epsilon, ga.beta / 2.0, ALLOWED_VIOLATIONS)
+    );
+    assert!(!all.method.contains("sampled beginning"), "{}", all.method);
 }

@@ -657,11 +657,13 @@ pub(crate) fn chain_budget(model: &EdgeModel, chain: &Chain, map_matching: bool)
 /// Adds the windows of a chain to `out` (keyed by their sorted site ids;
 /// the longest stretch kept).
 pub(crate) fn add_windows(cb: &ChainBudget, out: &mut WindowMap) {
-    add_windows_before(cb, f64::INFINITY, out);
+    add_windows_before(cb, f64::INFINITY, true, out);
 }
 
-/// [`add_windows`] for the stretches that start before chainage `c_max`.
-pub(crate) fn add_windows_before(cb: &ChainBudget, c_max: f64, out: &mut WindowMap) {
+/// [`add_windows`] for the stretches that start before chainage `c_max`;
+/// `hard` marks the windows as asked for by a source other than a chain
+/// beginning ([`super::window_sets::WindowInfo::hard`]).
+pub(crate) fn add_windows_before(cb: &ChainBudget, c_max: f64, hard: bool, out: &mut WindowMap) {
     let mut j = 0usize;
     for (ri, w) in cb.resets.windows(2).enumerate() {
         if out.full() {
@@ -686,6 +688,7 @@ pub(crate) fn add_windows_before(cb: &ChainBudget, c_max: f64, out: &mut WindowM
             stretch_m: c1 - c0,
             at_start: ri == 0,
             early: c0 < cb.calibrated_at,
+            hard,
         };
         // Left edges: the stretch's start, then every site up to b1 − 1.
         let mut lefts: Vec<(f64, bool)> = vec![(b0, true)];
@@ -709,9 +712,11 @@ pub(crate) fn add_windows_before(cb: &ChainBudget, c_max: f64, out: &mut WindowM
             ids.sort_unstable();
             ids.dedup();
             if let Some(e) = out.entry(&ids) {
+                let hard = e.hard || hard;
                 if info.stretch_m > e.stretch_m {
                     *e = info.clone();
                 }
+                e.hard = hard;
             }
         }
     }

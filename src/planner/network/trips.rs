@@ -42,6 +42,7 @@ use super::add_drop::{add_drop, AddDrop};
 use super::best_site::BestSite;
 use super::cold_starts::{add_cold_start_windows, ColdStarts, COLD_STARTS_PER_CHAIN};
 use super::coverage::EarlyBudgets;
+use super::discard::{discard, Discarded, DISCARD_SHARE};
 use super::dominance::essential_windows;
 use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
@@ -88,6 +89,9 @@ pub struct TripsGuarantee {
     pub cold_starts: usize,
     /// Of which with such a stretch over the budget without tags.
     pub cold_starts_over_budget: usize,
+    /// Sampled chain beginnings the reported selection leaves over budget
+    /// (sampling and discarding, `super::discard`; 0 for a full cover).
+    pub beginnings_left_over_budget: usize,
     /// Chains added to the planning set from failed certification rounds.
     pub added_chains: usize,
     /// Fresh chains checked in the final round (`N`).
@@ -385,12 +389,27 @@ pub(crate) fn packing_bound(
 const LP_PRICE_SCALES: [f64; 3] = [1.0, 0.99, 1.01];
 
 /// One solve of the planning windows.
+/// A cover that left sampled beginnings over budget, tested in round 1
+/// (`super::discard`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct DiscardOutcome {
+    /// Tags fewer than the full cover.
+    pub removed: usize,
+    /// Sampled beginnings it left over budget.
+    pub left: usize,
+    /// Round 1 certified it (else the full cover was judged on the same
+    /// chains).
+    pub certified: bool,
+}
+
 /// One certification round's outcome.
 pub(crate) struct Round {
     /// Chains, violations, β_r, the worst chain, its use and length (km).
     pub(crate) last: (usize, usize, f64, usize, f64, f64),
     pub(crate) holds: bool,
     pub(crate) cbs: Vec<ChainBudget>,
+    /// The chains' lengths (km).
+    pub(crate) km: Vec<f64>,
     pub(crate) bad: Vec<usize>,
 }
 
@@ -410,6 +429,9 @@ pub(crate) struct TripsPlan {
     /// certified selection, passed a round of its own (`None`: no such
     /// round was drawn).
     pub optimum_round: Option<bool>,
+    /// The cover leaving sampled beginnings over budget, when one was
+    /// tried.
+    pub discard: Option<DiscardOutcome>,
     /// The final solve's Lagrangian relaxation (its selection improved on
     /// the greedy's, its bound, its iterations).
     pub relaxation: Relaxation,
@@ -507,6 +529,7 @@ pub(crate) fn plan_trips(
     shift_s: f64,
     planning_chains: usize,
     cold_starts: Option<usize>,
+    discard_beginnings: Option<usize>,
     epsilon: f64,
     beta: f64,
     seed: u64,
@@ -637,15 +660,65 @@ pub(crate) fn plan_trips(
         mut lp,
         mut lp_priced,
     } = solve(&mut wmap, &mut infeasible, None)?;
+    // Sampling and discarding (`super::discard`): round 1 tests a cover
+    // that leaves a few sampled beginnings over budget; the full cover is
+    // kept for round 2.
+    let max_left = discard_beginnings.unwrap_or_else(|| {
+        let m1 = chains_allowing(epsilon, beta / 2.0, ALLOWED_VIOLATIONS);
+        (DISCARD_SHARE * (ALLOWED_VIOLATIONS * cold.drawn) as f64 / m1 as f64).floor() as usize
+    });
+    let mut discarded: Option<(Vec<bool>, Discarded)> = None;
+    if max_left > 0 && !early.over.is_empty() {
+        let full_cover = sel.clone();
+        let (ws, infos) = wmap.sorted();
+        let d = discard(
+            ws,
+            infos,
+            k,
+            preselected,
+            cost,
+            &early.over,
+            max_left,
+            &mut sel,
+        );
+        if d.removed > 0 {
+            discarded = Some((full_cover, d));
+        }
+    }
+    let mut discard_outcome: Option<DiscardOutcome> = None;
     let mut added = 0usize;
     let mut last = (0usize, 0usize, 0.0f64, 0usize, 0.0f64, 0.0f64);
     let mut rounds = 0;
     let mut holds = false;
     let mut final_budgets: Vec<ChainBudget> = Vec::new();
+    // A round's chains judged against selection `s` at level `beta_r`.
+    let judge = |cbs: Vec<ChainBudget>, km: Vec<f64>, s: &[bool], beta_r: f64| -> Round {
+        let m = cbs.len();
+        let uses: Vec<f64> = cbs.par_iter().map(|cb| chain_use(cb, s, k)).collect();
+        let bad: Vec<usize> = (0..m).filter(|&i| uses[i] > 1.0 + 1e-9).collect();
+        let (wi, wu) =
+            uses.iter().enumerate().fold(
+                (0usize, 0.0f64),
+                |a, (i, &u)| if u > a.1 { (i, u) } else { a },
+            );
+        Round {
+            last: (
+                m,
+                bad.len(),
+                beta_r,
+                wi,
+                wu,
+                km.get(wi).copied().unwrap_or(0.0),
+            ),
+            holds: clopper_pearson_upper(bad.len(), m, beta_r) <= epsilon,
+            cbs,
+            km,
+            bad,
+        }
+    };
     // Round `r`: `M` fresh chains (its own stream) checked against `s` at
-    // confidence 1 − β/2^r.
-    let certify = |r: usize, s: &[bool]| -> Result<Round> {
-        let beta_r = beta / 2f64.powi(r as i32);
+    // confidence 1 − `beta_r`.
+    let certify = |r: usize, beta_r: f64, s: &[bool]| -> Result<Round> {
         let m = chains_allowing(epsilon, beta_r, ALLOWED_VIOLATIONS);
         let fresh = sample_chains(
             net,
@@ -660,28 +733,40 @@ pub(crate) fn plan_trips(
             .par_iter()
             .map(|c| chain_budget(model, c, map_matching))
             .collect();
-        let uses: Vec<f64> = cbs.par_iter().map(|cb| chain_use(cb, s, k)).collect();
-        let bad: Vec<usize> = (0..m).filter(|&i| uses[i] > 1.0 + 1e-9).collect();
-        let (wi, wu) =
-            uses.iter().enumerate().fold(
-                (0usize, 0.0f64),
-                |a, (i, &u)| if u > a.1 { (i, u) } else { a },
-            );
-        Ok(Round {
-            last: (m, bad.len(), beta_r, wi, wu, fresh[wi].length_m / 1000.0),
-            holds: clopper_pearson_upper(bad.len(), m, beta_r) <= epsilon,
-            cbs,
-            bad,
-        })
+        let km = fresh.iter().map(|c| c.length_m / 1000.0).collect();
+        Ok(judge(cbs, km, s, beta_r))
     };
     for r in 1..=MAX_ROUNDS {
         rounds = r;
+        // Round 1 with a cover leaving beginnings uncovered: its β/2 is
+        // shared by two selections judged on the same chains, that cover
+        // and the full one (β/4 each; the union bound holds whatever their
+        // dependence), so the full cover is judged in round 1 as without
+        // discarding, on a sample sized for β/4.
+        let split = r == 1 && discarded.is_some();
+        let beta_r = beta / 2f64.powi(r as i32) / if split { 2.0 } else { 1.0 };
+        let mut round = certify(r, beta_r, &sel)?;
+        if split {
+            let (full_cover, d) = discarded.take().expect("split only with a discarded cover");
+            discard_outcome = Some(DiscardOutcome {
+                removed: d.removed,
+                left: d.left,
+                certified: round.holds,
+            });
+            if round.holds {
+                discarded = Some((full_cover, d));
+            } else {
+                sel = full_cover;
+                round = judge(round.cbs, round.km, &sel, beta_r);
+            }
+        }
         let Round {
             last: l,
             holds: h,
             cbs,
             bad,
-        } = certify(r, &sel)?;
+            ..
+        } = round;
         last = l;
         if h {
             holds = true;
@@ -729,18 +814,44 @@ pub(crate) fn plan_trips(
         } = solve(&mut wmap, &mut infeasible, Some(lp.weight))?;
     }
     let (windows, infos) = wmap.into_sorted();
-    // The windows have not changed since the last solve: its relaxation's
-    // bound holds for them.
-    // So does its linear programme's.
-    let mut lower_bound = packing_bound(&windows, demand, preselected, n_sites)
-        .max(relaxation.tag_bound)
-        .max(lp.tag_bound);
+    // A certified selection that leaves beginnings uncovered is bounded
+    // among the selections holding the same windows (those it holds); the
+    // bounds of the full windows do not apply to it.
+    let held: Option<WindowSets> = discarded.as_ref().map(|_| {
+        let mut h = WindowSets::new();
+        for w in windows.iter() {
+            if w.iter().filter(|&&s| sel[s as usize]).count() >= demand {
+                h.push(w);
+            }
+        }
+        h
+    });
+    let bound_windows = held.as_ref().unwrap_or(&windows);
+    let mut lower_bound = packing_bound(bound_windows, demand, preselected, n_sites);
+    if held.is_some() {
+        let (ess, _) = essential_windows(bound_windows, demand, preselected);
+        let (b, _) = lp_duals_within(
+            &ess,
+            demand,
+            cost,
+            preselected,
+            LP_MAX,
+            Some(lp.weight),
+            None,
+        );
+        lower_bound = lower_bound.max(b.tag_bound);
+    } else {
+        // The windows have not changed since the last solve: its
+        // relaxation's bound holds for them. So does its linear
+        // programme's.
+        lower_bound = lower_bound.max(relaxation.tag_bound).max(lp.tag_bound);
+    }
     // Small instances: the exact optimum (its tag count is then the bound).
     let mut exact = false;
     let mut optimum_round = None;
     if let Some((s_opt, _)) = exact_multicover(
         n_sites,
-        &windows,
+        bound_windows,
         demand,
         cost,
         preselected,
@@ -756,7 +867,8 @@ pub(crate) fn plan_trips(
         // The optimum of the planning windows bounds every selection that
         // satisfies them.
         lower_bound = lower_bound.max(fresh(&s_opt));
-        match optimum_outcome(&sel, &s_opt, preselected, rounds, certify)? {
+        let at_level = |r: usize, s: &[bool]| certify(r, beta / 2f64.powi(r as i32), s);
+        match optimum_outcome(&sel, &s_opt, preselected, rounds, at_level)? {
             Optimum::Same => exact = true,
             Optimum::Costlier => {}
             Optimum::Tested(r, opt) => {
@@ -774,12 +886,22 @@ pub(crate) fn plan_trips(
     }
     let (m, nbad, beta_r, wi, wu, wkm) = last;
     let upper = clopper_pearson_upper(nbad, m, beta_r);
+    // The level of the final round: round 1 shared between two selections
+    // when a cover left beginnings uncovered.
+    let level = match discard_outcome {
+        Some(d) if rounds == 1 => format!(
+            "β/4 (round 1's β/2 shared by two selections judged on its chains: the cover \
+             leaving {} sampled beginning(s) over budget, and the full cover)",
+            d.left
+        ),
+        _ => format!("β/2^{rounds}"),
+    };
     let statement = if holds {
         format!(
             "with confidence {:.4} (1 − β), a fresh chain of {:.1} h of trips violates the requirement \
              with probability at most ε = {epsilon} under the planning model: {} of {m} fresh chains of \
              certification round {rounds}{} hold it, {nbad} violate (at most {ALLOWED_VIOLATIONS} allowed; \
-             Clopper–Pearson upper bound {upper:.4} ≤ ε at confidence 1 − β/2^{rounds})",
+             Clopper–Pearson upper bound {upper:.4} ≤ ε at confidence 1 − {level})",
             1.0 - beta,
             shift_s / 3600.0,
             if optimum_round == Some(true) {
@@ -792,7 +914,7 @@ pub(crate) fn plan_trips(
     } else {
         format!(
             "NOT established: {nbad} of {m} fresh chains of round {rounds} violate the model's \
-             budget; with confidence 1 − β/2^{rounds} the violation probability is at most {upper:.4} \
+             budget; with confidence 1 − {level} the violation probability is at most {upper:.4} \
              (Clopper–Pearson), above ε = {epsilon}"
         )
     };
@@ -812,6 +934,7 @@ pub(crate) fn plan_trips(
     Ok(TripsPlan {
         exact,
         optimum_round,
+        discard: discard_outcome,
         relaxation,
         lp,
         lp_priced,
@@ -825,6 +948,10 @@ pub(crate) fn plan_trips(
             planning_chains,
             cold_starts: cold.drawn,
             cold_starts_over_budget: cold.over_budget,
+            beginnings_left_over_budget: match (&discarded, discard_outcome) {
+                (Some(_), Some(d)) if d.certified => d.left,
+                _ => 0,
+            },
             added_chains: added,
             certification_chains: m,
             allowed_violations: ALLOWED_VIOLATIONS,

@@ -184,6 +184,11 @@ pub(crate) struct WindowInfo {
     /// The stretch starts before its chain's calibration point (budgeted at
     /// the early reach when the plan has two levels).
     pub early: bool,
+    /// Some source other than a chain beginning's early stretches asks for
+    /// it (a planning chain, a certification round's violator, a straight
+    /// walk): a plan that leaves sampled beginnings uncovered
+    /// (`super::discard`) must still hold it.
+    pub hard: bool,
 }
 
 /// The distinct windows of a plan, each with the longest stretch it lies
