@@ -660,9 +660,9 @@ pub(crate) fn plan_trips(
         mut lp,
         mut lp_priced,
     } = solve(&mut wmap, &mut infeasible, None)?;
-    // Sampling and discarding (`super::discard`): round 1 tests a cover
-    // that leaves a few sampled beginnings over budget; the full cover is
-    // kept for round 2.
+    // Sampling and discarding (`super::discard`): a cover that leaves a few
+    // sampled beginnings over budget, judged in round 1 beside the full
+    // cover (kept here).
     let max_left = discard_beginnings.unwrap_or_else(|| {
         let m1 = chains_allowing(epsilon, beta / 2.0, ALLOWED_VIOLATIONS);
         (DISCARD_SHARE * (ALLOWED_VIOLATIONS * cold.drawn) as f64 / m1 as f64).floor() as usize
@@ -931,6 +931,11 @@ pub(crate) fn plan_trips(
         }
     }
     budgets.extend(final_budgets);
+    let left_over = early
+        .over
+        .iter()
+        .filter(|cb| chain_use(cb, &sel, k) > 1.0 + 1e-9)
+        .count();
     Ok(TripsPlan {
         exact,
         optimum_round,
@@ -948,10 +953,7 @@ pub(crate) fn plan_trips(
             planning_chains,
             cold_starts: cold.drawn,
             cold_starts_over_budget: cold.over_budget,
-            beginnings_left_over_budget: match (&discarded, discard_outcome) {
-                (Some(_), Some(d)) if d.certified => d.left,
-                _ => 0,
-            },
+            beginnings_left_over_budget: left_over,
             added_chains: added,
             certification_chains: m,
             allowed_violations: ALLOWED_VIOLATIONS,
