@@ -85,6 +85,7 @@
 pub(crate) mod add_drop;
 pub(crate) mod best_site;
 pub(crate) mod calibrated_stretches;
+pub(crate) mod certification;
 pub(crate) mod cold_starts;
 pub mod cover;
 pub(crate) mod coverage;
