@@ -103,6 +103,14 @@ pub(crate) struct Round {
     pub(crate) bad: Vec<usize>,
 }
 
+/// Tags a selection adds to the `preselected` (installed) sites.
+pub(crate) fn new_tags(sel: &[bool], preselected: &[bool]) -> usize {
+    sel.iter()
+        .zip(preselected)
+        .filter(|(a, b)| **a && !**b)
+        .count()
+}
+
 /// What became of the exact optimum of the planning windows.
 pub(crate) enum Optimum {
     /// It is the certified selection.
@@ -130,15 +138,9 @@ pub(crate) fn optimum_outcome(
     rounds: usize,
     certify: impl FnOnce(usize, &[bool]) -> Result<Round>,
 ) -> Result<Optimum> {
-    let fresh = |s: &[bool]| {
-        s.iter()
-            .zip(preselected)
-            .filter(|(a, b)| **a && !**b)
-            .count()
-    };
     if s_opt == sel {
         Ok(Optimum::Same)
-    } else if fresh(s_opt) < fresh(sel) {
+    } else if new_tags(s_opt, preselected) < new_tags(sel, preselected) {
         Ok(Optimum::Tested(rounds + 1, certify(rounds + 1, s_opt)?))
     } else {
         Ok(Optimum::Costlier)

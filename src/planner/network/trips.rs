@@ -44,7 +44,7 @@ pub use super::certification::{
     chains_allowing, chains_needed, clopper_pearson_lower, clopper_pearson_upper,
     ALLOWED_VIOLATIONS,
 };
-pub(crate) use super::certification::{optimum_outcome, Optimum, Round};
+pub(crate) use super::certification::{new_tags, optimum_outcome, Optimum, Round};
 use super::cold_starts::{add_cold_start_windows, ColdStarts, COLD_STARTS_PER_CHAIN};
 use super::coverage::EarlyBudgets;
 use super::discard::{discard, Discarded, DISCARD_SHARE};
@@ -619,9 +619,7 @@ pub(crate) fn plan_trips(
                 left: d.left,
                 certified: round.holds,
             });
-            if round.holds {
-                discarded = Some((full_cover, d));
-            } else {
+            if !round.holds {
                 sel = full_cover;
                 round = judge(round.cbs, round.km, &sel, beta_r);
             }
@@ -683,15 +681,8 @@ pub(crate) fn plan_trips(
     // A certified selection that leaves beginnings uncovered is bounded
     // among the selections holding the same windows (those it holds); the
     // bounds of the full windows do not apply to it.
-    let held: Option<WindowSets> = discarded.as_ref().map(|_| {
-        let mut h = WindowSets::new();
-        for w in windows.iter() {
-            if w.iter().filter(|&&s| sel[s as usize]).count() >= demand {
-                h.push(w);
-            }
-        }
-        h
-    });
+    let smaller = discard_outcome.is_some_and(|d| d.certified);
+    let held: Option<WindowSets> = smaller.then(|| windows.held_by(&sel, demand));
     let bound_windows = held.as_ref().unwrap_or(&windows);
     let mut lower_bound = packing_bound(bound_windows, demand, preselected, n_sites);
     if held.is_some() {
@@ -724,15 +715,9 @@ pub(crate) fn plan_trips(
         &sel,
         EXACT_MAX_SITES,
     ) {
-        let fresh = |s: &[bool]| {
-            s.iter()
-                .zip(preselected)
-                .filter(|(a, b)| **a && !**b)
-                .count()
-        };
         // The optimum of the planning windows bounds every selection that
         // satisfies them.
-        lower_bound = lower_bound.max(fresh(&s_opt));
+        lower_bound = lower_bound.max(new_tags(&s_opt, preselected));
         let at_level = |r: usize, s: &[bool]| certify(r, beta / 2f64.powi(r as i32), s);
         match optimum_outcome(&sel, &s_opt, preselected, rounds, at_level)? {
             Optimum::Same => exact = true,

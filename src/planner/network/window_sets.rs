@@ -92,8 +92,16 @@ impl WindowSets {
     /// Every window holds at least `demand` sites of the selection `sel`
     /// (one flag per site; a site a window holds twice counts twice).
     pub fn covered_by(&self, sel: &[bool], demand: usize) -> bool {
-        self.iter()
-            .all(|ids| ids.iter().filter(|&&s| sel[s as usize]).count() >= demand)
+        self.iter().all(|ids| holds(ids, sel, demand))
+    }
+
+    /// The windows holding `demand` sites of `sel`, in order.
+    pub fn held_by(&self, sel: &[bool], demand: usize) -> WindowSets {
+        let mut h = WindowSets::new();
+        for ids in self.iter().filter(|ids| holds(ids, sel, demand)) {
+            h.push(ids);
+        }
+        h
     }
 
     /// Per window, the selected sites it still lacks once the installed
@@ -172,6 +180,11 @@ impl SiteWindows {
             }
         }
     }
+}
+
+/// Window `ids` holds `demand` sites of `sel`.
+fn holds(ids: &[u32], sel: &[bool], demand: usize) -> bool {
+    ids.iter().filter(|&&s| sel[s as usize]).count() >= demand
 }
 
 /// A window of budget 1 that must hold `k + 1` tags.
