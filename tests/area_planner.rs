@@ -402,6 +402,18 @@ fn a_trips_plan_may_leave_a_few_sampled_beginnings_over_budget_when_round_one_ce
         "{}",
         gs["statement"]
     );
+    // Its counts in their places: "H of M fresh chains of certification
+    // round 1 hold it, V violate".
+    let counts = format!(
+        ": {} of 199 fresh chains of certification round 1 hold it, {} violate",
+        199 - int(&gs["violations"]),
+        int(&gs["violations"])
+    );
+    assert!(
+        gs["statement"].as_str().unwrap().contains(&counts),
+        "{}",
+        gs["statement"]
+    );
     assert!(
         method.contains("round 1 certified a cover leaving"),
         "{method}"

@@ -303,6 +303,12 @@ fn a_trips_plan_on_a_small_network_is_the_brute_force_optimum_of_its_windows() {
     let g = p.guarantee.as_ref().unwrap();
     assert!(g.holds, "{}", g.statement);
     assert_eq!(g.violations, 0);
+    // The statement's counts are the guarantee's own, in their places.
+    let counts = format!(
+        ": {} of {} fresh chains of certification round {} hold it, 0 violate",
+        g.certification_chains, g.certification_chains, g.rounds
+    );
+    assert!(g.statement.contains(&counts), "{}", g.statement);
     // The avenue's straight run (8 km) exceeds the reach: tags are needed.
     assert!(p.reach_m < 8000.0, "reach {}", p.reach_m);
     let n = p.candidates;

@@ -750,17 +750,17 @@ pub(crate) fn plan_trips(
     let statement = if holds {
         format!(
             "with confidence {:.4} (1 − β), a fresh chain of {:.1} h of trips violates the requirement \
-             with probability at most ε = {epsilon} under the planning model: {} of {m} fresh chains of \
-             certification round {rounds}{} hold it, {nbad} violate (at most {ALLOWED_VIOLATIONS} allowed; \
+             with probability at most ε = {epsilon} under the planning model: {held} of {m} fresh chains of \
+             certification round {rounds}{own} hold it, {nbad} violate (at most {ALLOWED_VIOLATIONS} allowed; \
              Clopper–Pearson upper bound {upper:.4} ≤ ε at confidence 1 − {level})",
             1.0 - beta,
             shift_s / 3600.0,
-            if optimum_round == Some(true) {
+            held = m - nbad,
+            own = if optimum_round == Some(true) {
                 " (the exact optimum's own round)"
             } else {
                 ""
             },
-            m - nbad
         )
     } else {
         format!(
