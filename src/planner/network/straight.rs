@@ -206,6 +206,24 @@ fn straight_windows_within(
     stats
 }
 
+/// Most passes of the forked starts' walks with the tags, each followed by
+/// a solve, per solve of the rounds
+/// ([`held_straight_windows`]; the trips planner's loop).
+pub const HELD_PASSES: usize = 32;
+
+/// What walking the forked starts again with the tags did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct HeldWalks {
+    /// Passes over the forked starts, over all solves.
+    pub passes: usize,
+    /// Windows their unheld paths added.
+    pub windows: usize,
+    /// Starts of the last pass whose unheld paths still stopped forking
+    /// (or, at [`HELD_PASSES`], added windows): the paths there not
+    /// followed are left to the certification rounds.
+    pub unresolved: usize,
+}
+
 /// A window a walk closed: its sites (sorted, distinct) and its stretch (m).
 type Found = (Vec<u32>, f64);
 

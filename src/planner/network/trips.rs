@@ -53,6 +53,7 @@ use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
 use super::lp_bound::{lp_duals_within, LpBound, MAX_ITERATIONS as LP_MAX};
 use super::straight::{held_straight_windows, straight_windows, WalkStart};
+use super::straight::{HeldWalks, HELD_PASSES};
 pub(crate) use super::traffic::sample_chains;
 use super::traffic::{add_windows, chain_budget, chain_use, ChainBudget};
 use super::traffic::{Destinations, EdgeModel};
@@ -321,24 +322,6 @@ pub struct DiscardOutcome {
 }
 
 /// One solve of the planning windows.
-/// Most passes of the forked starts' walks with the tags, each followed by
-/// a solve, per solve of the rounds
-/// (`super::straight::held_straight_windows`).
-pub const HELD_PASSES: usize = 32;
-
-/// What walking the forked starts again with the tags did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub(crate) struct HeldWalks {
-    /// Passes over the forked starts, over all solves.
-    pub passes: usize,
-    /// Windows their unheld paths added.
-    pub windows: usize,
-    /// Starts of the last pass whose unheld paths still stopped forking
-    /// (or, at [`HELD_PASSES`], added windows): the paths there not
-    /// followed are left to the certification rounds.
-    pub unresolved: usize,
-}
-
 struct Solve {
     sel: Vec<bool>,
     relaxation: Relaxation,
