@@ -295,6 +295,23 @@ pub(crate) fn held_straight_windows(
     stats
 }
 
+/// Whether `selected` holds every straight walk from the `starts` (a pass
+/// of [`held_straight_windows`] finds no unheld path and no start forks).
+pub(crate) fn holds_every_walk(
+    model: &EdgeModel,
+    straight: &std::collections::HashSet<(u32, u32)>,
+    starts: &[WalkStart],
+    selected: &[bool],
+    demand: usize,
+) -> bool {
+    if starts.is_empty() {
+        return true;
+    }
+    let mut scratch = WindowMap::new(usize::MAX);
+    let st = held_straight_windows(model, straight, starts, selected, demand, &mut scratch);
+    st.added.is_empty() && st.forked == 0
+}
+
 /// The straight walks from one start (see [`straight_windows`]), with at
 /// most `limits` = (edges entered, paths) ([`MAX_STEPS`], [`MAX_PATHS`]);
 /// with `held` = (selection, demand), the paths holding `demand` selected
@@ -993,6 +1010,13 @@ mod tests {
             }
         };
         let mut sel = cover(&mut map);
+        assert!(!holds_every_walk(
+            &model,
+            &straight,
+            &first.forked_starts,
+            &sel,
+            2
+        ));
         let mut passes = 0;
         loop {
             let before = map.len();
@@ -1008,6 +1032,13 @@ mod tests {
         }
         let unheld = truth.iter().filter(|w| !holds(w, &sel, 2)).count();
         assert_eq!(unheld, 0, "after {passes} pass(es)");
+        assert!(holds_every_walk(
+            &model,
+            &straight,
+            &first.forked_starts,
+            &sel,
+            2
+        ));
         assert!(
             passes >= 2,
             "the first cover should miss some path's window"

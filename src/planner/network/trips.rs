@@ -52,7 +52,7 @@ use super::dominance::essential_windows;
 use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
 use super::lp_bound::{lp_duals_within, LpBound, MAX_ITERATIONS as LP_MAX};
-use super::straight::{held_straight_windows, straight_windows, WalkStart};
+use super::straight::{held_straight_windows, holds_every_walk, straight_windows, WalkStart};
 use super::straight::{HeldWalks, HELD_PASSES};
 pub(crate) use super::traffic::sample_chains;
 use super::traffic::{add_windows, chain_budget, chain_use, ChainBudget};
@@ -596,8 +596,12 @@ pub(crate) fn plan_trips(
             max_left,
             &mut sel,
         );
-        if d.removed > 0 {
+        // Tags removed may leave straight walks from the forked starts
+        // unheld (their held passes pruned them): then the full cover only.
+        if d.removed > 0 && holds_every_walk(model, &straight, &forked_starts, &sel, demand) {
             discarded = Some((full_cover, d));
+        } else {
+            sel = full_cover;
         }
     }
     let mut discard_outcome: Option<DiscardOutcome> = None;
