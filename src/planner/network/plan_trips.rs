@@ -610,24 +610,11 @@ pub(super) fn plan_network_trips(
                 String::new()
             },
             if tp.walks_forked > 0 {
-                let h = tp.held_walks;
                 format!(
-                    "; the straight walks from {} start(s) stopped forking at {} paths; walked \
-                     again with each solve's tags, following only the paths the tags do not \
-                     hold ({} pass(es), {} window(s) added), {}",
+                    "; the straight walks from {} start(s) stopped forking at {} paths (the \
+                     windows of the paths not followed are left to the certification rounds)",
                     tp.walks_forked,
-                    super::straight::MAX_PATHS,
-                    h.passes,
-                    h.windows,
-                    if h.unresolved == 0 {
-                        "the tags hold every straight walk from them".to_string()
-                    } else {
-                        format!(
-                            "{} start(s) still not settled (the windows of the paths not \
-                             followed there are left to the certification rounds)",
-                            h.unresolved
-                        )
-                    }
+                    super::straight::MAX_PATHS
                 )
             } else {
                 String::new()

@@ -52,8 +52,7 @@ use super::dominance::essential_windows;
 use super::lagrangian::priced_selection;
 use super::lagrangian::{relax, Relaxation};
 use super::lp_bound::{lp_duals_within, LpBound, MAX_ITERATIONS as LP_MAX};
-use super::straight::{held_straight_windows, holds_every_walk, straight_windows, WalkStart};
-use super::straight::{HeldWalks, HELD_PASSES};
+use super::straight::straight_windows;
 pub(crate) use super::traffic::sample_chains;
 use super::traffic::{add_windows, chain_budget, chain_use, ChainBudget};
 use super::traffic::{Destinations, EdgeModel};
@@ -375,8 +374,6 @@ pub(crate) struct TripsPlan {
     /// Starts of straight walks that stopped forking at the paths' limit
     /// (`super::straight::WalkStats::forked`), summed like `walks_cut`.
     pub walks_forked: usize,
-    /// Those starts walked again with the tags.
-    pub held_walks: HeldWalks,
     /// The junction transitions the straight walks followed and the edges
     /// they started from (for the coverage map's walks,
     /// [`super::straight::walk_budgets`]).
@@ -463,10 +460,6 @@ pub(crate) fn plan_trips(
     // with it, each round walks from fresh edges only, so counts add up.
     let first_walks = straight_windows(model, &straight, &used, &mut wmap);
     let (mut walks_cut, mut walks_forked) = (first_walks.cut, first_walks.forked);
-    // The starts that stopped forking, walked again with each solve's tags
-    // (`held_straight_windows`).
-    let mut forked_starts: Vec<WalkStart> = first_walks.forked_starts;
-    let mut held_walks = HeldWalks::default();
     full(&wmap)?;
     // The cover of the windows in the order of their ids (deterministic):
     // the greedy, then the Lagrangian relaxation from it (a cheaper
@@ -526,55 +519,13 @@ pub(crate) fn plan_trips(
             lp_priced,
         })
     };
-    // A solve, then the forked starts walked again with its tags: the
-    // windows of the paths they do not hold join the planning set and the
-    // solve is repeated, until its tags hold every straight walk from
-    // those starts (or after `HELD_PASSES` passes).
-    let solve_held = |wmap: &mut WindowMap,
-                      infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error,
-                      weight: Option<f64>,
-                      straight: &HashSet<(u32, u32)>,
-                      starts: &[WalkStart],
-                      held: &mut HeldWalks|
-     -> Result<Solve> {
-        let mut sv = solve(wmap, infeasible, weight)?;
-        held.unresolved = 0;
-        if starts.is_empty() {
-            return Ok(sv);
-        }
-        for pass in 1..=HELD_PASSES {
-            let before = wmap.len();
-            let st = held_straight_windows(model, straight, starts, &sv.sel, demand, wmap);
-            full(wmap)?;
-            held.passes += 1;
-            held.windows += wmap.len() - before;
-            held.unresolved = st.forked;
-            if st.added.is_empty() {
-                break;
-            }
-            sv = solve(wmap, infeasible, Some(sv.lp.weight))?;
-            if pass == HELD_PASSES {
-                // The new tags hold the windows found, but whether they
-                // hold every path is not known.
-                held.unresolved = st.forked + st.unheld;
-            }
-        }
-        Ok(sv)
-    };
     let Solve {
         mut sel,
         mut relaxation,
         mut add_drop,
         mut lp,
         mut lp_priced,
-    } = solve_held(
-        &mut wmap,
-        &mut infeasible,
-        None,
-        &straight,
-        &forked_starts,
-        &mut held_walks,
-    )?;
+    } = solve(&mut wmap, &mut infeasible, None)?;
     // Sampling and discarding (`super::discard`): a cover that leaves a few
     // sampled beginnings over budget, judged in round 1 beside the full
     // cover (kept here).
@@ -596,12 +547,8 @@ pub(crate) fn plan_trips(
             max_left,
             &mut sel,
         );
-        // Tags removed may leave straight walks from the forked starts
-        // unheld (their held passes pruned them): then the full cover only.
-        if d.removed > 0 && holds_every_walk(model, &straight, &forked_starts, &sel, demand) {
+        if d.removed > 0 {
             discarded = Some((full_cover, d));
-        } else {
-            sel = full_cover;
         }
     }
     let mut discard_outcome: Option<DiscardOutcome> = None;
@@ -719,11 +666,6 @@ pub(crate) fn plan_trips(
         } else {
             (ws.cut, ws.forked)
         };
-        if map_matching {
-            forked_starts.extend(ws.forked_starts);
-        } else {
-            forked_starts = ws.forked_starts;
-        }
         full(&wmap)?;
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
@@ -733,14 +675,7 @@ pub(crate) fn plan_trips(
             add_drop,
             lp,
             lp_priced,
-        } = solve_held(
-            &mut wmap,
-            &mut infeasible,
-            Some(lp.weight),
-            &straight,
-            &forked_starts,
-            &mut held_walks,
-        )?;
+        } = solve(&mut wmap, &mut infeasible, Some(lp.weight))?;
     }
     let (windows, infos) = wmap.into_sorted();
     // A certified selection that leaves beginnings uncovered is bounded
@@ -889,7 +824,6 @@ pub(crate) fn plan_trips(
         planning_km,
         walks_cut,
         walks_forked,
-        held_walks,
         straight,
         used,
     })
