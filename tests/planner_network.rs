@@ -325,18 +325,20 @@ fn network_plan_baseline_drives_the_same_chains_without_the_new_tags() {
     };
 
     // A fresh trips plan with map matching: the baseline has no tag at all.
-    // Helsinki's trips at 15 m: at 20 m the plan has no tag, so there would
-    // be no stretch to drive (and the Monaco map is not bundled with the
-    // repo).
+    // Helsinki's trips at 17 m: at 18 m and 20 m the plan has no tag, so
+    // there would be no stretch to drive (and the Monaco map is not bundled
+    // with the repo). 17 m is the loosest whole-metre requirement with tags
+    // (5); it plans in 44 s where 15 m took 3 min (78 tags, its straight
+    // walks forking past MAX_PATHS), which held the CI near its limit.
     let trips = std::fs::read_to_string(repo("scenarios/helsinki-network-trips.toml"))
         .unwrap()
         .replace(
             "../maps/helsinki.osm.pbf",
             repo("maps/helsinki.osm.pbf").to_str().unwrap(),
         )
-        .replace("requirement_m = 20.0", "requirement_m = 15.0");
-    assert!(trips.contains("requirement_m = 15.0"));
-    let trips_path = dir.path().join("trips15.toml");
+        .replace("requirement_m = 20.0", "requirement_m = 17.0");
+    assert!(trips.contains("requirement_m = 17.0"));
+    let trips_path = dir.path().join("trips17.toml");
     std::fs::write(&trips_path, trips).unwrap();
     let stdout = ok(&plan_args(&trips_path, "t", "2"));
     assert!(stdout.contains("baseline: the same chains"), "{stdout}");
@@ -368,8 +370,8 @@ fn network_plan_baseline_drives_the_same_chains_without_the_new_tags() {
     assert_eq!(w["thinned_samples"], wo["thinned_samples"]);
     assert!(w["thinned_samples"].as_u64().unwrap() >= 20 * n);
     // Where the budget passes 1 the plan puts its tags: with them read the
-    // error there is far smaller than without (measured 1.00 m against
-    // 20.32 m at 2 runs; a baseline that kept the tags would tie).
+    // error there is far smaller than without (measured 1.44 m against
+    // 12.69 m at 2 runs; a baseline that kept the tags would tie).
     let (ew, ewo) = (
         w["max_horizontal_error_m"].as_f64().unwrap(),
         wo["max_horizontal_error_m"].as_f64().unwrap(),

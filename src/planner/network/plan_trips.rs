@@ -121,6 +121,25 @@ pub(super) fn plan_network_trips(
     let conf = p.requirement_confidence;
     let mm = scn.aiding().map_matching && scn.navigator().mode == NavMode::Integrated;
     let physical = built.physical_edges;
+    // The listed destinations are read, snapped and checked before the
+    // reach (seconds of filter runs), so that a bad file fails at once;
+    // the connectivity check needs the edge model and comes after it.
+    let listed = match &p.destinations {
+        Some(path) => {
+            let (pts, w) = read_destinations(path, net)?;
+            let d = Destinations::listed(net, pts.clone(), &w).map_err(|e| {
+                Error::format(
+                    path,
+                    match e {
+                        Error::InvalidParameter(m) => m,
+                        o => o.to_string(),
+                    },
+                )
+            })?;
+            Some((path, pts, d))
+        }
+        None => None,
+    };
     // Reach per (speed class, mounting in use).
     let t = Instant::now();
     let (speeds, mountings, classes) = classes_in_use(&built)?;
@@ -228,9 +247,8 @@ pub(super) fn plan_network_trips(
         model = model.with_levels(early, CALIBRATION_M);
     }
     let main = super::traffic::main_component(net, &model);
-    let dest = match &p.destinations {
-        Some(path) => {
-            let (pts, w) = read_destinations(path, net)?;
+    let dest = match listed {
+        Some((path, pts, d)) => {
             if let Some(i) = pts.iter().position(|q| !main[q.section as usize]) {
                 return Err(Error::format(
                     path,
@@ -241,15 +259,7 @@ pub(super) fn plan_network_trips(
                     ),
                 ));
             }
-            Destinations::listed(net, pts, &w).map_err(|e| {
-                Error::format(
-                    path,
-                    match e {
-                        Error::InvalidParameter(m) => m,
-                        o => o.to_string(),
-                    },
-                )
-            })?
+            d
         }
         None => Destinations::by_length(net, &model, &main)?,
     };
