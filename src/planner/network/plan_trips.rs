@@ -103,6 +103,34 @@ fn read_destinations(
     Ok((pts, w))
 }
 
+/// The method text's account of the coverage map's straight walks that
+/// stopped at a limit (`WalkStops`): empty when none did.
+fn coverage_walk_stops(s: super::straight::WalkStops) -> String {
+    let mut parts = Vec::new();
+    if s.cut > 0 {
+        parts.push(format!(
+            "{cut} start(s) stopped at {steps} edges entered",
+            cut = s.cut,
+            steps = super::straight::MAX_STEPS
+        ));
+    }
+    if s.forked > 0 {
+        parts.push(format!(
+            "{forked} stopped forking at {paths} paths",
+            forked = s.forked,
+            paths = super::straight::MAX_PATHS
+        ));
+    }
+    if parts.is_empty() {
+        return String::new();
+    }
+    format!(
+        "; in coverage.geojson the straight walks from {} (the straight-walk budgets near them \
+         may be understated)",
+        parts.join(" and ")
+    )
+}
+
 /// Plans `trips` traffic on a built instance (module doc).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn plan_network_trips(
@@ -404,7 +432,7 @@ pub(super) fn plan_network_trips(
     let t = Instant::now();
     let mut coverage = edge_budgets(&tp.chains, &sel, physical);
     add_early_budgets(&mut coverage, &tp.early, &sel);
-    let (walks_without, walks_with) =
+    let (walks_without, walks_with, walk_stops) =
         walk_budgets(&model, &tp.straight, &tp.used, &sel, WALK_BUDGET_CAP);
     add_walk_budgets(&mut coverage, &walks_with, &walks_without);
     timings.insert("coverage".into(), t.elapsed().as_secs_f64() * 1e3);
@@ -534,7 +562,7 @@ pub(super) fn plan_network_trips(
         tolerate_missed_reads: k,
         method: format!(
             "{} over the budget windows of every straight walk{} and of {} sampled chains{} ({} \
-             windows); certified on fresh chains ({} round(s){}{}){}{}{}",
+             windows); certified on fresh chains ({} round(s){}{}){}{}{}{}",
             if tp.exact {
                 "exact set multicover (integer programme, microlp)".to_string()
             } else {
@@ -628,7 +656,8 @@ pub(super) fn plan_network_trips(
                 )
             } else {
                 String::new()
-            }
+            },
+            coverage_walk_stops(walk_stops)
         ),
         lower_bound: tp.lower_bound,
         lower_bound_cost: (tp.lower_bound as f64 * if min_cost.is_finite() { min_cost } else { 0.0 })

@@ -330,14 +330,15 @@ struct Reach {
 /// [`MAX_UTURNS`] turn-backs per stretch, [`MAX_PATHS`] walks and
 /// [`MAX_STEPS`] edges entered per start, counted for each of the two
 /// walks). Starts run in parallel; the result does not depend on their
-/// order. Edges no walk enters get 0. Returns (without, with).
+/// order. Edges no walk enters get 0. Returns (without, with, the starts
+/// stopped at a limit, whose walks' budgets may be understated).
 pub(crate) fn walk_budgets(
     model: &EdgeModel,
     straight: &std::collections::HashSet<(u32, u32)>,
     used: &[bool],
     read: &[bool],
     cap: f64,
-) -> (Vec<f64>, Vec<f64>) {
+) -> (Vec<f64>, Vec<f64>, WalkStops) {
     use rayon::prelude::*;
     use std::sync::atomic::AtomicU64;
     let n = model.dir.len();
@@ -352,25 +353,53 @@ pub(crate) fn walk_budgets(
     // freed arrays (peak memory, BENCHMARKS.md).
     let out: [Vec<AtomicU64>; 2] =
         std::array::from_fn(|_| (0..n).map(|_| AtomicU64::new(0)).collect());
-    edges.par_iter().for_each(|&e| {
-        if used(e) {
-            walk_from(model, &next, e, 0.0, false, &is_read, cap, &out);
-            if model.turn_resets[e] {
-                for &x in &model.bends[e] {
-                    walk_from(model, &next, e, x, false, &is_read, cap, &out);
+    let stops = edges
+        .par_iter()
+        .map(|&e| {
+            let mut stops = WalkStops::default();
+            if used(e) {
+                stops.add(walk_from(model, &next, e, 0.0, false, &is_read, cap, &out));
+                if model.turn_resets[e] {
+                    for &x in &model.bends[e] {
+                        stops.add(walk_from(model, &next, e, x, false, &is_read, cap, &out));
+                    }
                 }
             }
-        }
-        for s in model.sites[e].iter().filter(|s| is_read(s.1)) {
-            walk_from(model, &next, e, s.0, true, &is_read, cap, &out);
-        }
-    });
+            for s in model.sites[e].iter().filter(|s| is_read(s.1)) {
+                stops.add(walk_from(model, &next, e, s.0, true, &is_read, cap, &out));
+            }
+            stops
+        })
+        .reduce(WalkStops::default, |a, b| WalkStops {
+            cut: a.cut + b.cut,
+            forked: a.forked + b.forked,
+        });
     let [without, with] = out.map(|v| {
         v.into_iter()
             .map(|a| f64::from_bits(a.into_inner()))
             .collect()
     });
-    (without, with)
+    (without, with, stops)
+}
+
+/// Starts of [`walk_budgets`] whose walks (without the tags, with them, or
+/// both) stopped at a limit: the budgets of the walks not followed are
+/// missing, so the coverage map's straight-walk budgets near them may be
+/// understated.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct WalkStops {
+    /// Starts a walk of which was cut at [`MAX_STEPS`] edges entered.
+    pub cut: usize,
+    /// Starts a walk of which stopped forking at [`MAX_PATHS`] paths.
+    pub forked: usize,
+}
+
+impl WalkStops {
+    /// Counts one start's (cut, forked).
+    fn add(&mut self, (cut, forked): (bool, bool)) {
+        self.cut += usize::from(cut);
+        self.forked += usize::from(forked);
+    }
 }
 
 /// Raises `slot` to budget `u`: the bits of non-negative floats order as
@@ -387,7 +416,9 @@ fn keep_max(slot: &std::sync::atomic::AtomicU64, u: f64) {
 /// followed together while they share their states. Up to its first read
 /// the walk with the tags is the walk without them; each keeps its own
 /// counts for the limits, and a state is followed for the walks that
-/// reached it (the order of the states is each walk's alone).
+/// reached it (the order of the states is each walk's alone). Returns
+/// whether a walk was cut at [`MAX_STEPS`] and whether one stopped forking
+/// at [`MAX_PATHS`].
 #[allow(clippy::too_many_arguments)]
 fn walk_from(
     model: &EdgeModel,
@@ -398,7 +429,8 @@ fn walk_from(
     is_read: &impl Fn(u32) -> bool,
     cap: f64,
     out: &[Vec<std::sync::atomic::AtomicU64>; 2],
-) {
+) -> (bool, bool) {
+    let (mut cut, mut forked) = (false, false);
     let mut live: u8 = if at_read { 2 } else { 3 };
     // Per walk: windows closed, edges entered, states on the stack.
     let (mut paths, mut steps, mut queued) = ([0usize; 2], [0usize; 2], [1usize; 2]);
@@ -430,6 +462,7 @@ fn walk_from(
             if steps[k] == MAX_STEPS {
                 live &= !(1 << k);
                 walks &= !(1 << k);
+                cut = true;
             } else {
                 steps[k] += 1;
             }
@@ -477,6 +510,7 @@ fn walk_from(
             for k in bits(going) {
                 if paths[k] + queued[k] >= MAX_PATHS {
                     going &= !(1 << k);
+                    forked = true;
                 }
             }
             if going == 0 {
@@ -496,6 +530,7 @@ fn walk_from(
             });
         }
     }
+    (cut, forked)
 }
 
 #[cfg(test)]
@@ -979,7 +1014,7 @@ mod tests {
         cap: f64,
     ) -> (usize, usize, f64, f64) {
         let t = std::time::Instant::now();
-        let (without, with) = walk_budgets(model, straight, used, read, cap);
+        let (without, with, _) = walk_budgets(model, straight, used, read, cap);
         let one = t.elapsed().as_secs_f64();
         let t = std::time::Instant::now();
         let want_without = separate_walk_budgets(model, straight, used, None, cap);
@@ -1043,6 +1078,59 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn walk_budgets_count_the_starts_whose_walks_stopped_at_a_limit() {
+        // The one-way lattice of 17 rows 100 m apart, a site every 50 m,
+        // none read (the walks with and without the tags are the same, so
+        // a start counts once).
+        let rows = 17;
+        let net = lattice(rows, Oneway::Forward);
+        let row_of = |model: &EdgeModel, e: usize| -> usize {
+            let sec = &net.sections[model.dir[e].0 as usize];
+            let id = &net.roads[sec.road as usize].attributes.id;
+            id.split('/').next().unwrap().parse().unwrap()
+        };
+        let only = |model: &EdgeModel, r: usize| -> Vec<bool> {
+            (0..model.dir.len())
+                .map(|e| row_of(model, e) == r)
+                .collect()
+        };
+        // A 1 km reach and a cap of 1: from row 0 the walks reach the cap 10
+        // rows on, after 2^9 = 512 > MAX_PATHS paths, and every start stops
+        // forking; from row 15 they run off the lattice first.
+        let model = edge_model(&net, 1000.0, Some(50.0));
+        let straight = geometric_straight(&net, &model);
+        let sites = model.sites.iter().map(Vec::len).sum::<usize>();
+        let none = vec![false; sites];
+        let starts = only(&model, 0).iter().filter(|&&u| u).count();
+        assert!(starts > 0);
+        let (.., low) = walk_budgets(&model, &straight, &only(&model, 0), &none, 1.0);
+        assert_eq!(
+            low,
+            WalkStops {
+                cut: 0,
+                forked: starts
+            }
+        );
+        let (.., high) = walk_budgets(&model, &straight, &only(&model, rows - 2), &none, 1.0);
+        assert_eq!(high, WalkStops::default());
+        // A 5 km reach: no walk reaches the cap on the 1.7 km lattice; from
+        // row 0 each enters 2^17 − 1 roads, past MAX_STEPS = 2^16, and is
+        // cut; from row 1, 2^16 − 1, just within it.
+        let model = edge_model(&net, 5000.0, Some(50.0));
+        let straight = geometric_straight(&net, &model);
+        let (.., far) = walk_budgets(&model, &straight, &only(&model, 0), &none, 1.0);
+        assert_eq!(
+            far,
+            WalkStops {
+                cut: starts,
+                forked: 0
+            }
+        );
+        let (.., near) = walk_budgets(&model, &straight, &only(&model, 1), &none, 1.0);
+        assert_eq!(near, WalkStops::default());
     }
 
     #[test]
@@ -1112,7 +1200,9 @@ mod tests {
         // 400 m, a budget of 4/3 at the end (over the reach, under the cap).
         let mut used = vec![false; 2];
         used[a] = true;
-        let (without, with) = walk_budgets(&model, &straight, &used, &[false; 4], WALK_BUDGET_CAP);
+        let (without, with, stops) =
+            walk_budgets(&model, &straight, &used, &[false; 4], WALK_BUDGET_CAP);
+        assert_eq!(stops, WalkStops::default(), "two roads: no limit reached");
         assert_eq!(with, without, "no site read: the same walks");
         assert!(close(without[a], 2.0 / 3.0), "{without:?}");
         assert!(close(without[b], 4.0 / 3.0), "{without:?}");
@@ -1127,7 +1217,7 @@ mod tests {
         assert!((out_site.0 - 150.0).abs() < 0.5, "{out_site:?}");
         let mut read = vec![false; 4];
         read[out_site.1 as usize] = true;
-        let (w2, with) = walk_budgets(&model, &straight, &used, &read, WALK_BUDGET_CAP);
+        let (w2, with, _) = walk_budgets(&model, &straight, &used, &read, WALK_BUDGET_CAP);
         assert_eq!(w2, without, "the walks without the tags ignore reads");
         assert!(close(with[a], 2.0 / 3.0), "{with:?}");
         assert!(close(with[b], 3.5 / 3.0), "{with:?}");
@@ -1140,7 +1230,7 @@ mod tests {
         assert!(close(with[b], 2.5 / 3.0), "{with:?}");
         // Nothing driven, nothing walked.
         let none = walk_budgets(&model, &straight, &[false; 2], &[false; 4], WALK_BUDGET_CAP);
-        assert_eq!(none, (vec![0.0; 2], vec![0.0; 2]));
+        assert_eq!(none, (vec![0.0; 2], vec![0.0; 2], WalkStops::default()));
         // Each case as the two separate walks had it.
         for r in 0..16u32 {
             let read: Vec<bool> = (0..4).map(|i| r >> i & 1 == 1).collect();
