@@ -13,7 +13,7 @@ use super::reach::{reach_class, ReachClass};
 use super::straight::{walk_budgets, WALK_BUDGET_CAP};
 use super::tag_sites::tags_of;
 use super::traffic::{Destinations, EdgeModel};
-use super::trips::plan_trips;
+use super::trips::{plan_trips, TripsGuarantee, TripsPlan};
 use super::types::NetworkPlan;
 use super::window_sets::WindowInfo;
 use crate::error::{Error, Result};
@@ -128,6 +128,127 @@ fn coverage_walk_stops(s: super::straight::WalkStops) -> String {
         "; in coverage.geojson the straight walks from {} (the straight-walk budgets near them \
          may be understated)",
         parts.join(" and ")
+    )
+}
+
+/// The method text of a trips plan. Named arguments throughout: a format
+/// string mixing positional `{}` with optional parts once printed a count
+/// in another's place (twenty-second session).
+fn trips_method(
+    tp: &TripsPlan,
+    g: &TripsGuarantee,
+    mm: bool,
+    chains: usize,
+    walk_stops: super::straight::WalkStops,
+) -> String {
+    let solver = if tp.exact {
+        "exact set multicover (integer programme, microlp)".to_string()
+    } else {
+        let cover = if tp.lp_priced {
+            format!(
+                "set multicover by a greedy priced by the windows' linear programme ({lp} \
+                 primal–dual iterations; cheaper than the Lagrangian relaxation's, {lr} \
+                 subgradient iterations)",
+                lp = tp.lp.iterations,
+                lr = tp.relaxation.iterations
+            )
+        } else if tp.relaxation.improved {
+            format!(
+                "set multicover by Lagrangian relaxation ({lr} subgradient iterations; its priced \
+                 greedy beat the plain greedy)",
+                lr = tp.relaxation.iterations
+            )
+        } else {
+            format!(
+                "greedy set multicover with reverse deletion (Lagrangian relaxation, {lr} \
+                 iterations, found nothing cheaper)",
+                lr = tp.relaxation.iterations
+            )
+        };
+        let moves = match tp.add_drop.moves {
+            0 => "no move improved".to_string(),
+            m => format!(
+                "{m} move(s), {saved} tag(s) fewer",
+                saved = tp.add_drop.tags_saved
+            ),
+        };
+        format!("{cover}; add-drop local search ({moves})")
+    };
+    let walked = if mm {
+        " (a heading change of ≥ 45° within the class's curve distance resets)"
+    } else {
+        " the traffic used"
+    };
+    let beginnings = if g.cold_starts > 0 {
+        format!(
+            ", and of the stretches before calibration of {n} chain beginnings, {over} of them \
+             over budget without tags",
+            n = g.cold_starts,
+            over = g.cold_starts_over_budget
+        )
+    } else {
+        String::new()
+    };
+    let discard = match tp.discard {
+        Some(d) if d.certified => format!(
+            "; round 1 certified a cover leaving {left} sampled beginning(s) over budget, \
+             {removed} tag(s) fewer than the full cover (sampling and discarding)",
+            left = d.left,
+            removed = d.removed
+        ),
+        Some(d) => format!(
+            "; a cover leaving {left} sampled beginning(s) over budget ({removed} tag(s) fewer) \
+             failed round 1, so the full cover was judged on the same chains",
+            left = d.left,
+            removed = d.removed
+        ),
+        None => String::new(),
+    };
+    let optimum = match tp.optimum_round {
+        Some(true) => ", the last the exact optimum's own",
+        Some(false) => {
+            "; the exact optimum of the windows, with fewer tags, failed a round of its own, so \
+             the certified selection stands"
+        }
+        None => "",
+    };
+    let lp = if tp.lp.iterations > 0 {
+        format!(
+            "; lower bound also from the windows' linear programme ({it} primal–dual iterations: \
+             {cost:.1} tags' cost)",
+            it = tp.lp.iterations,
+            cost = tp.lp.cost_bound
+        )
+    } else {
+        String::new()
+    };
+    let cut = if tp.walks_cut > 0 {
+        format!(
+            "; the straight walks from {n} start(s) stopped at {steps} edges entered (forks \
+             without end; the windows they missed are left to the certification rounds)",
+            n = tp.walks_cut,
+            steps = super::straight::MAX_STEPS
+        )
+    } else {
+        String::new()
+    };
+    let forked = if tp.walks_forked > 0 {
+        format!(
+            "; the straight walks from {n} start(s) stopped forking at {paths} paths (the \
+             windows of the paths not followed are left to the certification rounds)",
+            n = tp.walks_forked,
+            paths = super::straight::MAX_PATHS
+        )
+    } else {
+        String::new()
+    };
+    let stops = coverage_walk_stops(walk_stops);
+    format!(
+        "{solver} over the budget windows of every straight walk{walked} and of {chains} sampled \
+         chains{beginnings} ({windows} windows); certified on fresh chains ({rounds} \
+         round(s){discard}{optimum}){lp}{cut}{forked}{stops}",
+        windows = tp.window_sets.len(),
+        rounds = g.rounds
     )
 }
 
@@ -560,104 +681,12 @@ pub(super) fn plan_network_trips(
         coverage: "network".into(),
         requirement_m: req,
         tolerate_missed_reads: k,
-        method: format!(
-            "{} over the budget windows of every straight walk{} and of {} sampled chains{} ({} \
-             windows); certified on fresh chains ({} round(s){}{}){}{}{}{}",
-            if tp.exact {
-                "exact set multicover (integer programme, microlp)".to_string()
-            } else {
-                format!(
-                    "{}; add-drop local search ({})",
-                    if tp.lp_priced {
-                        format!(
-                            "set multicover by a greedy priced by the windows' linear programme ({} \
-                             primal–dual iterations; cheaper than the Lagrangian relaxation's, {} \
-                             subgradient iterations)",
-                            tp.lp.iterations, tp.relaxation.iterations
-                        )
-                    } else if tp.relaxation.improved {
-                        format!(
-                            "set multicover by Lagrangian relaxation ({} subgradient iterations; its priced \
-                             greedy beat the plain greedy)",
-                            tp.relaxation.iterations
-                        )
-                    } else {
-                        format!(
-                            "greedy set multicover with reverse deletion (Lagrangian relaxation, {} \
-                             iterations, found nothing cheaper)",
-                            tp.relaxation.iterations
-                        )
-                    },
-                    match tp.add_drop.moves {
-                        0 => "no move improved".to_string(),
-                        m => format!("{m} move(s), {} tag(s) fewer", tp.add_drop.tags_saved),
-                    }
-                )
-            },
-            if mm { " (a heading change of ≥ 45° within the class's curve distance resets)" } else { " the traffic used" },
+        method: trips_method(
+            &tp,
+            &g,
+            mm,
             p.planning_chains + g.added_chains,
-            if g.cold_starts > 0 {
-                format!(
-                    ", and of the stretches before calibration of {} chain beginnings, {} of them \
-                     over budget without tags",
-                    g.cold_starts, g.cold_starts_over_budget
-                )
-            } else {
-                String::new()
-            },
-            tp.window_sets.len(),
-            g.rounds,
-            match tp.discard {
-                Some(d) if d.certified => format!(
-                    "; round 1 certified a cover leaving {} sampled beginning(s) over budget, {} \
-                     tag(s) fewer than the full cover (sampling and discarding)",
-                    d.left, d.removed
-                ),
-                Some(d) => format!(
-                    "; a cover leaving {} sampled beginning(s) over budget ({} tag(s) fewer) failed \
-                     round 1, so the full cover was judged on the same chains",
-                    d.left, d.removed
-                ),
-                None => String::new(),
-            },
-            match tp.optimum_round {
-                Some(true) => ", the last the exact optimum's own",
-                Some(false) => {
-                    "; the exact optimum of the windows, with fewer tags, failed a round of its \
-                     own, so the certified selection stands"
-                }
-                None => "",
-            },
-            if tp.lp.iterations > 0 {
-                format!(
-                    "; lower bound also from the windows' linear programme ({} primal–dual iterations: \
-                     {:.1} tags' cost)",
-                    tp.lp.iterations, tp.lp.cost_bound
-                )
-            } else {
-                String::new()
-            },
-            if tp.walks_cut > 0 {
-                format!(
-                    "; the straight walks from {} start(s) stopped at {} edges entered (forks \
-                     without end; the windows they missed are left to the certification rounds)",
-                    tp.walks_cut,
-                    super::straight::MAX_STEPS
-                )
-            } else {
-                String::new()
-            },
-            if tp.walks_forked > 0 {
-                format!(
-                    "; the straight walks from {} start(s) stopped forking at {} paths (the \
-                     windows of the paths not followed are left to the certification rounds)",
-                    tp.walks_forked,
-                    super::straight::MAX_PATHS
-                )
-            } else {
-                String::new()
-            },
-            coverage_walk_stops(walk_stops)
+            walk_stops,
         ),
         lower_bound: tp.lower_bound,
         lower_bound_cost: (tp.lower_bound as f64 * if min_cost.is_finite() { min_cost } else { 0.0 })
