@@ -104,8 +104,8 @@ fn read_destinations(
 }
 
 /// The method text's account of the coverage map's straight walks that
-/// stopped at a limit (`WalkStops`): empty when none did.
-fn coverage_walk_stops(s: super::straight::WalkStops) -> String {
+/// stopped at a limit (`walk_budgets`' stats): empty when none did.
+fn coverage_walk_stops(s: super::straight::WalkStats) -> String {
     let mut parts = Vec::new();
     if s.cut > 0 {
         parts.push(format!(
@@ -133,13 +133,14 @@ fn coverage_walk_stops(s: super::straight::WalkStops) -> String {
 
 /// The method text of a trips plan. Named arguments throughout: a format
 /// string mixing positional `{}` with optional parts once printed a count
-/// in another's place (twenty-second session).
+/// in another's place (introduced in the twenty-first session, found in
+/// the twenty-second).
 fn trips_method(
     tp: &TripsPlan,
     g: &TripsGuarantee,
     mm: bool,
     chains: usize,
-    walk_stops: super::straight::WalkStops,
+    walk_stops: super::straight::WalkStats,
 ) -> String {
     let solver = if tp.exact {
         "exact set multicover (integer programme, microlp)".to_string()
@@ -276,7 +277,7 @@ pub(super) fn plan_network_trips(
     let listed = match &p.destinations {
         Some(path) => {
             let (pts, w) = read_destinations(path, net)?;
-            let d = Destinations::listed(net, pts.clone(), &w).map_err(|e| {
+            let d = Destinations::listed(net, pts, &w).map_err(|e| {
                 Error::format(
                     path,
                     match e {
@@ -285,7 +286,7 @@ pub(super) fn plan_network_trips(
                     },
                 )
             })?;
-            Some((path, pts, d))
+            Some((path, d))
         }
         None => None,
     };
@@ -397,8 +398,8 @@ pub(super) fn plan_network_trips(
     }
     let main = super::traffic::main_component(net, &model);
     let dest = match listed {
-        Some((path, pts, d)) => {
-            if let Some(i) = pts.iter().position(|q| !main[q.section as usize]) {
+        Some((path, d)) => {
+            if let Some(i) = d.points().iter().position(|q| !main[q.section as usize]) {
                 return Err(Error::format(
                     path,
                     format!(

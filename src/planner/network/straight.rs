@@ -94,7 +94,9 @@ fn successors(n: usize, straight: &std::collections::HashSet<(u32, u32)>) -> Vec
     next
 }
 
-/// What [`straight_windows`] did.
+/// What [`straight_windows`] or [`walk_budgets`] did. Where walks stopped
+/// at a limit, the windows (or budgets) of the walks not followed are
+/// missing.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(crate) struct WalkStats {
     /// Window starts walked from.
@@ -106,6 +108,18 @@ pub(crate) struct WalkStats {
     pub forked: usize,
     /// Most edges entered from one start.
     pub most_steps: usize,
+}
+
+impl WalkStats {
+    /// The counts of two sets of starts together.
+    fn merge(self, o: Self) -> Self {
+        Self {
+            starts: self.starts + o.starts,
+            cut: self.cut + o.cut,
+            forked: self.forked + o.forked,
+            most_steps: self.most_steps.max(o.most_steps),
+        }
+    }
 }
 
 /// A straight walk's state at an edge.
@@ -330,15 +344,16 @@ struct Reach {
 /// [`MAX_UTURNS`] turn-backs per stretch, [`MAX_PATHS`] walks and
 /// [`MAX_STEPS`] edges entered per start, counted for each of the two
 /// walks). Starts run in parallel; the result does not depend on their
-/// order. Edges no walk enters get 0. Returns (without, with, the starts
-/// stopped at a limit, whose walks' budgets may be understated).
+/// order. Edges no walk enters get 0. Returns (without, with, the walks'
+/// stats: starts stopped at a limit have budgets that may be understated;
+/// a start counts once for its two walks).
 pub(crate) fn walk_budgets(
     model: &EdgeModel,
     straight: &std::collections::HashSet<(u32, u32)>,
     used: &[bool],
     read: &[bool],
     cap: f64,
-) -> (Vec<f64>, Vec<f64>, WalkStops) {
+) -> (Vec<f64>, Vec<f64>, WalkStats) {
     use rayon::prelude::*;
     use std::sync::atomic::AtomicU64;
     let n = model.dir.len();
@@ -353,53 +368,31 @@ pub(crate) fn walk_budgets(
     // freed arrays (peak memory, BENCHMARKS.md).
     let out: [Vec<AtomicU64>; 2] =
         std::array::from_fn(|_| (0..n).map(|_| AtomicU64::new(0)).collect());
-    let stops = edges
+    let stats = edges
         .par_iter()
         .map(|&e| {
-            let mut stops = WalkStops::default();
+            let mut stats = WalkStats::default();
             if used(e) {
-                stops.add(walk_from(model, &next, e, 0.0, false, &is_read, cap, &out));
+                stats = stats.merge(walk_from(model, &next, e, 0.0, false, &is_read, cap, &out));
                 if model.turn_resets[e] {
                     for &x in &model.bends[e] {
-                        stops.add(walk_from(model, &next, e, x, false, &is_read, cap, &out));
+                        let one = walk_from(model, &next, e, x, false, &is_read, cap, &out);
+                        stats = stats.merge(one);
                     }
                 }
             }
             for s in model.sites[e].iter().filter(|s| is_read(s.1)) {
-                stops.add(walk_from(model, &next, e, s.0, true, &is_read, cap, &out));
+                stats = stats.merge(walk_from(model, &next, e, s.0, true, &is_read, cap, &out));
             }
-            stops
+            stats
         })
-        .reduce(WalkStops::default, |a, b| WalkStops {
-            cut: a.cut + b.cut,
-            forked: a.forked + b.forked,
-        });
+        .reduce(WalkStats::default, WalkStats::merge);
     let [without, with] = out.map(|v| {
         v.into_iter()
             .map(|a| f64::from_bits(a.into_inner()))
             .collect()
     });
-    (without, with, stops)
-}
-
-/// Starts of [`walk_budgets`] whose walks (without the tags, with them, or
-/// both) stopped at a limit: the budgets of the walks not followed are
-/// missing, so the coverage map's straight-walk budgets near them may be
-/// understated.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub(crate) struct WalkStops {
-    /// Starts a walk of which was cut at [`MAX_STEPS`] edges entered.
-    pub cut: usize,
-    /// Starts a walk of which stopped forking at [`MAX_PATHS`] paths.
-    pub forked: usize,
-}
-
-impl WalkStops {
-    /// Counts one start's (cut, forked).
-    fn add(&mut self, (cut, forked): (bool, bool)) {
-        self.cut += usize::from(cut);
-        self.forked += usize::from(forked);
-    }
+    (without, with, stats)
 }
 
 /// Raises `slot` to budget `u`: the bits of non-negative floats order as
@@ -416,9 +409,9 @@ fn keep_max(slot: &std::sync::atomic::AtomicU64, u: f64) {
 /// followed together while they share their states. Up to its first read
 /// the walk with the tags is the walk without them; each keeps its own
 /// counts for the limits, and a state is followed for the walks that
-/// reached it (the order of the states is each walk's alone). Returns
-/// whether a walk was cut at [`MAX_STEPS`] and whether one stopped forking
-/// at [`MAX_PATHS`].
+/// reached it (the order of the states is each walk's alone). Returns the
+/// start's stats: cut if a walk was cut at [`MAX_STEPS`], forked if one
+/// stopped forking at [`MAX_PATHS`], the most edges either walk entered.
 #[allow(clippy::too_many_arguments)]
 fn walk_from(
     model: &EdgeModel,
@@ -429,7 +422,7 @@ fn walk_from(
     is_read: &impl Fn(u32) -> bool,
     cap: f64,
     out: &[Vec<std::sync::atomic::AtomicU64>; 2],
-) -> (bool, bool) {
+) -> WalkStats {
     let (mut cut, mut forked) = (false, false);
     let mut live: u8 = if at_read { 2 } else { 3 };
     // Per walk: windows closed, edges entered, states on the stack.
@@ -530,7 +523,12 @@ fn walk_from(
             });
         }
     }
-    (cut, forked)
+    WalkStats {
+        starts: 1,
+        cut: usize::from(cut),
+        forked: usize::from(forked),
+        most_steps: steps[0].max(steps[1]),
+    }
 }
 
 #[cfg(test)]
@@ -1108,14 +1106,12 @@ mod tests {
         assert!(starts > 0);
         let (.., low) = walk_budgets(&model, &straight, &only(&model, 0), &none, 1.0);
         assert_eq!(
-            low,
-            WalkStops {
-                cut: 0,
-                forked: starts
-            }
+            (low.starts, low.cut, low.forked),
+            (starts, 0, starts),
+            "{low:?}"
         );
         let (.., high) = walk_budgets(&model, &straight, &only(&model, rows - 2), &none, 1.0);
-        assert_eq!(high, WalkStops::default());
+        assert_eq!((high.cut, high.forked), (0, 0), "{high:?}");
         // A 5 km reach: no walk reaches the cap on the 1.7 km lattice; from
         // row 0 each enters 2^17 − 1 roads, past MAX_STEPS = 2^16, and is
         // cut; from row 1, 2^16 − 1, just within it.
@@ -1123,14 +1119,12 @@ mod tests {
         let straight = geometric_straight(&net, &model);
         let (.., far) = walk_budgets(&model, &straight, &only(&model, 0), &none, 1.0);
         assert_eq!(
-            far,
-            WalkStops {
-                cut: starts,
-                forked: 0
-            }
+            (far.starts, far.cut, far.forked),
+            (starts, starts, 0),
+            "{far:?}"
         );
         let (.., near) = walk_budgets(&model, &straight, &only(&model, 1), &none, 1.0);
-        assert_eq!(near, WalkStops::default());
+        assert_eq!((near.cut, near.forked), (0, 0), "{near:?}");
     }
 
     #[test]
@@ -1202,7 +1196,11 @@ mod tests {
         used[a] = true;
         let (without, with, stops) =
             walk_budgets(&model, &straight, &used, &[false; 4], WALK_BUDGET_CAP);
-        assert_eq!(stops, WalkStops::default(), "two roads: no limit reached");
+        assert_eq!(
+            (stops.cut, stops.forked),
+            (0, 0),
+            "two roads: no limit reached"
+        );
         assert_eq!(with, without, "no site read: the same walks");
         assert!(close(without[a], 2.0 / 3.0), "{without:?}");
         assert!(close(without[b], 4.0 / 3.0), "{without:?}");
@@ -1230,7 +1228,7 @@ mod tests {
         assert!(close(with[b], 2.5 / 3.0), "{with:?}");
         // Nothing driven, nothing walked.
         let none = walk_budgets(&model, &straight, &[false; 2], &[false; 4], WALK_BUDGET_CAP);
-        assert_eq!(none, (vec![0.0; 2], vec![0.0; 2], WalkStops::default()));
+        assert_eq!(none, (vec![0.0; 2], vec![0.0; 2], WalkStats::default()));
         // Each case as the two separate walks had it.
         for r in 0..16u32 {
             let read: Vec<bool> = (0..4).map(|i| r >> i & 1 == 1).collect();

@@ -361,6 +361,12 @@ impl Destinations {
         })
     }
 
+    /// The listed points, in the file's order (empty for points uniform in
+    /// road length).
+    pub(crate) fn points(&self) -> &[SectionPoint] {
+        &self.points
+    }
+
     fn draw<R: Rng>(&self, net: &Network, rng: &mut R) -> SectionPoint {
         let total = self.cum[self.cum.len() - 1];
         let u = rng.random::<f64>() * total;
