@@ -1,7 +1,10 @@
-//! Set-up shared by the integration tests: each test crate that needs it
-//! says `mod common;`. Not every crate uses every item, hence the
+//! Set-up shared by the integration tests: `tests/it/main.rs` declares it
+//! (`#[path = "../common/mod.rs"] mod common;`) and each test module that
+//! needs it says `use crate::common;`. Not every item is used, hence the
 //! `dead_code` allowance.
 #![allow(dead_code)]
+
+pub mod parallel;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -42,7 +45,7 @@ pub fn helsinki() -> Network {
 /// Six seeded drives between random nodes of `net` at least 1.5 km apart,
 /// each as tracks with a fix every `spacing` metres (seeded by `seed`; 10
 /// m/s, no drift, GNSS-like noise of 5 m per axis, no heading): the sparse
-/// tracks of tests/matching_sparse.rs and tests/matching_independent.rs.
+/// tracks of tests/it/matching_sparse.rs and tests/it/matching_independent.rs.
 /// Each: a label ("route R, S m apart"), the route's length (m), the track.
 pub fn sparse_drives(net: &Network, spacings: &[(f64, u64)]) -> Vec<(String, f64, SyntheticTrack)> {
     use rand::{Rng, SeedableRng};

@@ -1,6 +1,7 @@
 //! Parallel two-way roads of a map and U routes over them: the tracks of
-//! tests/matching_accuracy.rs's `parallel_two_way_roads`, shared with
-//! examples/drift_vs_lean.rs (each includes this file with `#[path]`).
+//! tests/it/matching_accuracy.rs's `parallel_two_way_roads` (as
+//! `common::parallel`), shared with examples/drift_vs_lean.rs (which
+//! includes this file with `#[path]`).
 #![allow(dead_code)]
 
 use waymark::network::Network;

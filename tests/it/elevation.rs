@@ -4,7 +4,7 @@
 //! files, tunnels interpolated between their portals, and bad input refused
 //! through the binary.
 
-mod common;
+use crate::common;
 
 use common::{repo, run};
 

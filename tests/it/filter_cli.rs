@@ -2,7 +2,7 @@
 //! with `--tags`, the filter's sigma columns in errors.csv, the summary's
 //! Monte Carlo and consistency fields, and bad tag files.
 
-mod common;
+use crate::common;
 
 use common::{repo, run};
 

@@ -2,7 +2,7 @@
 //! checked against closed-form inertial error physics, dead-reckoning error
 //! budgets and the rotation-modulation claim; and on bad input.
 
-mod common;
+use crate::common;
 
 use common::{repo, run};
 

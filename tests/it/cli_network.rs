@@ -1,7 +1,7 @@
 //! The real `waymark` binary on the bundled maps and on bad input, run in a
 //! temporary folder.
 
-mod common;
+use crate::common;
 
 use common::{bin, repo, run};
 

@@ -4,7 +4,7 @@
 //! per-step pitch from a noisy altimeter shorten every 3-D drive by 30 %).
 //! Each test names the budget, its tolerance and why.
 
-mod common;
+use crate::common;
 
 use common::run;
 use std::path::Path;
@@ -210,7 +210,7 @@ fn integrated_without_constraints_leaves_the_lateral_channel_free_inertial() {
     // (seen by a barometer); at 30° N with the barometer the filter learns
     // enough from them to end at 17.7 m (measured). At the equator without
     // the barometer neither path exists, so the closed form holds to the
-    // 2 % of the Schuler tests (tests/simulate_cli.rs); the drive is
+    // 2 % of the Schuler tests (tests/it/simulate_cli.rs); the drive is
     // `NORTH_10KM` moved to the equator.
     let dir = tempfile::tempdir().unwrap();
     let body = |nhc: bool| {

@@ -1,9 +1,9 @@
 //! `waymark match --model independent` (Newson and Krumm's HMM: one emission
 //! per candidate, filtered confidence) on the committed real traces
 //! (tests/data/real/README.md), with the accuracy the default model reaches
-//! there (tests/cli_match_real.rs), and its option checked.
+//! there (tests/it/cli_match_real.rs), and its option checked.
 
-mod common;
+use crate::common;
 
 use common::real_data as data;
 
@@ -80,7 +80,7 @@ fn fmm_example_under_the_independent_model_is_fmms_committed_result() {
         ] {
             assert_eq!(roads_of(&rows, track), cpath, "trip {track} {extra:?}");
         }
-        // As the default model's: 1 to rounding (tests/cli_match_real.rs).
+        // As the default model's: 1 to rounding (tests/it/cli_match_real.rs).
         let s = &json["score"];
         assert!(s["precision_length"].as_f64().unwrap() >= 0.999, "{s}");
         assert!(s["recall_length"].as_f64().unwrap() >= 0.999, "{s}");

@@ -3,7 +3,7 @@
 //! (GPX, OpenStreetMap extracts) and FMM's example (its network, trips and
 //! committed complete path, scaled to metres).
 
-mod common;
+use crate::common;
 
 use common::real_data as data;
 

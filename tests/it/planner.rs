@@ -1,7 +1,7 @@
 //! The tag planner: `waymark plan` as a real binary on the bundled Helsinki
 //! map, the library's budget and placement on the same route, and bad input.
 
-mod common;
+use crate::common;
 
 use common::{repo, run};
 

@@ -2,7 +2,7 @@
 //! real binary on the bundled Helsinki map, the library's plan checked by the
 //! walk DP, re-planning with the plan installed, and bad input.
 
-mod common;
+use crate::common;
 
 use common::{repo, run};
 

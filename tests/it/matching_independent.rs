@@ -1,12 +1,12 @@
 //! The independent-emission model (`match --model independent`, Newson and
 //! Krumm 2009: one emission per candidate, a Viterbi over the pairs with
 //! the transition only, a filtered confidence) on the sparse tracks of
-//! tests/matching_sparse.rs, beside the default drift model; and the lean
+//! tests/it/matching_sparse.rs, beside the default drift model; and the lean
 //! Viterbi checked against the drift model with its drift frozen at the
 //! prior (`track_drift = false`), the same probability model computed the
 //! long way (each pair's emission under its predecessor's predicted prior).
 
-mod common;
+use crate::common;
 
 use common::{helsinki, sparse_drives};
 use waymark::matching::cpath::complete_path;

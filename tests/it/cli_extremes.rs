@@ -2,9 +2,9 @@
 //! (1e308, 1e-300, a duplicated id): each is refused through the real
 //! binary with one error line naming the file, the field and the limit,
 //! exit code 1, and no output folder (the companion of
-//! `tests/cli_reliability.rs`, whose helpers these mirror).
+//! `tests/it/cli_reliability.rs`, whose helpers these mirror).
 
-mod common;
+use crate::common;
 
 use common::{fails_with, run, succeeded_finite};
 use std::path::Path;

@@ -278,7 +278,7 @@ fn report_renders_in_headless_chromium() {
     check_rendered(&dom, &out.join("tags.csv"));
     assert!(dom.contains("data-info=\"start\"") && dom.contains("class=\"north\""));
     // The README's picture of the demo's report is this screenshot:
-    // WAYMARK_UPDATE_DOCS=1 cargo test --release --test report renews it.
+    // WAYMARK_UPDATE_DOCS=1 cargo test --release --test it report:: renews it.
     if std::env::var_os("WAYMARK_UPDATE_DOCS").is_some() {
         std::fs::copy(
             target.join("report-screenshot.png"),

@@ -4,7 +4,7 @@
 //! continuous matched path, and the complete path between the points
 //! recovers the roads driven.
 
-mod common;
+use crate::common;
 
 use common::{helsinki, sparse_drives};
 use waymark::matching::cpath::complete_path;

@@ -3,7 +3,7 @@
 //! the map alone, its guarantee, validation, coverage map and reasons; and
 //! bad input, each one clear error naming the file and the field.
 
-mod common;
+use crate::common;
 
 use common::{repo, run};
 

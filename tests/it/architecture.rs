@@ -205,7 +205,7 @@ fn layers_import_downward_only_and_modules_form_no_circle() {
         let top = &m[0];
         let Some(own) = layer_of(top) else {
             violations.push(format!(
-                "{}: module `{top}` has no layer in tests/architecture.rs",
+                "{}: module `{top}` has no layer in tests/it/architecture.rs",
                 rel.display()
             ));
             continue;

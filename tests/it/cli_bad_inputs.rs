@@ -3,7 +3,7 @@
 //! error line naming the file and the value, printed short (`1e300`, not
 //! 301 digits), exit code 1, and no wrong diagnosis.
 
-mod common;
+use crate::common;
 
 use common::{fails_with, repo, run};
 use std::path::Path;

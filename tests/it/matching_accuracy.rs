@@ -12,8 +12,7 @@
 //! complex junctions; a per-route floor of 0.90 catches a route gone wrong
 //! without failing on one junction's short link roads.
 
-#[path = "common/parallel.rs"]
-mod parallel;
+use crate::common::parallel;
 
 use waymark::matching::evaluate::{matched_lengths, score, Score};
 use waymark::matching::{along_route, TrackModel};

@@ -249,7 +249,7 @@ fn bad_input_gives_one_clear_line() {
         "not in the map",
     );
     // Output under a path that is a file (a missing folder is created since
-    // issue 17: tests/cli_outputs.rs).
+    // issue 17: tests/it/cli_outputs.rs).
     let out = run(&match_args("ok.csv", &["--out", "ok.csv/m.csv"]), d);
     assert_clean_error(&out, "ok.csv", "not a folder");
     // Unknown method: clap's usage error.

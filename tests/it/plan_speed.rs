@@ -119,7 +119,7 @@ fn settled_windows_give_the_same_worst_bound_for_fewer_steps() {
 /// gets to, shared runs show most of those short of the end without their
 /// reach, the missed-tag windows stop once settled, and runs that read no
 /// tag are carried by the tag-free pass's stretch maps. The plans themselves are asserted by
-/// tests/plan_regression.rs.
+/// tests/it/plan_regression.rs.
 #[test]
 fn small_route_plans_stay_within_their_pass_budget() {
     for (name, most) in [("demo.toml", 5.0), ("helsinki-plan-tactical.toml", 5.0)] {

@@ -3,7 +3,7 @@
 //! code, the one error line (naming the file, the field and the limit) and
 //! what is left on disk.
 
-mod common;
+use crate::common;
 
 use common::{fails_with, succeeded_finite};
 use std::path::{Path, PathBuf};
