@@ -22,7 +22,7 @@ use waymark::sim::{simulate, Scenario, TruthSource};
 /// One route plan and one filter pass of the same route, for the small
 /// bundled planning scenarios; their ratio is the plan's cost in filter
 /// passes, which the planner also counts itself (`Plan::filter_passes`,
-/// asserted by tests/plan_speed.rs), and the Monaco 20 m tactical route
+/// asserted by tests/it/plan_speed.rs), and the Monaco 20 m tactical route
 /// (21.8 km, two tags) as a longer one. The Helsinki 20 m routes and the
 /// paper's drive take too long a plan for ten samples: their counted
 /// passes are in BENCHMARKS.md ("Planning speed (issue 14)").

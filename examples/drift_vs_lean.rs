@@ -13,7 +13,7 @@
 //! model?" in the same BENCHMARKS.md section.
 //!
 //! Tracks: the U routes over parallel two-way roads of
-//! tests/matching_accuracy.rs on the Gothenburg map, and eight seeded
+//! tests/it/matching_accuracy.rs on the Gothenburg map, and eight seeded
 //! drives between random Helsinki nodes at least 1.2 km apart. z: per
 //! track, Σ rᵢ·rᵢ₊₁ / √Σ(rᵢ·rᵢ₊₁)², r the vector from a fix's nearest road
 //! point to the fix (about N(0, 1) when consecutive errors are independent).

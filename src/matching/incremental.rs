@@ -26,7 +26,7 @@
 //! of travel. A track drifting slowly away from its road (dead reckoning,
 //! or a GNSS bias) onto the road beside it is not a change of road: the
 //! rule without this test fired on such drift and lowered the accuracy
-//! figures of tests/matching_accuracy.rs (BENCHMARKS.md, "Incremental
+//! figures of tests/it/matching_accuracy.rs (BENCHMARKS.md, "Incremental
 //! matcher's parallel-road switch"). Constant work per fix: one query per
 //! `recheck_after` fixes at most, those fixes kept in a bounded buffer, the
 //! average updated in place.

@@ -72,7 +72,7 @@ impl Default for MatchOptions {
 /// model keeps [`HmmParams::default`]'s 10): fastmm's `k`. Measured
 /// (BENCHMARKS.md, seventh round): on every real trace the same roads,
 /// path and scores as with 10; on the sparse tracks of
-/// tests/matching_independent.rs the same precision and recall, on its
+/// tests/it/matching_independent.rs the same precision and recall, on its
 /// dense tracks precision 0.9915 against 0.9908; 6-12 % fewer instructions
 /// per point.
 pub const INDEPENDENT_MAX_CANDIDATES: usize = 8;

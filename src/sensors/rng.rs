@@ -23,7 +23,7 @@
 //! chance pattern such as "run 0 of seed 1 misses its first two tag passes"
 //! (its first two uniforms are 0.9891 and 0.9994, misses at any read
 //! probability below 0.989) repeats in every scenario with seed 1 and is one
-//! event, not several. `tests/random_streams.rs` checks with χ² tests that the
+//! event, not several. `tests/it/random_streams.rs` checks with χ² tests that the
 //! read draws are Bernoulli(p) at every (run, pass) and independent across
 //! passes and runs.
 

@@ -85,7 +85,7 @@
 //!   distances, bound and U-turn rule); no forward or backward vector, the
 //!   confidence the chosen road's share of the soft-max of its step's
 //!   Viterbi scores. It decides what the drift model decides with
-//!   `track_drift = false` (tests/matching_independent.rs).
+//!   `track_drift = false` (tests/it/matching_independent.rs).
 
 mod candidates;
 mod drift;

@@ -814,7 +814,7 @@ fn below_ten_km_h_the_calibrated_reach_is_the_single_reach() {
 /// every sampled beginning allowed over budget no tag can go; nothing is
 /// then judged beside the full cover, and the plan is the plan without
 /// discarding, its round 1 at β/2. (Gothenburg, where tags do go:
-/// `tests/area_planner.rs`.)
+/// `tests/it/area_planner.rs`.)
 #[test]
 fn with_no_tag_removable_discarding_leaves_the_plan_unchanged() {
     use super::trips::{chains_allowing, ALLOWED_VIOLATIONS};
