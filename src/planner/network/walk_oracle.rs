@@ -573,23 +573,29 @@ mod tests {
             assert!(tags < demand, "a witness the selection holds: {ids:?}");
             assert!((1000.0..1001.0).contains(m), "witness of {m} m");
         }
-        // The lazy loop: the witnesses' windows, a solve, until none.
-        let mut passes = 0;
-        loop {
-            let (v, ws) = o.unheld(&sel);
-            if v == 0 {
-                break;
-            }
-            assert!(!ws.is_empty());
-            let before = wmap.len();
-            for (ids, _) in &ws {
-                wmap.entry(ids).expect("no limit").hard = true;
-            }
-            assert!(wmap.len() > before, "a pass that adds no window");
-            sel = solve(&mut wmap);
-            passes += 1;
-            assert!(passes <= MAX_PASSES, "the loop does not settle");
-        }
+        // The lazy loop of the plans (`hold_walks`): the witnesses' windows,
+        // greedy repairs, a solve, until a solve's selection holds them all.
+        let mut held = HeldWalks::default();
+        let windows_before = wmap.len();
+        let repair = |new: &WindowSets, cur: &[bool]| {
+            let site_w = SiteWindows::of(new, n_sites);
+            multicover(new, &site_w, demand, &cost, cur).ok()
+        };
+        let first = sel.clone();
+        sel = hold_walks(
+            &o,
+            &mut wmap,
+            &mut held,
+            first,
+            |s: &Vec<bool>| s,
+            repair,
+            |w: &mut WindowMap, _: &Vec<bool>| Ok(solve(w)),
+        )
+        .expect("no limit");
+        assert_eq!(held.violations, 0, "{held:?}");
+        assert!(held.passes >= 1 && held.passes < MAX_PASSES, "{held:?}");
+        assert_eq!(held.windows, wmap.len() - windows_before, "{held:?}");
+        assert!(wmap.sorted().0.covered_by(&sel, demand));
         assert!(o.holds(&sel));
         assert_eq!(
             unheld_by_enumeration(&model, &straight, &all, &sel, demand),
