@@ -112,6 +112,7 @@ pub(crate) mod turns;
 pub(crate) mod types;
 pub(crate) mod validate;
 pub(crate) mod validation;
+pub(crate) mod walk_oracle;
 pub(crate) mod walk_relax;
 pub(crate) mod walks;
 mod window_sets;

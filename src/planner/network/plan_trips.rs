@@ -131,6 +131,31 @@ fn coverage_walk_stops(s: super::straight::WalkStats) -> String {
     )
 }
 
+/// The method text's account of the walk DP's lazy windows
+/// (`super::walk_oracle`) with `k` missed reads tolerated.
+fn held_walks_text(h: super::walk_oracle::HeldWalks, k: usize) -> String {
+    let found = if h.violations == 0 {
+        format!(
+            "found every walk held by the tags ({} pass(es) or more)",
+            k + 1
+        )
+    } else {
+        format!("still found {} walk end(s) unheld", h.violations)
+    };
+    format!(
+        "; on the {roads} directed road(s) within one budget of the {nc} whose speed class gets \
+         no turn credit, the walk DP (walks from anywhere along the transitions that do not \
+         reset, at most one turn-back, a road's own bends resetting as scanned without the \
+         walk's heading history, tag passes counted as along a chain) {found} after {checks} \
+         check(s) and {passes} solve(s) more, adding {added} windows",
+        roads = h.roads,
+        nc = h.no_credit,
+        checks = h.checks,
+        passes = h.passes,
+        added = h.windows
+    )
+}
+
 /// The method text of a trips plan. Named arguments throughout: a format
 /// string mixing positional `{}` with optional parts once printed a count
 /// in another's place (introduced in the twenty-first session, found in
@@ -140,6 +165,7 @@ fn trips_method(
     g: &TripsGuarantee,
     mm: bool,
     chains: usize,
+    k: usize,
     walk_stops: super::straight::WalkStats,
 ) -> String {
     let solver = if tp.exact {
@@ -236,18 +262,24 @@ fn trips_method(
     let forked = if tp.walks_forked > 0 {
         format!(
             "; the straight walks from {n} start(s) stopped forking at {paths} paths (the \
-             windows of the paths not followed are left to the certification rounds)",
+             windows of the paths not followed {left} the certification rounds)",
             n = tp.walks_forked,
-            paths = super::straight::MAX_PATHS
+            paths = super::straight::MAX_PATHS,
+            left = if tp.held.is_some() {
+                "and outside the walk DP's graph below are left to"
+            } else {
+                "are left to"
+            }
         )
     } else {
         String::new()
     };
+    let held = tp.held.map_or_else(String::new, |h| held_walks_text(h, k));
     let stops = coverage_walk_stops(walk_stops);
     format!(
         "{solver} over the budget windows of every straight walk{walked} and of {chains} sampled \
          chains{beginnings} ({windows} windows); certified on fresh chains ({rounds} \
-         round(s){discard}{optimum}){lp}{cut}{forked}{stops}",
+         round(s){discard}{optimum}){lp}{cut}{forked}{held}{stops}",
         windows = tp.window_sets.len(),
         rounds = g.rounds
     )
@@ -687,6 +719,7 @@ pub(super) fn plan_network_trips(
             &g,
             mm,
             p.planning_chains + g.added_chains,
+            k,
             walk_stops,
         ),
         lower_bound: tp.lower_bound,

@@ -56,6 +56,7 @@ use super::straight::straight_windows;
 pub(crate) use super::traffic::sample_chains;
 use super::traffic::{add_windows, chain_budget, chain_use, ChainBudget};
 use super::traffic::{Destinations, EdgeModel};
+use super::walk_oracle::{hold_walks, HeldWalks, WalkOracle};
 use super::window_sets::{SiteWindows, WindowInfo, WindowMap, WindowSets};
 use crate::error::{Error, Result};
 use crate::network::Network;
@@ -379,6 +380,10 @@ pub(crate) struct TripsPlan {
     /// [`super::straight::walk_budgets`]).
     pub straight: HashSet<(u32, u32)>,
     pub used: Vec<bool>,
+    /// The walk DP's lazy windows where straight walks stopped at a limit
+    /// (map matching on; `super::walk_oracle`), `None` where none did or
+    /// no class lacks turn credit.
+    pub held: Option<HeldWalks>,
 }
 
 /// Plans tags for trips (module doc).
@@ -461,6 +466,15 @@ pub(crate) fn plan_trips(
     let first_walks = straight_windows(model, &straight, &used, &mut wmap);
     let (mut walks_cut, mut walks_forked) = (first_walks.cut, first_walks.forked);
     full(&wmap)?;
+    // Where straight walks stopped at a limit (map matching on), the walk
+    // DP finds the walks a selection leaves unheld (`super::walk_oracle`).
+    let oracle_for = |straight: &HashSet<(u32, u32)>, stopped: usize| {
+        (map_matching && stopped > 0)
+            .then(|| WalkOracle::new(model, straight, n_sites, k))
+            .flatten()
+    };
+    let mut oracle = oracle_for(&straight, walks_cut + walks_forked);
+    let mut held_walks = HeldWalks::default();
     // The cover of the windows in the order of their ids (deterministic):
     // the greedy, then the Lagrangian relaxation from it (a cheaper
     // selection when it finds one, and a lower bound), then add-drop moves.
@@ -519,13 +533,47 @@ pub(crate) fn plan_trips(
             lp_priced,
         })
     };
+    // A solve, then (with the oracle) the windows of the walks its
+    // selection leaves unheld and a solve again, until none is left, a
+    // check adds no window or after [`MAX_PASSES`] (lazy constraints).
+    let solve_held = |wmap: &mut WindowMap,
+                      infeasible: &mut dyn FnMut(&WindowInfo, &[u32]) -> Error,
+                      weight: Option<f64>,
+                      oracle: Option<&WalkOracle>,
+                      held: &mut HeldWalks|
+     -> Result<Solve> {
+        let s = solve(wmap, infeasible, weight)?;
+        let Some(o) = oracle else { return Ok(s) };
+        let repair = |new: &WindowSets, cur: &[bool]| {
+            let site_w = SiteWindows::of(new, n_sites);
+            multicover(new, &site_w, demand, cost, cur).ok()
+        };
+        hold_walks(
+            o,
+            wmap,
+            held,
+            s,
+            |s: &Solve| &s.sel,
+            repair,
+            |wmap: &mut WindowMap, s: &Solve| {
+                full(wmap)?;
+                solve(wmap, infeasible, Some(s.lp.weight))
+            },
+        )
+    };
     let Solve {
         mut sel,
         mut relaxation,
         mut add_drop,
         mut lp,
         mut lp_priced,
-    } = solve(&mut wmap, &mut infeasible, None)?;
+    } = solve_held(
+        &mut wmap,
+        &mut infeasible,
+        None,
+        oracle.as_ref(),
+        &mut held_walks,
+    )?;
     // Sampling and discarding (`super::discard`): a cover that leaves a few
     // sampled beginnings over budget, judged in round 1 beside the full
     // cover (kept here).
@@ -547,7 +595,10 @@ pub(crate) fn plan_trips(
             max_left,
             &mut sel,
         );
-        if d.removed > 0 {
+        // The smaller cover must still hold every walk the oracle checks.
+        if oracle.as_ref().is_some_and(|o| !o.holds(&sel)) {
+            sel = full_cover;
+        } else if d.removed > 0 {
             discarded = Some((full_cover, d));
         }
     }
@@ -669,13 +720,22 @@ pub(crate) fn plan_trips(
         full(&wmap)?;
         added += bad.len();
         budgets.extend(bad.iter().map(|&i| cbs[i].clone()));
+        if map_matching && walks_cut + walks_forked > 0 {
+            oracle = oracle_for(&straight, walks_cut + walks_forked);
+        }
         Solve {
             sel,
             relaxation,
             add_drop,
             lp,
             lp_priced,
-        } = solve(&mut wmap, &mut infeasible, Some(lp.weight))?;
+        } = solve_held(
+            &mut wmap,
+            &mut infeasible,
+            Some(lp.weight),
+            oracle.as_ref(),
+            &mut held_walks,
+        )?;
     }
     let (windows, infos) = wmap.into_sorted();
     // A certified selection that leaves beginnings uncovered is bounded
@@ -716,10 +776,15 @@ pub(crate) fn plan_trips(
         EXACT_MAX_SITES,
     ) {
         // The optimum of the planning windows bounds every selection that
-        // satisfies them.
+        // satisfies them. With the oracle it is tried only when it holds
+        // every walk the oracle checks.
         lower_bound = lower_bound.max(new_tags(&s_opt, preselected));
         let at_level = |r: usize, s: &[bool]| certify(r, beta / 2f64.powi(r as i32), s);
-        match optimum_outcome(&sel, &s_opt, preselected, rounds, at_level)? {
+        let outcome = match &oracle {
+            Some(o) if !o.holds(&s_opt) => Optimum::Costlier,
+            _ => optimum_outcome(&sel, &s_opt, preselected, rounds, at_level)?,
+        };
+        match outcome {
             Optimum::Same => exact = true,
             Optimum::Costlier => {}
             Optimum::Tested(r, opt) => {
@@ -826,5 +891,6 @@ pub(crate) fn plan_trips(
         walks_forked,
         straight,
         used,
+        held: oracle.is_some().then_some(held_walks),
     })
 }
